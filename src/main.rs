@@ -1,1 +1,142 @@
-fn main() {}
+//! The `latticesim` command-line program: reads files, calls the library crates, prints.
+//! All I/O of the project lives here.
+
+use clap::{Parser, Subcommand, ValueEnum};
+use latticesim_compiler::{check, Checked, Dim, Input};
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "latticesim", version, about = "Simulator for synchronized distributed algorithms on 2D and 3D lattice agents")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum Format {
+    /// Rendered with source excerpts (stderr).
+    Human,
+    /// One JSON document (stdout).
+    Json,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum Color {
+    /// Colour when stderr is a terminal.
+    Auto,
+    /// Always colour.
+    Always,
+    /// Never colour.
+    Never,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Check a rules file (and an agents file) and report every problem.
+    ///
+    /// Exit status: 0 no errors (warnings allowed), 1 errors, 2 usage or I/O failure.
+    Check {
+        /// The rules file.
+        rules: PathBuf,
+        /// The agents file; it also decides the dimension.
+        #[arg(long, short)]
+        agents: Option<PathBuf>,
+        /// The dimension, when no agents file decides it.
+        #[arg(long, value_parser = ["2", "3"])]
+        dim: Option<String>,
+        /// Output format.
+        #[arg(long, value_enum, default_value_t = Format::Human)]
+        format: Format,
+        /// Colour in human output.
+        #[arg(long, value_enum, default_value_t = Color::Auto)]
+        color: Color,
+    },
+}
+
+fn read(path: &PathBuf) -> Result<Vec<u8>, ExitCode> {
+    std::fs::read(path).map_err(|e| {
+        eprintln!("error: cannot read `{}`: {e}", path.display());
+        ExitCode::from(2)
+    })
+}
+
+fn summary(c: &Checked, agents: bool) -> String {
+    let rules = c.sources.name(latticesim_grammar::FileId(0));
+    let mut s = format!(
+        "{rules}: {} rule{}, {} ({})",
+        c.rule_count,
+        if c.rule_count == 1 { "" } else { "s" },
+        c.dim.dim.name(),
+        c.dim.why
+    );
+    if agents {
+        let name = c.sources.name(latticesim_grammar::FileId(1));
+        s += &format!("; {name}: {} agent{}", c.agent_count, if c.agent_count == 1 { "" } else { "s" });
+    }
+    let (e, w) = (c.errors(), c.warnings());
+    s += &format!(
+        "; {e} error{}, {w} warning{}",
+        if e == 1 { "" } else { "s" },
+        if w == 1 { "" } else { "s" }
+    );
+    s
+}
+
+fn run_check(rules: PathBuf, agents: Option<PathBuf>, dim: Option<String>, format: Format, color: Color) -> ExitCode {
+    let rules_bytes = match read(&rules) {
+        Ok(b) => b,
+        Err(c) => return c,
+    };
+    let agents_bytes = match agents.as_ref().map(read).transpose() {
+        Ok(b) => b,
+        Err(c) => return c,
+    };
+    let dim = dim.map(|d| if d == "3" { Dim::Three } else { Dim::Two });
+    let rules_name = rules.display().to_string();
+    let agents_name = agents.as_ref().map(|p| p.display().to_string());
+    let checked = check(
+        Input { name: &rules_name, bytes: &rules_bytes },
+        agents_name.as_deref().zip(agents_bytes.as_deref()).map(|(name, bytes)| Input { name, bytes }),
+        dim,
+    );
+    match format {
+        Format::Human => {
+            let colour = match color {
+                Color::Always => true,
+                Color::Never => false,
+                Color::Auto => std::io::stderr().is_terminal() && std::env::var_os("NO_COLOR").is_none(),
+            };
+            if let Err(e) = latticesim_compiler::render::render_stderr(&checked.diags, &checked.sources, colour) {
+                eprintln!("error: cannot write diagnostics: {e}");
+                return ExitCode::from(2);
+            }
+            eprintln!("{}", summary(&checked, agents.is_some()));
+        }
+        Format::Json => {
+            let doc = serde_json::json!({
+                "dimension": checked.dim.dim.name(),
+                "dimension_reason": checked.dim.why,
+                "rules": checked.rule_count,
+                "agents": agents.as_ref().map(|_| checked.agent_count),
+                "errors": checked.errors(),
+                "warnings": checked.warnings(),
+                "diagnostics": latticesim_compiler::render::to_json(&checked.diags, &checked.sources),
+            });
+            println!("{}", serde_json::to_string_pretty(&doc).expect("JSON of plain data"));
+        }
+    }
+    if checked.errors() > 0 {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Check { rules, agents, dim, format, color } => run_check(rules, agents, dim, format, color),
+    }
+}

@@ -1,1 +1,135 @@
-//! placeholder
+//! The front end's second half: checking parsed files and rendering diagnostics.
+//!
+//! [`check`] is the whole pipeline from the bytes of rules.txt (and optionally agents.txt)
+//! to a checked [`Program`] and [`Config`]: decode, parse, find the dimension, check every
+//! rule and agent, sort the diagnostics. It does no I/O; the CLI reads the files and prints.
+#![warn(missing_docs)]
+
+mod check_agents;
+mod check_rules;
+mod contradict;
+pub mod dim;
+pub mod program;
+pub mod render;
+
+pub use check_agents::check_agents;
+pub use check_rules::{check_rules, VALUE_MAX};
+pub use program::{Config, Dim, Program};
+pub use render::Sources;
+
+use bumpalo::Bump;
+use dim::DimSource;
+use latticesim_grammar::ast::{RulesFile, Term};
+use latticesim_grammar::{decode, parse_agents, parse_rules, Diagnostic, FileId, Spanned};
+
+/// A named input file.
+pub struct Input<'a> {
+    /// The name shown in messages.
+    pub name: &'a str,
+    /// Its bytes.
+    pub bytes: &'a [u8],
+}
+
+/// What [`check`] found.
+pub struct Checked {
+    /// The files read, for rendering.
+    pub sources: Sources,
+    /// Every diagnostic, in file order.
+    pub diags: Vec<Diagnostic>,
+    /// The dimension in force and why.
+    pub dim: DimSource,
+    /// The checked rules, when there was no error.
+    pub program: Option<Program>,
+    /// The checked agents, when an agents file was given and there was no error.
+    pub config: Option<Config>,
+    /// How many rules the file has (also when there were errors).
+    pub rule_count: usize,
+    /// How many agent lines the file has.
+    pub agent_count: usize,
+}
+
+impl Checked {
+    /// Number of errors.
+    pub fn errors(&self) -> usize {
+        self.diags.iter().filter(|d| d.is_error()).count()
+    }
+
+    /// Number of warnings.
+    pub fn warnings(&self) -> usize {
+        self.diags.len() - self.errors()
+    }
+}
+
+fn t_arity_mismatch(f: &RulesFile<'_>, dim: Dim) -> bool {
+    fn walk(t: &Spanned<Term<'_>>, dim: Dim) -> bool {
+        match &t.node {
+            Term::RemoteState { offset, .. } => offset.node.len() != dim.coords(),
+            Term::Not(i) => walk(i, dim),
+            Term::Group(ts) => ts.iter().any(|t| walk(t, dim)),
+            _ => false,
+        }
+    }
+    f.rules
+        .iter()
+        .any(|r| r.pre.node.iter().chain(r.post.node).any(|t| walk(t, dim)))
+}
+
+/// Checks a rules file and, if given, an agents file. `dim` is `--dim`.
+pub fn check(rules: Input<'_>, agents: Option<Input<'_>>, dim: Option<Dim>) -> Checked {
+    let mut sources = Sources::new();
+    let mut diags = Vec::new();
+    let (rules_text, bad) = decode(rules.bytes, FileId(0));
+    diags.extend(bad);
+    let rid = sources.add(rules.name, rules_text);
+    let agents_id = agents.map(|a| {
+        let (text, bad) = decode(a.bytes, FileId(1));
+        diags.extend(bad);
+        sources.add(a.name, text)
+    });
+
+    let agents_ast = agents_id.map(|id| {
+        let (ast, d) = parse_agents(sources.text(id), id);
+        diags.extend(d);
+        ast
+    });
+    let agents_dim = agents_ast
+        .as_ref()
+        .zip(agents_id)
+        .and_then(|(a, id)| dim::from_agents(a, id));
+    let fixed = dim::reconcile(dim, agents_dim.clone(), &mut diags);
+
+    let arena = Bump::new();
+    let text = sources.text(rid);
+    let hint = fixed.as_ref().map(|d| d.dim.coords() as u8);
+    let (mut ast, mut parse_diags) = parse_rules(text, rid, &arena, hint);
+    let dim_src = match fixed {
+        Some(d) => d,
+        None => {
+            let d = dim::from_rules(&ast, rid).unwrap_or_else(dim::default_2d);
+            if t_arity_mismatch(&ast, d.dim) {
+                (ast, parse_diags) = parse_rules(text, rid, &arena, Some(d.dim.coords() as u8));
+            }
+            d
+        }
+    };
+    diags.extend(parse_diags);
+    let program = check_rules(&ast, rid, &dim_src, &mut diags);
+    let config = agents_ast.as_ref().zip(agents_id).map(|(a, id)| {
+        let own = agents_dim.clone().unwrap_or_else(|| dim_src.clone());
+        check_agents(a, id, &own, &mut diags)
+    });
+    let rule_count = ast.rules.len();
+    let agent_count = agents_ast.as_ref().map_or(0, |a| a.agents.len());
+    drop((ast, agents_ast));
+    render::sort(&mut diags);
+    let ok = !diags.iter().any(|d| d.is_error());
+    Checked {
+        sources,
+        rule_count,
+        agent_count,
+        diags,
+        dim: dim_src,
+        program: ok.then_some(program),
+        config: if ok { config } else { None },
+    }
+}

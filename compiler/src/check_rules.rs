@@ -1,0 +1,759 @@
+//! Checking rules: every constraint of the paper and SEMANTICS.md on a parsed rules file,
+//! producing the checked [`Program`] and diagnostics (E3xx, W5xx).
+
+use crate::contradict;
+use crate::dim::DimSource;
+use crate::program::{
+    Action, AttachLetter, BitPat, Cond, Coord, Dim, Dir, Offset, Operand, Program, Rule, Target,
+    TextPat, Val,
+};
+use latticesim_grammar::ast::{self, Comp, Term, Value};
+use latticesim_grammar::{Code, Diagnostic, FileId, Label, Span, Spanned};
+use std::collections::HashMap;
+
+/// "1 character", "3 characters".
+pub(crate) fn chars(n: usize) -> String {
+    if n == 1 {
+        "1 character".into()
+    } else {
+        format!("{n} characters")
+    }
+}
+
+/// The range of counter values, literals and offsets.
+pub const VALUE_MAX: i64 = 32767;
+
+pub(crate) struct Checker<'d> {
+    pub file: FileId,
+    pub dim: &'d DimSource,
+    pub diags: &'d mut Vec<Diagnostic>,
+}
+
+type OffsetAst<'a> = ast::Offset<'a>;
+
+impl Checker<'_> {
+    fn d(&self) -> Dim {
+        self.dim.dim
+    }
+
+    fn label(&self, span: Span, msg: impl Into<String>) -> Label {
+        Label::new(self.file, span, msg)
+    }
+
+    pub fn push(&mut self, d: Diagnostic) {
+        self.diags.push(d);
+    }
+
+    /// A diagnostic that also points at why the dimension is what it is.
+    fn push_dim(&mut self, d: Diagnostic) {
+        let d = self.dim.attach(d);
+        let why = &self.dim.why;
+        let d = if self.dim.label.is_none() {
+            let help = d.help.clone().unwrap_or_default();
+            d.with_help(format!("{help} ({why})"))
+        } else {
+            d
+        };
+        self.diags.push(d);
+    }
+
+    fn literal(&mut self, n: i64, span: Span) -> Option<i16> {
+        if (-VALUE_MAX..=VALUE_MAX).contains(&n) {
+            return Some(n as i16);
+        }
+        self.push(
+            Diagnostic::new(
+                Code::E310,
+                format!("{n} is outside the 16-bit range -32767..32767"),
+                self.label(span, "out of range"),
+            )
+            .with_help(format!(
+                "use a number from -32767 to 32767, e.g. {}",
+                n.clamp(-VALUE_MAX, VALUE_MAX)
+            )),
+        );
+        None
+    }
+
+    pub fn counter(&mut self, digits: &str, span: Span) -> Option<u8> {
+        let n: usize = digits.parse().unwrap_or(usize::MAX);
+        let max = self.d().counters() - 1;
+        if digits.len() != 2 {
+            let fix = if n <= max { format!("write `C{n:02}`") } else { format!("counters are C00..C{max}") };
+            self.push(
+                Diagnostic::new(
+                    Code::E305,
+                    format!("the counter `C{digits}` must be written with two digits"),
+                    self.label(span, "not two digits"),
+                )
+                .with_help(fix),
+            );
+            return None;
+        }
+        if n > max {
+            let d = Diagnostic::new(
+                Code::E305,
+                format!("the counter `C{digits}` does not exist in {}", self.d().name()),
+                self.label(span, format!("{} has C00..C{max}", self.d().name())),
+            )
+            .with_help(format!("use a counter from C00 to C{max}"));
+            if n < self.d().other().counters() {
+                self.push_dim(d);
+            } else {
+                self.push(d);
+            }
+            return None;
+        }
+        Some(n as u8)
+    }
+
+    /// A direction letter: `Some(None)` for `*` where allowed.
+    fn dir(&mut self, c: char, span: Span, any: bool, what: &str) -> Option<Option<Dir>> {
+        if c == '*' {
+            if any {
+                return Some(None);
+            }
+            self.push(
+                Diagnostic::new(
+                    Code::E318,
+                    format!("{what} needs one definite direction, not `*`"),
+                    self.label(span, "`*` is not allowed here"),
+                )
+                .with_help(self.dir_help()),
+            );
+            return None;
+        }
+        match Dir::from_char(c) {
+            Some(d) if d.index() < self.d().dirs() => Some(Some(d)),
+            Some(d) => {
+                self.push_dim(
+                    Diagnostic::new(
+                        Code::E307,
+                        format!(
+                            "the direction `{c}` ({}) exists only in 3D",
+                            if d == Dir::A { "above" } else { "below" }
+                        ),
+                        self.label(span, "3D direction in a 2D rules file"),
+                    )
+                    .with_help(self.dir_help()),
+                );
+                None
+            }
+            None => {
+                self.push(
+                    Diagnostic::new(
+                        Code::E317,
+                        format!("`{c}` is not a direction"),
+                        self.label(span, "expected a direction letter"),
+                    )
+                    .with_help(self.dir_help()),
+                );
+                None
+            }
+        }
+    }
+
+    fn dir_help(&self) -> String {
+        match self.d() {
+            Dim::Two => "directions are N, W, E, S (2D)".into(),
+            Dim::Three => "directions are N, W, E, S, A (above), B (below)".into(),
+        }
+    }
+
+    /// `#Dkk`: direction (or `*`) and 0-based slot.
+    fn msg_ref(&mut self, text: &str, span: Span, any: bool) -> Option<(Option<Dir>, u8)> {
+        let mut chars = text.chars();
+        let Some(c) = chars.next() else {
+            self.push(
+                Diagnostic::new(
+                    Code::E306,
+                    "`#` must be followed by a direction and a two-digit slot",
+                    self.label(span, "incomplete message slot"),
+                )
+                .with_help("write e.g. `#N01`"),
+            );
+            return None;
+        };
+        let digits = chars.as_str();
+        let dir = self.dir(c, span.sub(1, 1 + c.len_utf8()), any, "this message slot");
+        let slots = self.d().slots();
+        let n: usize = digits.parse().unwrap_or(0);
+        if digits.len() != 2 || !digits.bytes().all(|b| b.is_ascii_digit()) || n == 0 || n > slots {
+            let d = Diagnostic::new(
+                Code::E306,
+                format!("`#{text}` is not a numeric message slot of {}", self.d().name()),
+                self.label(span, format!("{} has slots 01..{slots:02} per direction", self.d().name())),
+            )
+            .with_help(format!(
+                "write `#` + direction + two digits from 01 to {slots:02}, e.g. `#{}01`",
+                if c.is_ascii_uppercase() || c == '*' { c } else { 'N' }
+            ));
+            if n > slots && n <= self.d().other().slots() && digits.len() == 2 {
+                self.push_dim(d);
+            } else {
+                self.push(d);
+            }
+            return None;
+        }
+        Some((dir?, (n - 1) as u8))
+    }
+
+    fn value(&mut self, v: &Spanned<Value<'_>>, any: bool) -> Option<Val> {
+        match v.node {
+            Value::Int(n) => self.literal(n, v.span).map(Val::Lit),
+            Value::Counter(d) => self.counter(d, v.span).map(Val::Counter),
+            Value::Msg(m) => {
+                if !any && m.starts_with('*') {
+                    self.push(
+                        Diagnostic::new(
+                            Code::E318,
+                            format!("`#{m}` cannot be read in a calculation"),
+                            self.label(v.span, "`#*` means 'some direction' only in a comparison"),
+                        )
+                        .with_help("read one direction's slot, e.g. `#N01`; `#*kk` is allowed as a target (send to all)"),
+                    );
+                    return None;
+                }
+                self.msg_ref(m, v.span, any).map(|(dir, slot)| Val::Msg { dir, slot })
+            }
+        }
+    }
+
+    fn coord(&mut self, c: &Spanned<Comp<'_>>) -> Option<Coord> {
+        match c.node {
+            Comp::Int(n) => self.literal(n, c.span).map(|v| Coord::Lit(v as i32)),
+            Comp::Counter(d) => self.counter(d, c.span).map(Coord::Counter),
+        }
+    }
+
+    fn coords(&mut self, cs: &[Spanned<Comp<'_>>]) -> Option<Vec<Coord>> {
+        let out: Vec<Option<Coord>> = cs.iter().map(|c| self.coord(c)).collect();
+        out.into_iter().collect()
+    }
+
+    fn offset(&mut self, letter: char, o: &OffsetAst<'_>) -> Option<Offset> {
+        let need = self.d().coords();
+        let coords = self.coords(o.node);
+        if o.node.len() != need {
+            let example = if need == 2 { format!("{letter}1,0") } else { format!("{letter}1,0,0") };
+            self.push_dim(
+                Diagnostic::new(
+                    Code::E316,
+                    format!(
+                        "this offset has {} coordinates; {} needs {need}",
+                        o.node.len(),
+                        self.d().name()
+                    ),
+                    self.label(o.span, format!("expected {need} coordinates")),
+                )
+                .with_help(format!("write {need} coordinates separated by commas, e.g. `{example}`")),
+            );
+            return None;
+        }
+        let c = coords?;
+        Some([c[0], c[1], c.get(2).copied().unwrap_or(Coord::Lit(0))])
+    }
+
+    fn text(&mut self, s: &Spanned<&str>, what: &str, star: bool) -> Option<TextPat> {
+        let n = s.node.chars().count();
+        if n != 5 {
+            self.push(
+                Diagnostic::new(
+                    Code::E303,
+                    format!("{what} `{}` has {}; it needs exactly 5", s.node, chars(n)),
+                    self.label(s.span, chars(n)),
+                )
+                .with_help(if star {
+                    "write 5 characters; `*` stands for any character".to_string()
+                } else {
+                    "write exactly 5 characters".to_string()
+                }),
+            );
+            return None;
+        }
+        let mut pat: TextPat = [None; 5];
+        let mut ok = true;
+        for (i, (at, c)) in s.node.char_indices().enumerate() {
+            let cspan = s.span.sub(at, at + c.len_utf8());
+            if c == '*' {
+                if !star {
+                    self.push(
+                        Diagnostic::new(
+                            Code::E318,
+                            format!("{what} cannot contain `*`"),
+                            self.label(cspan, "a sent text is definite"),
+                        )
+                        .with_help("replace `*` with the character to send"),
+                    );
+                    ok = false;
+                }
+                continue;
+            }
+            if !c.is_ascii_graphic() {
+                self.push(
+                    Diagnostic::new(
+                        Code::E304,
+                        format!("`{c}` cannot stand in {what}"),
+                        self.label(cspan, "not a printable ASCII character"),
+                    )
+                    .with_help("states and messages use printable ASCII characters other than blank and `*`"),
+                );
+                ok = false;
+                continue;
+            }
+            pat[i] = Some(c as u8);
+        }
+        ok.then_some(pat)
+    }
+
+    /// A per-direction pattern over `allowed` characters, `dirs` long.
+    fn dir_pattern(&mut self, letter: char, p: &Spanned<&str>, allowed: &str, meaning: &str) -> Option<Vec<char>> {
+        let need = self.d().dirs();
+        let chars: Vec<char> = p.node.chars().collect();
+        let mut ok = true;
+        for (at, c) in p.node.char_indices() {
+            if !allowed.contains(c) {
+                let extra = if letter == 'A' && c == '+' {
+                    " (`+`, carry along, is a postcondition letter)"
+                } else {
+                    ""
+                };
+                self.push(
+                    Diagnostic::new(
+                        Code::E304,
+                        format!("`{c}` cannot stand in an `{letter}` pattern{extra}"),
+                        self.label(p.span.sub(at, at + c.len_utf8()), format!("expected one of {allowed}")),
+                    )
+                    .with_help(format!("each character of `{letter}` is one of {allowed}: {meaning}")),
+                );
+                ok = false;
+            }
+        }
+        if chars.len() != need {
+            let order = if need == 4 { "N, W, E, S" } else { "N, W, E, S, A, B" };
+            let d = Diagnostic::new(
+                Code::E302,
+                format!(
+                    "`{letter}{}` has {}; {} needs {need}",
+                    p.node,
+                    self::chars(chars.len()),
+                    self.d().name()
+                ),
+                self.label(p.span.sub(0, 0).to(p.span), format!("expected {need} characters")),
+            )
+            .with_help(format!("write one character per direction, in the order {order}"));
+            if chars.len() == self.d().other().dirs() {
+                self.push_dim(d);
+            } else {
+                self.push(d);
+            }
+            return None;
+        }
+        ok.then_some(chars)
+    }
+
+    fn bit_pat(&mut self, letter: char, p: &Spanned<&str>, meaning: &str) -> Option<BitPat> {
+        let cs = self.dir_pattern(letter, p, "01*", meaning)?;
+        let mut b = BitPat::default();
+        for (i, c) in cs.iter().enumerate() {
+            match c {
+                '0' => b.mask |= 1 << i,
+                '1' => {
+                    b.mask |= 1 << i;
+                    b.want |= 1 << i;
+                }
+                _ => {}
+            }
+        }
+        Some(b)
+    }
+
+    fn misplaced(&mut self, t: &Spanned<Term<'_>>, in_pre: bool) {
+        let (code, msg, help) = if in_pre {
+            let help = match t.node {
+                Term::Move(_) => "to compare priorities write `P` with `<`, `=`, `*` (e.g. `P<***`); \
+                                  to test a cell use `E` or `F`; a move belongs in the postcondition",
+                _ => "move it to the postcondition (the fourth line of the rule)",
+            };
+            (Code::E313, format!("`{}` is an action; it cannot stand in a precondition", t.node), help)
+        } else {
+            let help = match t.node {
+                Term::Priorities(_) => "in a postcondition `P` moves (e.g. `P1,0`); priority tests belong in the precondition",
+                _ => "move it to the precondition (the third line of the rule)",
+            };
+            (Code::E312, format!("`{}` is a test; it cannot stand in a postcondition", t.node), help)
+        };
+        let label = if in_pre { "action in a precondition" } else { "test in a postcondition" };
+        self.push(Diagnostic::new(code, msg, self.label(t.span, label)).with_help(help));
+    }
+
+    pub fn cond(&mut self, t: &Spanned<Term<'_>>) -> Option<Cond> {
+        Some(match &t.node {
+            Term::Neighbors(p) => Cond::Neighbors(self.bit_pat('N', p, "0 empty, 1 filled, * either")?),
+            Term::Attach(p) => Cond::Attached(self.bit_pat('A', p, "0 not attached, 1 attached, * either")?),
+            Term::Priorities(p) => {
+                let cs = self.dir_pattern('P', p, "<=*", "< strictly smaller, = smaller or equal, * either")?;
+                let (mut strict, mut leq) = (0u8, 0u8);
+                for (i, c) in cs.iter().enumerate() {
+                    match c {
+                        '<' => strict |= 1 << i,
+                        '=' => leq |= 1 << i,
+                        _ => {}
+                    }
+                }
+                Cond::Priorities { strict, leq }
+            }
+            Term::State(p) => Cond::State(self.text(p, "the state pattern", true)?),
+            Term::Message { dir, text } => {
+                let d = self.dir(dir.node, dir.span, true, "a message test");
+                let pat = self.text(text, "the message pattern", true);
+                let stars = text.node.chars().filter(|&c| c == '*').count();
+                if stars > 4 {
+                    self.push(
+                        Diagnostic::new(
+                            Code::E311,
+                            format!("the message pattern `{}` has {stars} `*`; at most four are allowed", text.node),
+                            self.label(text.span, "too many wildcards"),
+                        )
+                        .with_help("fix at least one character; to test only that a message came, use a pattern such as `M*A****` against a known first character"),
+                    );
+                    return None;
+                }
+                Cond::Message { dir: d?, pat: pat? }
+            }
+            Term::Empty(o) => Cond::Empty(self.offset('E', o)?),
+            Term::Filled(o) => Cond::Filled(self.offset('F', o)?),
+            Term::Less(o) => Cond::Less(self.offset('L', o)?),
+            Term::LessEq(o) => Cond::LessEq(self.offset('Q', o)?),
+            Term::RemoteState { offset, state } => {
+                let o = self.offset('T', offset);
+                let s = self.text(state, "the remote state pattern", true);
+                Cond::RemoteState(o?, s?)
+            }
+            Term::Compare { op, lhs, rhs } => {
+                let any = [lhs, rhs].iter().filter(|v| matches!(v.node, Value::Msg(m) if m.starts_with('*'))).count();
+                let a = self.value(lhs, true);
+                let b = self.value(rhs, true);
+                if any > 1 {
+                    self.push(
+                        Diagnostic::new(
+                            Code::E318,
+                            "a comparison may use `#*` only once",
+                            self.label(t.span, "two `#*` values"),
+                        )
+                        .with_help("compare `#*kk` with a counter, a literal or one direction's slot"),
+                    );
+                    return None;
+                }
+                Cond::Compare(op.node, a?, b?)
+            }
+            Term::RemoteCompare { strict, comps, rhs } => {
+                let letter = if *strict { 'V' } else { 'W' };
+                if self.d() == Dim::Three {
+                    self.push_dim(
+                        Diagnostic::new(
+                            Code::E308,
+                            format!("`{letter}` exists only in 2D"),
+                            self.label(t.span, "2D-only term in a 3D rules file"),
+                        )
+                        .with_help("in 3D, compare a neighbour's value through a numeric message instead"),
+                    );
+                    return None;
+                }
+                let rhs = self.value(rhs, true);
+                let (counter, offset) = self.remote_counter(letter, comps)?;
+                Cond::RemoteCompare { strict: *strict, offset, counter, rhs: rhs? }
+            }
+            Term::Move(_) | Term::Swap(_) | Term::Calc { .. } => {
+                self.misplaced(t, true);
+                return None;
+            }
+            Term::Not(inner) => Cond::Not(Box::new(self.cond(inner)?)),
+            Term::Group(ts) => Cond::And(self.conds(ts)?),
+            Term::Error => return None,
+        })
+    }
+
+    /// `dx,dy,Cnn`: the coordinates and the counter after them.
+    fn remote_counter(&mut self, letter: char, comps: &OffsetAst<'_>) -> Option<(u8, Offset)> {
+        let n = comps.node.len();
+        let last = comps.node.last()?;
+        let Comp::Counter(digits) = last.node else {
+            self.push(
+                Diagnostic::new(
+                    Code::E319,
+                    format!("`{letter}` must end with the remote agent's counter"),
+                    self.label(last.span, "expected a counter such as C03"),
+                )
+                .with_help(format!("write `{letter}dx,dy,Cnn value`, e.g. `{letter}1,0,C03 0010`")),
+            );
+            return None;
+        };
+        let counter = self.counter(digits, last.span);
+        let pos = Spanned::new(
+            &comps.node[..n - 1],
+            comps.node[0].span.to(comps.node[n.saturating_sub(2)].span),
+        );
+        let offset = if n == 3 {
+            self.offset(letter, &pos)
+        } else {
+            self.push(
+                Diagnostic::new(
+                    Code::E319,
+                    format!("`{letter}` takes two coordinates and a counter; here are {} parts", n),
+                    self.label(comps.span, "expected dx,dy,Cnn"),
+                )
+                .with_help(format!("write `{letter}dx,dy,Cnn value`, e.g. `{letter}1,0,C03 0010`")),
+            );
+            None
+        };
+        Some((counter?, offset?))
+    }
+
+    fn conds(&mut self, ts: &[Spanned<Term<'_>>]) -> Option<Vec<Cond>> {
+        let out: Vec<Option<Cond>> = ts.iter().map(|t| self.cond(t)).collect();
+        out.into_iter().collect()
+    }
+
+    fn operand(&mut self, o: &ast::Operand<'_>) -> Option<Operand> {
+        match o {
+            ast::Operand::Value(v) => self.value(v, false).map(Operand::Val),
+            ast::Operand::External(cs) => {
+                if self.d() == Dim::Three {
+                    self.push_dim(
+                        Diagnostic::new(
+                            Code::E308,
+                            "external counters exist only in 2D",
+                            self.label(cs.span, "2D-only operand in a 3D rules file"),
+                        )
+                        .with_help("in 3D, receive the neighbour's value as a numeric message instead"),
+                    );
+                    return None;
+                }
+                let n = cs.node.len();
+                let last = cs.node[n - 1];
+                let Comp::Counter(digits) = last.node else {
+                    self.push(
+                        Diagnostic::new(
+                            Code::E319,
+                            "an external counter must end with the counter to read",
+                            self.label(last.span, "expected a counter such as C03"),
+                        )
+                        .with_help("write `dx,dy,Cnn` or `Cxx,Cyy,Cnn`, e.g. `1,0,C03`"),
+                    );
+                    return None;
+                };
+                if n != 3 {
+                    self.push(
+                        Diagnostic::new(
+                            Code::E319,
+                            format!("an external counter has two coordinates and a counter; here are {n} parts"),
+                            self.label(cs.span, "expected dx,dy,Cnn"),
+                        )
+                        .with_help("write `dx,dy,Cnn` or `Cxx,Cyy,Cnn`, e.g. `1,0,C03`"),
+                    );
+                    return None;
+                }
+                let x = self.coord(&cs.node[0]);
+                let y = self.coord(&cs.node[1]);
+                let counter = self.counter(digits, last.span);
+                Some(Operand::External { x: x?, y: y?, counter: counter? })
+            }
+        }
+    }
+
+    fn action(&mut self, t: &Spanned<Term<'_>>) -> Option<Action> {
+        Some(match &t.node {
+            Term::Attach(p) => {
+                let cs = self.dir_pattern(
+                    'A',
+                    p,
+                    "01*+",
+                    "0 detach, 1 attach afterwards, * re-attach if attached before, + stay attached and carry",
+                )?;
+                Action::Attach(
+                    cs.iter()
+                        .map(|c| match c {
+                            '0' => AttachLetter::Detach,
+                            '1' => AttachLetter::Attach,
+                            '+' => AttachLetter::Rigid,
+                            _ => AttachLetter::Keep,
+                        })
+                        .collect(),
+                )
+            }
+            Term::State(p) => Action::State(self.text(p, "the new state", true)?),
+            Term::Message { dir, text } => {
+                let d = self.dir(dir.node, dir.span, true, "a sent message");
+                let pat = self.text(text, "the sent text", false)?;
+                let mut out = [0u8; 5];
+                for (o, c) in out.iter_mut().zip(pat) {
+                    *o = c?;
+                }
+                Action::Send { dir: d?, text: out }
+            }
+            Term::Move(o) => Action::Move(self.offset('P', o)?),
+            Term::Swap(s) => {
+                let mut cs = s.node.chars();
+                match (cs.next(), cs.next()) {
+                    (Some(c), None) => Action::Swap(self.dir(c, s.span, false, "a swap")??),
+                    _ => {
+                        self.push(
+                            Diagnostic::new(
+                                Code::E317,
+                                format!("`X{}` is not a swap: `X` takes one direction letter", s.node),
+                                self.label(s.span, "expected one direction letter"),
+                            )
+                            .with_help(format!("write e.g. `XN`; {}", self.dir_help())),
+                        );
+                        return None;
+                    }
+                }
+            }
+            Term::Calc { target, op, lhs, rhs } => {
+                let tgt = match target.node {
+                    Value::Counter(d) => self.counter(d, target.span).map(Target::Counter),
+                    Value::Msg(m) => self.msg_ref(m, target.span, true).map(|(dir, slot)| Target::Msg { dir, slot }),
+                    Value::Int(_) => None,
+                };
+                let externals = [lhs, rhs].iter().filter(|o| matches!(o, ast::Operand::External(_))).count();
+                let a = self.operand(lhs);
+                let b = self.operand(rhs);
+                if externals > 1 {
+                    self.push(
+                        Diagnostic::new(
+                            Code::E319,
+                            "a calculation may read at most one external counter",
+                            self.label(t.span, "two external counters"),
+                        )
+                        .with_help("copy one of them into an own counter in an earlier calculation"),
+                    );
+                    return None;
+                }
+                Action::Calc { target: tgt?, op: op.node, lhs: a?, rhs: b? }
+            }
+            Term::Not(_) | Term::Group(_) => {
+                self.push(
+                    Diagnostic::new(
+                        Code::E320,
+                        "a postcondition is a plain list of actions: no `!` and no parentheses",
+                        self.label(t.span, "logic in a postcondition"),
+                    )
+                    .with_help("write the actions one after the other; choose between them with separate rules"),
+                );
+                return None;
+            }
+            Term::Error => return None,
+            _ => {
+                self.misplaced(t, false);
+                return None;
+            }
+        })
+    }
+
+    fn post(&mut self, ts: &[Spanned<Term<'_>>]) -> Option<Vec<Action>> {
+        let mut first: HashMap<char, Span> = HashMap::new();
+        let mut ok = true;
+        for t in ts {
+            let kind = match t.node {
+                Term::Move(_) => 'P',
+                Term::Swap(_) => 'X',
+                Term::Attach(_) => 'A',
+                Term::State(_) => 'S',
+                _ => continue,
+            };
+            if let Some(&prev) = first.get(&kind) {
+                ok = false;
+                self.push(
+                    Diagnostic::new(
+                        Code::E314,
+                        format!("a postcondition may have only one `{kind}` action"),
+                        self.label(t.span, "second one"),
+                    )
+                    .with_secondary(self.label(prev, "first one"))
+                    .with_help(format!("merge the two `{kind}` actions into one")),
+                );
+            } else {
+                first.insert(kind, t.span);
+            }
+        }
+        if let (Some(&p), Some(&x)) = (first.get(&'P'), first.get(&'X')) {
+            ok = false;
+            let (a, b) = if p < x { (p, x) } else { (x, p) };
+            self.push(
+                Diagnostic::new(
+                    Code::E315,
+                    "a rule cannot both move (`P`) and swap (`X`)",
+                    self.label(b, "this one"),
+                )
+                .with_secondary(self.label(a, "conflicts with this one"))
+                .with_help("split them into two rules"),
+            );
+        }
+        let out: Vec<Option<Action>> = ts.iter().map(|t| self.action(t)).collect();
+        let out: Option<Vec<Action>> = out.into_iter().collect();
+        if ok {
+            out
+        } else {
+            None
+        }
+    }
+}
+
+/// Checks a parsed rules file in the given dimension. The program holds the rules that
+/// passed; it is complete only when no error was reported.
+pub fn check_rules(
+    f: &latticesim_grammar::ast::RulesFile<'_>,
+    file: FileId,
+    dim: &DimSource,
+    diags: &mut Vec<Diagnostic>,
+) -> Program {
+    let mut ck = Checker { file, dim, diags };
+    let mut rules = Vec::with_capacity(f.rules.len());
+    let mut names: HashMap<&str, Span> = HashMap::with_capacity(f.rules.len());
+    for r in &f.rules {
+        if let Some(&prev) = names.get(r.name.node) {
+            ck.push(
+                Diagnostic::new(
+                    Code::W501,
+                    format!("a rule named `{}` is already defined", r.name.node),
+                    Label::new(file, r.name.span, "second rule with this name"),
+                )
+                .with_secondary(Label::new(file, prev, "first defined here"))
+                .with_help("rename one of them, so statistics and records can tell them apart"),
+            );
+        } else {
+            names.insert(r.name.node, r.name.span);
+        }
+        let priority = match r.priority.node {
+            Some(p) if (1..=VALUE_MAX).contains(&p) => Some(p as u16),
+            Some(p) => {
+                ck.push(
+                    Diagnostic::new(
+                        Code::E309,
+                        format!("the priority {p} is outside 1..32767"),
+                        Label::new(file, r.priority.span, "out of range"),
+                    )
+                    .with_help("a priority is a whole number from 1 (lowest) to 32767 (highest)"),
+                );
+                None
+            }
+            None => None,
+        };
+        let pre = ck.conds(r.pre.node);
+        if let Some(conds) = &pre {
+            contradict::check(r.pre.node, conds, &mut ck);
+        }
+        let post = ck.post(r.post.node);
+        if let (Some(priority), Some(pre), Some(post)) = (priority, pre, post) {
+            rules.push(Rule {
+                name: r.name.node.to_string(),
+                priority,
+                pre: Cond::And(pre),
+                post,
+                name_span: r.name.span,
+            });
+        }
+    }
+    Program { dim: dim.dim, rules }
+}

@@ -1,0 +1,138 @@
+//! Warning W502: a precondition whose own terms contradict each other, so the rule can never
+//! fire. Only what is certain is reported: terms joined by AND (at the top or in a group that
+//! is not negated) that demand opposite things of the same cell, attachment, state or message,
+//! and comparisons of two literals that are false.
+
+use crate::check_rules::Checker;
+use crate::program::{Cond, Coord, Dir, Offset, TextPat, Val};
+use latticesim_grammar::ast::{CmpOp, Term};
+use latticesim_grammar::{Code, Diagnostic, Label, Span, Spanned};
+
+/// Collects the AND-joined conditions with the term that wrote each.
+fn flatten<'c>(terms: &[Spanned<Term<'_>>], conds: &'c [Cond], out: &mut Vec<(&'c Cond, Span, String)>) {
+    for (t, c) in terms.iter().zip(conds) {
+        match (&t.node, c) {
+            (Term::Group(ts), Cond::And(cs)) => flatten(ts, cs, out),
+            _ => out.push((c, t.span, t.node.to_string())),
+        }
+    }
+}
+
+fn lit(o: &Offset) -> Option<[i32; 3]> {
+    let mut out = [0; 3];
+    for (v, c) in out.iter_mut().zip(o) {
+        match c {
+            Coord::Lit(n) => *v = *n,
+            Coord::Counter(_) => return None,
+        }
+    }
+    Some(out)
+}
+
+/// What a condition says about whether cells are filled: (offset, filled?).
+fn cells(c: &Cond) -> Vec<([i32; 3], bool)> {
+    let bits = |mask: u8, want: u8| {
+        Dir::ALL
+            .iter()
+            .filter(move |d| mask & (1 << d.index()) != 0)
+            .map(move |d| (d.offset(), want & (1 << d.index()) != 0))
+    };
+    match c {
+        Cond::Neighbors(p) => bits(p.mask, p.want).collect(),
+        Cond::Attached(p) => bits(p.mask & p.want, p.want).collect(),
+        Cond::Empty(o) => lit(o).map(|o| (o, false)).into_iter().collect(),
+        Cond::Filled(o) | Cond::Less(o) | Cond::LessEq(o) | Cond::RemoteState(o, _) => {
+            lit(o).map(|o| (o, true)).into_iter().collect()
+        }
+        Cond::RemoteCompare { offset, .. } => lit(offset).map(|o| (o, true)).into_iter().collect(),
+        _ => Vec::new(),
+    }
+}
+
+fn disjoint(a: &TextPat, b: &TextPat) -> bool {
+    a.iter().zip(b).any(|(x, y)| matches!((x, y), (Some(x), Some(y)) if x != y))
+}
+
+fn fmt_offset(o: [i32; 3], dim3: bool) -> String {
+    if dim3 {
+        format!("{},{},{}", o[0], o[1], o[2])
+    } else {
+        format!("{},{}", o[0], o[1])
+    }
+}
+
+/// Why `a` and `b` cannot both hold, if they cannot.
+fn conflict(a: &Cond, b: &Cond, dim3: bool) -> Option<String> {
+    match (a, b) {
+        (Cond::Attached(p), Cond::Attached(q)) => {
+            let clash = p.mask & q.mask & (p.want ^ q.want);
+            let d = Dir::ALL.iter().find(|d| clash & (1 << d.index()) != 0)?;
+            return Some(format!("the agent cannot be both attached and not attached towards {}", d.letter()));
+        }
+        (Cond::State(p), Cond::State(q)) if disjoint(p, q) => {
+            return Some("no state matches both patterns".into());
+        }
+        (Cond::Message { dir: Some(d), pat: p }, Cond::Message { dir: Some(e), pat: q }) if d == e && disjoint(p, q) => {
+            return Some(format!("no message from {} matches both patterns", d.letter()));
+        }
+        (Cond::RemoteState(o, p), Cond::RemoteState(q_o, q)) if lit(o).is_some() && lit(o) == lit(q_o) && disjoint(p, q) => {
+            return Some(format!("the agent at {} cannot be in both states", fmt_offset(lit(o)?, dim3)));
+        }
+        _ => {}
+    }
+    for (ca, fa) in cells(a) {
+        for (cb, fb) in cells(b) {
+            if ca == cb && fa != fb {
+                return Some(format!(
+                    "the cell at {} cannot be both empty and hold an agent",
+                    fmt_offset(ca, dim3)
+                ));
+            }
+        }
+    }
+    None
+}
+
+fn always_false(c: &Cond) -> bool {
+    match c {
+        Cond::Compare(op, Val::Lit(a), Val::Lit(b)) => !match op {
+            CmpOp::Lt => a < b,
+            CmpOp::Gt => a > b,
+            CmpOp::Eq => a == b,
+        },
+        _ => false,
+    }
+}
+
+/// Reports W502 for the precondition `terms`, whose checked conditions are `conds`.
+pub(crate) fn check(terms: &[Spanned<Term<'_>>], conds: &[Cond], ck: &mut Checker<'_>) {
+    let mut facts = Vec::new();
+    flatten(terms, conds, &mut facts);
+    let dim3 = ck.dim.dim == crate::program::Dim::Three;
+    'next: for j in 0..facts.len() {
+        let (cj, sj, ref tj) = facts[j];
+        if always_false(cj) {
+            let d = Diagnostic::new(
+                Code::W502,
+                format!("`{tj}` compares two numbers and is always false, so this rule never fires"),
+                Label::new(ck.file, sj, "always false"),
+            )
+            .with_help("compare a counter or a message with the number instead");
+            ck.push(d);
+            continue;
+        }
+        for (ci, si, ti) in &facts[..j] {
+            if let Some(why) = conflict(ci, cj, dim3) {
+                let d = Diagnostic::new(
+                    Code::W502,
+                    format!("`{tj}` contradicts `{ti}`: {why}, so this rule never fires"),
+                    Label::new(ck.file, sj, "contradicts an earlier term"),
+                )
+                .with_secondary(Label::new(ck.file, *si, "the earlier term"))
+                .with_help("remove one of the two terms, or negate one with `!` if that was meant");
+                ck.push(d);
+                continue 'next;
+            }
+        }
+    }
+}

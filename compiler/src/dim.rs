@@ -1,0 +1,180 @@
+//! Finding the dimension: from `--dim`, the agents file, or the rules' own terms, in that
+//! order of precedence, remembering where it came from so that a term of the other dimension
+//! can point at the reason.
+
+use crate::program::Dim;
+use latticesim_grammar::ast::{AgentsFile, Operand, RulesFile, Term, Value};
+use latticesim_grammar::{Code, Diagnostic, FileId, Label, Span, Spanned};
+
+/// The dimension in force and why.
+#[derive(Debug, Clone)]
+pub struct DimSource {
+    /// The dimension.
+    pub dim: Dim,
+    /// Why, as a phrase: "the agents file's universe line has 4 bounds".
+    pub why: String,
+    /// Where that is written, if in a file.
+    pub label: Option<Label>,
+}
+
+impl DimSource {
+    /// The secondary label pointing at the reason, if there is one.
+    pub fn secondary(&self) -> Option<Label> {
+        self.label.clone()
+    }
+
+    /// Adds the reason to a diagnostic: a secondary label if it is in a file, else a note in
+    /// the message is left to the caller.
+    pub fn attach(&self, d: Diagnostic) -> Diagnostic {
+        match self.secondary() {
+            Some(l) => d.with_secondary(l),
+            None => d,
+        }
+    }
+}
+
+/// The dimension an agents file declares: its universe line, else its first position.
+pub fn from_agents(f: &AgentsFile<'_>, file: FileId) -> Option<DimSource> {
+    if let Some(u) = &f.universe {
+        let dim = Dim::from_coords(u.bounds.len() / 2)?;
+        return Some(DimSource {
+            dim,
+            why: format!("the agents file's universe line has {} bounds", u.bounds.len()),
+            label: Some(Label::new(
+                file,
+                u.span,
+                format!("{} because of this universe line", dim.name()),
+            )),
+        });
+    }
+    let a = f.agents.first()?;
+    let dim = Dim::from_coords(a.pos.len())?;
+    let span = a.pos[0].span.to(a.pos[a.pos.len() - 1].span);
+    Some(DimSource {
+        dim,
+        why: format!("the agents file's first position has {} coordinates", a.pos.len()),
+        label: Some(Label::new(
+            file,
+            span,
+            format!("{} because of this position", dim.name()),
+        )),
+    })
+}
+
+/// The dimension given with `--dim`.
+pub fn from_flag(dim: Dim) -> DimSource {
+    DimSource {
+        dim,
+        why: format!("--dim {} was given", dim.coords()),
+        label: None,
+    }
+}
+
+/// The default when nothing decides: 2D.
+pub fn default_2d() -> DimSource {
+    DimSource {
+        dim: Dim::Two,
+        why: "no term decides the dimension, so 2D is assumed".into(),
+        label: None,
+    }
+}
+
+/// `--dim` against the agents file: the flag wins, a disagreement is E301.
+pub fn reconcile(
+    flag: Option<Dim>,
+    agents: Option<DimSource>,
+    diags: &mut Vec<Diagnostic>,
+) -> Option<DimSource> {
+    match (flag, agents) {
+        (Some(f), Some(a)) if a.dim != f => {
+            if let Some(l) = &a.label {
+                diags.push(
+                    Diagnostic::new(
+                        Code::E301,
+                        format!(
+                            "--dim {} was given, but the agents file is {}",
+                            f.coords(),
+                            a.dim.name()
+                        ),
+                        Label::new(l.file, l.span, format!("this makes the agents file {}", a.dim.name())),
+                    )
+                    .with_help(format!(
+                        "drop --dim (the agents file decides), or pass --dim {}",
+                        a.dim.coords()
+                    )),
+                );
+            }
+            Some(from_flag(f))
+        }
+        (Some(f), _) => Some(from_flag(f)),
+        (None, a) => a,
+    }
+}
+
+fn evidence<'a>(t: &Spanned<Term<'a>>) -> Option<(Dim, Span, String)> {
+    let by_len = |p: &Spanned<&str>, letter: char| {
+        let n = p.node.chars().count();
+        let dim = match n {
+            4 => Dim::Two,
+            6 => Dim::Three,
+            _ => return None,
+        };
+        Some((dim, t.span, format!("`{letter}{}` has {n} characters", p.node)))
+    };
+    let by_arity = |o: &Spanned<&[Spanned<latticesim_grammar::ast::Comp<'a>>]>| {
+        let dim = Dim::from_coords(o.node.len())?;
+        Some((dim, t.span, format!("`{}` has {} coordinates", t.node, o.node.len())))
+    };
+    let by_value = |v: &Spanned<Value<'_>>| match v.node {
+        Value::Msg(m) if m.starts_with(['A', 'B']) => {
+            Some((Dim::Three, v.span, format!("`#{m}` names a 3D direction")))
+        }
+        _ => None,
+    };
+    match &t.node {
+        Term::Neighbors(p) => by_len(p, 'N'),
+        Term::Attach(p) => by_len(p, 'A'),
+        Term::Priorities(p) => by_len(p, 'P'),
+        Term::Empty(o) | Term::Filled(o) | Term::Less(o) | Term::LessEq(o) | Term::Move(o) => by_arity(o),
+        Term::RemoteState { offset, .. } => by_arity(offset),
+        Term::Message { dir, .. } if matches!(dir.node, 'A' | 'B') => {
+            Some((Dim::Three, t.span, format!("`{}` names a 3D direction", t.node)))
+        }
+        Term::Swap(d) if matches!(d.node, "A" | "B") => {
+            Some((Dim::Three, t.span, format!("`{}` names a 3D direction", t.node)))
+        }
+        Term::RemoteCompare { .. } => Some((Dim::Two, t.span, format!("`{}` exists only in 2D", t.node))),
+        Term::Calc { target, lhs, rhs, .. } => {
+            if matches!(lhs, Operand::External(_)) || matches!(rhs, Operand::External(_)) {
+                return Some((Dim::Two, t.span, "an external counter exists only in 2D".into()));
+            }
+            let vals = [Some(target), value_of(lhs), value_of(rhs)];
+            vals.into_iter().flatten().find_map(by_value)
+        }
+        Term::Compare { lhs, rhs, .. } => by_value(lhs).or_else(|| by_value(rhs)),
+        Term::Not(inner) => evidence(inner),
+        Term::Group(ts) => ts.iter().find_map(evidence),
+        _ => None,
+    }
+}
+
+fn value_of<'o, 'a>(o: &'o Operand<'a>) -> Option<&'o Spanned<Value<'a>>> {
+    match o {
+        Operand::Value(v) => Some(v),
+        Operand::External(_) => None,
+    }
+}
+
+/// The dimension the rules' own terms show first, in file order.
+pub fn from_rules(f: &RulesFile<'_>, file: FileId) -> Option<DimSource> {
+    let (dim, span, why) = f
+        .rules
+        .iter()
+        .flat_map(|r| r.pre.node.iter().chain(r.post.node.iter()))
+        .find_map(evidence)?;
+    Some(DimSource {
+        dim,
+        why: format!("{why}, the first term of the rules file that decides"),
+        label: Some(Label::new(file, span, format!("{} because of this term", dim.name()))),
+    })
+}
