@@ -54,10 +54,14 @@ fn disjoint(a: &TextPat, b: &TextPat) -> bool {
 }
 
 fn fmt_offset(o: [i32; 3], dim3: bool) -> String {
-    if dim3 {
+    let xy = if dim3 {
         format!("{},{},{}", o[0], o[1], o[2])
     } else {
         format!("{},{}", o[0], o[1])
+    };
+    match Dir::from_offset(o) {
+        Some(d) => format!("{xy} ({})", ["north", "west", "east", "south", "above", "below"][d.index()]),
+        None => xy,
     }
 }
 

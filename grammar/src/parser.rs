@@ -77,7 +77,12 @@ pub fn parse_rules<'a>(
         let missing = ["priority", "precondition", "postcondition"];
         let last = rest[rest.len() - 1];
         let span = line_span(*first).to(line_span(last));
-        let lacks = missing[rest.len() - 1..].join(", ");
+        let lacks = match &missing[rest.len() - 1..] {
+            [a, b, c] => format!("{a}, {b} and {c}"),
+            [a, b] => format!("{a} and {b}"),
+            [a] => a.to_string(),
+            _ => unreachable!("a remainder has 1 to 3 lines"),
+        };
         diags.push(
             Diagnostic::new(
                 Code::E103,

@@ -1,0 +1,89 @@
+//! Golden files for rendered diagnostics: one folder per case under `tests/golden/`, named
+//! after the code it shows (`E302-pattern-length`), holding `rules.txt`, optionally
+//! `agents.txt` and `args` (`dim=3`), and `expected.txt`, the exact plain output.
+//!
+//! Regenerate with `UPDATE_GOLDEN=1 cargo test -p latticesim-compiler --test golden`.
+
+use latticesim_compiler::render::render_plain;
+use latticesim_compiler::{check, Dim, Input};
+use latticesim_grammar::Code;
+use std::fs;
+use std::path::{Path, PathBuf};
+
+const HEADER: &str =
+    "// Rendered by `latticesim check`; regenerate with UPDATE_GOLDEN=1 cargo test -p latticesim-compiler --test golden\n";
+
+fn cases() -> Vec<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden");
+    let mut v: Vec<PathBuf> = fs::read_dir(&dir)
+        .expect("tests/golden exists")
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.is_dir())
+        .collect();
+    v.sort();
+    v
+}
+
+fn render(case: &Path) -> (String, Vec<Code>) {
+    let rules = fs::read(case.join("rules.txt")).expect("every case has rules.txt");
+    let agents = fs::read(case.join("agents.txt")).ok();
+    let args = fs::read_to_string(case.join("args")).unwrap_or_default();
+    let dim = match args.trim() {
+        "dim=2" => Some(Dim::Two),
+        "dim=3" => Some(Dim::Three),
+        _ => None,
+    };
+    let c = check(
+        Input { name: "rules.txt", bytes: &rules },
+        agents.as_deref().map(|bytes| Input { name: "agents.txt", bytes }),
+        dim,
+    );
+    for d in &c.diags {
+        assert!(d.help.is_some(), "{}: {:?} has no help line", case.display(), d.code);
+        for l in std::iter::once(&d.primary).chain(&d.secondary) {
+            let len = c.sources.text(l.file).len() as u32;
+            assert!(l.span.start <= l.span.end && l.span.end <= len, "{}: span outside its file", case.display());
+        }
+    }
+    let mut out = String::from(HEADER);
+    out += &render_plain(&c.diags, &c.sources);
+    out += &format!("errors: {}, warnings: {}\n", c.errors(), c.warnings());
+    (out, c.diags.iter().map(|d| d.code).collect())
+}
+
+#[test]
+fn golden_files_match() {
+    let update = std::env::var_os("UPDATE_GOLDEN").is_some();
+    let mut failures = Vec::new();
+    for case in cases() {
+        let (got, codes) = render(&case);
+        let name = case.file_name().unwrap().to_string_lossy().to_string();
+        let code = Code::parse(&name[..4]).unwrap_or_else(|| panic!("{name}: folder must start with a code"));
+        assert!(codes.contains(&code), "{name}: the case does not produce {code:?}, only {codes:?}");
+        let path = case.join("expected.txt");
+        if update {
+            fs::write(&path, &got).unwrap();
+            continue;
+        }
+        match fs::read_to_string(&path) {
+            Ok(want) if want == got => {}
+            Ok(want) => failures.push(format!("{name}:\n--- expected\n{want}\n--- got\n{got}")),
+            Err(_) => failures.push(format!("{name}: no expected.txt; run with UPDATE_GOLDEN=1")),
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn every_code_has_a_golden_case() {
+    let names: Vec<String> = cases()
+        .iter()
+        .map(|p| p.file_name().unwrap().to_string_lossy().to_string())
+        .collect();
+    let missing: Vec<&str> = Code::ALL
+        .iter()
+        .map(|c| c.as_str())
+        .filter(|c| !names.iter().any(|n| n.starts_with(c)))
+        .collect();
+    assert!(missing.is_empty(), "codes without a golden case: {missing:?}");
+}
