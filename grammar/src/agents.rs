@@ -184,7 +184,8 @@ fn parse_agent<'a>(
     };
     let mut ok = true;
     while let Some(w) = ws.next() {
-        let tail = Spanned::new(&w.node[1..], w.span.sub(1, w.node.len()));
+        let first_len = w.node.chars().next().map_or(1, char::len_utf8);
+        let tail = Spanned::new(&w.node[first_len..], w.span.sub(first_len, w.node.len()));
         let dup = |prev: Span, what: &str| {
             Diagnostic::new(
                 Code::E405,

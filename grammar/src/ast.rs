@@ -167,8 +167,8 @@ pub struct RulesFile<'a> {
     pub rules: Vec<Rule<'a>>,
 }
 
-/// The universe line: inclusive bounds per axis.
-#[derive(Debug, Clone, PartialEq, Eq)]
+/// The universe line: inclusive bounds per axis. Equality ignores the line's span.
+#[derive(Debug, Clone, Eq)]
 pub struct Universe {
     /// `minX, maxX, minY, maxY[, minZ, maxZ]` with their spans.
     pub bounds: Vec<Spanned<i64>>,
@@ -176,8 +176,8 @@ pub struct Universe {
     pub span: Span,
 }
 
-/// One agent line.
-#[derive(Debug, Clone, PartialEq, Eq)]
+/// One agent line. Equality ignores the line's span.
+#[derive(Debug, Clone, Eq)]
 pub struct AgentLine<'a> {
     /// The coordinates as written.
     pub pos: Vec<Spanned<i64>>,
@@ -198,4 +198,19 @@ pub struct AgentsFile<'a> {
     pub universe: Option<Universe>,
     /// The agents, in id order.
     pub agents: Vec<AgentLine<'a>>,
+}
+
+impl PartialEq for Universe {
+    fn eq(&self, other: &Self) -> bool {
+        self.bounds == other.bounds
+    }
+}
+
+impl PartialEq for AgentLine<'_> {
+    fn eq(&self, other: &Self) -> bool {
+        self.pos == other.pos
+            && self.state == other.state
+            && self.attach == other.attach
+            && self.counters == other.counters
+    }
 }

@@ -1,0 +1,143 @@
+//! No input makes the parsers or the checker panic, and every reported span lies inside its
+//! file: random bytes, random token sequences, and mutated valid files.
+
+use latticesim_compiler::{check, Checked, Dim, Input};
+use proptest::prelude::*;
+
+fn run(rules: &[u8], agents: Option<&[u8]>, dim: Option<Dim>) -> Checked {
+    let c = check(
+        Input { name: "rules.txt", bytes: rules },
+        agents.map(|bytes| Input { name: "agents.txt", bytes }),
+        dim,
+    );
+    for d in &c.diags {
+        for l in std::iter::once(&d.primary).chain(&d.secondary) {
+            let text = c.sources.text(l.file);
+            assert!(
+                l.span.start <= l.span.end && (l.span.end as usize) <= text.len(),
+                "{:?} span {:?} outside its file of {} bytes",
+                d.code,
+                l.span,
+                text.len()
+            );
+            assert!(text.is_char_boundary(l.span.start as usize) && text.is_char_boundary(l.span.end as usize));
+        }
+        assert!(d.help.is_some(), "{:?} has no help", d.code);
+    }
+    // Rendering must not fail either.
+    let _ = latticesim_compiler::render::render_plain(&c.diags, &c.sources);
+    let _ = latticesim_compiler::render::to_json(&c.diags, &c.sources);
+    c
+}
+
+const FRAGMENTS: &[&str] = &[
+    "N", "N1*0*", "N1*0*1*", "A", "A1*+*", "P", "P<=**", "P1,0", "S", "SAB)CD", "S*****", "M", "M*", "MNhello",
+    "MAx", "E", "E1,0", "E-1,C03", "F0,1,0", "L", "Q1,1", "T1,0,ABCDE", "T1,0,0,", "T", "V1,0,C03", "W", "X",
+    "XN", "XZZ", "C", "C00", "C5", "C99", "#", "#N01", "#*01", "#Q9", "0010", "-0005", "99999999999999999999",
+    "+", "-", "*", "/", "I", "<", ">", "=", "!", "(", ")", ",", ",,", "?", "é", "\t", "//", "\r",
+];
+
+fn token_line() -> impl Strategy<Value = String> {
+    proptest::collection::vec(
+        (proptest::sample::select(FRAGMENTS), proptest::bool::ANY),
+        0..12,
+    )
+    .prop_map(|v| {
+        v.into_iter()
+            .map(|(t, glue)| if glue { t.to_string() } else { format!("{t} ") })
+            .collect()
+    })
+}
+
+fn seeds() -> Vec<Vec<u8>> {
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/..");
+    let mut out = Vec::new();
+    for dir in ["examples/maxflood", "examples/gravity", "examples/tour"] {
+        for f in ["rules.txt", "agents.txt"] {
+            if let Ok(b) = std::fs::read(format!("{root}/{dir}/{f}")) {
+                out.push(b);
+            }
+        }
+    }
+    assert!(out.len() >= 4, "example files are missing");
+    out
+}
+
+#[derive(Debug, Clone)]
+enum Edit {
+    Delete(usize),
+    Insert(usize, u8),
+    Replace(usize, u8),
+    Duplicate(usize, usize),
+}
+
+fn apply(mut b: Vec<u8>, edits: &[Edit]) -> Vec<u8> {
+    for e in edits {
+        if b.is_empty() {
+            break;
+        }
+        match *e {
+            Edit::Delete(i) => {
+                b.remove(i % b.len());
+            }
+            Edit::Insert(i, c) => b.insert(i % (b.len() + 1), c),
+            Edit::Replace(i, c) => {
+                let n = b.len();
+                b[i % n] = c;
+            }
+            Edit::Duplicate(i, n) => {
+                let s = i % b.len();
+                let e = (s + n).min(b.len());
+                let piece = b[s..e].to_vec();
+                b.splice(s..s, piece);
+            }
+        }
+    }
+    b
+}
+
+fn edit() -> impl Strategy<Value = Edit> {
+    let byte = prop_oneof![
+        proptest::sample::select(b" \n,*()!#-0123456789CNAPSMTXEFLQVW<>=+/".to_vec()),
+        any::<u8>()
+    ];
+    prop_oneof![
+        any::<usize>().prop_map(Edit::Delete),
+        (any::<usize>(), byte.clone()).prop_map(|(i, c)| Edit::Insert(i, c)),
+        (any::<usize>(), byte).prop_map(|(i, c)| Edit::Replace(i, c)),
+        (any::<usize>(), 1usize..40).prop_map(|(i, n)| Edit::Duplicate(i, n)),
+    ]
+}
+
+proptest! {
+    // PROPTEST_CASES=100000 for a longer run (see docs/testing.md).
+    #![proptest_config(ProptestConfig {
+        cases: std::env::var("PROPTEST_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(256),
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    })]
+
+    #[test]
+    fn random_bytes(rules in proptest::collection::vec(any::<u8>(), 0..400),
+                    agents in proptest::collection::vec(any::<u8>(), 0..400),
+                    dim in proptest::option::of(prop_oneof![Just(Dim::Two), Just(Dim::Three)])) {
+        run(&rules, Some(&agents), dim);
+        run(&rules, None, dim);
+    }
+
+    #[test]
+    fn random_token_lines(lines in proptest::collection::vec(token_line(), 0..12)) {
+        let text = lines.join("\n");
+        run(text.as_bytes(), None, None);
+        run(text.as_bytes(), Some(text.as_bytes()), None);
+    }
+
+    #[test]
+    fn mutated_examples(which in any::<usize>(), edits in proptest::collection::vec(edit(), 1..8)) {
+        let seeds = seeds();
+        let base = seeds[which % seeds.len()].clone();
+        let mutated = apply(base, &edits);
+        run(&mutated, None, None);
+        run(&seeds[0], Some(&mutated), None);
+    }
+}
