@@ -136,7 +136,7 @@ fn evidence<'a>(t: &Spanned<Term<'a>>) -> Option<(Dim, Span, String)> {
         Term::Attach(p) => by_len(p, 'A'),
         Term::Priorities(p) => by_len(p, 'P'),
         Term::Empty(o) | Term::Filled(o) | Term::Less(o) | Term::LessEq(o) | Term::Move(o) => by_arity(o),
-        Term::RemoteState { offset, .. } => by_arity(offset),
+        // How a `T` term splits depends on the dimension, so it is no evidence of it.
         Term::Message { dir, .. } if matches!(dir.node, 'A' | 'B') => {
             Some((Dim::Three, t.span, format!("`{}` names a 3D direction", t.node)))
         }

@@ -1,0 +1,169 @@
+//! What the checker builds and decides, beyond the golden files: the checked program, the
+//! dimension rules, the agents configuration.
+
+use latticesim_compiler::program::{Action, AttachLetter, BitPat, Cond, Coord, Dir, Operand, Target, Val};
+use latticesim_compiler::{check, Checked, Dim, Input};
+use latticesim_grammar::Code;
+
+fn run(rules: &str, agents: Option<&str>, dim: Option<Dim>) -> Checked {
+    check(
+        Input { name: "rules.txt", bytes: rules.as_bytes() },
+        agents.map(|a| Input { name: "agents.txt", bytes: a.as_bytes() }),
+        dim,
+    )
+}
+
+fn codes(c: &Checked) -> Vec<Code> {
+    c.diags.iter().map(|d| d.code).collect()
+}
+
+#[test]
+fn builds_the_checked_program() {
+    let c = run(
+        "r\n7\nN1*0* P<=** A*1** SAB*DE !(E-1,C03) >#*02 -0005\nP0,-1 A+*01 S**X** M*hello C02 A 1,0,C04 #N08 #E03 - C01 0002 XN\n",
+        None,
+        None,
+    );
+    // P with X is an error: check it is the only one.
+    assert_eq!(codes(&c), vec![Code::E315]);
+    let c = run(
+        "r\n7\nN1*0* P<=** A*1** SAB*DE !(E-1,C03) >#*02 -0005\nP0,-1 A+*01 S**X** M*hello C02 A 1,0,C04 #N08 #E03 - C01 0002\n",
+        None,
+        None,
+    );
+    assert!(c.diags.is_empty(), "{:?}", c.diags);
+    assert_eq!(c.dim.dim, Dim::Two);
+    let p = c.program.unwrap();
+    let r = &p.rules[0];
+    assert_eq!(r.priority, 7);
+    let Cond::And(pre) = &r.pre else { panic!() };
+    assert_eq!(pre[0], Cond::Neighbors(BitPat { mask: 0b0101, want: 0b0001 }));
+    assert_eq!(pre[1], Cond::Priorities { strict: 0b0001, leq: 0b0010 });
+    assert_eq!(pre[2], Cond::Attached(BitPat { mask: 0b0010, want: 0b0010 }));
+    assert_eq!(pre[3], Cond::State([Some(b'A'), Some(b'B'), None, Some(b'D'), Some(b'E')]));
+    assert_eq!(
+        pre[4],
+        Cond::Not(Box::new(Cond::And(vec![Cond::Empty([Coord::Lit(-1), Coord::Counter(3), Coord::Lit(0)])])))
+    );
+    assert_eq!(pre[5], Cond::Compare(latticesim_compiler::program::CmpOp::Gt, Val::Msg { dir: None, slot: 1 }, Val::Lit(-5)));
+    assert_eq!(r.post[0], Action::Move([Coord::Lit(0), Coord::Lit(-1), Coord::Lit(0)]));
+    assert_eq!(
+        r.post[1],
+        Action::Attach(vec![AttachLetter::Rigid, AttachLetter::Keep, AttachLetter::Detach, AttachLetter::Attach])
+    );
+    assert_eq!(r.post[3], Action::Send { dir: None, text: *b"hello" });
+    assert_eq!(
+        r.post[4],
+        Action::Calc {
+            target: Target::Counter(2),
+            op: latticesim_compiler::program::CalcOp::Max,
+            lhs: Operand::External { x: Coord::Lit(1), y: Coord::Lit(0), counter: 4 },
+            rhs: Operand::Val(Val::Msg { dir: Some(Dir::N), slot: 7 }),
+        }
+    );
+    assert_eq!(
+        r.post[5],
+        Action::Calc {
+            target: Target::Msg { dir: Some(Dir::E), slot: 2 },
+            op: latticesim_compiler::program::CalcOp::Sub,
+            lhs: Operand::Val(Val::Counter(1)),
+            rhs: Operand::Val(Val::Lit(2)),
+        }
+    );
+}
+
+#[test]
+fn dimension_from_rules_and_remote_state_split() {
+    // The first deciding term is 3D, so T splits after three coordinates.
+    let c = run("r\n1\nN1*1*** T1,0,0,ABCDE\nS*****\n", None, None);
+    assert!(c.diags.is_empty(), "{:?}", c.diags);
+    assert_eq!(c.dim.dim, Dim::Three);
+    // In 2D the same characters after two coordinates are a state "0,ABC".
+    let c = run("r\n1\nN1*1* T1,0,0,ABC\nS*****\n", None, None);
+    assert!(c.diags.is_empty(), "{:?}", c.diags);
+    let Cond::And(pre) = &c.program.unwrap().rules[0].pre else { panic!() };
+    assert_eq!(
+        pre[1],
+        Cond::RemoteState([Coord::Lit(1), Coord::Lit(0), Coord::Lit(0)], [Some(b'0'), Some(b','), Some(b'A'), Some(b'B'), Some(b'C')])
+    );
+    // A T term that comes before the deciding term is parsed again once the dimension is known.
+    // (Alone, `((T1,0,0,ABC))` reads best as 3D with state `ABC))`; the N pattern makes it 2D.)
+    let c = run("r\n1\n((T1,0,0,ABC))\nS*****\nq\n1\nN1*0*\nS*****\n", None, None);
+    assert!(c.diags.is_empty(), "{:?}", c.diags);
+    assert_eq!(c.dim.dim, Dim::Two);
+    let Cond::And(pre) = &c.program.unwrap().rules[0].pre else { panic!() };
+    assert_eq!(
+        pre[0],
+        Cond::And(vec![Cond::And(vec![Cond::RemoteState(
+            [Coord::Lit(1), Coord::Lit(0), Coord::Lit(0)],
+            [Some(b'0'), Some(b','), Some(b'A'), Some(b'B'), Some(b'C')]
+        )])])
+    );
+    // --dim wins over the rules; the agents file wins over the rules.
+    let c = run("r\n1\nN1*0*\nS*****\n", None, Some(Dim::Three));
+    assert_eq!(codes(&c), vec![Code::E302]);
+    let c = run("r\n1\nN1*0*\nS*****\n", Some("0,0,0\n"), None);
+    assert_eq!(codes(&c), vec![Code::E302]);
+    assert_eq!(c.diags[0].secondary.len(), 1, "points at the agents file too");
+    // Nothing decides: 2D.
+    let c = run("r\n1\nS*****\nS*****\n", None, None);
+    assert_eq!(c.dim.dim, Dim::Two);
+}
+
+#[test]
+fn every_error_of_a_file_in_one_run_in_file_order() {
+    let c = run(
+        "a\n1\nN1*0*1\nS*****\nb\n0\nE 1,0 ?\nXQ\nc\n1\nS*****\nE1,0 P1,0 P2,0\n",
+        None,
+        Some(Dim::Two),
+    );
+    assert_eq!(
+        codes(&c),
+        vec![Code::E302, Code::E309, Code::E204, Code::E102, Code::E317, Code::E312, Code::E314]
+    );
+}
+
+#[test]
+fn contradictions_only_where_certain() {
+    let w = |pre: &str| {
+        let c = run(&format!("r\n1\n{pre}\nS*****\n"), None, Some(Dim::Two));
+        assert_eq!(c.errors(), 0, "{pre}: {:?}", c.diags);
+        c.warnings()
+    };
+    assert_eq!(w("N1*** N0***"), 1);
+    assert_eq!(w("N1*** !N0***"), 0);
+    assert_eq!(w("N1*** !(N0*** S*****)"), 0);
+    assert_eq!(w("(N1***) (E0,1)"), 1);
+    assert_eq!(w("A1*** N0***"), 1);
+    assert_eq!(w("A1*** A0***"), 1);
+    assert_eq!(w("SA**** S*B***"), 0);
+    assert_eq!(w("SA**** SB****"), 1);
+    assert_eq!(w("MNa**** MNb****"), 1);
+    assert_eq!(w("M*a**** MNb****"), 0);
+    assert_eq!(w("E2,3 F2,3"), 1);
+    assert_eq!(w("EC01,3 F2,3"), 0);
+    assert_eq!(w("T2,3,ABCDE T2,3,ABCDF"), 1);
+    assert_eq!(w("<0005 0003"), 1);
+    assert_eq!(w("<0003 0005"), 0);
+}
+
+#[test]
+fn agents_configuration() {
+    let c = run(
+        "r\n1\nS*****\nS*****\n",
+        Some("U-2,2,-2,2\n0,0 SLEAD0 A0010 C03 -7 C00 0\n1,0\n1,1 A0001\n-2,-2 A0100\n"),
+        None,
+    );
+    assert_eq!(codes(&c), vec![Code::W601, Code::W601, Code::W602]);
+    let cfg = c.config.unwrap();
+    assert_eq!(cfg.universe, Some([(-2, 2), (-2, 2), (0, 0)]));
+    assert_eq!(cfg.agents.len(), 4);
+    assert_eq!(cfg.agents[3].attach, 0, "bond towards an empty cell dropped");
+    assert_eq!(&cfg.agents[0].state, b"LEAD0");
+    assert_eq!(cfg.agents[0].attach, 0b0100, "east bond");
+    assert_eq!(cfg.agents[1].attach, 0b0011, "made symmetric: west bond, and north towards 1,1");
+    // 1,1 is attached south to 1,0: symmetric now, so no second warning.
+    assert_eq!(cfg.agents[2].attach, 0b1000);
+    assert_eq!(cfg.agents[1].attach & 0b0001, 0b0001);
+    assert_eq!(cfg.agents[0].counters, vec![(3, -7)]);
+}
