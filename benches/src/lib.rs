@@ -1,1 +1,93 @@
-//! Benchmarks live in benches/.
+//! Inputs for the benchmarks: deterministic generators of large rules files.
+#![warn(missing_docs)]
+
+/// A small deterministic generator (PCG-style LCG), so inputs are the same on every machine.
+pub struct Lcg(u64);
+
+impl Lcg {
+    /// Seeded.
+    pub fn new(seed: u64) -> Lcg {
+        Lcg(seed)
+    }
+
+    /// Next value below `n`.
+    pub fn below(&mut self, n: u64) -> u64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (self.0 >> 33) % n
+    }
+}
+
+/// A valid 2D rules file of `n` rules mixing every kind of term and action, as a rule
+/// author would write them (about 90 bytes a rule).
+pub fn generate_rules(n: usize, seed: u64) -> String {
+    let mut g = Lcg::new(seed);
+    let mut out = String::with_capacity(n * 100);
+    let pick = |g: &mut Lcg, s: &str| {
+        let cs: Vec<char> = s.chars().collect();
+        cs[g.below(cs.len() as u64) as usize]
+    };
+    for i in 0..n {
+        out += &format!("rule{i}\n{}\n", 1 + g.below(100));
+        let pre_terms = 1 + g.below(4);
+        for t in 0..pre_terms {
+            if t > 0 {
+                out.push(' ');
+            }
+            match g.below(9) {
+                0 => out += &format!("N{}{}{}{}", pick(&mut g, "01*"), pick(&mut g, "01*"), pick(&mut g, "01*"), pick(&mut g, "01*")),
+                1 => out += &format!("S{:05}", g.below(100000)),
+                2 => out += &format!("E{},{}", g.below(5) as i64 - 2, g.below(5) as i64 - 2),
+                3 => out += &format!("P{}{}**", pick(&mut g, "<=*"), pick(&mut g, "<=*")),
+                4 => out += &format!(">C{:02} {:04}", g.below(25), g.below(1000)),
+                5 => out += &format!("T1,0,L{:04}", g.below(10000)),
+                6 => out += &format!("!(A{}*** MN*a***)", pick(&mut g, "01")),
+                7 => out += &format!("=#*0{} C{:02}", 1 + g.below(8), g.below(25)),
+                _ => out += &format!("V-1,0,C{:02} {:04}", g.below(25), g.below(500)),
+            }
+        }
+        out.push('\n');
+        let post_terms = 1 + g.below(3);
+        let mut used = [false; 4];
+        for t in 0..post_terms {
+            if t > 0 {
+                out.push(' ');
+            }
+            let k = g.below(6) as usize;
+            match k {
+                0..=3 if !used[k] => {
+                    used[k] = true;
+                    match k {
+                        0 => out += &format!("S{:05}", g.below(100000)),
+                        1 => out += &format!("A{}{}{}*", pick(&mut g, "01*+"), pick(&mut g, "01*+"), pick(&mut g, "01*+")),
+                        2 if !used[3] => out += &format!("P{},{}", g.below(3) as i64 - 1, g.below(3) as i64 - 1),
+                        _ => out += &format!("ME{:05}", g.below(100000)),
+                    }
+                }
+                4 => out += &format!("C{:02} + C{:02} {:04}", g.below(25), g.below(25), g.below(100)),
+                _ => out += &format!("#*0{} A C{:02} 1,0,C{:02}", 1 + g.below(8), g.below(25), g.below(25)),
+            }
+        }
+        out += "\n\n";
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn generated_rules_check_without_errors() {
+        let text = generate_rules(2000, 7);
+        let c = latticesim_compiler::check(
+            latticesim_compiler::Input { name: "gen.txt", bytes: text.as_bytes() },
+            None,
+            None,
+        );
+        assert_eq!(c.errors(), 0, "{:?}", c.diags.first());
+        assert_eq!(c.rule_count, 2000);
+    }
+}

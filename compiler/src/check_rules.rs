@@ -430,7 +430,8 @@ impl Checker<'_> {
                 let s = self.text(state, "the remote state pattern", true);
                 Cond::RemoteState(o?, s?)
             }
-            Term::Compare { op, lhs, rhs } => {
+            Term::Compare(c) => {
+                let (op, lhs, rhs) = (&c.op, &c.lhs, &c.rhs);
                 let any = [lhs, rhs].iter().filter(|v| matches!(v.node, Value::Msg(m) if m.starts_with('*'))).count();
                 let a = self.value(lhs, true);
                 let b = self.value(rhs, true);
@@ -447,7 +448,8 @@ impl Checker<'_> {
                 }
                 Cond::Compare(op.node, a?, b?)
             }
-            Term::RemoteCompare { strict, comps, rhs } => {
+            Term::RemoteCompare(rc) => {
+                let (strict, comps, rhs) = (&rc.strict, &rc.comps, &rc.rhs);
                 let letter = if *strict { 'V' } else { 'W' };
                 if self.d() == Dim::Three {
                     self.push_dim(
@@ -464,7 +466,7 @@ impl Checker<'_> {
                 let (counter, offset) = self.remote_counter(letter, comps)?;
                 Cond::RemoteCompare { strict: *strict, offset, counter, rhs: rhs? }
             }
-            Term::Move(_) | Term::Swap(_) | Term::Calc { .. } => {
+            Term::Move(_) | Term::Swap(_) | Term::Calc(_) => {
                 self.misplaced(t, true);
                 return None;
             }
@@ -610,7 +612,8 @@ impl Checker<'_> {
                     }
                 }
             }
-            Term::Calc { target, op, lhs, rhs } => {
+            Term::Calc(c) => {
+                let (target, op, lhs, rhs) = (&c.target, &c.op, &c.lhs, &c.rhs);
                 let tgt = match target.node {
                     Value::Counter(d) => self.counter(d, target.span).map(Target::Counter),
                     Value::Msg(m) => self.msg_ref(m, target.span, true).map(|(dir, slot)| Target::Msg { dir, slot }),
@@ -652,17 +655,19 @@ impl Checker<'_> {
     }
 
     fn post(&mut self, ts: &[Spanned<Term<'_>>]) -> Option<Vec<Action>> {
-        let mut first: HashMap<char, Span> = HashMap::new();
+        const KINDS: [char; 4] = ['P', 'X', 'A', 'S'];
+        let mut first: [Option<Span>; 4] = [None; 4];
         let mut ok = true;
         for t in ts {
-            let kind = match t.node {
-                Term::Move(_) => 'P',
-                Term::Swap(_) => 'X',
-                Term::Attach(_) => 'A',
-                Term::State(_) => 'S',
+            let k = match t.node {
+                Term::Move(_) => 0,
+                Term::Swap(_) => 1,
+                Term::Attach(_) => 2,
+                Term::State(_) => 3,
                 _ => continue,
             };
-            if let Some(&prev) = first.get(&kind) {
+            let kind = KINDS[k];
+            if let Some(prev) = first[k] {
                 ok = false;
                 self.push(
                     Diagnostic::new(
@@ -674,10 +679,10 @@ impl Checker<'_> {
                     .with_help(format!("merge the two `{kind}` actions into one")),
                 );
             } else {
-                first.insert(kind, t.span);
+                first[k] = Some(t.span);
             }
         }
-        if let (Some(&p), Some(&x)) = (first.get(&'P'), first.get(&'X')) {
+        if let (Some(p), Some(x)) = (first[0], first[1]) {
             ok = false;
             let (a, b) = if p < x { (p, x) } else { (x, p) };
             self.push(

@@ -6,14 +6,18 @@
 use crate::check_rules::Checker;
 use crate::program::{Cond, Coord, Dir, Offset, TextPat, Val};
 use latticesim_grammar::ast::{CmpOp, Term};
-use latticesim_grammar::{Code, Diagnostic, Label, Span, Spanned};
+use latticesim_grammar::{Code, Diagnostic, Label, Spanned};
 
 /// Collects the AND-joined conditions with the term that wrote each.
-fn flatten<'c>(terms: &[Spanned<Term<'_>>], conds: &'c [Cond], out: &mut Vec<(&'c Cond, Span, String)>) {
+fn flatten<'c, 't, 'a>(
+    terms: &'t [Spanned<Term<'a>>],
+    conds: &'c [Cond],
+    out: &mut Vec<(&'c Cond, &'t Spanned<Term<'a>>)>,
+) {
     for (t, c) in terms.iter().zip(conds) {
         match (&t.node, c) {
             (Term::Group(ts), Cond::And(cs)) => flatten(ts, cs, out),
-            _ => out.push((c, t.span, t.node.to_string())),
+            _ => out.push((c, t)),
         }
     }
 }
@@ -29,24 +33,21 @@ fn lit(o: &Offset) -> Option<[i32; 3]> {
     Some(out)
 }
 
-/// What a condition says about whether cells are filled: (offset, filled?).
-fn cells(c: &Cond) -> Vec<([i32; 3], bool)> {
-    let bits = |mask: u8, want: u8| {
-        Dir::ALL
-            .iter()
-            .filter(move |d| mask & (1 << d.index()) != 0)
-            .map(move |d| (d.offset(), want & (1 << d.index()) != 0))
+/// What a condition says about whether cells are filled: (offset, filled?), at most six.
+fn cells(c: &Cond) -> impl Iterator<Item = ([i32; 3], bool)> {
+    let (mask, want, single) = match c {
+        Cond::Neighbors(p) => (p.mask, p.want, None),
+        Cond::Attached(p) => (p.mask & p.want, p.want, None),
+        Cond::Empty(o) => (0, 0, lit(o).map(|o| (o, false))),
+        Cond::Filled(o) | Cond::Less(o) | Cond::LessEq(o) | Cond::RemoteState(o, _) => (0, 0, lit(o).map(|o| (o, true))),
+        Cond::RemoteCompare { offset, .. } => (0, 0, lit(offset).map(|o| (o, true))),
+        _ => (0, 0, None),
     };
-    match c {
-        Cond::Neighbors(p) => bits(p.mask, p.want).collect(),
-        Cond::Attached(p) => bits(p.mask & p.want, p.want).collect(),
-        Cond::Empty(o) => lit(o).map(|o| (o, false)).into_iter().collect(),
-        Cond::Filled(o) | Cond::Less(o) | Cond::LessEq(o) | Cond::RemoteState(o, _) => {
-            lit(o).map(|o| (o, true)).into_iter().collect()
-        }
-        Cond::RemoteCompare { offset, .. } => lit(offset).map(|o| (o, true)).into_iter().collect(),
-        _ => Vec::new(),
-    }
+    Dir::ALL
+        .iter()
+        .filter(move |d| mask & (1 << d.index()) != 0)
+        .map(move |d| (d.offset(), want & (1 << d.index()) != 0))
+        .chain(single)
 }
 
 fn disjoint(a: &TextPat, b: &TextPat) -> bool {
@@ -110,11 +111,15 @@ fn always_false(c: &Cond) -> bool {
 
 /// Reports W502 for the precondition `terms`, whose checked conditions are `conds`.
 pub(crate) fn check(terms: &[Spanned<Term<'_>>], conds: &[Cond], ck: &mut Checker<'_>) {
+    if terms.len() < 2 && !conds.iter().any(|c| always_false(c) || matches!(c, Cond::And(_))) {
+        return;
+    }
     let mut facts = Vec::new();
     flatten(terms, conds, &mut facts);
     let dim3 = ck.dim.dim == crate::program::Dim::Three;
     'next: for j in 0..facts.len() {
-        let (cj, sj, ref tj) = facts[j];
+        let (cj, tj) = facts[j];
+        let (sj, tj) = (tj.span, &tj.node);
         if always_false(cj) {
             let d = Diagnostic::new(
                 Code::W502,
@@ -125,7 +130,8 @@ pub(crate) fn check(terms: &[Spanned<Term<'_>>], conds: &[Cond], ck: &mut Checke
             ck.push(d);
             continue;
         }
-        for (ci, si, ti) in &facts[..j] {
+        for &(ci, ti) in &facts[..j] {
+            let (si, ti) = (&ti.span, &ti.node);
             if let Some(why) = conflict(ci, cj, dim3) {
                 let d = Diagnostic::new(
                     Code::W502,

@@ -143,15 +143,16 @@ fn evidence<'a>(t: &Spanned<Term<'a>>) -> Option<(Dim, Span, String)> {
         Term::Swap(d) if matches!(d.node, "A" | "B") => {
             Some((Dim::Three, t.span, format!("`{}` names a 3D direction", t.node)))
         }
-        Term::RemoteCompare { .. } => Some((Dim::Two, t.span, format!("`{}` exists only in 2D", t.node))),
-        Term::Calc { target, lhs, rhs, .. } => {
+        Term::RemoteCompare(_) => Some((Dim::Two, t.span, format!("`{}` exists only in 2D", t.node))),
+        Term::Calc(c) => {
+            let (target, lhs, rhs) = (&c.target, &c.lhs, &c.rhs);
             if matches!(lhs, Operand::External(_)) || matches!(rhs, Operand::External(_)) {
                 return Some((Dim::Two, t.span, "an external counter exists only in 2D".into()));
             }
             let vals = [Some(target), value_of(lhs), value_of(rhs)];
             vals.into_iter().flatten().find_map(by_value)
         }
-        Term::Compare { lhs, rhs, .. } => by_value(lhs).or_else(|| by_value(rhs)),
+        Term::Compare(c) => by_value(&c.lhs).or_else(|| by_value(&c.rhs)),
         Term::Not(inner) => evidence(inner),
         Term::Group(ts) => ts.iter().find_map(evidence),
         _ => None,

@@ -69,6 +69,41 @@ pub enum CalcOp {
     Min,
 }
 
+/// A numeric comparison `<a b`, `>a b`, `=a b`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Compare<'a> {
+    /// The comparison.
+    pub op: Spanned<CmpOp>,
+    /// Left value.
+    pub lhs: Spanned<Value<'a>>,
+    /// Right value.
+    pub rhs: Spanned<Value<'a>>,
+}
+
+/// `Vdx,dy,Cnn b` (strict) or `Wdx,dy,Cnn b`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RemoteCompare<'a> {
+    /// True for `V`.
+    pub strict: bool,
+    /// Coordinates followed by the remote counter, as written.
+    pub comps: Offset<'a>,
+    /// The value compared with.
+    pub rhs: Spanned<Value<'a>>,
+}
+
+/// A calculation `target op a b`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Calc<'a> {
+    /// Counter or outgoing message slot.
+    pub target: Spanned<Value<'a>>,
+    /// The operation.
+    pub op: Spanned<CalcOp>,
+    /// First operand.
+    pub lhs: Operand<'a>,
+    /// Second operand.
+    pub rhs: Operand<'a>,
+}
+
 /// One term of a precondition or one action of a postcondition. Both lines share this
 /// type; the checker reports terms that stand on the wrong line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -103,39 +138,16 @@ pub enum Term<'a> {
         /// The state pattern.
         state: Spanned<&'a str>,
     },
-    /// `<a b`, `>a b`, `=a b`.
-    Compare {
-        /// The comparison.
-        op: Spanned<CmpOp>,
-        /// Left value.
-        lhs: Spanned<Value<'a>>,
-        /// Right value.
-        rhs: Spanned<Value<'a>>,
-    },
+    /// `<a b`, `>a b`, `=a b` (kept in the arena: terms stay small).
+    Compare(&'a Compare<'a>),
     /// `Vdx,dy,Cnn b` (strict) or `Wdx,dy,Cnn b`.
-    RemoteCompare {
-        /// True for `V`.
-        strict: bool,
-        /// Coordinates followed by the remote counter, as written.
-        comps: Offset<'a>,
-        /// The value compared with.
-        rhs: Spanned<Value<'a>>,
-    },
+    RemoteCompare(&'a RemoteCompare<'a>),
     /// `Pdx,dy`: move.
     Move(Offset<'a>),
     /// `XD`: swap with a neighbour.
     Swap(Spanned<&'a str>),
-    /// `target op a b`.
-    Calc {
-        /// Counter or outgoing message slot.
-        target: Spanned<Value<'a>>,
-        /// The operation.
-        op: Spanned<CalcOp>,
-        /// First operand.
-        lhs: Operand<'a>,
-        /// Second operand.
-        rhs: Operand<'a>,
-    },
+    /// `target op a b` (kept in the arena: terms stay small).
+    Calc(&'a Calc<'a>),
     /// `!term`.
     Not(&'a Spanned<Term<'a>>),
     /// `( terms )`.
@@ -212,5 +224,18 @@ impl PartialEq for AgentLine<'_> {
             && self.state == other.state
             && self.attach == other.attach
             && self.counters == other.counters
+    }
+}
+
+#[cfg(test)]
+mod size_tests {
+    use super::*;
+
+    /// Terms are the bulk of a large rules file's tree: keep them small (big variants live
+    /// behind a reference into the arena).
+    #[test]
+    fn terms_stay_small() {
+        assert!(std::mem::size_of::<Spanned<Term<'_>>>() <= 64, "{}", std::mem::size_of::<Spanned<Term<'_>>>());
+        assert!(std::mem::size_of::<Rule<'_>>() <= 96);
     }
 }

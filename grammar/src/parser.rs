@@ -57,14 +57,21 @@ pub fn parse_rules<'a>(
     dim_hint: Option<u8>,
 ) -> (RulesFile<'a>, Vec<Diagnostic>) {
     let mut diags = Vec::new();
-    let mut rules = Vec::new();
-    let lines: Vec<Line<'a>> = significant_lines(src).collect();
-    let mut chunks = lines.chunks_exact(4);
-    for chunk in &mut chunks {
+    // About 90 bytes make a rule; reserving avoids doubling a large vector at the end.
+    let mut rules = Vec::with_capacity(src.len() / 128);
+    // Lines are taken four at a time as they come; nothing holds the whole file's lines.
+    let mut chunk: Vec<Line<'a>> = Vec::with_capacity(4);
+    let mut toks = Vec::with_capacity(32);
+    for line in significant_lines(src) {
+        chunk.push(line);
+        if chunk.len() < 4 {
+            continue;
+        }
         let [name, prio, pre, post] = [chunk[0], chunk[1], chunk[2], chunk[3]];
+        chunk.clear();
         let priority = parse_priority(prio, file, &mut diags);
-        let pre = parse_line(pre, file, arena, dim_hint, &mut diags);
-        let post = parse_line(post, file, arena, dim_hint, &mut diags);
+        let pre = parse_line(pre, file, arena, dim_hint, &mut diags, &mut toks);
+        let post = parse_line(post, file, arena, dim_hint, &mut diags, &mut toks);
         rules.push(Rule {
             name: Spanned::new(name.text, line_span(name)),
             priority,
@@ -72,7 +79,7 @@ pub fn parse_rules<'a>(
             post,
         });
     }
-    let rest = chunks.remainder();
+    let rest = &chunk[..];
     if let Some(first) = rest.first() {
         let missing = ["priority", "precondition", "postcondition"];
         let last = rest[rest.len() - 1];
@@ -144,8 +151,9 @@ fn clean_tokens<'a>(
     file: FileId,
     dim_hint: Option<u8>,
     diags: &mut Vec<Diagnostic>,
-) -> Vec<Spanned3<'a>> {
-    let mut toks = Vec::new();
+    toks: &mut Vec<Spanned3<'a>>,
+) {
+    toks.clear();
     let mut open = Vec::new();
     let mut drop = Vec::new();
     for r in Lexer::new(line.text, line.start, dim_hint) {
@@ -209,7 +217,6 @@ fn clean_tokens<'a>(
         i += 1;
         keep
     });
-    toks
 }
 
 fn line_src(line: Line<'_>, start: usize, end: usize) -> &str {
@@ -222,9 +229,10 @@ fn parse_line<'a>(
     arena: &'a Bump,
     dim_hint: Option<u8>,
     diags: &mut Vec<Diagnostic>,
+    toks: &mut Vec<Spanned3<'a>>,
 ) -> Terms<'a> {
     let span = line_span(line);
-    let toks = clean_tokens(line, file, dim_hint, diags);
+    clean_tokens(line, file, dim_hint, diags, toks);
     let mut recovered: Vec<ErrorRecovery<usize, Tok<'a>, BadChar>> = Vec::new();
     let mut gaps = Vec::new();
     let end = span.end as usize;

@@ -84,29 +84,20 @@ impl Display for Term<'_> {
                 comps(f, offset)?;
                 write!(f, ",{}", state.node)
             }
-            Term::Compare { op, lhs, rhs } => write!(f, "{}{} {}", op.node, lhs.node, rhs.node),
-            Term::RemoteCompare {
-                strict,
-                comps: c,
-                rhs,
-            } => {
-                f.write_char(if *strict { 'V' } else { 'W' })?;
-                comps(f, c)?;
-                write!(f, " {}", rhs.node)
+            Term::Compare(c) => write!(f, "{}{} {}", c.op.node, c.lhs.node, c.rhs.node),
+            Term::RemoteCompare(r) => {
+                f.write_char(if r.strict { 'V' } else { 'W' })?;
+                comps(f, &r.comps)?;
+                write!(f, " {}", r.rhs.node)
             }
             Term::Swap(d) => write!(f, "X{}", d.node),
-            Term::Calc {
-                target,
-                op,
-                lhs,
-                rhs,
-            } => write!(
+            Term::Calc(c) => write!(
                 f,
                 "{} {} {} {}",
-                target.node,
-                op.node,
-                OperandFmt(lhs),
-                OperandFmt(rhs)
+                c.target.node,
+                c.op.node,
+                OperandFmt(&c.lhs),
+                OperandFmt(&c.rhs)
             ),
             Term::Not(t) => write!(f, "!{}", t.node),
             Term::Group(ts) => {
