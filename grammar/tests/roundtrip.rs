@@ -25,6 +25,9 @@ fn examples_roundtrip() {
     for entry in walk(std::path::Path::new(root)) {
         let text = std::fs::read_to_string(&entry).unwrap();
         let name = entry.file_name().unwrap().to_string_lossy();
+        if entry.components().any(|c| c.as_os_str() == "mistakes") {
+            continue;
+        }
         if name.starts_with("rules") {
             roundtrip(&text, None).unwrap();
             n += 1;
