@@ -8,7 +8,11 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "latticesim", version, about = "Simulator for synchronized distributed algorithms on 2D and 3D lattice agents")]
+#[command(
+    name = "latticesim",
+    version,
+    about = "Simulator for synchronized distributed algorithms on 2D and 3D lattice agents"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -73,7 +77,11 @@ fn summary(c: &Checked, agents: bool) -> String {
     );
     if agents {
         let name = c.sources.name(latticesim_grammar::FileId(1));
-        s += &format!("; {name}: {} agent{}", c.agent_count, if c.agent_count == 1 { "" } else { "s" });
+        s += &format!(
+            "; {name}: {} agent{}",
+            c.agent_count,
+            if c.agent_count == 1 { "" } else { "s" }
+        );
     }
     let (e, w) = (c.errors(), c.warnings());
     s += &format!(
@@ -84,7 +92,13 @@ fn summary(c: &Checked, agents: bool) -> String {
     s
 }
 
-fn run_check(rules: PathBuf, agents: Option<PathBuf>, dim: Option<String>, format: Format, color: Color) -> ExitCode {
+fn run_check(
+    rules: PathBuf,
+    agents: Option<PathBuf>,
+    dim: Option<String>,
+    format: Format,
+    color: Color,
+) -> ExitCode {
     let rules_bytes = match read(&rules) {
         Ok(b) => b,
         Err(c) => return c,
@@ -97,8 +111,14 @@ fn run_check(rules: PathBuf, agents: Option<PathBuf>, dim: Option<String>, forma
     let rules_name = rules.display().to_string();
     let agents_name = agents.as_ref().map(|p| p.display().to_string());
     let checked = check(
-        Input { name: &rules_name, bytes: &rules_bytes },
-        agents_name.as_deref().zip(agents_bytes.as_deref()).map(|(name, bytes)| Input { name, bytes }),
+        Input {
+            name: &rules_name,
+            bytes: &rules_bytes,
+        },
+        agents_name
+            .as_deref()
+            .zip(agents_bytes.as_deref())
+            .map(|(name, bytes)| Input { name, bytes }),
         dim,
     );
     match format {
@@ -106,9 +126,13 @@ fn run_check(rules: PathBuf, agents: Option<PathBuf>, dim: Option<String>, forma
             let colour = match color {
                 Color::Always => true,
                 Color::Never => false,
-                Color::Auto => std::io::stderr().is_terminal() && std::env::var_os("NO_COLOR").is_none(),
+                Color::Auto => {
+                    std::io::stderr().is_terminal() && std::env::var_os("NO_COLOR").is_none()
+                }
             };
-            if let Err(e) = latticesim_compiler::render::render_stderr(&checked.diags, &checked.sources, colour) {
+            if let Err(e) =
+                latticesim_compiler::render::render_stderr(&checked.diags, &checked.sources, colour)
+            {
                 eprintln!("error: cannot write diagnostics: {e}");
                 return ExitCode::from(2);
             }
@@ -124,7 +148,10 @@ fn run_check(rules: PathBuf, agents: Option<PathBuf>, dim: Option<String>, forma
                 "warnings": checked.warnings(),
                 "diagnostics": latticesim_compiler::render::to_json(&checked.diags, &checked.sources),
             });
-            println!("{}", serde_json::to_string_pretty(&doc).expect("JSON of plain data"));
+            println!(
+                "{}",
+                serde_json::to_string_pretty(&doc).expect("JSON of plain data")
+            );
         }
     }
     if checked.errors() > 0 {
@@ -137,6 +164,12 @@ fn run_check(rules: PathBuf, agents: Option<PathBuf>, dim: Option<String>, forma
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
-        Command::Check { rules, agents, dim, format, color } => run_check(rules, agents, dim, format, color),
+        Command::Check {
+            rules,
+            agents,
+            dim,
+            format,
+            color,
+        } => run_check(rules, agents, dim, format, color),
     }
 }

@@ -35,7 +35,10 @@ fn examples_check_clean() {
         assert_eq!(o.status.code(), Some(0), "{ex}: {}", stderr(&o));
         let e = stderr(&o);
         assert!(e.contains("0 errors, 0 warnings"), "{ex}: {e}");
-        assert!(!e.contains('\u{1b}'), "no colour when stderr is not a terminal");
+        assert!(
+            !e.contains('\u{1b}'),
+            "no colour when stderr is not a terminal"
+        );
     }
 }
 
@@ -43,7 +46,12 @@ fn examples_check_clean() {
 fn errors_exit_1_with_file_line_column() {
     let rules = tmp("bad-rules.txt", b"r\n1\nN1*0*1*\nS*****\n");
     let agents = tmp("bad-agents.txt", b"U0,4,0,4\n1,1\n1,1\n");
-    let o = run(&["check", rules.to_str().unwrap(), "--agents", agents.to_str().unwrap()]);
+    let o = run(&[
+        "check",
+        rules.to_str().unwrap(),
+        "--agents",
+        agents.to_str().unwrap(),
+    ]);
     assert_eq!(o.status.code(), Some(1));
     let e = stderr(&o);
     assert!(e.contains("error[E302]"), "{e}");
@@ -64,7 +72,14 @@ fn warnings_alone_exit_0() {
 #[test]
 fn json_output() {
     let rules = tmp("json-rules.txt", b"r\n1\nN1*0* E1,0,0\nS*****\n");
-    let o = run(&["check", rules.to_str().unwrap(), "--format", "json", "--dim", "2"]);
+    let o = run(&[
+        "check",
+        rules.to_str().unwrap(),
+        "--format",
+        "json",
+        "--dim",
+        "2",
+    ]);
     assert_eq!(o.status.code(), Some(1));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("stdout is JSON");
     assert_eq!(v["dimension"], "2D");
@@ -94,7 +109,11 @@ fn colour_on_request() {
 fn usage_and_io_failures_exit_2() {
     let o = run(&["check", "does/not/exist.txt"]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("cannot read `does/not/exist.txt`"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("cannot read `does/not/exist.txt`"),
+        "{}",
+        stderr(&o)
+    );
     let o = run(&["check"]);
     assert_eq!(o.status.code(), Some(2));
     let o = run(&["check", "examples/tour/rules.txt", "--dim", "4"]);
@@ -110,7 +129,14 @@ fn usage_and_io_failures_exit_2() {
 fn dim_flag_against_agents_file() {
     let rules = tmp("dim-rules.txt", b"r\n1\nS*****\nS*****\n");
     let agents = tmp("dim-agents.txt", b"0,0,0\n");
-    let o = run(&["check", rules.to_str().unwrap(), "--agents", agents.to_str().unwrap(), "--dim", "2"]);
+    let o = run(&[
+        "check",
+        rules.to_str().unwrap(),
+        "--agents",
+        agents.to_str().unwrap(),
+        "--dim",
+        "2",
+    ]);
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("error[E301]"), "{}", stderr(&o));
 }

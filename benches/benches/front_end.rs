@@ -13,7 +13,9 @@ fn front_end(c: &mut Criterion) {
     let mut g = c.benchmark_group("check-100k-rules");
     g.throughput(Throughput::Bytes(text.len() as u64));
     g.sample_size(20);
-    g.bench_function("baseline-lines", |b| b.iter(|| significant_lines(black_box(&text)).count()));
+    g.bench_function("baseline-lines", |b| {
+        b.iter(|| significant_lines(black_box(&text)).count())
+    });
     g.bench_function("baseline-lex", |b| {
         b.iter(|| {
             significant_lines(black_box(&text))
@@ -24,14 +26,22 @@ fn front_end(c: &mut Criterion) {
     g.bench_function("parse", |b| {
         b.iter(|| {
             let arena = bumpalo::Bump::new();
-            let (f, d) = latticesim_grammar::parse_rules(black_box(&text), latticesim_grammar::FileId(0), &arena, Some(2));
+            let (f, d) = latticesim_grammar::parse_rules(
+                black_box(&text),
+                latticesim_grammar::FileId(0),
+                &arena,
+                Some(2),
+            );
             (f.rules.len(), d.len())
         })
     });
     g.bench_function("check", |b| {
         b.iter(|| {
             let c = latticesim_compiler::check(
-                latticesim_compiler::Input { name: "gen.txt", bytes: black_box(text.as_bytes()) },
+                latticesim_compiler::Input {
+                    name: "gen.txt",
+                    bytes: black_box(text.as_bytes()),
+                },
                 None,
                 None,
             );

@@ -37,7 +37,8 @@ fn main() {
     let text = generate_rules(100_000, 1);
     let (parse_peak, kept) = peak_of(|| {
         let arena = bumpalo::Bump::new();
-        let (f, d) = latticesim_grammar::parse_rules(&text, latticesim_grammar::FileId(0), &arena, Some(2));
+        let (f, d) =
+            latticesim_grammar::parse_rules(&text, latticesim_grammar::FileId(0), &arena, Some(2));
         (f.rules.len(), d.len(), arena.allocated_bytes())
     });
     println!(
@@ -50,7 +51,10 @@ fn main() {
     PEAK.store(before, Relaxed);
     let t = std::time::Instant::now();
     let c = latticesim_compiler::check(
-        latticesim_compiler::Input { name: "gen.txt", bytes: text.as_bytes() },
+        latticesim_compiler::Input {
+            name: "gen.txt",
+            bytes: text.as_bytes(),
+        },
         None,
         None,
     );
@@ -63,5 +67,8 @@ fn main() {
         text.len() as f64 / 1e6,
         peak as f64 / text.len() as f64
     );
-    assert!(mb < 200.0, "peak heap {mb:.1} MB is above the 200 MB target");
+    assert!(
+        mb < 200.0,
+        "peak heap {mb:.1} MB is above the 200 MB target"
+    );
 }

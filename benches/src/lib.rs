@@ -37,7 +37,15 @@ pub fn generate_rules(n: usize, seed: u64) -> String {
                 out.push(' ');
             }
             match g.below(9) {
-                0 => out += &format!("N{}{}{}{}", pick(&mut g, "01*"), pick(&mut g, "01*"), pick(&mut g, "01*"), pick(&mut g, "01*")),
+                0 => {
+                    out += &format!(
+                        "N{}{}{}{}",
+                        pick(&mut g, "01*"),
+                        pick(&mut g, "01*"),
+                        pick(&mut g, "01*"),
+                        pick(&mut g, "01*")
+                    )
+                }
                 1 => out += &format!("S{:05}", g.below(100000)),
                 2 => out += &format!("E{},{}", g.below(5) as i64 - 2, g.below(5) as i64 - 2),
                 3 => out += &format!("P{}{}**", pick(&mut g, "<=*"), pick(&mut g, "<=*")),
@@ -61,13 +69,36 @@ pub fn generate_rules(n: usize, seed: u64) -> String {
                     used[k] = true;
                     match k {
                         0 => out += &format!("S{:05}", g.below(100000)),
-                        1 => out += &format!("A{}{}{}*", pick(&mut g, "01*+"), pick(&mut g, "01*+"), pick(&mut g, "01*+")),
-                        2 if !used[3] => out += &format!("P{},{}", g.below(3) as i64 - 1, g.below(3) as i64 - 1),
+                        1 => {
+                            out += &format!(
+                                "A{}{}{}*",
+                                pick(&mut g, "01*+"),
+                                pick(&mut g, "01*+"),
+                                pick(&mut g, "01*+")
+                            )
+                        }
+                        2 if !used[3] => {
+                            out += &format!("P{},{}", g.below(3) as i64 - 1, g.below(3) as i64 - 1)
+                        }
                         _ => out += &format!("ME{:05}", g.below(100000)),
                     }
                 }
-                4 => out += &format!("C{:02} + C{:02} {:04}", g.below(25), g.below(25), g.below(100)),
-                _ => out += &format!("#*0{} A C{:02} 1,0,C{:02}", 1 + g.below(8), g.below(25), g.below(25)),
+                4 => {
+                    out += &format!(
+                        "C{:02} + C{:02} {:04}",
+                        g.below(25),
+                        g.below(25),
+                        g.below(100)
+                    )
+                }
+                _ => {
+                    out += &format!(
+                        "#*0{} A C{:02} 1,0,C{:02}",
+                        1 + g.below(8),
+                        g.below(25),
+                        g.below(25)
+                    )
+                }
             }
         }
         out += "\n\n";
@@ -83,7 +114,10 @@ mod tests {
     fn generated_rules_check_without_errors() {
         let text = generate_rules(2000, 7);
         let c = latticesim_compiler::check(
-            latticesim_compiler::Input { name: "gen.txt", bytes: text.as_bytes() },
+            latticesim_compiler::Input {
+                name: "gen.txt",
+                bytes: text.as_bytes(),
+            },
             None,
             None,
         );

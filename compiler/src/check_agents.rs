@@ -16,7 +16,12 @@ fn field(tail: Span) -> Span {
 }
 
 /// Checks a parsed agents file in the dimension `dim` (the file's own, or the one in force).
-pub fn check_agents(f: &AgentsFile<'_>, file: FileId, dim: &DimSource, diags: &mut Vec<Diagnostic>) -> Config {
+pub fn check_agents(
+    f: &AgentsFile<'_>,
+    file: FileId,
+    dim: &DimSource,
+    diags: &mut Vec<Diagnostic>,
+) -> Config {
     let d = dim.dim;
     let mut universe: Option<Bounds> = None;
     if let Some(u) = &f.universe {
@@ -55,10 +60,23 @@ pub fn check_agents(f: &AgentsFile<'_>, file: FileId, dim: &DimSource, diags: &m
                 d.name(),
                 d.coords()
             );
-            diags.push(dim.attach(
-                Diagnostic::new(Code::E407, msg, Label::new(file, pos_span, format!("expected {} coordinates", d.coords())))
-                    .with_help(format!("write the position as {}", if d == Dim::Two { "`x,y`" } else { "`x,y,z`" })),
-            ));
+            diags.push(
+                dim.attach(
+                    Diagnostic::new(
+                        Code::E407,
+                        msg,
+                        Label::new(
+                            file,
+                            pos_span,
+                            format!("expected {} coordinates", d.coords()),
+                        ),
+                    )
+                    .with_help(format!(
+                        "write the position as {}",
+                        if d == Dim::Two { "`x,y`" } else { "`x,y,z`" }
+                    )),
+                ),
+            );
             continue;
         }
         let mut pos = [0i32; 3];
@@ -70,7 +88,10 @@ pub fn check_agents(f: &AgentsFile<'_>, file: FileId, dim: &DimSource, diags: &m
                     diags.push(
                         Diagnostic::new(
                             Code::E403,
-                            format!("the coordinate {} is outside the 32-bit range of the lattice", c.node),
+                            format!(
+                                "the coordinate {} is outside the 32-bit range of the lattice",
+                                c.node
+                            ),
                             Label::new(file, c.span, "too large"),
                         )
                         .with_help("coordinates are 32-bit integers"),
@@ -89,7 +110,11 @@ pub fn check_agents(f: &AgentsFile<'_>, file: FileId, dim: &DimSource, diags: &m
                             Code::E403,
                             format!(
                                 "the agent at {} is outside the universe: {axis} must be in {}..{}",
-                                a.pos.iter().map(|p| p.node.to_string()).collect::<Vec<_>>().join(","),
+                                a.pos
+                                    .iter()
+                                    .map(|p| p.node.to_string())
+                                    .collect::<Vec<_>>()
+                                    .join(","),
                                 b[i].0,
                                 b[i].1
                             ),
@@ -109,7 +134,11 @@ pub fn check_agents(f: &AgentsFile<'_>, file: FileId, dim: &DimSource, diags: &m
                 diags.push(
                     Diagnostic::new(
                         Code::E408,
-                        format!("the state `{}` has {}; it needs exactly 5", s.node, chars(n)),
+                        format!(
+                            "the state `{}` has {}; it needs exactly 5",
+                            s.node,
+                            chars(n)
+                        ),
                         Label::new(file, field(s.span), chars(n)),
                     )
                     .with_help("write `S` and 5 characters, e.g. `SLEAD0`"),
@@ -124,7 +153,9 @@ pub fn check_agents(f: &AgentsFile<'_>, file: FileId, dim: &DimSource, diags: &m
                                 format!("`{c}` cannot stand in an agent's state"),
                                 Label::new(file, s.span.sub(at, at + c.len_utf8()), "not allowed"),
                             )
-                            .with_help("states use printable ASCII characters other than blank and `*`"),
+                            .with_help(
+                                "states use printable ASCII characters other than blank and `*`",
+                            ),
                         );
                         ok = false;
                     } else {
@@ -150,7 +181,11 @@ pub fn check_agents(f: &AgentsFile<'_>, file: FileId, dim: &DimSource, diags: &m
                     )
                     .with_help(format!(
                         "one character per direction, in the order {}",
-                        if d == Dim::Two { "N, W, E, S" } else { "N, W, E, S, A, B" }
+                        if d == Dim::Two {
+                            "N, W, E, S"
+                        } else {
+                            "N, W, E, S, A, B"
+                        }
                     )),
                 );
                 ok = false;
@@ -170,16 +205,26 @@ pub fn check_agents(f: &AgentsFile<'_>, file: FileId, dim: &DimSource, diags: &m
                     Diagnostic::new(
                         Code::E404,
                         format!("`C{}` is not a counter of {}", c.node, d.name()),
-                        Label::new(file, field(c.span), format!("{} has C00..C{}", d.name(), d.counters() - 1)),
+                        Label::new(
+                            file,
+                            field(c.span),
+                            format!("{} has C00..C{}", d.name(), d.counters() - 1),
+                        ),
                     )
-                    .with_help(format!("counters are written with two digits, C00 to C{}", d.counters() - 1)),
+                    .with_help(format!(
+                        "counters are written with two digits, C00 to C{}",
+                        d.counters() - 1
+                    )),
                 );
                 ok = false;
             } else if !(-VALUE_MAX..=VALUE_MAX).contains(&v.node) {
                 diags.push(
                     Diagnostic::new(
                         Code::E404,
-                        format!("the value {} of C{} is outside -32767..32767", v.node, c.node),
+                        format!(
+                            "the value {} of C{} is outside -32767..32767",
+                            v.node, c.node
+                        ),
                         Label::new(file, v.span, "out of range"),
                     )
                     .with_help("counters hold 16-bit values from -32767 to 32767"),
@@ -196,11 +241,23 @@ pub fn check_agents(f: &AgentsFile<'_>, file: FileId, dim: &DimSource, diags: &m
                         Code::E402,
                         format!(
                             "two agents on the cell {}",
-                            a.pos.iter().map(|p| p.node.to_string()).collect::<Vec<_>>().join(",")
+                            a.pos
+                                .iter()
+                                .map(|p| p.node.to_string())
+                                .collect::<Vec<_>>()
+                                .join(",")
                         ),
-                        Label::new(file, pos_span, format!("agent {} would stand here", agents.len())),
+                        Label::new(
+                            file,
+                            pos_span,
+                            format!("agent {} would stand here", agents.len()),
+                        ),
                     )
-                    .with_secondary(Label::new(file, spans[prev], format!("agent {prev} stands here already")))
+                    .with_secondary(Label::new(
+                        file,
+                        spans[prev],
+                        format!("agent {prev} stands here already"),
+                    ))
                     .with_help("move one of them, or delete the duplicate line"),
                 );
                 continue;
@@ -265,5 +322,9 @@ pub fn check_agents(f: &AgentsFile<'_>, file: FileId, dim: &DimSource, diags: &m
             }
         }
     }
-    Config { dim: d, universe, agents }
+    Config {
+        dim: d,
+        universe,
+        agents,
+    }
 }

@@ -79,7 +79,11 @@ impl Checker<'_> {
         let n: usize = digits.parse().unwrap_or(usize::MAX);
         let max = self.d().counters() - 1;
         if digits.len() != 2 {
-            let fix = if n <= max { format!("write `C{n:02}`") } else { format!("counters are C00..C{max}") };
+            let fix = if n <= max {
+                format!("write `C{n:02}`")
+            } else {
+                format!("counters are C00..C{max}")
+            };
             self.push(
                 Diagnostic::new(
                     Code::E305,
@@ -93,7 +97,10 @@ impl Checker<'_> {
         if n > max {
             let d = Diagnostic::new(
                 Code::E305,
-                format!("the counter `C{digits}` does not exist in {}", self.d().name()),
+                format!(
+                    "the counter `C{digits}` does not exist in {}",
+                    self.d().name()
+                ),
                 self.label(span, format!("{} has C00..C{max}", self.d().name())),
             )
             .with_help(format!("use a counter from C00 to C{max}"));
@@ -181,12 +188,22 @@ impl Checker<'_> {
         if digits.len() != 2 || !digits.bytes().all(|b| b.is_ascii_digit()) || n == 0 || n > slots {
             let d = Diagnostic::new(
                 Code::E306,
-                format!("`#{text}` is not a numeric message slot of {}", self.d().name()),
-                self.label(span, format!("{} has slots 01..{slots:02} per direction", self.d().name())),
+                format!(
+                    "`#{text}` is not a numeric message slot of {}",
+                    self.d().name()
+                ),
+                self.label(
+                    span,
+                    format!("{} has slots 01..{slots:02} per direction", self.d().name()),
+                ),
             )
             .with_help(format!(
                 "write `#` + direction + two digits from 01 to {slots:02}, e.g. `#{}01`",
-                if c.is_ascii_uppercase() || c == '*' { c } else { 'N' }
+                if c.is_ascii_uppercase() || c == '*' {
+                    c
+                } else {
+                    'N'
+                }
             ));
             if n > slots && n <= self.d().other().slots() && digits.len() == 2 {
                 self.push_dim(d);
@@ -214,7 +231,8 @@ impl Checker<'_> {
                     );
                     return None;
                 }
-                self.msg_ref(m, v.span, any).map(|(dir, slot)| Val::Msg { dir, slot })
+                self.msg_ref(m, v.span, any)
+                    .map(|(dir, slot)| Val::Msg { dir, slot })
             }
         }
     }
@@ -235,7 +253,11 @@ impl Checker<'_> {
         let need = self.d().coords();
         let coords = self.coords(o.node);
         if o.node.len() != need {
-            let example = if need == 2 { format!("{letter}1,0") } else { format!("{letter}1,0,0") };
+            let example = if need == 2 {
+                format!("{letter}1,0")
+            } else {
+                format!("{letter}1,0,0")
+            };
             self.push_dim(
                 Diagnostic::new(
                     Code::E316,
@@ -246,7 +268,9 @@ impl Checker<'_> {
                     ),
                     self.label(o.span, format!("expected {need} coordinates")),
                 )
-                .with_help(format!("write {need} coordinates separated by commas, e.g. `{example}`")),
+                .with_help(format!(
+                    "write {need} coordinates separated by commas, e.g. `{example}`"
+                )),
             );
             return None;
         }
@@ -307,7 +331,13 @@ impl Checker<'_> {
     }
 
     /// A per-direction pattern over `allowed` characters, `dirs` long.
-    fn dir_pattern(&mut self, letter: char, p: &Spanned<&str>, allowed: &str, meaning: &str) -> Option<Vec<char>> {
+    fn dir_pattern(
+        &mut self,
+        letter: char,
+        p: &Spanned<&str>,
+        allowed: &str,
+        meaning: &str,
+    ) -> Option<Vec<char>> {
         let need = self.d().dirs();
         let chars: Vec<char> = p.node.chars().collect();
         let mut ok = true;
@@ -322,15 +352,24 @@ impl Checker<'_> {
                     Diagnostic::new(
                         Code::E304,
                         format!("`{c}` cannot stand in an `{letter}` pattern{extra}"),
-                        self.label(p.span.sub(at, at + c.len_utf8()), format!("expected one of {allowed}")),
+                        self.label(
+                            p.span.sub(at, at + c.len_utf8()),
+                            format!("expected one of {allowed}"),
+                        ),
                     )
-                    .with_help(format!("each character of `{letter}` is one of {allowed}: {meaning}")),
+                    .with_help(format!(
+                        "each character of `{letter}` is one of {allowed}: {meaning}"
+                    )),
                 );
                 ok = false;
             }
         }
         if chars.len() != need {
-            let order = if need == 4 { "N, W, E, S" } else { "N, W, E, S, A, B" };
+            let order = if need == 4 {
+                "N, W, E, S"
+            } else {
+                "N, W, E, S, A, B"
+            };
             let d = Diagnostic::new(
                 Code::E302,
                 format!(
@@ -339,9 +378,14 @@ impl Checker<'_> {
                     self::chars(chars.len()),
                     self.d().name()
                 ),
-                self.label(p.span.sub(0, 0).to(p.span), format!("expected {need} characters")),
+                self.label(
+                    p.span.sub(0, 0).to(p.span),
+                    format!("expected {need} characters"),
+                ),
             )
-            .with_help(format!("write one character per direction, in the order {order}"));
+            .with_help(format!(
+                "write one character per direction, in the order {order}"
+            ));
             if chars.len() == self.d().other().dirs() {
                 self.push_dim(d);
             } else {
@@ -375,24 +419,48 @@ impl Checker<'_> {
                                   to test a cell use `E` or `F`; a move belongs in the postcondition",
                 _ => "move it to the postcondition (the fourth line of the rule)",
             };
-            (Code::E313, format!("`{}` is an action; it cannot stand in a precondition", t.node), help)
+            (
+                Code::E313,
+                format!(
+                    "`{}` is an action; it cannot stand in a precondition",
+                    t.node
+                ),
+                help,
+            )
         } else {
             let help = match t.node {
                 Term::Priorities(_) => "in a postcondition `P` moves (e.g. `P1,0`); priority tests belong in the precondition",
                 _ => "move it to the precondition (the third line of the rule)",
             };
-            (Code::E312, format!("`{}` is a test; it cannot stand in a postcondition", t.node), help)
+            (
+                Code::E312,
+                format!("`{}` is a test; it cannot stand in a postcondition", t.node),
+                help,
+            )
         };
-        let label = if in_pre { "action in a precondition" } else { "test in a postcondition" };
+        let label = if in_pre {
+            "action in a precondition"
+        } else {
+            "test in a postcondition"
+        };
         self.push(Diagnostic::new(code, msg, self.label(t.span, label)).with_help(help));
     }
 
     pub fn cond(&mut self, t: &Spanned<Term<'_>>) -> Option<Cond> {
         Some(match &t.node {
-            Term::Neighbors(p) => Cond::Neighbors(self.bit_pat('N', p, "0 empty, 1 filled, * either")?),
-            Term::Attach(p) => Cond::Attached(self.bit_pat('A', p, "0 not attached, 1 attached, * either")?),
+            Term::Neighbors(p) => {
+                Cond::Neighbors(self.bit_pat('N', p, "0 empty, 1 filled, * either")?)
+            }
+            Term::Attach(p) => {
+                Cond::Attached(self.bit_pat('A', p, "0 not attached, 1 attached, * either")?)
+            }
             Term::Priorities(p) => {
-                let cs = self.dir_pattern('P', p, "<=*", "< strictly smaller, = smaller or equal, * either")?;
+                let cs = self.dir_pattern(
+                    'P',
+                    p,
+                    "<=*",
+                    "< strictly smaller, = smaller or equal, * either",
+                )?;
                 let (mut strict, mut leq) = (0u8, 0u8);
                 for (i, c) in cs.iter().enumerate() {
                     match c {
@@ -432,7 +500,10 @@ impl Checker<'_> {
             }
             Term::Compare(c) => {
                 let (op, lhs, rhs) = (&c.op, &c.lhs, &c.rhs);
-                let any = [lhs, rhs].iter().filter(|v| matches!(v.node, Value::Msg(m) if m.starts_with('*'))).count();
+                let any = [lhs, rhs]
+                    .iter()
+                    .filter(|v| matches!(v.node, Value::Msg(m) if m.starts_with('*')))
+                    .count();
                 let a = self.value(lhs, true);
                 let b = self.value(rhs, true);
                 if any > 1 {
@@ -442,7 +513,9 @@ impl Checker<'_> {
                             "a comparison may use `#*` only once",
                             self.label(t.span, "two `#*` values"),
                         )
-                        .with_help("compare `#*kk` with a counter, a literal or one direction's slot"),
+                        .with_help(
+                            "compare `#*kk` with a counter, a literal or one direction's slot",
+                        ),
                     );
                     return None;
                 }
@@ -458,13 +531,20 @@ impl Checker<'_> {
                             format!("`{letter}` exists only in 2D"),
                             self.label(t.span, "2D-only term in a 3D rules file"),
                         )
-                        .with_help("in 3D, compare a neighbour's value through a numeric message instead"),
+                        .with_help(
+                            "in 3D, compare a neighbour's value through a numeric message instead",
+                        ),
                     );
                     return None;
                 }
                 let rhs = self.value(rhs, true);
                 let (counter, offset) = self.remote_counter(letter, comps)?;
-                Cond::RemoteCompare { strict: *strict, offset, counter, rhs: rhs? }
+                Cond::RemoteCompare {
+                    strict: *strict,
+                    offset,
+                    counter,
+                    rhs: rhs?,
+                }
             }
             Term::Move(_) | Term::Swap(_) | Term::Calc(_) => {
                 self.misplaced(t, true);
@@ -487,7 +567,9 @@ impl Checker<'_> {
                     format!("`{letter}` must end with the remote agent's counter"),
                     self.label(last.span, "expected a counter such as C03"),
                 )
-                .with_help(format!("write `{letter}dx,dy,Cnn value`, e.g. `{letter}1,0,C03 0010`")),
+                .with_help(format!(
+                    "write `{letter}dx,dy,Cnn value`, e.g. `{letter}1,0,C03 0010`"
+                )),
             );
             return None;
         };
@@ -502,10 +584,15 @@ impl Checker<'_> {
             self.push(
                 Diagnostic::new(
                     Code::E319,
-                    format!("`{letter}` takes two coordinates and a counter; here are {} parts", n),
+                    format!(
+                        "`{letter}` takes two coordinates and a counter; here are {} parts",
+                        n
+                    ),
                     self.label(comps.span, "expected dx,dy,Cnn"),
                 )
-                .with_help(format!("write `{letter}dx,dy,Cnn value`, e.g. `{letter}1,0,C03 0010`")),
+                .with_help(format!(
+                    "write `{letter}dx,dy,Cnn value`, e.g. `{letter}1,0,C03 0010`"
+                )),
             );
             None
         };
@@ -528,7 +615,9 @@ impl Checker<'_> {
                             "external counters exist only in 2D",
                             self.label(cs.span, "2D-only operand in a 3D rules file"),
                         )
-                        .with_help("in 3D, receive the neighbour's value as a numeric message instead"),
+                        .with_help(
+                            "in 3D, receive the neighbour's value as a numeric message instead",
+                        ),
                     );
                     return None;
                 }
@@ -559,7 +648,11 @@ impl Checker<'_> {
                 let x = self.coord(&cs.node[0]);
                 let y = self.coord(&cs.node[1]);
                 let counter = self.counter(digits, last.span);
-                Some(Operand::External { x: x?, y: y?, counter: counter? })
+                Some(Operand::External {
+                    x: x?,
+                    y: y?,
+                    counter: counter?,
+                })
             }
         }
     }
@@ -603,7 +696,10 @@ impl Checker<'_> {
                         self.push(
                             Diagnostic::new(
                                 Code::E317,
-                                format!("`X{}` is not a swap: `X` takes one direction letter", s.node),
+                                format!(
+                                    "`X{}` is not a swap: `X` takes one direction letter",
+                                    s.node
+                                ),
                                 self.label(s.span, "expected one direction letter"),
                             )
                             .with_help(format!("write e.g. `XN`; {}", self.dir_help())),
@@ -616,10 +712,15 @@ impl Checker<'_> {
                 let (target, op, lhs, rhs) = (&c.target, &c.op, &c.lhs, &c.rhs);
                 let tgt = match target.node {
                     Value::Counter(d) => self.counter(d, target.span).map(Target::Counter),
-                    Value::Msg(m) => self.msg_ref(m, target.span, true).map(|(dir, slot)| Target::Msg { dir, slot }),
+                    Value::Msg(m) => self
+                        .msg_ref(m, target.span, true)
+                        .map(|(dir, slot)| Target::Msg { dir, slot }),
                     Value::Int(_) => None,
                 };
-                let externals = [lhs, rhs].iter().filter(|o| matches!(o, ast::Operand::External(_))).count();
+                let externals = [lhs, rhs]
+                    .iter()
+                    .filter(|o| matches!(o, ast::Operand::External(_)))
+                    .count();
                 let a = self.operand(lhs);
                 let b = self.operand(rhs);
                 if externals > 1 {
@@ -629,11 +730,18 @@ impl Checker<'_> {
                             "a calculation may read at most one external counter",
                             self.label(t.span, "two external counters"),
                         )
-                        .with_help("copy one of them into an own counter in an earlier calculation"),
+                        .with_help(
+                            "copy one of them into an own counter in an earlier calculation",
+                        ),
                     );
                     return None;
                 }
-                Action::Calc { target: tgt?, op: op.node, lhs: a?, rhs: b? }
+                Action::Calc {
+                    target: tgt?,
+                    op: op.node,
+                    lhs: a?,
+                    rhs: b?,
+                }
             }
             Term::Not(_) | Term::Group(_) => {
                 self.push(
@@ -760,5 +868,8 @@ pub fn check_rules(
             });
         }
     }
-    Program { dim: dim.dim, rules }
+    Program {
+        dim: dim.dim,
+        rules,
+    }
 }

@@ -39,7 +39,9 @@ fn cells(c: &Cond) -> impl Iterator<Item = ([i32; 3], bool)> {
         Cond::Neighbors(p) => (p.mask, p.want, None),
         Cond::Attached(p) => (p.mask & p.want, p.want, None),
         Cond::Empty(o) => (0, 0, lit(o).map(|o| (o, false))),
-        Cond::Filled(o) | Cond::Less(o) | Cond::LessEq(o) | Cond::RemoteState(o, _) => (0, 0, lit(o).map(|o| (o, true))),
+        Cond::Filled(o) | Cond::Less(o) | Cond::LessEq(o) | Cond::RemoteState(o, _) => {
+            (0, 0, lit(o).map(|o| (o, true)))
+        }
         Cond::RemoteCompare { offset, .. } => (0, 0, lit(offset).map(|o| (o, true))),
         _ => (0, 0, None),
     };
@@ -51,7 +53,9 @@ fn cells(c: &Cond) -> impl Iterator<Item = ([i32; 3], bool)> {
 }
 
 fn disjoint(a: &TextPat, b: &TextPat) -> bool {
-    a.iter().zip(b).any(|(x, y)| matches!((x, y), (Some(x), Some(y)) if x != y))
+    a.iter()
+        .zip(b)
+        .any(|(x, y)| matches!((x, y), (Some(x), Some(y)) if x != y))
 }
 
 fn fmt_offset(o: [i32; 3], dim3: bool) -> String {
@@ -61,7 +65,10 @@ fn fmt_offset(o: [i32; 3], dim3: bool) -> String {
         format!("{},{}", o[0], o[1])
     };
     match Dir::from_offset(o) {
-        Some(d) => format!("{xy} ({})", ["north", "west", "east", "south", "above", "below"][d.index()]),
+        Some(d) => format!(
+            "{xy} ({})",
+            ["north", "west", "east", "south", "above", "below"][d.index()]
+        ),
         None => xy,
     }
 }
@@ -72,16 +79,36 @@ fn conflict(a: &Cond, b: &Cond, dim3: bool) -> Option<String> {
         (Cond::Attached(p), Cond::Attached(q)) => {
             let clash = p.mask & q.mask & (p.want ^ q.want);
             let d = Dir::ALL.iter().find(|d| clash & (1 << d.index()) != 0)?;
-            return Some(format!("the agent cannot be both attached and not attached towards {}", d.letter()));
+            return Some(format!(
+                "the agent cannot be both attached and not attached towards {}",
+                d.letter()
+            ));
         }
         (Cond::State(p), Cond::State(q)) if disjoint(p, q) => {
             return Some("no state matches both patterns".into());
         }
-        (Cond::Message { dir: Some(d), pat: p }, Cond::Message { dir: Some(e), pat: q }) if d == e && disjoint(p, q) => {
-            return Some(format!("no message from {} matches both patterns", d.letter()));
+        (
+            Cond::Message {
+                dir: Some(d),
+                pat: p,
+            },
+            Cond::Message {
+                dir: Some(e),
+                pat: q,
+            },
+        ) if d == e && disjoint(p, q) => {
+            return Some(format!(
+                "no message from {} matches both patterns",
+                d.letter()
+            ));
         }
-        (Cond::RemoteState(o, p), Cond::RemoteState(q_o, q)) if lit(o).is_some() && lit(o) == lit(q_o) && disjoint(p, q) => {
-            return Some(format!("the agent at {} cannot be in both states", fmt_offset(lit(o)?, dim3)));
+        (Cond::RemoteState(o, p), Cond::RemoteState(q_o, q))
+            if lit(o).is_some() && lit(o) == lit(q_o) && disjoint(p, q) =>
+        {
+            return Some(format!(
+                "the agent at {} cannot be in both states",
+                fmt_offset(lit(o)?, dim3)
+            ));
         }
         _ => {}
     }
@@ -111,7 +138,11 @@ fn always_false(c: &Cond) -> bool {
 
 /// Reports W502 for the precondition `terms`, whose checked conditions are `conds`.
 pub(crate) fn check(terms: &[Spanned<Term<'_>>], conds: &[Cond], ck: &mut Checker<'_>) {
-    if terms.len() < 2 && !conds.iter().any(|c| always_false(c) || matches!(c, Cond::And(_))) {
+    if terms.len() < 2
+        && !conds
+            .iter()
+            .any(|c| always_false(c) || matches!(c, Cond::And(_)))
+    {
         return;
     }
     let mut facts = Vec::new();
@@ -123,7 +154,9 @@ pub(crate) fn check(terms: &[Spanned<Term<'_>>], conds: &[Cond], ck: &mut Checke
         if always_false(cj) {
             let d = Diagnostic::new(
                 Code::W502,
-                format!("`{tj}` compares two numbers and is always false, so this rule never fires"),
+                format!(
+                    "`{tj}` compares two numbers and is always false, so this rule never fires"
+                ),
                 Label::new(ck.file, sj, "always false"),
             )
             .with_help("compare a counter or a message with the number instead");

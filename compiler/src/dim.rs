@@ -39,7 +39,10 @@ pub fn from_agents(f: &AgentsFile<'_>, file: FileId) -> Option<DimSource> {
         let dim = Dim::from_coords(u.bounds.len() / 2)?;
         return Some(DimSource {
             dim,
-            why: format!("the agents file's universe line has {} bounds", u.bounds.len()),
+            why: format!(
+                "the agents file's universe line has {} bounds",
+                u.bounds.len()
+            ),
             label: Some(Label::new(
                 file,
                 u.span,
@@ -52,7 +55,10 @@ pub fn from_agents(f: &AgentsFile<'_>, file: FileId) -> Option<DimSource> {
     let span = a.pos[0].span.to(a.pos[a.pos.len() - 1].span);
     Some(DimSource {
         dim,
-        why: format!("the agents file's first position has {} coordinates", a.pos.len()),
+        why: format!(
+            "the agents file's first position has {} coordinates",
+            a.pos.len()
+        ),
         label: Some(Label::new(
             file,
             span,
@@ -96,7 +102,11 @@ pub fn reconcile(
                             f.coords(),
                             a.dim.name()
                         ),
-                        Label::new(l.file, l.span, format!("this makes the agents file {}", a.dim.name())),
+                        Label::new(
+                            l.file,
+                            l.span,
+                            format!("this makes the agents file {}", a.dim.name()),
+                        ),
                     )
                     .with_help(format!(
                         "drop --dim (the agents file decides), or pass --dim {}",
@@ -119,11 +129,19 @@ fn evidence<'a>(t: &Spanned<Term<'a>>) -> Option<(Dim, Span, String)> {
             6 => Dim::Three,
             _ => return None,
         };
-        Some((dim, t.span, format!("`{letter}{}` has {n} characters", p.node)))
+        Some((
+            dim,
+            t.span,
+            format!("`{letter}{}` has {n} characters", p.node),
+        ))
     };
     let by_arity = |o: &Spanned<&[Spanned<latticesim_grammar::ast::Comp<'a>>]>| {
         let dim = Dim::from_coords(o.node.len())?;
-        Some((dim, t.span, format!("`{}` has {} coordinates", t.node, o.node.len())))
+        Some((
+            dim,
+            t.span,
+            format!("`{}` has {} coordinates", t.node, o.node.len()),
+        ))
     };
     let by_value = |v: &Spanned<Value<'_>>| match v.node {
         Value::Msg(m) if m.starts_with(['A', 'B']) => {
@@ -135,19 +153,31 @@ fn evidence<'a>(t: &Spanned<Term<'a>>) -> Option<(Dim, Span, String)> {
         Term::Neighbors(p) => by_len(p, 'N'),
         Term::Attach(p) => by_len(p, 'A'),
         Term::Priorities(p) => by_len(p, 'P'),
-        Term::Empty(o) | Term::Filled(o) | Term::Less(o) | Term::LessEq(o) | Term::Move(o) => by_arity(o),
+        Term::Empty(o) | Term::Filled(o) | Term::Less(o) | Term::LessEq(o) | Term::Move(o) => {
+            by_arity(o)
+        }
         // How a `T` term splits depends on the dimension, so it is no evidence of it.
-        Term::Message { dir, .. } if matches!(dir.node, 'A' | 'B') => {
-            Some((Dim::Three, t.span, format!("`{}` names a 3D direction", t.node)))
+        Term::Message { dir, .. } if matches!(dir.node, 'A' | 'B') => Some((
+            Dim::Three,
+            t.span,
+            format!("`{}` names a 3D direction", t.node),
+        )),
+        Term::Swap(d) if matches!(d.node, "A" | "B") => Some((
+            Dim::Three,
+            t.span,
+            format!("`{}` names a 3D direction", t.node),
+        )),
+        Term::RemoteCompare(_) => {
+            Some((Dim::Two, t.span, format!("`{}` exists only in 2D", t.node)))
         }
-        Term::Swap(d) if matches!(d.node, "A" | "B") => {
-            Some((Dim::Three, t.span, format!("`{}` names a 3D direction", t.node)))
-        }
-        Term::RemoteCompare(_) => Some((Dim::Two, t.span, format!("`{}` exists only in 2D", t.node))),
         Term::Calc(c) => {
             let (target, lhs, rhs) = (&c.target, &c.lhs, &c.rhs);
             if matches!(lhs, Operand::External(_)) || matches!(rhs, Operand::External(_)) {
-                return Some((Dim::Two, t.span, "an external counter exists only in 2D".into()));
+                return Some((
+                    Dim::Two,
+                    t.span,
+                    "an external counter exists only in 2D".into(),
+                ));
             }
             let vals = [Some(target), value_of(lhs), value_of(rhs)];
             vals.into_iter().flatten().find_map(by_value)
@@ -176,6 +206,10 @@ pub fn from_rules(f: &RulesFile<'_>, file: FileId) -> Option<DimSource> {
     Some(DimSource {
         dim,
         why: format!("{why}, the first term of the rules file that decides"),
-        label: Some(Label::new(file, span, format!("{} because of this term", dim.name()))),
+        label: Some(Label::new(
+            file,
+            span,
+            format!("{} because of this term", dim.name()),
+        )),
     })
 }

@@ -26,12 +26,18 @@ impl Sources {
 
     /// The text of a file.
     pub fn text(&self, id: FileId) -> &str {
-        self.files.get(id.0 as usize).map(|f| f.source().as_str()).unwrap_or("")
+        self.files
+            .get(id.0 as usize)
+            .map(|f| f.source().as_str())
+            .unwrap_or("")
     }
 
     /// The name of a file.
     pub fn name(&self, id: FileId) -> &str {
-        self.files.get(id.0 as usize).map(|f| f.name().as_str()).unwrap_or("")
+        self.files
+            .get(id.0 as usize)
+            .map(|f| f.name().as_str())
+            .unwrap_or("")
     }
 
     /// 1-based line and column (in characters) of a byte offset.
@@ -49,12 +55,18 @@ impl Sources {
 /// duplicates.
 pub fn sort(diags: &mut Vec<Diagnostic>) {
     diags.sort_by(|a, b| {
-        (a.primary.file, a.primary.span.start, a.primary.span.end, a.code).cmp(&(
-            b.primary.file,
-            b.primary.span.start,
-            b.primary.span.end,
-            b.code,
-        ))
+        (
+            a.primary.file,
+            a.primary.span.start,
+            a.primary.span.end,
+            a.code,
+        )
+            .cmp(&(
+                b.primary.file,
+                b.primary.span.start,
+                b.primary.span.end,
+                b.code,
+            ))
     });
     diags.dedup();
 }
@@ -71,11 +83,16 @@ fn to_codespan(d: &Diagnostic, sources: &Sources) -> CsDiagnostic<usize> {
         Severity::Error => CsDiagnostic::error(),
         Severity::Warning => CsDiagnostic::warning(),
     };
-    let mut labels = vec![CsLabel::new(LabelStyle::Primary, d.primary.file.0 as usize, clamp(&d.primary, sources))
-        .with_message(d.primary.message.clone())];
+    let mut labels = vec![CsLabel::new(
+        LabelStyle::Primary,
+        d.primary.file.0 as usize,
+        clamp(&d.primary, sources),
+    )
+    .with_message(d.primary.message.clone())];
     for l in &d.secondary {
         labels.push(
-            CsLabel::new(LabelStyle::Secondary, l.file.0 as usize, clamp(l, sources)).with_message(l.message.clone()),
+            CsLabel::new(LabelStyle::Secondary, l.file.0 as usize, clamp(l, sources))
+                .with_message(l.message.clone()),
         );
     }
     let mut notes = Vec::new();
@@ -94,7 +111,8 @@ pub fn render_plain(diags: &[Diagnostic], sources: &Sources) -> String {
     let mut out = String::new();
     for d in diags {
         let cs = to_codespan(d, sources);
-        term::emit_to_string(&mut out, &config, &sources.files, &cs).expect("labels were clamped to their files");
+        term::emit_to_string(&mut out, &config, &sources.files, &cs)
+            .expect("labels were clamped to their files");
     }
     out
 }
@@ -103,7 +121,11 @@ pub fn render_plain(diags: &[Diagnostic], sources: &Sources) -> String {
 pub fn render_stderr(diags: &[Diagnostic], sources: &Sources, color: bool) -> std::io::Result<()> {
     use term::termcolor::{ColorChoice, StandardStream};
     use term::{Styles, StylesWriter};
-    let choice = if color { ColorChoice::Always } else { ColorChoice::Never };
+    let choice = if color {
+        ColorChoice::Always
+    } else {
+        ColorChoice::Never
+    };
     let stream = StandardStream::stderr(choice);
     let mut lock = stream.lock();
     let styles = Styles::default();

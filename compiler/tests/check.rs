@@ -1,14 +1,22 @@
 //! What the checker builds and decides, beyond the golden files: the checked program, the
 //! dimension rules, the agents configuration.
 
-use latticesim_compiler::program::{Action, AttachLetter, BitPat, Cond, Coord, Dir, Operand, Target, Val};
+use latticesim_compiler::program::{
+    Action, AttachLetter, BitPat, Cond, Coord, Dir, Operand, Target, Val,
+};
 use latticesim_compiler::{check, Checked, Dim, Input};
 use latticesim_grammar::Code;
 
 fn run(rules: &str, agents: Option<&str>, dim: Option<Dim>) -> Checked {
     check(
-        Input { name: "rules.txt", bytes: rules.as_bytes() },
-        agents.map(|a| Input { name: "agents.txt", bytes: a.as_bytes() }),
+        Input {
+            name: "rules.txt",
+            bytes: rules.as_bytes(),
+        },
+        agents.map(|a| Input {
+            name: "agents.txt",
+            bytes: a.as_bytes(),
+        }),
         dim,
     )
 }
@@ -37,34 +45,90 @@ fn builds_the_checked_program() {
     let r = &p.rules[0];
     assert_eq!(r.priority, 7);
     let Cond::And(pre) = &r.pre else { panic!() };
-    assert_eq!(pre[0], Cond::Neighbors(BitPat { mask: 0b0101, want: 0b0001 }));
-    assert_eq!(pre[1], Cond::Priorities { strict: 0b0001, leq: 0b0010 });
-    assert_eq!(pre[2], Cond::Attached(BitPat { mask: 0b0010, want: 0b0010 }));
-    assert_eq!(pre[3], Cond::State([Some(b'A'), Some(b'B'), None, Some(b'D'), Some(b'E')]));
+    assert_eq!(
+        pre[0],
+        Cond::Neighbors(BitPat {
+            mask: 0b0101,
+            want: 0b0001
+        })
+    );
+    assert_eq!(
+        pre[1],
+        Cond::Priorities {
+            strict: 0b0001,
+            leq: 0b0010
+        }
+    );
+    assert_eq!(
+        pre[2],
+        Cond::Attached(BitPat {
+            mask: 0b0010,
+            want: 0b0010
+        })
+    );
+    assert_eq!(
+        pre[3],
+        Cond::State([Some(b'A'), Some(b'B'), None, Some(b'D'), Some(b'E')])
+    );
     assert_eq!(
         pre[4],
-        Cond::Not(Box::new(Cond::And(vec![Cond::Empty([Coord::Lit(-1), Coord::Counter(3), Coord::Lit(0)])])))
+        Cond::Not(Box::new(Cond::And(vec![Cond::Empty([
+            Coord::Lit(-1),
+            Coord::Counter(3),
+            Coord::Lit(0)
+        ])])))
     );
-    assert_eq!(pre[5], Cond::Compare(latticesim_compiler::program::CmpOp::Gt, Val::Msg { dir: None, slot: 1 }, Val::Lit(-5)));
-    assert_eq!(r.post[0], Action::Move([Coord::Lit(0), Coord::Lit(-1), Coord::Lit(0)]));
+    assert_eq!(
+        pre[5],
+        Cond::Compare(
+            latticesim_compiler::program::CmpOp::Gt,
+            Val::Msg { dir: None, slot: 1 },
+            Val::Lit(-5)
+        )
+    );
+    assert_eq!(
+        r.post[0],
+        Action::Move([Coord::Lit(0), Coord::Lit(-1), Coord::Lit(0)])
+    );
     assert_eq!(
         r.post[1],
-        Action::Attach(vec![AttachLetter::Rigid, AttachLetter::Keep, AttachLetter::Detach, AttachLetter::Attach])
+        Action::Attach(vec![
+            AttachLetter::Rigid,
+            AttachLetter::Keep,
+            AttachLetter::Detach,
+            AttachLetter::Attach
+        ])
     );
-    assert_eq!(r.post[3], Action::Send { dir: None, text: *b"hello" });
+    assert_eq!(
+        r.post[3],
+        Action::Send {
+            dir: None,
+            text: *b"hello"
+        }
+    );
     assert_eq!(
         r.post[4],
         Action::Calc {
             target: Target::Counter(2),
             op: latticesim_compiler::program::CalcOp::Max,
-            lhs: Operand::External { x: Coord::Lit(1), y: Coord::Lit(0), counter: 4 },
-            rhs: Operand::Val(Val::Msg { dir: Some(Dir::N), slot: 7 }),
+            lhs: Operand::External {
+                x: Coord::Lit(1),
+                y: Coord::Lit(0),
+                counter: 4
+            },
+            rhs: Operand::Val(Val::Msg {
+                dir: Some(Dir::N),
+                slot: 7
+            }),
         }
     );
     assert_eq!(
         r.post[5],
         Action::Calc {
-            target: Target::Msg { dir: Some(Dir::E), slot: 2 },
+            target: Target::Msg {
+                dir: Some(Dir::E),
+                slot: 2
+            },
             op: latticesim_compiler::program::CalcOp::Sub,
             lhs: Operand::Val(Val::Counter(1)),
             rhs: Operand::Val(Val::Lit(2)),
@@ -81,17 +145,28 @@ fn dimension_from_rules_and_remote_state_split() {
     // In 2D the same characters after two coordinates are a state "0,ABC".
     let c = run("r\n1\nN1*1* T1,0,0,ABC\nS*****\n", None, None);
     assert!(c.diags.is_empty(), "{:?}", c.diags);
-    let Cond::And(pre) = &c.program.unwrap().rules[0].pre else { panic!() };
+    let Cond::And(pre) = &c.program.unwrap().rules[0].pre else {
+        panic!()
+    };
     assert_eq!(
         pre[1],
-        Cond::RemoteState([Coord::Lit(1), Coord::Lit(0), Coord::Lit(0)], [Some(b'0'), Some(b','), Some(b'A'), Some(b'B'), Some(b'C')])
+        Cond::RemoteState(
+            [Coord::Lit(1), Coord::Lit(0), Coord::Lit(0)],
+            [Some(b'0'), Some(b','), Some(b'A'), Some(b'B'), Some(b'C')]
+        )
     );
     // A T term that comes before the deciding term is parsed again once the dimension is known.
     // (Alone, `((T1,0,0,ABC))` reads best as 3D with state `ABC))`; the N pattern makes it 2D.)
-    let c = run("r\n1\n((T1,0,0,ABC))\nS*****\nq\n1\nN1*0*\nS*****\n", None, None);
+    let c = run(
+        "r\n1\n((T1,0,0,ABC))\nS*****\nq\n1\nN1*0*\nS*****\n",
+        None,
+        None,
+    );
     assert!(c.diags.is_empty(), "{:?}", c.diags);
     assert_eq!(c.dim.dim, Dim::Two);
-    let Cond::And(pre) = &c.program.unwrap().rules[0].pre else { panic!() };
+    let Cond::And(pre) = &c.program.unwrap().rules[0].pre else {
+        panic!()
+    };
     assert_eq!(
         pre[0],
         Cond::And(vec![Cond::And(vec![Cond::RemoteState(
@@ -104,7 +179,11 @@ fn dimension_from_rules_and_remote_state_split() {
     assert_eq!(codes(&c), vec![Code::E302]);
     let c = run("r\n1\nN1*0*\nS*****\n", Some("0,0,0\n"), None);
     assert_eq!(codes(&c), vec![Code::E302]);
-    assert_eq!(c.diags[0].secondary.len(), 1, "points at the agents file too");
+    assert_eq!(
+        c.diags[0].secondary.len(),
+        1,
+        "points at the agents file too"
+    );
     // Nothing decides: 2D.
     let c = run("r\n1\nS*****\nS*****\n", None, None);
     assert_eq!(c.dim.dim, Dim::Two);
@@ -119,7 +198,15 @@ fn every_error_of_a_file_in_one_run_in_file_order() {
     );
     assert_eq!(
         codes(&c),
-        vec![Code::E302, Code::E309, Code::E204, Code::E102, Code::E317, Code::E312, Code::E314]
+        vec![
+            Code::E302,
+            Code::E309,
+            Code::E204,
+            Code::E102,
+            Code::E317,
+            Code::E312,
+            Code::E314
+        ]
     );
 }
 
@@ -158,10 +245,16 @@ fn agents_configuration() {
     let cfg = c.config.unwrap();
     assert_eq!(cfg.universe, Some([(-2, 2), (-2, 2), (0, 0)]));
     assert_eq!(cfg.agents.len(), 4);
-    assert_eq!(cfg.agents[3].attach, 0, "bond towards an empty cell dropped");
+    assert_eq!(
+        cfg.agents[3].attach, 0,
+        "bond towards an empty cell dropped"
+    );
     assert_eq!(&cfg.agents[0].state, b"LEAD0");
     assert_eq!(cfg.agents[0].attach, 0b0100, "east bond");
-    assert_eq!(cfg.agents[1].attach, 0b0011, "made symmetric: west bond, and north towards 1,1");
+    assert_eq!(
+        cfg.agents[1].attach, 0b0011,
+        "made symmetric: west bond, and north towards 1,1"
+    );
     // 1,1 is attached south to 1,0: symmetric now, so no second warning.
     assert_eq!(cfg.agents[2].attach, 0b1000);
     assert_eq!(cfg.agents[1].attach & 0b0001, 0b0001);

@@ -34,15 +34,30 @@ fn render(case: &Path) -> (String, Vec<Code>) {
         _ => None,
     };
     let c = check(
-        Input { name: "rules.txt", bytes: &rules },
-        agents.as_deref().map(|bytes| Input { name: "agents.txt", bytes }),
+        Input {
+            name: "rules.txt",
+            bytes: &rules,
+        },
+        agents.as_deref().map(|bytes| Input {
+            name: "agents.txt",
+            bytes,
+        }),
         dim,
     );
     for d in &c.diags {
-        assert!(d.help.is_some(), "{}: {:?} has no help line", case.display(), d.code);
+        assert!(
+            d.help.is_some(),
+            "{}: {:?} has no help line",
+            case.display(),
+            d.code
+        );
         for l in std::iter::once(&d.primary).chain(&d.secondary) {
             let len = c.sources.text(l.file).len() as u32;
-            assert!(l.span.start <= l.span.end && l.span.end <= len, "{}: span outside its file", case.display());
+            assert!(
+                l.span.start <= l.span.end && l.span.end <= len,
+                "{}: span outside its file",
+                case.display()
+            );
         }
     }
     let mut out = String::from(HEADER);
@@ -58,8 +73,12 @@ fn golden_files_match() {
     for case in cases() {
         let (got, codes) = render(&case);
         let name = case.file_name().unwrap().to_string_lossy().to_string();
-        let code = Code::parse(&name[..4]).unwrap_or_else(|| panic!("{name}: folder must start with a code"));
-        assert!(codes.contains(&code), "{name}: the case does not produce {code:?}, only {codes:?}");
+        let code = Code::parse(&name[..4])
+            .unwrap_or_else(|| panic!("{name}: folder must start with a code"));
+        assert!(
+            codes.contains(&code),
+            "{name}: the case does not produce {code:?}, only {codes:?}"
+        );
         let path = case.join("expected.txt");
         if update {
             fs::write(&path, &got).unwrap();
@@ -85,7 +104,10 @@ fn every_code_has_a_golden_case() {
         .map(|c| c.as_str())
         .filter(|c| !names.iter().any(|n| n.starts_with(c)))
         .collect();
-    assert!(missing.is_empty(), "codes without a golden case: {missing:?}");
+    assert!(
+        missing.is_empty(),
+        "codes without a golden case: {missing:?}"
+    );
 }
 
 /// The diagnostics section of docs/language.md is generated from the golden cases, so the
@@ -101,7 +123,12 @@ fn language_reference_lists_every_code() {
     for case in cases() {
         let name = case.file_name().unwrap().to_string_lossy().to_string();
         let code = Code::parse(&name[..4]).unwrap();
-        section += &format!("### {} {}\n\n{}.\n\n", code.as_str(), code.slug(), capitalise(code.title()));
+        section += &format!(
+            "### {} {}\n\n{}.\n\n",
+            code.as_str(),
+            code.slug(),
+            capitalise(code.title())
+        );
         for file in ["agents.txt", "rules.txt"] {
             if let Ok(text) = fs::read(case.join(file)) {
                 let text = String::from_utf8_lossy(&text).replace('\u{fffd}', "\\xff");
@@ -126,5 +153,7 @@ fn language_reference_lists_every_code() {
 
 fn capitalise(s: &str) -> String {
     let mut c = s.chars();
-    c.next().map(|f| f.to_uppercase().chain(c).collect()).unwrap_or_default()
+    c.next()
+        .map(|f| f.to_uppercase().chain(c).collect())
+        .unwrap_or_default()
 }

@@ -6,8 +6,14 @@ use proptest::prelude::*;
 
 fn run(rules: &[u8], agents: Option<&[u8]>, dim: Option<Dim>) -> Checked {
     let c = check(
-        Input { name: "rules.txt", bytes: rules },
-        agents.map(|bytes| Input { name: "agents.txt", bytes }),
+        Input {
+            name: "rules.txt",
+            bytes: rules,
+        },
+        agents.map(|bytes| Input {
+            name: "agents.txt",
+            bytes,
+        }),
         dim,
     );
     for d in &c.diags {
@@ -20,7 +26,10 @@ fn run(rules: &[u8], agents: Option<&[u8]>, dim: Option<Dim>) -> Checked {
                 l.span,
                 text.len()
             );
-            assert!(text.is_char_boundary(l.span.start as usize) && text.is_char_boundary(l.span.end as usize));
+            assert!(
+                text.is_char_boundary(l.span.start as usize)
+                    && text.is_char_boundary(l.span.end as usize)
+            );
         }
         assert!(d.help.is_some(), "{:?} has no help", d.code);
     }
@@ -31,10 +40,64 @@ fn run(rules: &[u8], agents: Option<&[u8]>, dim: Option<Dim>) -> Checked {
 }
 
 const FRAGMENTS: &[&str] = &[
-    "N", "N1*0*", "N1*0*1*", "A", "A1*+*", "P", "P<=**", "P1,0", "S", "SAB)CD", "S*****", "M", "M*", "MNhello",
-    "MAx", "E", "E1,0", "E-1,C03", "F0,1,0", "L", "Q1,1", "T1,0,ABCDE", "T1,0,0,", "T", "V1,0,C03", "W", "X",
-    "XN", "XZZ", "C", "C00", "C5", "C99", "#", "#N01", "#*01", "#Q9", "0010", "-0005", "99999999999999999999",
-    "+", "-", "*", "/", "I", "<", ">", "=", "!", "(", ")", ",", ",,", "?", "é", "\t", "//", "\r",
+    "N",
+    "N1*0*",
+    "N1*0*1*",
+    "A",
+    "A1*+*",
+    "P",
+    "P<=**",
+    "P1,0",
+    "S",
+    "SAB)CD",
+    "S*****",
+    "M",
+    "M*",
+    "MNhello",
+    "MAx",
+    "E",
+    "E1,0",
+    "E-1,C03",
+    "F0,1,0",
+    "L",
+    "Q1,1",
+    "T1,0,ABCDE",
+    "T1,0,0,",
+    "T",
+    "V1,0,C03",
+    "W",
+    "X",
+    "XN",
+    "XZZ",
+    "C",
+    "C00",
+    "C5",
+    "C99",
+    "#",
+    "#N01",
+    "#*01",
+    "#Q9",
+    "0010",
+    "-0005",
+    "99999999999999999999",
+    "+",
+    "-",
+    "*",
+    "/",
+    "I",
+    "<",
+    ">",
+    "=",
+    "!",
+    "(",
+    ")",
+    ",",
+    ",,",
+    "?",
+    "é",
+    "\t",
+    "//",
+    "\r",
 ];
 
 fn token_line() -> impl Strategy<Value = String> {

@@ -235,7 +235,11 @@ mod size_tests {
     /// behind a reference into the arena).
     #[test]
     fn terms_stay_small() {
-        assert!(std::mem::size_of::<Spanned<Term<'_>>>() <= 64, "{}", std::mem::size_of::<Spanned<Term<'_>>>());
+        assert!(
+            std::mem::size_of::<Spanned<Term<'_>>>() <= 64,
+            "{}",
+            std::mem::size_of::<Spanned<Term<'_>>>()
+        );
         assert!(std::mem::size_of::<Rule<'_>>() <= 96);
     }
 }

@@ -161,18 +161,17 @@ fn clean_tokens<'a>(
             Ok(t) => {
                 match t.1 {
                     Tok::LParen => open.push(toks.len()),
-                    Tok::RParen => {
-                        if open.pop().is_none() {
-                            diags.push(
-                                Diagnostic::new(
-                                    Code::E201,
-                                    "a `)` with no `(` before it",
-                                    Label::new(file, Span::new(t.0, t.2), "unmatched `)`"),
-                                )
-                                .with_help("delete this `)` or add the `(` it closes"),
-                            );
-                            drop.push(toks.len());
-                        }
+                    // The guard pops the matching `(` when there is one.
+                    Tok::RParen if open.pop().is_none() => {
+                        diags.push(
+                            Diagnostic::new(
+                                Code::E201,
+                                "a `)` with no `(` before it",
+                                Label::new(file, Span::new(t.0, t.2), "unmatched `)`"),
+                            )
+                            .with_help("delete this `)` or add the `(` it closes"),
+                        );
+                        drop.push(toks.len());
                     }
                     _ => {}
                 }

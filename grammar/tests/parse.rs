@@ -29,10 +29,16 @@ fn paper_examples_parse() {
 #[test]
 fn syntax_errors_are_all_reported() {
     assert_eq!(codes("r\n1\nE 1,0 N1***\nS*****\n"), vec![Code::E204]);
-    assert_eq!(codes("r\n1\n(N1*** ?\nS*****\n"), vec![Code::E102, Code::E203]);
+    assert_eq!(
+        codes("r\n1\n(N1*** ?\nS*****\n"),
+        vec![Code::E102, Code::E203]
+    );
     assert_eq!(codes("r\n1\nE1, N1***\nS*****\n"), vec![Code::E201]);
     assert_eq!(codes("r\n1\nN1*** E\nS*****\n"), vec![Code::E202]);
-    assert_eq!(codes("r\nx\nN1***\nS*****\nq\n1\n"), vec![Code::E205, Code::E103]);
+    assert_eq!(
+        codes("r\nx\nN1***\nS*****\nq\n1\n"),
+        vec![Code::E205, Code::E103]
+    );
     assert_eq!(
         codes("r\n1\nE1, N1*** <C00 ) F2,\nS*****\n"),
         vec![Code::E201, Code::E201, Code::E201, Code::E202]

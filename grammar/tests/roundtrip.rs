@@ -8,11 +8,17 @@ use proptest::prelude::*;
 fn roundtrip(src: &str, hint: Option<u8>) -> Result<(), TestCaseError> {
     let a1 = Bump::new();
     let (f1, d1) = parse_rules(src, FileId(0), &a1, hint);
-    prop_assert!(d1.is_empty(), "generated text has diagnostics:\n{src}\n{d1:#?}");
+    prop_assert!(
+        d1.is_empty(),
+        "generated text has diagnostics:\n{src}\n{d1:#?}"
+    );
     let printed = f1.to_string();
     let a2 = Bump::new();
     let (f2, d2) = parse_rules(&printed, FileId(0), &a2, hint);
-    prop_assert!(d2.is_empty(), "printed text has diagnostics:\n{printed}\n{d2:#?}");
+    prop_assert!(
+        d2.is_empty(),
+        "printed text has diagnostics:\n{printed}\n{d2:#?}"
+    );
     prop_assert_eq!(&f1, &f2, "\n{}\n---\n{}", src, printed);
     prop_assert_eq!(printed.clone(), f2.to_string());
     Ok(())
@@ -37,7 +43,11 @@ fn examples_roundtrip() {
             let printed = f.to_string();
             let (g, d2) = parse_agents(&printed, FileId(0));
             assert!(d2.is_empty());
-            assert!(f == g, "{}: the printed agents file reads differently", entry.display());
+            assert!(
+                f == g,
+                "{}: the printed agents file reads differently",
+                entry.display()
+            );
             n += 1;
         }
     }
@@ -74,7 +84,8 @@ fn text5(star: bool) -> impl Strategy<Value = String> {
 
 fn pat(len: usize, alphabet: &'static str) -> impl Strategy<Value = String> {
     let cs: Vec<char> = alphabet.chars().collect();
-    proptest::collection::vec(proptest::sample::select(cs), len).prop_map(|v| v.into_iter().collect())
+    proptest::collection::vec(proptest::sample::select(cs), len)
+        .prop_map(|v| v.into_iter().collect())
 }
 
 fn comp() -> impl Strategy<Value = String> {
@@ -90,9 +101,16 @@ fn offset(d: usize) -> impl Strategy<Value = String> {
 
 fn value() -> impl Strategy<Value = String> {
     prop_oneof![
-        (-32767i64..=32767).prop_map(|n| if n < 0 { format!("-{:04}", -n) } else { format!("{n:04}") }),
+        (-32767i64..=32767).prop_map(|n| if n < 0 {
+            format!("-{:04}", -n)
+        } else {
+            format!("{n:04}")
+        }),
         (0u8..45).prop_map(|c| format!("C{c:02}")),
-        (proptest::sample::select(vec!['N', 'W', 'E', 'S', 'A', 'B', '*']), 1u8..9)
+        (
+            proptest::sample::select(vec!['N', 'W', 'E', 'S', 'A', 'B', '*']),
+            1u8..9
+        )
             .prop_map(|(d, k)| format!("#{d}{k:02}")),
     ]
 }
@@ -109,10 +127,24 @@ fn pre_leaf(d: usize) -> impl Strategy<Value = String> {
         pat(n, "<=*").prop_map(|p| format!("P{p}")),
         text5(true).prop_map(|t| format!("S{t}")),
         (dir(), text5(true)).prop_map(|(d, t)| format!("M{d}{t}")),
-        (proptest::sample::select(vec!['E', 'F', 'L', 'Q']), offset(d)).prop_map(|(l, o)| format!("{l}{o}")),
+        (
+            proptest::sample::select(vec!['E', 'F', 'L', 'Q']),
+            offset(d)
+        )
+            .prop_map(|(l, o)| format!("{l}{o}")),
         (offset(d), text5(true)).prop_map(|(o, t)| format!("T{o},{t}")),
-        (proptest::sample::select(vec!['<', '>', '=']), value(), value()).prop_map(|(o, a, b)| format!("{o}{a} {b}")),
-        (proptest::sample::select(vec!['V', 'W']), offset(2), 0u8..25, value())
+        (
+            proptest::sample::select(vec!['<', '>', '=']),
+            value(),
+            value()
+        )
+            .prop_map(|(o, a, b)| format!("{o}{a} {b}")),
+        (
+            proptest::sample::select(vec!['V', 'W']),
+            offset(2),
+            0u8..25,
+            value()
+        )
             .prop_map(|(l, o, c, v)| format!("{l}{o},C{c:02} {v}")),
     ]
 }
@@ -162,7 +194,9 @@ fn rules_file() -> impl Strategy<Value = (String, u8)> {
             proptest::collection::vec(pre_term(d), 1..6),
             proptest::collection::vec(post_term(d), 1..6),
         )
-            .prop_map(|(name, p, pre, post)| format!("{name}\n{p}\n{}\n{}\n", pre.join(" "), post.join(" ")));
+            .prop_map(|(name, p, pre, post)| {
+                format!("{name}\n{p}\n{}\n{}\n", pre.join(" "), post.join(" "))
+            });
         (proptest::collection::vec(rule, 1..6), Just(d as u8))
             .prop_map(|(rs, d)| (rs.join("\n// a comment\n"), d))
     })
