@@ -196,20 +196,40 @@ fn value_of<'o, 'a>(o: &'o Operand<'a>) -> Option<&'o Spanned<Value<'a>>> {
     }
 }
 
-/// The dimension the rules' own terms show first, in file order.
+fn collect<'a>(t: &Spanned<Term<'a>>, out: &mut Vec<(Dim, Span, String)>) {
+    match &t.node {
+        Term::Not(inner) => collect(inner, out),
+        Term::Group(ts) => ts.iter().for_each(|t| collect(t, out)),
+        _ => out.extend(evidence(t)),
+    }
+}
+
+/// The dimension the rules' own terms show: the one most deciding terms agree on (the
+/// first deciding term breaks a tie), so that a single odd term is the one reported.
 pub fn from_rules(f: &RulesFile<'_>, file: FileId) -> Option<DimSource> {
-    let (dim, span, why) = f
-        .rules
-        .iter()
-        .flat_map(|r| r.pre.node.iter().chain(r.post.node.iter()))
-        .find_map(evidence)?;
+    let mut all = Vec::new();
+    for r in &f.rules {
+        for t in r.pre.node.iter().chain(r.post.node.iter()) {
+            collect(t, &mut all);
+        }
+    }
+    let first = all.first()?.0;
+    let threes = all.iter().filter(|e| e.0 == Dim::Three).count();
+    let twos = all.len() - threes;
+    let dim = match twos.cmp(&threes) {
+        std::cmp::Ordering::Greater => Dim::Two,
+        std::cmp::Ordering::Less => Dim::Three,
+        std::cmp::Ordering::Equal => first,
+    };
+    let (_, span, why) = all.iter().find(|e| e.0 == dim)?.clone();
+    let agree = if dim == Dim::Two { twos } else { threes };
     Some(DimSource {
         dim,
-        why: format!("{why}, the first term of the rules file that decides"),
-        label: Some(Label::new(
-            file,
-            span,
-            format!("{} because of this term", dim.name()),
-        )),
+        why: format!(
+            "{agree} of the {} terms of the rules file that decide the dimension are {}; the first: {why}",
+            all.len(),
+            dim.name()
+        ),
+        label: Some(Label::new(file, span, format!("{} because of this term", dim.name()))),
     })
 }

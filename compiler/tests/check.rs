@@ -184,6 +184,11 @@ fn dimension_from_rules_and_remote_state_split() {
         1,
         "points at the agents file too"
     );
+    // The rules vote: one 3D pattern among 2D terms is the one reported.
+    let c = run("a\n1\nN1*0*1*\nP1,0\nb\n1\nE0,1 F1,0\nS*****\n", None, None);
+    assert_eq!(c.dim.dim, Dim::Two);
+    assert_eq!(codes(&c), vec![Code::E302]);
+    assert!(c.dim.why.starts_with("3 of the 4 terms"), "{}", c.dim.why);
     // Nothing decides: 2D.
     let c = run("r\n1\nS*****\nS*****\n", None, None);
     assert_eq!(c.dim.dim, Dim::Two);
