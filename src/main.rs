@@ -56,6 +56,9 @@ enum Command {
         /// Colour in human output.
         #[arg(long, value_enum, default_value_t = Color::Auto)]
         color: Color,
+        /// When there are no errors, print the compiled bytecode to stdout.
+        #[arg(long)]
+        dump_bytecode: bool,
     },
 }
 
@@ -98,6 +101,7 @@ fn run_check(
     dim: Option<String>,
     format: Format,
     color: Color,
+    dump_bytecode: bool,
 ) -> ExitCode {
     let rules_bytes = match read(&rules) {
         Ok(b) => b,
@@ -155,10 +159,14 @@ fn run_check(
         }
     }
     if checked.errors() > 0 {
-        ExitCode::from(1)
-    } else {
-        ExitCode::SUCCESS
+        return ExitCode::from(1);
     }
+    if dump_bytecode {
+        if let Some(p) = &checked.program {
+            print!("{}", latticesim_compiler::lower(p).disassemble());
+        }
+    }
+    ExitCode::SUCCESS
 }
 
 fn main() -> ExitCode {
@@ -170,6 +178,7 @@ fn main() -> ExitCode {
             dim,
             format,
             color,
-        } => run_check(rules, agents, dim, format, color),
+            dump_bytecode,
+        } => run_check(rules, agents, dim, format, color, dump_bytecode),
     }
 }

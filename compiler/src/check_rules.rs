@@ -11,6 +11,28 @@ use latticesim_grammar::ast::{self, Comp, Term, Value};
 use latticesim_grammar::{Code, Diagnostic, FileId, Label, Span, Spanned};
 use std::collections::HashMap;
 
+fn cmp_op(op: ast::CmpOp) -> crate::program::CmpOp {
+    use crate::program::CmpOp as C;
+    match op {
+        ast::CmpOp::Lt => C::Lt,
+        ast::CmpOp::Gt => C::Gt,
+        ast::CmpOp::Eq => C::Eq,
+    }
+}
+
+fn calc_op(op: ast::CalcOp) -> crate::program::CalcOp {
+    use crate::program::CalcOp as C;
+    match op {
+        ast::CalcOp::Add => C::Add,
+        ast::CalcOp::Sub => C::Sub,
+        ast::CalcOp::Mul => C::Mul,
+        ast::CalcOp::Div => C::Div,
+        ast::CalcOp::Mod => C::Mod,
+        ast::CalcOp::Max => C::Max,
+        ast::CalcOp::Min => C::Min,
+    }
+}
+
 /// "1 character", "3 characters".
 pub(crate) fn chars(n: usize) -> String {
     if n == 1 {
@@ -519,7 +541,7 @@ impl Checker<'_> {
                     );
                     return None;
                 }
-                Cond::Compare(op.node, a?, b?)
+                Cond::Compare(cmp_op(op.node), a?, b?)
             }
             Term::RemoteCompare(rc) => {
                 let (strict, comps, rhs) = (&rc.strict, &rc.comps, &rc.rhs);
@@ -738,7 +760,7 @@ impl Checker<'_> {
                 }
                 Action::Calc {
                     target: tgt?,
-                    op: op.node,
+                    op: calc_op(op.node),
                     lhs: a?,
                     rhs: b?,
                 }

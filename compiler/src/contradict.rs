@@ -5,7 +5,7 @@
 
 use crate::check_rules::Checker;
 use crate::program::{Cond, Coord, Dir, Offset, TextPat, Val};
-use latticesim_grammar::ast::{CmpOp, Term};
+use latticesim_grammar::ast::Term;
 use latticesim_grammar::{Code, Diagnostic, Label, Spanned};
 
 /// Collects the AND-joined conditions with the term that wrote each.
@@ -127,11 +127,7 @@ fn conflict(a: &Cond, b: &Cond, dim3: bool) -> Option<String> {
 
 fn always_false(c: &Cond) -> bool {
     match c {
-        Cond::Compare(op, Val::Lit(a), Val::Lit(b)) => !match op {
-            CmpOp::Lt => a < b,
-            CmpOp::Gt => a > b,
-            CmpOp::Eq => a == b,
-        },
+        Cond::Compare(op, Val::Lit(a), Val::Lit(b)) => !op.holds(*a as i32, *b as i32),
         _ => false,
     }
 }

@@ -9,11 +9,13 @@ mod check_agents;
 mod check_rules;
 mod contradict;
 pub mod dim;
+mod lower;
 pub mod program;
 pub mod render;
 
 pub use check_agents::check_agents;
 pub use check_rules::{check_rules, VALUE_MAX};
+pub use lower::lower;
 pub use program::{Config, Dim, Program};
 pub use render::Sources;
 

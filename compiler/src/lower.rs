@@ -1,0 +1,209 @@
+//! Lowering a checked program to bytecode (`latticesim_vm::Program`).
+
+use crate::program::{self as p, Action, Cond, Dim, Program};
+use latticesim_vm::model::{AttachLetter, Coord, Offset, TextPat};
+use latticesim_vm::op::{Target, Val, ANY_DIR};
+use latticesim_vm::{Op, RuleInfo};
+use std::collections::HashMap;
+use std::hash::Hash;
+
+struct Table<T: Hash + Eq + Clone> {
+    items: Vec<T>,
+    index: HashMap<T, u16>,
+}
+
+impl<T: Hash + Eq + Clone> Default for Table<T> {
+    fn default() -> Self {
+        Table { items: Vec::new(), index: HashMap::new() }
+    }
+}
+
+impl<T: Hash + Eq + Clone> Table<T> {
+    fn intern(&mut self, t: T) -> u16 {
+        if let Some(&i) = self.index.get(&t) {
+            return i;
+        }
+        let i = u16::try_from(self.items.len()).expect("fewer than 65536 distinct constants of one kind");
+        self.items.push(t.clone());
+        self.index.insert(t, i);
+        i
+    }
+}
+
+#[derive(Default)]
+struct Lowering {
+    code: Vec<Op>,
+    offsets: Table<Offset>,
+    pats: Table<TextPat>,
+    texts: Table<[u8; 5]>,
+    letters: Table<[AttachLetter; 6]>,
+    externals: Table<(Coord, Coord, u8)>,
+}
+
+fn dir_code(d: Option<p::Dir>) -> u8 {
+    d.map_or(ANY_DIR, |d| d.index() as u8)
+}
+
+fn val(v: p::Val) -> Val {
+    match v {
+        p::Val::Lit(x) => Val::Lit(x),
+        p::Val::Counter(c) => Val::Counter(c),
+        p::Val::Msg { dir, slot } => Val::Msg { dir: dir_code(dir), slot },
+    }
+}
+
+impl Lowering {
+    fn cond(&mut self, c: &Cond, start: usize, reads_prio: &mut bool) {
+        match c {
+            Cond::And(cs) if cs.is_empty() => self.code.push(Op::True {}),
+            Cond::And(cs) => {
+                let mut jumps = Vec::new();
+                self.cond(&cs[0], start, reads_prio);
+                for c in &cs[1..] {
+                    jumps.push(self.code.len());
+                    self.code.push(Op::Jf { to: 0 });
+                    self.cond(c, start, reads_prio);
+                    self.code.push(Op::And {});
+                }
+                let end = u16::try_from(self.code.len() - start).expect("a precondition of fewer than 65536 instructions");
+                for j in jumps {
+                    self.code[j] = Op::Jf { to: end };
+                }
+            }
+            Cond::Not(c) => {
+                self.cond(c, start, reads_prio);
+                self.code.push(Op::Not {});
+            }
+            Cond::Neighbors(b) => self.code.push(Op::Nbr { mask: b.mask, want: b.want }),
+            Cond::Attached(b) => self.code.push(Op::Att { mask: b.mask, want: b.want }),
+            Cond::Priorities { strict, leq } => {
+                *reads_prio = true;
+                self.code.push(Op::Prio { strict: *strict, leq: *leq })
+            }
+            Cond::State(pat) => {
+                let pat = self.pats.intern(*pat);
+                self.code.push(Op::State { pat })
+            }
+            Cond::Message { dir, pat } => {
+                let pat = self.pats.intern(*pat);
+                self.code.push(Op::Msg { dir: dir_code(*dir), pat })
+            }
+            Cond::Empty(o) => {
+                let off = self.offsets.intern(*o);
+                self.code.push(Op::Empty { off })
+            }
+            Cond::Filled(o) => {
+                let off = self.offsets.intern(*o);
+                self.code.push(Op::Filled { off })
+            }
+            Cond::Less(o) => {
+                *reads_prio = true;
+                let off = self.offsets.intern(*o);
+                self.code.push(Op::Less { off })
+            }
+            Cond::LessEq(o) => {
+                *reads_prio = true;
+                let off = self.offsets.intern(*o);
+                self.code.push(Op::LessEq { off })
+            }
+            Cond::RemoteState(o, pat) => {
+                let off = self.offsets.intern(*o);
+                let pat = self.pats.intern(*pat);
+                self.code.push(Op::RState { off, pat })
+            }
+            Cond::Compare(op, a, b) => self.code.push(Op::Cmp { op: *op, a: val(*a), b: val(*b) }),
+            Cond::RemoteCompare { strict, offset, counter, rhs } => {
+                let off = self.offsets.intern(*offset);
+                self.code.push(Op::RCmp { strict: *strict as u8, off, counter: *counter, b: val(*rhs) })
+            }
+        }
+    }
+
+    fn operand(&mut self, o: &p::Operand) -> Val {
+        match *o {
+            p::Operand::Val(v) => val(v),
+            p::Operand::External { x, y, counter } => Val::Ext(self.externals.intern((x, y, counter))),
+        }
+    }
+
+    fn rule(&mut self, r: &p::Rule, dim: Dim) -> RuleInfo {
+        let pre_start = self.code.len();
+        let mut reads_priorities = false;
+        self.cond(&r.pre, pre_start, &mut reads_priorities);
+        let pre = pre_start as u32..self.code.len() as u32;
+        let mut info = RuleInfo {
+            name: r.name.clone(),
+            priority: r.priority,
+            pre,
+            post: 0..0,
+            reads_priorities,
+            moves: None,
+            swaps: None,
+            attaches: None,
+            sets_state: None,
+            computes: false,
+        };
+        let post_start = self.code.len() as u32;
+        for a in &r.post {
+            let op = match a {
+                Action::Move(o) => {
+                    let off = self.offsets.intern(*o);
+                    info.moves = Some(off);
+                    Op::Move { off }
+                }
+                Action::Attach(ls) => {
+                    let mut all = [AttachLetter::Keep; 6];
+                    all[..dim.dirs()].copy_from_slice(&ls[..dim.dirs()]);
+                    let letters = self.letters.intern(all);
+                    info.attaches = Some(letters);
+                    Op::Attach { letters }
+                }
+                Action::State(pat) => {
+                    let pat = self.pats.intern(*pat);
+                    info.sets_state = Some(pat);
+                    Op::SetState { pat }
+                }
+                Action::Swap(d) => {
+                    info.swaps = Some(*d);
+                    Op::Swap { dir: d.index() as u8 }
+                }
+                Action::Send { dir, text } => {
+                    info.computes = true;
+                    let text = self.texts.intern(*text);
+                    Op::Send { dir: dir_code(*dir), text }
+                }
+                Action::Calc { target, op, lhs, rhs } => {
+                    info.computes = true;
+                    let target = match *target {
+                        p::Target::Counter(c) => Target::Counter(c),
+                        p::Target::Msg { dir, slot } => Target::Msg { dir: dir_code(dir), slot },
+                    };
+                    let a = self.operand(lhs);
+                    let b = self.operand(rhs);
+                    Op::Calc { target, op: *op, a, b }
+                }
+            };
+            self.code.push(op);
+        }
+        info.post = post_start..self.code.len() as u32;
+        info
+    }
+}
+
+/// Lowers a checked program to bytecode. The result passes `verify`.
+pub fn lower(p: &Program) -> latticesim_vm::Program {
+    let mut l = Lowering::default();
+    let rules = p.rules.iter().map(|r| l.rule(r, p.dim)).collect();
+    let prog = latticesim_vm::Program {
+        dim: p.dim,
+        rules,
+        code: l.code,
+        offsets: l.offsets.items,
+        pats: l.pats.items,
+        texts: l.texts.items,
+        letters: l.letters.items,
+        externals: l.externals.items,
+    };
+    debug_assert_eq!(prog.verify(), Ok(()));
+    prog
+}

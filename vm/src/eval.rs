@@ -1,0 +1,354 @@
+//! The evaluator for one agent: preconditions in three-valued (Kleene) logic, and the
+//! calculations and sends of a postcondition, over an environment the runtime provides.
+
+use crate::model::{CalcOp, Coord, Dir, Offset, TextPat};
+use crate::op::{Op, Target, Val, ANY_DIR};
+use crate::program::MAX_STACK;
+use crate::Program;
+
+/// A truth value in Kleene logic: false, true, unknown.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Tri {
+    /// False.
+    F,
+    /// True.
+    T,
+    /// Unknown (depends on priorities not yet resolved).
+    U,
+}
+
+impl Tri {
+    /// From a definite boolean.
+    pub fn of(b: bool) -> Tri {
+        if b {
+            Tri::T
+        } else {
+            Tri::F
+        }
+    }
+
+    /// Kleene conjunction.
+    pub fn and(self, o: Tri) -> Tri {
+        match (self, o) {
+            (Tri::F, _) | (_, Tri::F) => Tri::F,
+            (Tri::T, Tri::T) => Tri::T,
+            _ => Tri::U,
+        }
+    }
+
+    /// Kleene negation.
+    pub fn not(self) -> Tri {
+        match self {
+            Tri::F => Tri::T,
+            Tri::T => Tri::F,
+            Tri::U => Tri::U,
+        }
+    }
+}
+
+/// What is at a cell.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Cell {
+    /// Outside the universe (or the coordinate range): no agent, not free.
+    Blocked,
+    /// Free.
+    Empty,
+    /// The agent with this id.
+    Agent(u32),
+}
+
+/// What a precondition reads, for the agent being evaluated, at the start of the step.
+pub trait Env {
+    /// An own counter.
+    fn counter(&self, i: u8) -> i16;
+    /// The own state.
+    fn state(&self) -> [u8; 5];
+    /// The own attachment bits.
+    fn attach(&self) -> u8;
+    /// The cell at an offset from the agent.
+    fn cell(&self, off: [i32; 3]) -> Cell;
+    /// Another agent's state.
+    fn agent_state(&self, id: u32) -> [u8; 5];
+    /// Another agent's counter.
+    fn agent_counter(&self, id: u32, i: u8) -> i16;
+    /// The numeric message received from direction `dir` in slot `slot` (0 if none).
+    fn inbox_num(&self, dir: u8, slot: u8) -> i16;
+    /// The text received from direction `dir`, if any.
+    fn inbox_text(&self, dir: u8) -> Option<[u8; 5]>;
+    /// Whether priorities are being compared; when false, every `P`, `L` and `Q` term is
+    /// unknown (the first pass of selection).
+    fn priorities_known(&self) -> bool;
+    /// Whether the agent `other` (`None`: an empty or blocked cell, priority 0) has a
+    /// priority smaller than (`strict`) or smaller than or equal to `p`.
+    fn prio(&self, other: Option<u32>, p: u16, strict: bool) -> Tri;
+    /// Number of directions (4 or 6).
+    fn dirs(&self) -> u8;
+}
+
+/// Whether a text matches a pattern.
+pub fn matches(pat: &TextPat, text: &[u8; 5]) -> bool {
+    pat.iter().zip(text).all(|(p, c)| p.is_none_or(|p| p == *c))
+}
+
+/// Resolves an offset with the agent's counters.
+pub fn resolve<E: Env + ?Sized>(o: &Offset, env: &E) -> [i32; 3] {
+    let c = |c: &Coord| match *c {
+        Coord::Lit(v) => v,
+        Coord::Counter(i) => env.counter(i) as i32,
+    };
+    [c(&o[0]), c(&o[1]), c(&o[2])]
+}
+
+fn value<E: Env + ?Sized>(v: Val, dir_override: u8, env: &E) -> i32 {
+    match v {
+        Val::Lit(x) => x as i32,
+        Val::Counter(c) => env.counter(c) as i32,
+        Val::Msg { dir, slot } => {
+            let d = if dir == ANY_DIR { dir_override } else { dir };
+            env.inbox_num(d, slot) as i32
+        }
+        // Verified away: external counters are only read by calculations.
+        Val::Ext(_) => 0,
+    }
+}
+
+fn is_any(v: Val) -> bool {
+    matches!(v, Val::Msg { dir: ANY_DIR, .. })
+}
+
+/// Evaluates the precondition of rule `rule` for the agent `env` describes.
+pub fn eval_pre<E: Env + ?Sized>(prog: &Program, rule: usize, env: &E) -> Tri {
+    let r = &prog.rules[rule];
+    let code = &prog.code[r.pre.start as usize..r.pre.end as usize];
+    let mut stack = [Tri::T; MAX_STACK];
+    let mut sp = 0usize;
+    let mut pc = 0usize;
+    let known = env.priorities_known();
+    while pc < code.len() {
+        let v = match code[pc] {
+            Op::True {} => Tri::T,
+            Op::Nbr { mask, want } => {
+                let mut ok = true;
+                for d in 0..env.dirs() {
+                    if mask & (1 << d) == 0 {
+                        continue;
+                    }
+                    let want_filled = want & (1 << d) != 0;
+                    ok &= match env.cell(Dir::ALL[d as usize].offset()) {
+                        Cell::Blocked => false,
+                        Cell::Empty => !want_filled,
+                        Cell::Agent(_) => want_filled,
+                    };
+                }
+                Tri::of(ok)
+            }
+            Op::Att { mask, want } => Tri::of(env.attach() & mask == want & mask),
+            Op::Prio { strict, leq } => {
+                if !known {
+                    Tri::U
+                } else {
+                    let mut acc = Tri::T;
+                    for d in 0..env.dirs() {
+                        let bit = 1 << d;
+                        if (strict | leq) & bit == 0 {
+                            continue;
+                        }
+                        let other = match env.cell(Dir::ALL[d as usize].offset()) {
+                            Cell::Agent(id) => Some(id),
+                            _ => None,
+                        };
+                        acc = acc.and(env.prio(other, r.priority, strict & bit != 0));
+                    }
+                    acc
+                }
+            }
+            Op::State { pat } => Tri::of(matches(&prog.pats[pat as usize], &env.state())),
+            Op::Msg { dir, pat } => {
+                let p = &prog.pats[pat as usize];
+                let hit = |d: u8| env.inbox_text(d).is_some_and(|t| matches(p, &t));
+                Tri::of(if dir == ANY_DIR { (0..env.dirs()).any(hit) } else { hit(dir) })
+            }
+            Op::Empty { off } => Tri::of(env.cell(resolve(&prog.offsets[off as usize], env)) == Cell::Empty),
+            Op::Filled { off } => Tri::of(matches!(env.cell(resolve(&prog.offsets[off as usize], env)), Cell::Agent(_))),
+            Op::Less { off } | Op::LessEq { off } => {
+                if !known {
+                    Tri::U
+                } else {
+                    match env.cell(resolve(&prog.offsets[off as usize], env)) {
+                        Cell::Agent(id) => env.prio(Some(id), r.priority, matches!(code[pc], Op::Less { .. })),
+                        _ => Tri::F,
+                    }
+                }
+            }
+            Op::RState { off, pat } => Tri::of(match env.cell(resolve(&prog.offsets[off as usize], env)) {
+                Cell::Agent(id) => matches(&prog.pats[pat as usize], &env.agent_state(id)),
+                _ => false,
+            }),
+            Op::Cmp { op, a, b } => {
+                let holds = |d: u8| op.holds(value(a, d, env), value(b, d, env));
+                Tri::of(if is_any(a) || is_any(b) { (0..env.dirs()).any(holds) } else { holds(0) })
+            }
+            Op::RCmp { strict, off, counter, b } => Tri::of(match env.cell(resolve(&prog.offsets[off as usize], env)) {
+                Cell::Agent(id) => {
+                    let c = env.agent_counter(id, counter) as i32;
+                    let holds = |d: u8| {
+                        let rhs = value(b, d, env);
+                        if strict != 0 {
+                            c < rhs
+                        } else {
+                            c <= rhs
+                        }
+                    };
+                    if is_any(b) {
+                        (0..env.dirs()).any(holds)
+                    } else {
+                        holds(0)
+                    }
+                }
+                _ => false,
+            }),
+            Op::Not {} => {
+                stack[sp - 1] = stack[sp - 1].not();
+                pc += 1;
+                continue;
+            }
+            Op::And {} => {
+                sp -= 1;
+                stack[sp - 1] = stack[sp - 1].and(stack[sp]);
+                pc += 1;
+                continue;
+            }
+            Op::Jf { to } => {
+                pc = if stack[sp - 1] == Tri::F { to as usize } else { pc + 1 };
+                continue;
+            }
+            // Verified away: postcondition instructions never stand in a precondition.
+            _ => Tri::U,
+        };
+        stack[sp] = v;
+        sp += 1;
+        pc += 1;
+    }
+    stack[0]
+}
+
+/// What a calculation can go wrong with; the runtime turns these into records.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CalcIssue {
+    /// The result was outside -32767..32767 and was saturated.
+    Saturated {
+        /// The exact result.
+        exact: i64,
+    },
+    /// Division or remainder by zero: the target is unchanged.
+    DivisionByZero,
+    /// No agent stands where an external counter is read: the calculation is skipped.
+    NoExternalAgent {
+        /// The offset read.
+        off: [i32; 2],
+    },
+}
+
+/// What the calculations of a postcondition read and write.
+pub trait CalcEnv {
+    /// An own counter (current value).
+    fn counter(&self, i: u8) -> i16;
+    /// Sets an own counter.
+    fn set_counter(&mut self, i: u8, v: i16);
+    /// The numeric message received from `dir` in `slot` this step (0 if none).
+    fn inbox_num(&self, dir: u8, slot: u8) -> i16;
+    /// The counter of the agent at an offset, as it was at the start of the phase.
+    fn external(&self, off: [i32; 2], counter: u8) -> Option<i16>;
+    /// Writes an outgoing numeric slot towards `dir` (or all, [`ANY_DIR`]).
+    fn send_num(&mut self, dir: u8, slot: u8, v: i16);
+    /// Writes the outgoing text towards `dir` (or all, [`ANY_DIR`]).
+    fn send_text(&mut self, dir: u8, text: [u8; 5]);
+    /// Reports a problem of instruction `pc` of the postcondition.
+    fn issue(&mut self, pc: usize, issue: CalcIssue);
+}
+
+/// Applies an operation in i32 and saturates to -32767..32767.
+pub fn apply(op: CalcOp, a: i32, b: i32) -> Result<(i16, Option<i64>), CalcIssue> {
+    let exact: i64 = match op {
+        CalcOp::Add => a as i64 + b as i64,
+        CalcOp::Sub => a as i64 - b as i64,
+        CalcOp::Mul => a as i64 * b as i64,
+        CalcOp::Div if b == 0 => return Err(CalcIssue::DivisionByZero),
+        CalcOp::Div => (a / b) as i64,
+        CalcOp::Mod if b == 0 => return Err(CalcIssue::DivisionByZero),
+        CalcOp::Mod => (a % b) as i64,
+        CalcOp::Max => a.max(b) as i64,
+        CalcOp::Min => a.min(b) as i64,
+    };
+    let sat = exact.clamp(-32767, 32767);
+    Ok((sat as i16, (sat != exact).then_some(exact)))
+}
+
+/// Runs the calculations and sends of rule `rule`'s postcondition, in written order.
+pub fn run_post<E: CalcEnv + ?Sized>(prog: &Program, rule: usize, env: &mut E) {
+    let r = &prog.rules[rule];
+    let code = &prog.code[r.post.start as usize..r.post.end as usize];
+    for (pc, op) in code.iter().enumerate() {
+        match *op {
+            Op::Send { dir, text } => env.send_text(dir, prog.texts[text as usize]),
+            Op::Calc { target, op, a, b } => {
+                let read = |v: Val| -> Result<i32, CalcIssue> {
+                    Ok(match v {
+                        Val::Lit(x) => x as i32,
+                        Val::Counter(c) => env.counter(c) as i32,
+                        Val::Msg { dir, slot } => env.inbox_num(dir, slot) as i32,
+                        Val::Ext(i) => {
+                            let (x, y, c) = prog.externals[i as usize];
+                            let co = |k: Coord| match k {
+                                Coord::Lit(v) => v,
+                                Coord::Counter(j) => env.counter(j) as i32,
+                            };
+                            let off = [co(x), co(y)];
+                            env.external(off, c).ok_or(CalcIssue::NoExternalAgent { off })? as i32
+                        }
+                    })
+                };
+                let res = read(a).and_then(|x| read(b).map(|y| (x, y))).and_then(|(x, y)| apply(op, x, y));
+                match res {
+                    Ok((v, saturated)) => {
+                        if let Some(exact) = saturated {
+                            env.issue(pc, CalcIssue::Saturated { exact });
+                        }
+                        match target {
+                            Target::Counter(c) => env.set_counter(c, v),
+                            Target::Msg { dir, slot } => env.send_num(dir, slot, v),
+                        }
+                    }
+                    Err(e) => env.issue(pc, e),
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn kleene() {
+        use Tri::*;
+        assert_eq!(T.and(U), U);
+        assert_eq!(F.and(U), F);
+        assert_eq!(U.not(), U);
+        assert_eq!(F.not(), T);
+    }
+
+    #[test]
+    fn arithmetic_saturates_and_truncates() {
+        assert_eq!(apply(CalcOp::Add, 32767, 1), Ok((32767, Some(32768))));
+        assert_eq!(apply(CalcOp::Mul, -300, 300), Ok((-32767, Some(-90000))));
+        assert_eq!(apply(CalcOp::Div, -7, 2), Ok((-3, None)));
+        assert_eq!(apply(CalcOp::Mod, -7, 2), Ok((-1, None)));
+        assert_eq!(apply(CalcOp::Mod, 7, -2), Ok((1, None)));
+        assert_eq!(apply(CalcOp::Div, 1, 0), Err(CalcIssue::DivisionByZero));
+        assert_eq!(apply(CalcOp::Max, -1, 3), Ok((3, None)));
+        assert_eq!(apply(CalcOp::Min, -1, 3), Ok((-1, None)));
+    }
+}
