@@ -125,3 +125,72 @@ mod tests {
         assert_eq!(c.rule_count, 2000);
     }
 }
+
+/// The benchmark workloads of `../shared/bench/WORKLOADS.md`: their rules and agents files.
+pub mod workloads {
+    use std::fmt::Write;
+
+    /// B1 maxflood: the rules.
+    pub const B1_RULES: &str = "flood\n1\nS*****\nC00 A C00 #N01 C00 A C00 #W01 C00 A C00 #E01 C00 A C00 #S01 #*01 + C00 0000\n";
+
+    /// B2 gravity: the rules.
+    pub const B2_RULES: &str = "fall\n1\nN***0 >C00 0000\nP0,-1 C00 - C00 0001\n";
+
+    /// B1 agents: every cell of an L x L square, C00 = ((x*L + y) * 7919) % 32749 + 1.
+    pub fn b1_agents(l: u64) -> String {
+        let mut s = String::with_capacity((l * l * 20) as usize);
+        for x in 0..l {
+            for y in 0..l {
+                let _ = writeln!(s, "{x},{y} C00 {}", ((x * l + y) * 7919) % 32749 + 1);
+            }
+        }
+        s
+    }
+
+    /// The positions of B2: cells of a W x H box drawn with the workload's generator.
+    pub fn b2_cells(w: u64, h: u64) -> Vec<(u64, u64)> {
+        let mut s: u64 = 12345;
+        let mut out = Vec::new();
+        for x in 0..w {
+            for y in 0..h {
+                s = s
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                let r = (s >> 11) as f64 / (1u64 << 53) as f64;
+                if r < 0.3 {
+                    out.push((x, y));
+                }
+            }
+        }
+        out
+    }
+
+    /// B2 agents: C00 = y.
+    pub fn b2_agents(w: u64, h: u64) -> String {
+        let mut s = String::new();
+        for (x, y) in b2_cells(w, h) {
+            let _ = writeln!(s, "{x},{y} C00 {y}");
+        }
+        s
+    }
+
+    /// B3 rules: k rules cycling states R0000 .. R(k-1).
+    pub fn b3_rules(k: u64) -> String {
+        let mut s = String::new();
+        for i in 0..k {
+            let _ = writeln!(s, "r{i}\n1\nSR{i:04}\nSR{:04}\n", (i + 1) % k);
+        }
+        s
+    }
+
+    /// B3 agents: an L x L square, state R + ((x+y) % k).
+    pub fn b3_agents(l: u64, k: u64) -> String {
+        let mut s = String::new();
+        for x in 0..l {
+            for y in 0..l {
+                let _ = writeln!(s, "{x},{y} SR{:04}", (x + y) % k);
+            }
+        }
+        s
+    }
+}

@@ -14,7 +14,10 @@ struct Table<T: Hash + Eq + Clone> {
 
 impl<T: Hash + Eq + Clone> Default for Table<T> {
     fn default() -> Self {
-        Table { items: Vec::new(), index: HashMap::new() }
+        Table {
+            items: Vec::new(),
+            index: HashMap::new(),
+        }
     }
 }
 
@@ -23,7 +26,8 @@ impl<T: Hash + Eq + Clone> Table<T> {
         if let Some(&i) = self.index.get(&t) {
             return i;
         }
-        let i = u16::try_from(self.items.len()).expect("fewer than 65536 distinct constants of one kind");
+        let i = u16::try_from(self.items.len())
+            .expect("fewer than 65536 distinct constants of one kind");
         self.items.push(t.clone());
         self.index.insert(t, i);
         i
@@ -48,7 +52,10 @@ fn val(v: p::Val) -> Val {
     match v {
         p::Val::Lit(x) => Val::Lit(x),
         p::Val::Counter(c) => Val::Counter(c),
-        p::Val::Msg { dir, slot } => Val::Msg { dir: dir_code(dir), slot },
+        p::Val::Msg { dir, slot } => Val::Msg {
+            dir: dir_code(dir),
+            slot,
+        },
     }
 }
 
@@ -65,7 +72,8 @@ impl Lowering {
                     self.cond(c, start, reads_prio);
                     self.code.push(Op::And {});
                 }
-                let end = u16::try_from(self.code.len() - start).expect("a precondition of fewer than 65536 instructions");
+                let end = u16::try_from(self.code.len() - start)
+                    .expect("a precondition of fewer than 65536 instructions");
                 for j in jumps {
                     self.code[j] = Op::Jf { to: end };
                 }
@@ -74,11 +82,20 @@ impl Lowering {
                 self.cond(c, start, reads_prio);
                 self.code.push(Op::Not {});
             }
-            Cond::Neighbors(b) => self.code.push(Op::Nbr { mask: b.mask, want: b.want }),
-            Cond::Attached(b) => self.code.push(Op::Att { mask: b.mask, want: b.want }),
+            Cond::Neighbors(b) => self.code.push(Op::Nbr {
+                mask: b.mask,
+                want: b.want,
+            }),
+            Cond::Attached(b) => self.code.push(Op::Att {
+                mask: b.mask,
+                want: b.want,
+            }),
             Cond::Priorities { strict, leq } => {
                 *reads_prio = true;
-                self.code.push(Op::Prio { strict: *strict, leq: *leq })
+                self.code.push(Op::Prio {
+                    strict: *strict,
+                    leq: *leq,
+                })
             }
             Cond::State(pat) => {
                 let pat = self.pats.intern(*pat);
@@ -86,7 +103,10 @@ impl Lowering {
             }
             Cond::Message { dir, pat } => {
                 let pat = self.pats.intern(*pat);
-                self.code.push(Op::Msg { dir: dir_code(*dir), pat })
+                self.code.push(Op::Msg {
+                    dir: dir_code(*dir),
+                    pat,
+                })
             }
             Cond::Empty(o) => {
                 let off = self.offsets.intern(*o);
@@ -111,10 +131,24 @@ impl Lowering {
                 let pat = self.pats.intern(*pat);
                 self.code.push(Op::RState { off, pat })
             }
-            Cond::Compare(op, a, b) => self.code.push(Op::Cmp { op: *op, a: val(*a), b: val(*b) }),
-            Cond::RemoteCompare { strict, offset, counter, rhs } => {
+            Cond::Compare(op, a, b) => self.code.push(Op::Cmp {
+                op: *op,
+                a: val(*a),
+                b: val(*b),
+            }),
+            Cond::RemoteCompare {
+                strict,
+                offset,
+                counter,
+                rhs,
+            } => {
                 let off = self.offsets.intern(*offset);
-                self.code.push(Op::RCmp { strict: *strict as u8, off, counter: *counter, b: val(*rhs) })
+                self.code.push(Op::RCmp {
+                    strict: *strict as u8,
+                    off,
+                    counter: *counter,
+                    b: val(*rhs),
+                })
             }
         }
     }
@@ -122,7 +156,9 @@ impl Lowering {
     fn operand(&mut self, o: &p::Operand) -> Val {
         match *o {
             p::Operand::Val(v) => val(v),
-            p::Operand::External { x, y, counter } => Val::Ext(self.externals.intern((x, y, counter))),
+            p::Operand::External { x, y, counter } => {
+                Val::Ext(self.externals.intern((x, y, counter)))
+            }
         }
     }
 
@@ -165,22 +201,40 @@ impl Lowering {
                 }
                 Action::Swap(d) => {
                     info.swaps = Some(*d);
-                    Op::Swap { dir: d.index() as u8 }
+                    Op::Swap {
+                        dir: d.index() as u8,
+                    }
                 }
                 Action::Send { dir, text } => {
                     info.computes = true;
                     let text = self.texts.intern(*text);
-                    Op::Send { dir: dir_code(*dir), text }
+                    Op::Send {
+                        dir: dir_code(*dir),
+                        text,
+                    }
                 }
-                Action::Calc { target, op, lhs, rhs } => {
+                Action::Calc {
+                    target,
+                    op,
+                    lhs,
+                    rhs,
+                } => {
                     info.computes = true;
                     let target = match *target {
                         p::Target::Counter(c) => Target::Counter(c),
-                        p::Target::Msg { dir, slot } => Target::Msg { dir: dir_code(dir), slot },
+                        p::Target::Msg { dir, slot } => Target::Msg {
+                            dir: dir_code(dir),
+                            slot,
+                        },
                     };
                     let a = self.operand(lhs);
                     let b = self.operand(rhs);
-                    Op::Calc { target, op: *op, a, b }
+                    Op::Calc {
+                        target,
+                        op: *op,
+                        a,
+                        b,
+                    }
                 }
             };
             self.code.push(op);

@@ -4,7 +4,8 @@
 
 use latticesim_grammar::Span;
 pub use latticesim_vm::model::{
-    AgentInit, AttachLetter, BitPat, Bounds, CalcOp, CmpOp, Config, Coord, Dim, Dir, Offset, TextPat,
+    AgentInit, AttachLetter, BitPat, Bounds, CalcOp, CmpOp, Config, Coord, Dim, Dir, Offset,
+    TextPat,
 };
 
 /// A readable value.
@@ -159,4 +160,3 @@ pub struct Program {
     /// The rules, in file order.
     pub rules: Vec<Rule>,
 }
-

@@ -1,5 +1,16 @@
 //! The lattice as structure-of-arrays, the synchronous step, records and statistics.
 //!
-//! Not yet written: the step is the subject of issue 3. The crate exists so that the
-//! workspace has its final shape (`runtime -> vm`, never back up the chain).
+//! [`Engine`] runs a compiled [`latticesim_vm::Program`] on a [`Lattice`] one [`Engine::step`]
+//! at a time; each step returns its [`Record`]s (errors and warnings) and, when tracing, its
+//! [`TraceEvent`]s, and updates the [`Stats`]. The runtime does no I/O.
 #![warn(missing_docs)]
+
+mod lattice;
+mod record;
+mod step;
+mod trace;
+
+pub use lattice::Lattice;
+pub use record::{Record, RecordKind};
+pub use step::{Engine, Options, Order, Stats, StepReport};
+pub use trace::TraceEvent;

@@ -35,9 +35,13 @@ impl Tri {
             _ => Tri::U,
         }
     }
+}
+
+impl std::ops::Not for Tri {
+    type Output = Tri;
 
     /// Kleene negation.
-    pub fn not(self) -> Tri {
+    fn not(self) -> Tri {
         match self {
             Tri::F => Tri::T,
             Tri::T => Tri::F,
@@ -166,29 +170,51 @@ pub fn eval_pre<E: Env + ?Sized>(prog: &Program, rule: usize, env: &E) -> Tri {
             Op::Msg { dir, pat } => {
                 let p = &prog.pats[pat as usize];
                 let hit = |d: u8| env.inbox_text(d).is_some_and(|t| matches(p, &t));
-                Tri::of(if dir == ANY_DIR { (0..env.dirs()).any(hit) } else { hit(dir) })
+                Tri::of(if dir == ANY_DIR {
+                    (0..env.dirs()).any(hit)
+                } else {
+                    hit(dir)
+                })
             }
-            Op::Empty { off } => Tri::of(env.cell(resolve(&prog.offsets[off as usize], env)) == Cell::Empty),
-            Op::Filled { off } => Tri::of(matches!(env.cell(resolve(&prog.offsets[off as usize], env)), Cell::Agent(_))),
+            Op::Empty { off } => {
+                Tri::of(env.cell(resolve(&prog.offsets[off as usize], env)) == Cell::Empty)
+            }
+            Op::Filled { off } => Tri::of(matches!(
+                env.cell(resolve(&prog.offsets[off as usize], env)),
+                Cell::Agent(_)
+            )),
             Op::Less { off } | Op::LessEq { off } => {
                 if !known {
                     Tri::U
                 } else {
                     match env.cell(resolve(&prog.offsets[off as usize], env)) {
-                        Cell::Agent(id) => env.prio(Some(id), r.priority, matches!(code[pc], Op::Less { .. })),
+                        Cell::Agent(id) => {
+                            env.prio(Some(id), r.priority, matches!(code[pc], Op::Less { .. }))
+                        }
                         _ => Tri::F,
                     }
                 }
             }
-            Op::RState { off, pat } => Tri::of(match env.cell(resolve(&prog.offsets[off as usize], env)) {
-                Cell::Agent(id) => matches(&prog.pats[pat as usize], &env.agent_state(id)),
-                _ => false,
-            }),
+            Op::RState { off, pat } => {
+                Tri::of(match env.cell(resolve(&prog.offsets[off as usize], env)) {
+                    Cell::Agent(id) => matches(&prog.pats[pat as usize], &env.agent_state(id)),
+                    _ => false,
+                })
+            }
             Op::Cmp { op, a, b } => {
                 let holds = |d: u8| op.holds(value(a, d, env), value(b, d, env));
-                Tri::of(if is_any(a) || is_any(b) { (0..env.dirs()).any(holds) } else { holds(0) })
+                Tri::of(if is_any(a) || is_any(b) {
+                    (0..env.dirs()).any(holds)
+                } else {
+                    holds(0)
+                })
             }
-            Op::RCmp { strict, off, counter, b } => Tri::of(match env.cell(resolve(&prog.offsets[off as usize], env)) {
+            Op::RCmp {
+                strict,
+                off,
+                counter,
+                b,
+            } => Tri::of(match env.cell(resolve(&prog.offsets[off as usize], env)) {
                 Cell::Agent(id) => {
                     let c = env.agent_counter(id, counter) as i32;
                     let holds = |d: u8| {
@@ -208,7 +234,7 @@ pub fn eval_pre<E: Env + ?Sized>(prog: &Program, rule: usize, env: &E) -> Tri {
                 _ => false,
             }),
             Op::Not {} => {
-                stack[sp - 1] = stack[sp - 1].not();
+                stack[sp - 1] = !stack[sp - 1];
                 pc += 1;
                 continue;
             }
@@ -219,7 +245,11 @@ pub fn eval_pre<E: Env + ?Sized>(prog: &Program, rule: usize, env: &E) -> Tri {
                 continue;
             }
             Op::Jf { to } => {
-                pc = if stack[sp - 1] == Tri::F { to as usize } else { pc + 1 };
+                pc = if stack[sp - 1] == Tri::F {
+                    to as usize
+                } else {
+                    pc + 1
+                };
                 continue;
             }
             // Verified away: postcondition instructions never stand in a precondition.
@@ -304,11 +334,15 @@ pub fn run_post<E: CalcEnv + ?Sized>(prog: &Program, rule: usize, env: &mut E) {
                                 Coord::Counter(j) => env.counter(j) as i32,
                             };
                             let off = [co(x), co(y)];
-                            env.external(off, c).ok_or(CalcIssue::NoExternalAgent { off })? as i32
+                            env.external(off, c)
+                                .ok_or(CalcIssue::NoExternalAgent { off })?
+                                as i32
                         }
                     })
                 };
-                let res = read(a).and_then(|x| read(b).map(|y| (x, y))).and_then(|(x, y)| apply(op, x, y));
+                let res = read(a)
+                    .and_then(|x| read(b).map(|y| (x, y)))
+                    .and_then(|(x, y)| apply(op, x, y));
                 match res {
                     Ok((v, saturated)) => {
                         if let Some(exact) = saturated {
@@ -336,8 +370,8 @@ mod tests {
         use Tri::*;
         assert_eq!(T.and(U), U);
         assert_eq!(F.and(U), F);
-        assert_eq!(U.not(), U);
-        assert_eq!(F.not(), T);
+        assert_eq!(!U, U);
+        assert_eq!(!F, T);
     }
 
     #[test]

@@ -172,7 +172,9 @@ impl Operand for CalcOp {
     }
     fn get(b: &mut &[u8]) -> Option<Self> {
         use CalcOp::*;
-        [Add, Sub, Mul, Div, Mod, Max, Min].get(u8::get(b)? as usize).copied()
+        [Add, Sub, Mul, Div, Mod, Max, Min]
+            .get(u8::get(b)? as usize)
+            .copied()
     }
     fn show(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "{}", self.symbol())
@@ -325,7 +327,11 @@ mod tests {
 
     #[test]
     fn ops_stay_small() {
-        assert!(std::mem::size_of::<Op>() <= 16, "{}", std::mem::size_of::<Op>());
+        assert!(
+            std::mem::size_of::<Op>() <= 16,
+            "{}",
+            std::mem::size_of::<Op>()
+        );
     }
 
     #[test]
@@ -333,9 +339,21 @@ mod tests {
         let code = vec![
             Op::True {},
             Op::Nbr { mask: 5, want: 1 },
-            Op::Cmp { op: CmpOp::Gt, a: Val::Msg { dir: ANY_DIR, slot: 1 }, b: Val::Lit(-5) },
+            Op::Cmp {
+                op: CmpOp::Gt,
+                a: Val::Msg {
+                    dir: ANY_DIR,
+                    slot: 1,
+                },
+                b: Val::Lit(-5),
+            },
             Op::Jf { to: 300 },
-            Op::Calc { target: Target::Msg { dir: 2, slot: 7 }, op: CalcOp::Mod, a: Val::Ext(3), b: Val::Counter(24) },
+            Op::Calc {
+                target: Target::Msg { dir: 2, slot: 7 },
+                op: CalcOp::Mod,
+                a: Val::Ext(3),
+                b: Val::Counter(24),
+            },
             Op::Not {},
         ];
         let bytes = encode(&code);

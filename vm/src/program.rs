@@ -78,7 +78,10 @@ impl Program {
         let d = self.dim;
         for (ri, r) in self.rules.iter().enumerate() {
             let err = |what: String| VerifyError { rule: ri, what };
-            if r.pre.start > r.pre.end || r.pre.end as usize > self.code.len() || r.post.end as usize > self.code.len() {
+            if r.pre.start > r.pre.end
+                || r.pre.end as usize > self.code.len()
+                || r.post.end as usize > self.code.len()
+            {
                 return Err(err("code range outside the program".into()));
             }
             if r.priority == 0 || r.priority > 32767 {
@@ -109,7 +112,9 @@ impl Program {
                 max = max.max(depth);
             }
             if depth != 1 || max as usize > MAX_STACK {
-                return Err(err(format!("precondition leaves {depth} values (deepest {max})")));
+                return Err(err(format!(
+                    "precondition leaves {depth} values (deepest {max})"
+                )));
             }
             for op in &self.code[r.post.start as usize..r.post.end as usize] {
                 if op.is_pre() {
@@ -146,7 +151,15 @@ impl Program {
                 Err(format!("counter {c}"))
             }
         };
-        let coords = |o: &Offset| o.iter().try_for_each(|c| if let Coord::Counter(i) = c { counter(*i) } else { Ok(()) });
+        let coords = |o: &Offset| {
+            o.iter().try_for_each(|c| {
+                if let Coord::Counter(i) = c {
+                    counter(*i)
+                } else {
+                    Ok(())
+                }
+            })
+        };
         let val = |v: &Val, ext: bool| match *v {
             Val::Lit(x) if x == i16::MIN => Err("literal -32768".to_string()),
             Val::Lit(_) => Ok(()),
@@ -162,22 +175,29 @@ impl Program {
             Val::Ext(_) => Err("external counter outside a 2D calculation".into()),
         };
         match op {
-            Op::Nbr { mask, .. } | Op::Att { mask, .. } if mask & !dirs_mask != 0 => Err(format!("mask {mask:#b}")),
+            Op::Nbr { mask, .. } | Op::Att { mask, .. } if mask & !dirs_mask != 0 => {
+                Err(format!("mask {mask:#b}"))
+            }
             Op::Prio { strict, leq } if (strict | leq) & !dirs_mask != 0 || strict & leq != 0 => {
                 Err("priority pattern".into())
             }
             Op::State { pat } | Op::SetState { pat } => idx(*pat, self.pats.len(), "pattern"),
             Op::Msg { dir: x, pat } => dir(*x, true).and(idx(*pat, self.pats.len(), "pattern")),
-            Op::Empty { off } | Op::Filled { off } | Op::Less { off } | Op::LessEq { off } | Op::Move { off } => {
-                idx(*off, self.offsets.len(), "offset").and_then(|_| coords(&self.offsets[*off as usize]))
-            }
+            Op::Empty { off }
+            | Op::Filled { off }
+            | Op::Less { off }
+            | Op::LessEq { off }
+            | Op::Move { off } => idx(*off, self.offsets.len(), "offset")
+                .and_then(|_| coords(&self.offsets[*off as usize])),
             Op::RState { off, pat } => idx(*off, self.offsets.len(), "offset")
                 .and(idx(*pat, self.pats.len(), "pattern"))
                 .and_then(|_| coords(&self.offsets[*off as usize])),
             Op::Cmp { a, b, .. } => val(a, false).and(val(b, false)),
-            Op::RCmp { off, counter: c, b, .. } => {
-                idx(*off, self.offsets.len(), "offset").and(counter(*c)).and(val(b, false))
-            }
+            Op::RCmp {
+                off, counter: c, b, ..
+            } => idx(*off, self.offsets.len(), "offset")
+                .and(counter(*c))
+                .and(val(b, false)),
             Op::Attach { letters } => idx(*letters, self.letters.len(), "letters"),
             Op::Swap { dir: x } => dir(*x, false),
             Op::Send { dir: x, text } => dir(*x, true).and(idx(*text, self.texts.len(), "text")),
@@ -201,15 +221,27 @@ impl Program {
     /// A readable listing of every rule's code and the tables.
     pub fn disassemble(&self) -> String {
         let mut s = String::new();
-        let _ = writeln!(s, "; {} program, {} rules, {} instructions", self.dim.name(), self.rules.len(), self.code.len());
+        let _ = writeln!(
+            s,
+            "; {} program, {} rules, {} instructions",
+            self.dim.name(),
+            self.rules.len(),
+            self.code.len()
+        );
         for (i, r) in self.rules.iter().enumerate() {
             let _ = writeln!(s, "\nrule {i} `{}` priority {}", r.name, r.priority);
             let _ = writeln!(s, "  pre:");
-            for (k, op) in self.code[r.pre.start as usize..r.pre.end as usize].iter().enumerate() {
+            for (k, op) in self.code[r.pre.start as usize..r.pre.end as usize]
+                .iter()
+                .enumerate()
+            {
                 let _ = writeln!(s, "    {k:4}  {op}");
             }
             let _ = writeln!(s, "  post:");
-            for (k, op) in self.code[r.post.start as usize..r.post.end as usize].iter().enumerate() {
+            for (k, op) in self.code[r.post.start as usize..r.post.end as usize]
+                .iter()
+                .enumerate()
+            {
                 let _ = writeln!(s, "    {k:4}  {op}");
             }
         }
@@ -217,7 +249,11 @@ impl Program {
             Coord::Lit(v) => v.to_string(),
             Coord::Counter(i) => format!("C{i:02}"),
         };
-        let show_pat = |p: &TextPat| p.iter().map(|c| c.map_or('*', |b| b as char)).collect::<String>();
+        let show_pat = |p: &TextPat| {
+            p.iter()
+                .map(|c| c.map_or('*', |b| b as char))
+                .collect::<String>()
+        };
         if !self.offsets.is_empty() {
             let _ = writeln!(s, "\noffsets:");
             for (i, o) in self.offsets.iter().enumerate() {

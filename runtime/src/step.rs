@@ -1,0 +1,1127 @@
+//! The synchronous step: selection with priorities, actions, calculations and the post
+//! office, exactly as `../shared/SEMANTICS.md` section 5 defines them. Every phase visits
+//! agents in id order, so a run is deterministic.
+
+// The step works on parallel columns indexed by agent id and direction; index loops say
+// that more plainly than zipped iterators over five columns.
+#![allow(clippy::needless_range_loop)]
+
+use crate::lattice::Lattice;
+use crate::record::{Record, RecordKind};
+use crate::trace::TraceEvent;
+use latticesim_vm::eval::{eval_pre, run_post, CalcEnv, CalcIssue, Cell, Env, Tri};
+use latticesim_vm::model::{AttachLetter, Dir, TextPat};
+use latticesim_vm::op::ANY_DIR;
+use latticesim_vm::Program;
+use std::collections::BTreeMap;
+
+/// Which of the paper's steps 2 and 3 comes first.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Order {
+    /// Actions, then calculations and messages (the paper's order).
+    #[default]
+    ActionsFirst,
+    /// Calculations and messages, then actions.
+    MessagesFirst,
+}
+
+/// How a run steps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Options {
+    /// The order of actions and messages.
+    pub order: Order,
+    /// Rules without a position change (no `P`, no `X`) perform their actions before the
+    /// rules with one, in a separate pass.
+    pub static_first: bool,
+    /// Collect trace events.
+    pub trace: bool,
+}
+
+/// Counts over a run.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct Stats {
+    /// Steps done.
+    pub steps: u64,
+    /// Whether the last step had no selected rule.
+    pub quiescent: bool,
+    /// Executions per rule (file order).
+    pub firings: Vec<u64>,
+    /// Agent moves (each agent of a moved group counts).
+    pub moves: u64,
+    /// Swaps done.
+    pub swaps: u64,
+    /// Messages sent (each direction of a numeric slot or text counts).
+    pub sent: u64,
+    /// Messages delivered.
+    pub delivered: u64,
+    /// Messages dropped (no agent in that direction).
+    pub dropped: u64,
+    /// Records by kind.
+    pub records: BTreeMap<RecordKind, u64>,
+}
+
+/// What one step did.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct StepReport {
+    /// No agent had a selected rule.
+    pub quiescent: bool,
+    /// The records of this step.
+    pub records: Vec<Record>,
+    /// The trace events of this step (when tracing).
+    pub trace: Vec<TraceEvent>,
+}
+
+/// A program running on a lattice.
+pub struct Engine {
+    /// The compiled rules.
+    pub prog: Program,
+    /// The agents.
+    pub lat: Lattice,
+    /// How it steps.
+    pub opts: Options,
+    /// Counts so far.
+    pub stats: Stats,
+    by_prio: Vec<u32>,
+    out_num: Vec<i16>,
+    out_bits: Vec<u32>,
+    out_text: Vec<[u8; 5]>,
+    out_text_bits: Vec<u8>,
+}
+
+const OPEN: i32 = -1;
+
+struct PrioView<'a> {
+    fixed: &'a [i32],
+    cur: &'a [u16],
+}
+
+struct SelEnv<'a> {
+    lat: &'a Lattice,
+    a: u32,
+    prio: Option<PrioView<'a>>,
+}
+
+impl Env for SelEnv<'_> {
+    fn counter(&self, i: u8) -> i16 {
+        self.lat.counter(self.a, i)
+    }
+    fn state(&self) -> [u8; 5] {
+        self.lat.state[self.a as usize]
+    }
+    fn attach(&self) -> u8 {
+        self.lat.attach[self.a as usize]
+    }
+    fn cell(&self, off: [i32; 3]) -> Cell {
+        self.lat.cell_at(self.lat.pos[self.a as usize], off)
+    }
+    fn agent_state(&self, id: u32) -> [u8; 5] {
+        self.lat.state[id as usize]
+    }
+    fn agent_counter(&self, id: u32, i: u8) -> i16 {
+        self.lat.counter(id, i)
+    }
+    fn inbox_num(&self, dir: u8, slot: u8) -> i16 {
+        let d = self.lat.dim;
+        self.lat.inbox_num[(self.a as usize * d.dirs() + dir as usize) * d.slots() + slot as usize]
+    }
+    fn inbox_text(&self, dir: u8) -> Option<[u8; 5]> {
+        (self.lat.inbox_text_has[self.a as usize] & (1 << dir) != 0)
+            .then(|| self.lat.inbox_text[self.a as usize * self.lat.dim.dirs() + dir as usize])
+    }
+    fn priorities_known(&self) -> bool {
+        self.prio.is_some()
+    }
+    fn prio(&self, other: Option<u32>, p: u16, strict: bool) -> Tri {
+        let Some(view) = &self.prio else {
+            return Tri::U;
+        };
+        let Some(b) = other else { return Tri::T };
+        let b = b as usize;
+        if view.fixed[b] != OPEN {
+            let f = view.fixed[b];
+            Tri::of(if strict { f < p as i32 } else { f <= p as i32 })
+        } else if !strict || view.cur[b] < p {
+            // An open neighbour ends at or below its current priority, which is <= p.
+            Tri::T
+        } else {
+            Tri::U
+        }
+    }
+    fn dirs(&self) -> u8 {
+        self.lat.dim.dirs() as u8
+    }
+}
+
+/// The combined actions of one agent's selected rules.
+#[derive(Clone, Copy)]
+struct Intent {
+    mv: Option<[i32; 3]>,
+    mv_bad: bool,
+    swap: Option<Dir>,
+    letters: [AttachLetter; 6],
+    state: TextPat,
+}
+
+impl Default for Intent {
+    fn default() -> Self {
+        Intent {
+            mv: None,
+            mv_bad: false,
+            swap: None,
+            letters: [AttachLetter::Keep; 6],
+            state: [None; 5],
+        }
+    }
+}
+
+fn find(parent: &mut [u32], mut x: u32) -> u32 {
+    while parent[x as usize] != x {
+        parent[x as usize] = parent[parent[x as usize] as usize];
+        x = parent[x as usize];
+    }
+    x
+}
+
+fn text(s: &[u8; 5]) -> String {
+    String::from_utf8_lossy(s).into_owned()
+}
+
+impl Engine {
+    /// A program ready to run on a lattice. The program must have passed `verify` and match
+    /// the lattice's dimension.
+    pub fn new(prog: Program, lat: Lattice, opts: Options) -> Engine {
+        let mut by_prio: Vec<u32> = (0..prog.rules.len() as u32).collect();
+        by_prio.sort_by_key(|&r| std::cmp::Reverse(prog.rules[r as usize].priority));
+        let n = lat.len();
+        let d = lat.dim;
+        Engine {
+            stats: Stats {
+                firings: vec![0; prog.rules.len()],
+                ..Stats::default()
+            },
+            by_prio,
+            out_num: vec![0; n * d.dirs() * d.slots()],
+            out_bits: vec![0; n],
+            out_text: vec![[0; 5]; n * d.dirs()],
+            out_text_bits: vec![0; n],
+            prog,
+            lat,
+            opts,
+        }
+    }
+
+    fn agents_of(&self, ids: &[u32]) -> Vec<(u32, [i32; 3])> {
+        ids.iter().map(|&a| (a, self.lat.pos[a as usize])).collect()
+    }
+
+    fn record(&mut self, rep: &mut StepReport, kind: RecordKind, ids: &[u32], message: String) {
+        *self.stats.records.entry(kind).or_insert(0) += 1;
+        rep.records.push(Record {
+            step: self.stats.steps + 1,
+            kind,
+            agents: self.agents_of(ids),
+            message,
+        });
+    }
+
+    fn rule_name(&self, r: u32) -> &str {
+        &self.prog.rules[r as usize].name
+    }
+
+    /// Selection: which rules each agent executes this step (flat, per agent in file order).
+    fn select(&mut self, rep: &mut StepReport) -> (Vec<u32>, Vec<u32>) {
+        let n = self.lat.len();
+        let prog = &self.prog;
+        let mut ent_rule: Vec<u32> = Vec::with_capacity(n);
+        let mut ent_tri: Vec<Tri> = Vec::with_capacity(n);
+        let mut ent_start: Vec<u32> = Vec::with_capacity(n + 1);
+        let mut fixed = vec![OPEN; n];
+        let mut cur = vec![0u16; n];
+        let mut levels: BTreeMap<u16, Vec<u32>> = BTreeMap::new();
+        ent_start.push(0);
+        for a in 0..n as u32 {
+            let env = SelEnv {
+                lat: &self.lat,
+                a,
+                prio: None,
+            };
+            let start = ent_rule.len();
+            for &r in &self.by_prio {
+                let t = eval_pre(prog, r as usize, &env);
+                if t != Tri::F {
+                    ent_rule.push(r);
+                    ent_tri.push(t);
+                }
+            }
+            ent_start.push(ent_rule.len() as u32);
+            if start == ent_rule.len() {
+                fixed[a as usize] = 0;
+                continue;
+            }
+            let p = prog.rules[ent_rule[start] as usize].priority;
+            cur[a as usize] = p;
+            let top = (start..ent_rule.len())
+                .take_while(|&e| prog.rules[ent_rule[e] as usize].priority == p);
+            let mut any_t = false;
+            let mut any_u = false;
+            for e in top {
+                any_t |= ent_tri[e] == Tri::T;
+                any_u |= ent_tri[e] == Tri::U;
+            }
+            if any_t {
+                fixed[a as usize] = p as i32;
+            }
+            if any_u {
+                levels.entry(p).or_default().push(a);
+            }
+        }
+        let prio_of = |e: usize| prog.rules[ent_rule[e] as usize].priority;
+        let mut circles: Vec<(Vec<u32>, String)> = Vec::new();
+        while let Some((p, mut list)) = levels.pop_last() {
+            list.sort_unstable();
+            list.dedup();
+            let at_level = |a: usize, fixed: &[i32], cur: &[u16]| {
+                (fixed[a] == OPEN && cur[a] == p) || fixed[a] == p as i32
+            };
+            loop {
+                let mut changed = false;
+                for &a in &list {
+                    let ai = a as usize;
+                    if !at_level(ai, &fixed, &cur) {
+                        continue;
+                    }
+                    let (s, e) = (ent_start[ai] as usize, ent_start[ai + 1] as usize);
+                    let mut alive = false;
+                    for k in s..e {
+                        if prio_of(k) != p {
+                            continue;
+                        }
+                        if ent_tri[k] == Tri::U {
+                            let env = SelEnv {
+                                lat: &self.lat,
+                                a,
+                                prio: Some(PrioView {
+                                    fixed: &fixed,
+                                    cur: &cur,
+                                }),
+                            };
+                            let v = eval_pre(prog, ent_rule[k] as usize, &env);
+                            if v != Tri::U {
+                                ent_tri[k] = v;
+                                changed = true;
+                            }
+                        }
+                        if ent_tri[k] == Tri::T && fixed[ai] == OPEN {
+                            fixed[ai] = p as i32;
+                            changed = true;
+                        }
+                        alive |= ent_tri[k] != Tri::F;
+                    }
+                    if fixed[ai] == OPEN && !alive {
+                        changed = true;
+                        match (s..e).find(|&k| prio_of(k) < p && ent_tri[k] != Tri::F) {
+                            Some(k) => {
+                                cur[ai] = prio_of(k);
+                                levels.entry(cur[ai]).or_default().push(a);
+                            }
+                            None => {
+                                fixed[ai] = 0;
+                                cur[ai] = 0;
+                            }
+                        }
+                    }
+                }
+                if !changed {
+                    break;
+                }
+            }
+            // What is still unknown depends on itself in a circle: remove it all.
+            let mut circle: Vec<u32> = Vec::new();
+            let mut names: Vec<String> = Vec::new();
+            for &a in &list {
+                let ai = a as usize;
+                if !at_level(ai, &fixed, &cur) {
+                    continue;
+                }
+                let (s, e) = (ent_start[ai] as usize, ent_start[ai + 1] as usize);
+                let mut hit = false;
+                for k in s..e {
+                    if prio_of(k) == p && ent_tri[k] == Tri::U {
+                        ent_tri[k] = Tri::F;
+                        hit = true;
+                        let name = &prog.rules[ent_rule[k] as usize].name;
+                        if !names.contains(name) {
+                            names.push(name.clone());
+                        }
+                    }
+                }
+                if hit {
+                    circle.push(a);
+                    if fixed[ai] == OPEN {
+                        match (s..e).find(|&k| prio_of(k) < p && ent_tri[k] != Tri::F) {
+                            Some(k) => {
+                                cur[ai] = prio_of(k);
+                                levels.entry(cur[ai]).or_default().push(a);
+                            }
+                            None => {
+                                fixed[ai] = 0;
+                                cur[ai] = 0;
+                            }
+                        }
+                    }
+                }
+            }
+            if !circle.is_empty() {
+                let ids: Vec<String> = circle.iter().map(|a| a.to_string()).collect();
+                let msg = format!(
+                    "the priorities of agents {} depend on each other in a circle at priority {p}; their rules {} are not executed",
+                    ids.join(", "),
+                    names.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ")
+                );
+                circles.push((circle, msg));
+            }
+        }
+        // Each agent executes its rules that are true at its final priority, in file order.
+        let mut sel_start = Vec::with_capacity(n + 1);
+        let mut sel = Vec::new();
+        sel_start.push(0u32);
+        for a in 0..n {
+            let f = fixed[a];
+            if f > 0 {
+                let first = sel.len();
+                for k in ent_start[a] as usize..ent_start[a + 1] as usize {
+                    if prog.rules[ent_rule[k] as usize].priority as i32 == f && ent_tri[k] == Tri::T
+                    {
+                        sel.push(ent_rule[k]);
+                    }
+                }
+                sel[first..].sort_unstable();
+            }
+            sel_start.push(sel.len() as u32);
+        }
+        for (circle, msg) in circles {
+            self.record(rep, RecordKind::CircularPriority, &circle, msg);
+        }
+        (sel_start, sel)
+    }
+
+    /// One step. Returns what happened; `stats` is updated.
+    pub fn step(&mut self) -> StepReport {
+        let mut rep = StepReport::default();
+        let (sel_start, sel) = self.select(&mut rep);
+        rep.quiescent = sel.is_empty();
+        for a in 0..self.lat.len() {
+            let rs = &sel[sel_start[a] as usize..sel_start[a + 1] as usize];
+            for &r in rs {
+                self.stats.firings[r as usize] += 1;
+            }
+            if self.opts.trace && !rs.is_empty() {
+                rep.trace.push(TraceEvent::Fire {
+                    agent: a as u32,
+                    rules: rs.iter().map(|&r| self.rule_name(r).to_string()).collect(),
+                    priority: self.prog.rules[rs[0] as usize].priority,
+                });
+            }
+        }
+        match self.opts.order {
+            Order::ActionsFirst => {
+                self.all_actions(&sel_start, &sel, &mut rep);
+                self.calculations(&sel_start, &sel, &mut rep);
+                self.deliver(&mut rep);
+            }
+            Order::MessagesFirst => {
+                self.calculations(&sel_start, &sel, &mut rep);
+                self.deliver(&mut rep);
+                self.all_actions(&sel_start, &sel, &mut rep);
+            }
+        }
+        self.stats.steps += 1;
+        self.stats.quiescent = rep.quiescent;
+        rep
+    }
+
+    fn all_actions(&mut self, sel_start: &[u32], sel: &[u32], rep: &mut StepReport) {
+        if self.opts.static_first {
+            let prog = &self.prog;
+            let still: Vec<bool> = prog
+                .rules
+                .iter()
+                .map(|r| r.moves.is_none() && r.swaps.is_none())
+                .collect();
+            self.actions(sel_start, sel, rep, &|r| still[r as usize]);
+            self.actions(sel_start, sel, rep, &|r| !still[r as usize]);
+        } else {
+            self.actions(sel_start, sel, rep, &|_| true);
+        }
+    }
+
+    /// Paper step 2 for the selected rules that `pick` accepts.
+    fn actions(
+        &mut self,
+        sel_start: &[u32],
+        sel: &[u32],
+        rep: &mut StepReport,
+        pick: &dyn Fn(u32) -> bool,
+    ) {
+        let n = self.lat.len();
+        let nd = self.lat.dim.dirs();
+        let mut intents: Vec<Intent> = vec![Intent::default(); n];
+        let mut acting = false;
+        for a in 0..n {
+            let rs: Vec<u32> = sel[sel_start[a] as usize..sel_start[a + 1] as usize]
+                .iter()
+                .copied()
+                .filter(|&r| pick(r))
+                .collect();
+            if rs.is_empty() {
+                continue;
+            }
+            acting = true;
+            let mut it = Intent::default();
+            let mut moves: Vec<(u32, [i32; 3])> = Vec::new();
+            let mut swaps: Vec<(u32, Dir)> = Vec::new();
+            let mut letters: Vec<Option<(u32, AttachLetter)>> = vec![None; nd];
+            let mut conflict_dirs = 0u8;
+            let mut chars: [Option<(u32, u8)>; 5] = [None; 5];
+            let mut conflict_chars = 0u8;
+            for &r in &rs {
+                let info = &self.prog.rules[r as usize];
+                if let Some(off) = info.moves {
+                    let env = SelEnv {
+                        lat: &self.lat,
+                        a: a as u32,
+                        prio: None,
+                    };
+                    let o = latticesim_vm::eval::resolve(&self.prog.offsets[off as usize], &env);
+                    if o != [0, 0, 0] && !moves.iter().any(|m| m.1 == o) {
+                        moves.push((r, o));
+                    }
+                }
+                if let Some(d) = info.swaps {
+                    if !swaps.iter().any(|s| s.1 == d) {
+                        swaps.push((r, d));
+                    }
+                }
+                if let Some(l) = info.attaches {
+                    let ls = self.prog.letters[l as usize];
+                    for d in 0..nd {
+                        match letters[d] {
+                            None => letters[d] = Some((r, ls[d])),
+                            Some((_, prev)) if prev != ls[d] => conflict_dirs |= 1 << d,
+                            _ => {}
+                        }
+                    }
+                }
+                if let Some(p) = info.sets_state {
+                    let pat = self.prog.pats[p as usize];
+                    for (i, c) in pat.iter().enumerate() {
+                        if let Some(c) = *c {
+                            match chars[i] {
+                                None => chars[i] = Some((r, c)),
+                                Some((_, prev)) if prev != c => conflict_chars |= 1 << i,
+                                _ => {}
+                            }
+                        }
+                    }
+                }
+            }
+            let a32 = a as u32;
+            match moves.len() {
+                0 => {}
+                1 => it.mv = Some(moves[0].1),
+                _ => {
+                    it.mv_bad = true;
+                    let msg = format!(
+                        "agent {a} is asked for different moves by rules {}; its group does not move",
+                        moves.iter().map(|(r, o)| format!("`{}` ({},{})", self.rule_name(*r), o[0], o[1])).collect::<Vec<_>>().join(" and ")
+                    );
+                    self.record(rep, RecordKind::MoveConflict, &[a32], msg);
+                }
+            }
+            match swaps.len() {
+                0 => {}
+                1 => it.swap = Some(swaps[0].1),
+                _ => {
+                    let msg = format!(
+                        "agent {a} is asked to swap in different directions by rules {}; it does not swap",
+                        swaps.iter().map(|(r, d)| format!("`{}` (X{})", self.rule_name(*r), d.letter())).collect::<Vec<_>>().join(" and ")
+                    );
+                    self.record(rep, RecordKind::SwapConflict, &[a32], msg);
+                }
+            }
+            for d in 0..nd {
+                if conflict_dirs & (1 << d) != 0 {
+                    let msg = format!(
+                        "agent {a}'s rules give different attachment letters towards {}; that direction counts as `*`",
+                        Dir::ALL[d].letter()
+                    );
+                    self.record(rep, RecordKind::AttachConflict, &[a32], msg);
+                } else if let Some((_, l)) = letters[d] {
+                    it.letters[d] = l;
+                }
+            }
+            for i in 0..5 {
+                if conflict_chars & (1 << i) != 0 {
+                    let msg = format!(
+                        "agent {a}'s rules set character {} of the state differently; it is left unchanged",
+                        i + 1
+                    );
+                    self.record(rep, RecordKind::StateConflict, &[a32], msg);
+                } else if let Some((_, c)) = chars[i] {
+                    it.state[i] = Some(c);
+                }
+            }
+            intents[a] = it;
+        }
+        if !acting {
+            return;
+        }
+        self.detach_move_attach(&intents, rep);
+        // 5. State updates.
+        for (a, it) in intents.iter().enumerate() {
+            if it.state.iter().all(Option::is_none) {
+                continue;
+            }
+            let old = self.lat.state[a];
+            let mut new = old;
+            for i in 0..5 {
+                if let Some(c) = it.state[i] {
+                    new[i] = c;
+                }
+            }
+            if new != old {
+                self.lat.state[a] = new;
+                if self.opts.trace {
+                    rep.trace.push(TraceEvent::State {
+                        agent: a as u32,
+                        from: text(&old),
+                        to: text(&new),
+                    });
+                }
+            }
+        }
+        self.swaps(&intents, rep);
+    }
+
+    /// Steps 1 to 4: detach, decide, move rigid groups, attach.
+    fn detach_move_attach(&mut self, intents: &[Intent], rep: &mut StepReport) {
+        let n = self.lat.len();
+        let nd = self.lat.dim.dirs();
+        let old_attach = self.lat.attach.clone();
+        // Partner before detaching, per agent and direction.
+        let partner = |lat: &Lattice, a: usize, d: usize| -> Option<u32> {
+            (old_attach[a] & (1 << d) != 0)
+                .then(|| lat.neighbour(a as u32, Dir::ALL[d]))
+                .flatten()
+        };
+        // 1. Detach: keep rigid bonds only.
+        let mut rigid = vec![0u8; n];
+        for a in 0..n {
+            for d in 0..nd {
+                let Some(b) = partner(&self.lat, a, d) else {
+                    continue;
+                };
+                let od = Dir::ALL[d].opposite().index();
+                let (la, lb) = (intents[a].letters[d], intents[b as usize].letters[od]);
+                if la != AttachLetter::Detach
+                    && lb != AttachLetter::Detach
+                    && (la == AttachLetter::Rigid || lb == AttachLetter::Rigid)
+                {
+                    rigid[a] |= 1 << d;
+                }
+            }
+        }
+        // 3. Move: groups of rigid bonds.
+        let mut parent: Vec<u32> = (0..n as u32).collect();
+        for a in 0..n {
+            for d in 0..nd {
+                if rigid[a] & (1 << d) != 0 {
+                    if let Some(b) = partner(&self.lat, a, d) {
+                        let (x, y) = (find(&mut parent, a as u32), find(&mut parent, b));
+                        if x != y {
+                            parent[x.max(y) as usize] = x.min(y);
+                        }
+                    }
+                }
+            }
+        }
+        let mut members: BTreeMap<u32, Vec<u32>> = BTreeMap::new();
+        let movers: Vec<usize> = (0..n)
+            .filter(|&a| intents[a].mv.is_some() || intents[a].mv_bad)
+            .collect();
+        for &a in &movers {
+            let root = find(&mut parent, a as u32);
+            members.entry(root).or_default();
+        }
+        if !members.is_empty() {
+            for a in 0..n as u32 {
+                let root = find(&mut parent, a);
+                if let Some(m) = members.get_mut(&root) {
+                    m.push(a);
+                }
+            }
+        }
+        // Group offsets.
+        let mut group_off: BTreeMap<u32, [i32; 3]> = BTreeMap::new();
+        for (&root, ms) in &members {
+            let mut off: Option<[i32; 3]> = None;
+            let mut bad = false;
+            let mut differ = false;
+            for &m in ms {
+                let it = &intents[m as usize];
+                bad |= it.mv_bad;
+                if let Some(o) = it.mv {
+                    match off {
+                        None => off = Some(o),
+                        Some(p) if p != o => differ = true,
+                        _ => {}
+                    }
+                }
+            }
+            if differ && !bad {
+                let msg = format!(
+                    "the rigid group of agents {} is asked for different moves by its members; it does not move",
+                    ms.iter().map(|m| m.to_string()).collect::<Vec<_>>().join(", ")
+                );
+                self.record(rep, RecordKind::GroupConflict, ms, msg);
+            }
+            if let (Some(o), false, false) = (off, bad, differ) {
+                group_off.insert(root, o);
+            }
+        }
+        // Blocked targets.
+        let roots: Vec<u32> = group_off.keys().copied().collect();
+        for root in roots {
+            let o = group_off[&root];
+            let ms = &members[&root];
+            let blocked = ms.iter().find(|&&m| {
+                let p = self.lat.pos[m as usize];
+                !self.lat.inside([
+                    p[0] as i64 + o[0] as i64,
+                    p[1] as i64 + o[1] as i64,
+                    p[2] as i64 + o[2] as i64,
+                ])
+            });
+            if let Some(&m) = blocked {
+                let ms = ms.clone();
+                group_off.remove(&root);
+                let msg = format!("agent {m} cannot move by ({},{},{}): the target cell is blocked; its group does not move", o[0], o[1], o[2]);
+                self.record(rep, RecordKind::MoveBlocked, &ms, msg);
+            }
+        }
+        // Collisions: cancel every group involved, until none is left.
+        loop {
+            let mut target: rustc_hash::FxHashMap<[i32; 3], Vec<u32>> = Default::default();
+            for (&root, o) in &group_off {
+                for &m in &members[&root] {
+                    let p = self.lat.pos[m as usize];
+                    target
+                        .entry([p[0] + o[0], p[1] + o[1], p[2] + o[2]])
+                        .or_default()
+                        .push(m);
+                }
+            }
+            let moving = |a: u32, parent: &mut Vec<u32>| group_off.contains_key(&find(parent, a));
+            let mut cancel: Vec<(u32, [i32; 3], Vec<u32>)> = Vec::new();
+            let mut cells: Vec<&[i32; 3]> = target.keys().collect();
+            cells.sort();
+            for cell in cells {
+                let ms = &target[cell];
+                let stay = self
+                    .lat
+                    .agent_at(*cell)
+                    .filter(|&s| !moving(s, &mut parent));
+                if ms.len() > 1 || stay.is_some() {
+                    let mut involved = ms.clone();
+                    involved.extend(stay);
+                    for &m in ms {
+                        let root = find(&mut parent, m);
+                        if !cancel.iter().any(|c| c.0 == root) {
+                            cancel.push((root, *cell, involved.clone()));
+                        }
+                    }
+                }
+            }
+            if cancel.is_empty() {
+                break;
+            }
+            cancel.sort_by_key(|c| c.0);
+            for (root, cell, involved) in cancel {
+                group_off.remove(&root);
+                let msg = format!(
+                    "a move of agent {} would put agents {} on the cell ({},{},{}); the moves are cancelled",
+                    root,
+                    involved.iter().map(|m| m.to_string()).collect::<Vec<_>>().join(", "),
+                    cell[0],
+                    cell[1],
+                    cell[2]
+                );
+                self.record(rep, RecordKind::MoveCollision, &members[&root].clone(), msg);
+            }
+        }
+        let mut moves: Vec<(u32, [i32; 3])> = Vec::new();
+        for (root, o) in &group_off {
+            for &m in &members[root] {
+                let p = self.lat.pos[m as usize];
+                moves.push((m, [p[0] + o[0], p[1] + o[1], p[2] + o[2]]));
+            }
+        }
+        moves.sort_unstable();
+        if self.opts.trace {
+            for &(m, to) in &moves {
+                rep.trace.push(TraceEvent::Move {
+                    agent: m,
+                    from: self.lat.pos[m as usize],
+                    to,
+                });
+            }
+        }
+        self.stats.moves += moves.len() as u64;
+        // Partners for `*` must be read before the moves.
+        let mut keep_partner: Vec<[Option<u32>; 6]> = vec![[None; 6]; n];
+        for a in 0..n {
+            for d in 0..nd {
+                keep_partner[a][d] = partner(&self.lat, a, d);
+            }
+        }
+        self.lat.relocate(&moves);
+        // 4. Attach: rigid bonds stay; a bond forms where one side decided to attach and
+        // neither side said 0.
+        let mut new_attach = rigid;
+        for a in 0..n {
+            for d in 0..nd {
+                if new_attach[a] & (1 << d) != 0 {
+                    continue;
+                }
+                let la = intents[a].letters[d];
+                let Some(b) = self.lat.neighbour(a as u32, Dir::ALL[d]) else {
+                    continue;
+                };
+                let decided = match la {
+                    AttachLetter::Attach => true,
+                    AttachLetter::Keep | AttachLetter::Rigid => keep_partner[a][d] == Some(b),
+                    AttachLetter::Detach => false,
+                };
+                if !decided {
+                    continue;
+                }
+                let od = Dir::ALL[d].opposite().index();
+                let lb = intents[b as usize].letters[od];
+                if lb == AttachLetter::Detach {
+                    if la == AttachLetter::Attach {
+                        let msg = format!(
+                            "agent {a} wants to attach towards {} to agent {b}, which says 0; no bond",
+                            Dir::ALL[d].letter()
+                        );
+                        self.record(rep, RecordKind::AttachRefused, &[a as u32, b], msg);
+                    }
+                    continue;
+                }
+                new_attach[a] |= 1 << d;
+                new_attach[b as usize] |= 1 << od;
+            }
+        }
+        if self.opts.trace {
+            for a in 0..n {
+                for d in 0..nd {
+                    let was = old_attach[a] & (1 << d) != 0;
+                    let now = new_attach[a] & (1 << d) != 0;
+                    let b_now = self.lat.neighbour(a as u32, Dir::ALL[d]);
+                    let b_was = keep_partner[a][d];
+                    if was && (!now || b_now != b_was) {
+                        if let Some(b) = b_was.filter(|&b| b > a as u32) {
+                            rep.trace.push(TraceEvent::Bond {
+                                a: a as u32,
+                                b,
+                                formed: false,
+                            });
+                        }
+                    }
+                    if now && (!was || b_now != b_was) {
+                        if let Some(b) = b_now.filter(|&b| b > a as u32) {
+                            rep.trace.push(TraceEvent::Bond {
+                                a: a as u32,
+                                b,
+                                formed: true,
+                            });
+                        }
+                    }
+                }
+            }
+        }
+        self.lat.attach = new_attach;
+    }
+
+    /// Step 6: swaps.
+    fn swaps(&mut self, intents: &[Intent], rep: &mut StepReport) {
+        let mut pairs: Vec<(u32, u32, Dir)> = Vec::new();
+        for (a, it) in intents.iter().enumerate() {
+            let Some(d) = it.swap else { continue };
+            let a = a as u32;
+            match self.lat.cell_at(self.lat.pos[a as usize], d.offset()) {
+                Cell::Agent(b) => {
+                    // Two agents asking to swap with each other make one swap.
+                    let (x, y, dd) = if a < b {
+                        (a, b, d)
+                    } else {
+                        (b, a, d.opposite())
+                    };
+                    if !pairs.iter().any(|p| p.0 == x && p.1 == y) {
+                        pairs.push((x, y, dd));
+                    }
+                }
+                _ => {
+                    let msg = format!(
+                        "agent {a} cannot swap towards {}: no agent stands there",
+                        d.letter()
+                    );
+                    self.record(rep, RecordKind::SwapTarget, &[a], msg);
+                }
+            }
+        }
+        let mut count: rustc_hash::FxHashMap<u32, u32> = Default::default();
+        for p in &pairs {
+            *count.entry(p.0).or_default() += 1;
+            *count.entry(p.1).or_default() += 1;
+        }
+        for (x, y, d) in pairs {
+            if count[&x] > 1 || count[&y] > 1 {
+                let msg = format!("the swap of agents {x} and {y} shares an agent with another swap; it is cancelled");
+                self.record(rep, RecordKind::SwapShared, &[x, y], msg);
+                continue;
+            }
+            let (px, py) = (self.lat.pos[x as usize], self.lat.pos[y as usize]);
+            // Bonds other than the one between them are dropped.
+            let nd = self.lat.dim.dirs();
+            let bonded = self.lat.attach[x as usize] & (1 << d.index()) != 0;
+            for &(s, _) in &[(x, px), (y, py)] {
+                for k in 0..nd {
+                    if self.lat.attach[s as usize] & (1 << k) != 0 {
+                        if let Some(o) = self.lat.neighbour(s, Dir::ALL[k]) {
+                            if o != x && o != y {
+                                self.lat.attach[o as usize] &=
+                                    !(1 << Dir::ALL[k].opposite().index());
+                            }
+                        }
+                    }
+                }
+                self.lat.attach[s as usize] = 0;
+            }
+            self.lat.relocate(&[(x, py), (y, px)]);
+            if bonded {
+                // x is now where y was: y lies opposite to d from x.
+                self.lat.attach[x as usize] |= 1 << d.opposite().index();
+                self.lat.attach[y as usize] |= 1 << d.index();
+            }
+            self.stats.swaps += 1;
+            if self.opts.trace {
+                rep.trace.push(TraceEvent::Swap { a: x, b: y });
+            }
+        }
+    }
+
+    /// Paper step 3, first half: every selected rule's calculations and sends.
+    fn calculations(&mut self, sel_start: &[u32], sel: &[u32], rep: &mut StepReport) {
+        let n = self.lat.len();
+        let uses_ext = !self.prog.externals.is_empty();
+        let snapshot = if uses_ext {
+            self.lat.counters.clone()
+        } else {
+            Vec::new()
+        };
+        let nc = self.lat.nc();
+        let d = self.lat.dim;
+        for a in 0..n {
+            let rs = &sel[sel_start[a] as usize..sel_start[a + 1] as usize];
+            for &r in rs {
+                if !self.prog.rules[r as usize].computes {
+                    continue;
+                }
+                let before: Vec<i16> = if self.opts.trace {
+                    self.lat.counters[a * nc..(a + 1) * nc].to_vec()
+                } else {
+                    Vec::new()
+                };
+                let mut env = CalcCtx {
+                    lat: &mut self.lat,
+                    a,
+                    snapshot: &snapshot,
+                    out_num: &mut self.out_num,
+                    out_bits: &mut self.out_bits,
+                    out_text: &mut self.out_text,
+                    out_text_bits: &mut self.out_text_bits,
+                    issues: Vec::new(),
+                };
+                run_post(&self.prog, r as usize, &mut env);
+                let issues = std::mem::take(&mut env.issues);
+                for (_, issue) in issues {
+                    let name = self.rule_name(r).to_string();
+                    let (kind, msg) = match issue {
+                        CalcIssue::Saturated { exact } => (
+                            RecordKind::Saturation,
+                            format!("agent {a}, rule `{name}`: the result {exact} is saturated to the 16-bit range"),
+                        ),
+                        CalcIssue::DivisionByZero => (
+                            RecordKind::DivisionByZero,
+                            format!("agent {a}, rule `{name}`: division by zero; the target is unchanged"),
+                        ),
+                        CalcIssue::NoExternalAgent { off } => (
+                            RecordKind::NoExternalAgent,
+                            format!(
+                                "agent {a}, rule `{name}`: no agent at ({},{}) to read an external counter from; the calculation is skipped",
+                                off[0], off[1]
+                            ),
+                        ),
+                    };
+                    self.record(rep, kind, &[a as u32], msg);
+                }
+                if self.opts.trace {
+                    for (i, (&old, &new)) in before
+                        .iter()
+                        .zip(&self.lat.counters[a * nc..(a + 1) * nc])
+                        .enumerate()
+                    {
+                        if old != new {
+                            rep.trace.push(TraceEvent::Counter {
+                                agent: a as u32,
+                                counter: i as u8,
+                                value: new,
+                            });
+                        }
+                    }
+                }
+            }
+        }
+        let _ = d;
+    }
+
+    /// Paper step 3, second half: empty every inbox, then deliver every outgoing message to
+    /// the agent standing in its direction now.
+    fn deliver(&mut self, rep: &mut StepReport) {
+        let d = self.lat.dim;
+        let (nd, ns) = (d.dirs(), d.slots());
+        self.lat.inbox_num.iter_mut().for_each(|v| *v = 0);
+        self.lat.inbox_text_has.iter_mut().for_each(|v| *v = 0);
+        for a in 0..self.lat.len() {
+            let bits = std::mem::take(&mut self.out_bits[a]);
+            let tbits = std::mem::take(&mut self.out_text_bits[a]);
+            if bits == 0 && tbits == 0 {
+                continue;
+            }
+            for dir in 0..nd {
+                let slots = (bits >> (dir * ns)) & ((1 << ns) - 1);
+                let has_text = tbits & (1 << dir) != 0;
+                if slots == 0 && !has_text {
+                    continue;
+                }
+                let to = self.lat.neighbour(a as u32, Dir::ALL[dir]);
+                let od = Dir::ALL[dir].opposite().index();
+                for s in 0..ns {
+                    if slots & (1 << s) == 0 {
+                        continue;
+                    }
+                    let v = self.out_num[(a * nd + dir) * ns + s];
+                    self.stats.sent += 1;
+                    match to {
+                        Some(b) => {
+                            self.lat.inbox_num[(b as usize * nd + od) * ns + s] = v;
+                            self.stats.delivered += 1;
+                        }
+                        None => self.stats.dropped += 1,
+                    }
+                    if self.opts.trace {
+                        rep.trace.push(TraceEvent::Message {
+                            from: a as u32,
+                            to,
+                            dir: Dir::ALL[dir].letter(),
+                            slot: Some(s as u8 + 1),
+                            value: Some(v),
+                            text: None,
+                        });
+                    }
+                }
+                if has_text {
+                    let t = self.out_text[a * nd + dir];
+                    self.stats.sent += 1;
+                    match to {
+                        Some(b) => {
+                            self.lat.inbox_text[b as usize * nd + od] = t;
+                            self.lat.inbox_text_has[b as usize] |= 1 << od;
+                            self.stats.delivered += 1;
+                        }
+                        None => self.stats.dropped += 1,
+                    }
+                    if self.opts.trace {
+                        rep.trace.push(TraceEvent::Message {
+                            from: a as u32,
+                            to,
+                            dir: Dir::ALL[dir].letter(),
+                            slot: None,
+                            value: None,
+                            text: Some(text(&t)),
+                        });
+                    }
+                }
+            }
+        }
+    }
+}
+
+struct CalcCtx<'a> {
+    lat: &'a mut Lattice,
+    a: usize,
+    snapshot: &'a [i16],
+    out_num: &'a mut [i16],
+    out_bits: &'a mut [u32],
+    out_text: &'a mut [[u8; 5]],
+    out_text_bits: &'a mut [u8],
+    issues: Vec<(usize, CalcIssue)>,
+}
+
+impl CalcEnv for CalcCtx<'_> {
+    fn counter(&self, i: u8) -> i16 {
+        self.lat.counters[self.a * self.lat.nc() + i as usize]
+    }
+    fn set_counter(&mut self, i: u8, v: i16) {
+        let nc = self.lat.nc();
+        self.lat.counters[self.a * nc + i as usize] = v;
+    }
+    fn inbox_num(&self, dir: u8, slot: u8) -> i16 {
+        let d = self.lat.dim;
+        self.lat.inbox_num[(self.a * d.dirs() + dir as usize) * d.slots() + slot as usize]
+    }
+    fn external(&self, off: [i32; 2], counter: u8) -> Option<i16> {
+        match self.lat.cell_at(self.lat.pos[self.a], [off[0], off[1], 0]) {
+            Cell::Agent(b) => Some(self.snapshot[b as usize * self.lat.nc() + counter as usize]),
+            _ => None,
+        }
+    }
+    fn send_num(&mut self, dir: u8, slot: u8, v: i16) {
+        let d = self.lat.dim;
+        let (nd, ns) = (d.dirs(), d.slots());
+        let dirs = if dir == ANY_DIR {
+            0..nd
+        } else {
+            dir as usize..dir as usize + 1
+        };
+        for k in dirs {
+            self.out_num[(self.a * nd + k) * ns + slot as usize] = v;
+            self.out_bits[self.a] |= 1 << (k * ns + slot as usize);
+        }
+    }
+    fn send_text(&mut self, dir: u8, text: [u8; 5]) {
+        let nd = self.lat.dim.dirs();
+        let dirs = if dir == ANY_DIR {
+            0..nd
+        } else {
+            dir as usize..dir as usize + 1
+        };
+        for k in dirs {
+            self.out_text[self.a * nd + k] = text;
+            self.out_text_bits[self.a] |= 1 << k;
+        }
+    }
+    fn issue(&mut self, pc: usize, issue: CalcIssue) {
+        self.issues.push((pc, issue));
+    }
+}

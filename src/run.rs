@@ -1,0 +1,301 @@
+//! `latticesim run`: check, compile, step until quiescence, write the results.
+
+use crate::{read, write_file, RECORDS_SHOWN_PER_KIND};
+use latticesim_compiler::{check, lower, Input};
+use latticesim_runtime::{Engine, Lattice, Options, Order, RecordKind, Stats};
+use serde_json::json;
+use std::collections::BTreeMap;
+use std::io::{IsTerminal, Write};
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+pub struct RunArgs {
+    pub rules: PathBuf,
+    pub agents: PathBuf,
+    pub max_steps: u64,
+    pub out: Option<PathBuf>,
+    pub stats: Option<PathBuf>,
+    pub trace: Option<PathBuf>,
+    pub order: Order,
+    pub static_first: bool,
+    pub strict: bool,
+    pub no_timing: bool,
+    pub quiet: bool,
+    pub colour: bool,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Stop {
+    Quiescence,
+    MaxSteps,
+    Strict,
+    Interrupted,
+}
+
+impl Stop {
+    fn name(self) -> &'static str {
+        match self {
+            Stop::Quiescence => "quiescence",
+            Stop::MaxSteps => "max-steps",
+            Stop::Strict => "strict",
+            Stop::Interrupted => "interrupted",
+        }
+    }
+}
+
+fn stats_json(e: &Engine, stop: Stop, wall: Option<Duration>) -> serde_json::Value {
+    let s: &Stats = &e.stats;
+    let firings: Vec<serde_json::Value> = e
+        .prog
+        .rules
+        .iter()
+        .zip(&s.firings)
+        .map(|(r, n)| json!({ "rule": r.name, "firings": n }))
+        .collect();
+    let by_kind: BTreeMap<&str, u64> = s.records.iter().map(|(k, n)| (k.name(), *n)).collect();
+    let errors: u64 = s
+        .records
+        .iter()
+        .filter(|(k, _)| k.is_error())
+        .map(|(_, n)| n)
+        .sum();
+    let warnings: u64 = s
+        .records
+        .iter()
+        .filter(|(k, _)| !k.is_error())
+        .map(|(_, n)| n)
+        .sum();
+    let mut v = json!({
+        "steps": s.steps,
+        "stopped_by": stop.name(),
+        "quiescent": stop == Stop::Quiescence,
+        "agents": e.lat.len(),
+        "rules": e.prog.rules.len(),
+        "firings": firings,
+        "moves": s.moves,
+        "swaps": s.swaps,
+        "messages": { "sent": s.sent, "delivered": s.delivered, "dropped": s.dropped },
+        "records": { "errors": errors, "warnings": warnings, "by_kind": by_kind },
+    });
+    if let Some(w) = wall {
+        v["wall_time_s"] = json!(w.as_secs_f64());
+    }
+    v
+}
+
+pub fn run(args: RunArgs) -> ExitCode {
+    let (rules_bytes, agents_bytes) = match (read(&args.rules), read(&args.agents)) {
+        (Ok(r), Ok(a)) => (r, a),
+        (Err(c), _) | (_, Err(c)) => return c,
+    };
+    let rules_name = args.rules.display().to_string();
+    let agents_name = args.agents.display().to_string();
+    let checked = check(
+        Input {
+            name: &rules_name,
+            bytes: &rules_bytes,
+        },
+        Some(Input {
+            name: &agents_name,
+            bytes: &agents_bytes,
+        }),
+        None,
+    );
+    if !checked.diags.is_empty() && (checked.errors() > 0 || !args.quiet) {
+        let _ = latticesim_compiler::render::render_stderr(
+            &checked.diags,
+            &checked.sources,
+            args.colour,
+        );
+    }
+    let (Some(program), Some(config)) = (&checked.program, &checked.config) else {
+        eprintln!(
+            "{rules_name}, {agents_name}: {} error{}; nothing was run",
+            checked.errors(),
+            if checked.errors() == 1 { "" } else { "s" }
+        );
+        return ExitCode::from(1);
+    };
+    let prog = lower(program);
+    if let Err(e) = prog.verify() {
+        eprintln!("internal error: the compiled program does not verify: {e}");
+        return ExitCode::from(2);
+    }
+    let mut trace_out = match &args.trace {
+        Some(p) => match std::fs::File::create(p) {
+            Ok(f) => Some(std::io::BufWriter::new(f)),
+            Err(e) => {
+                eprintln!("error: cannot write `{}`: {e}", p.display());
+                return ExitCode::from(2);
+            }
+        },
+        None => None,
+    };
+    let opts = Options {
+        order: args.order,
+        static_first: args.static_first,
+        trace: trace_out.is_some(),
+    };
+    let mut engine = Engine::new(prog, Lattice::new(config), opts);
+
+    let interrupted = Arc::new(AtomicBool::new(false));
+    {
+        let flag = interrupted.clone();
+        // A second handler cannot be installed (tests run the CLI as separate processes).
+        let _ = ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst));
+    }
+    let started = Instant::now();
+    let mut bar: Option<indicatif::ProgressBar> = None;
+    let show_progress = !args.quiet && std::io::stderr().is_terminal();
+    let mut shown: BTreeMap<RecordKind, u64> = BTreeMap::new();
+    let mut stop = Stop::MaxSteps;
+    while engine.stats.steps < args.max_steps {
+        let before = args
+            .strict
+            .then(|| (engine.lat.clone(), engine.stats.clone()));
+        let rep = engine.step();
+        for r in &rep.records {
+            let n = shown.entry(r.kind).or_insert(0);
+            *n += 1;
+            if !args.quiet && *n <= RECORDS_SHOWN_PER_KIND {
+                let line = format!("{r}");
+                match &bar {
+                    Some(b) => b.println(line),
+                    None => eprintln!("{line}"),
+                }
+            }
+        }
+        if let Some(w) = trace_out.as_mut() {
+            let step = engine.stats.steps;
+            let mut ok = true;
+            for ev in &rep.trace {
+                let mut v = serde_json::to_value(ev).expect("plain data");
+                v["step"] = json!(step);
+                ok &= writeln!(w, "{v}").is_ok();
+            }
+            for r in &rep.records {
+                let v = json!({
+                    "event": "record",
+                    "step": step,
+                    "kind": r.kind.name(),
+                    "severity": if r.is_error() { "error" } else { "warning" },
+                    "agents": r.agents.iter().map(|(id, p)| json!({"id": id, "pos": p})).collect::<Vec<_>>(),
+                    "message": r.message,
+                });
+                ok &= writeln!(w, "{v}").is_ok();
+            }
+            if !ok {
+                eprintln!("error: cannot write the trace");
+                return ExitCode::from(2);
+            }
+        }
+        if args.strict && rep.records.iter().any(|r| r.is_error()) {
+            let (lat, stats) = before.expect("kept when strict");
+            engine.lat = lat;
+            engine.stats = stats;
+            stop = Stop::Strict;
+            break;
+        }
+        if rep.quiescent {
+            stop = Stop::Quiescence;
+            break;
+        }
+        if interrupted.load(Ordering::SeqCst) {
+            stop = Stop::Interrupted;
+            break;
+        }
+        if show_progress && bar.is_none() && started.elapsed() > Duration::from_secs(1) {
+            let b = indicatif::ProgressBar::new(args.max_steps);
+            b.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "{spinner} step {pos} of at most {len} [{elapsed_precise}] {msg}",
+                )
+                .expect("valid template"),
+            );
+            bar = Some(b);
+        }
+        if let Some(b) = &bar {
+            b.set_position(engine.stats.steps);
+        }
+    }
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    let wall = started.elapsed();
+    if let Some(mut w) = trace_out {
+        if w.flush().is_err() {
+            eprintln!("error: cannot write the trace");
+            return ExitCode::from(2);
+        }
+    }
+    let text = engine.lat.to_agents_text();
+    match &args.out {
+        Some(p) => {
+            if let Err(c) = write_file(p, &text) {
+                return c;
+            }
+        }
+        None => print!("{text}"),
+    }
+    if let Some(p) = &args.stats {
+        let v = stats_json(&engine, stop, (!args.no_timing).then_some(wall));
+        let mut s = serde_json::to_string_pretty(&v).expect("plain data");
+        s.push('\n');
+        if let Err(c) = write_file(p, &s) {
+            return c;
+        }
+    }
+    if !args.quiet {
+        for (k, n) in &shown {
+            if *n > RECORDS_SHOWN_PER_KIND {
+                eprintln!(
+                    "... and {} more {} records",
+                    n - RECORDS_SHOWN_PER_KIND,
+                    k.name()
+                );
+            }
+        }
+        let s = &engine.stats;
+        let errors: u64 = s
+            .records
+            .iter()
+            .filter(|(k, _)| k.is_error())
+            .map(|(_, n)| n)
+            .sum();
+        let warnings: u64 = s
+            .records
+            .iter()
+            .filter(|(k, _)| !k.is_error())
+            .map(|(_, n)| n)
+            .sum();
+        let firings: u64 = s.firings.iter().sum();
+        let why = match stop {
+            Stop::Quiescence => "quiescent".to_string(),
+            Stop::MaxSteps => format!("stopped at --max-steps {}", args.max_steps),
+            Stop::Strict => {
+                "stopped by --strict at an error record; the state is the one before that step"
+                    .into()
+            }
+            Stop::Interrupted => "interrupted".into(),
+        };
+        eprintln!(
+            "{} agents, {} steps, {why}: {firings} rule firings, {} moves, {} swaps, {} messages sent ({} delivered, {} dropped), {errors} error records, {warnings} warnings, {:.3} s",
+            engine.lat.len(),
+            s.steps,
+            s.moves,
+            s.swaps,
+            s.sent,
+            s.delivered,
+            s.dropped,
+            wall.as_secs_f64()
+        );
+    }
+    match stop {
+        Stop::Strict => ExitCode::from(3),
+        Stop::Interrupted => ExitCode::from(130),
+        _ => ExitCode::SUCCESS,
+    }
+}
