@@ -140,3 +140,172 @@ fn dim_flag_against_agents_file() {
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("error[E301]"), "{}", stderr(&o));
 }
+
+fn run_files(rules: &str, agents: &str, tag: &str, extra: &[&str]) -> (Output, PathBuf) {
+    let r = tmp(&format!("{tag}-rules.txt"), rules.as_bytes());
+    let a = tmp(&format!("{tag}-agents.txt"), agents.as_bytes());
+    let dir = r.parent().unwrap().join(tag);
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut args: Vec<String> = vec![
+        "run".into(),
+        r.display().to_string(),
+        a.display().to_string(),
+    ];
+    args.extend(
+        ["--out", "--stats", "--trace"]
+            .iter()
+            .zip(["out.txt", "stats.json", "trace.jsonl"])
+            .flat_map(|(flag, name)| [flag.to_string(), dir.join(name).display().to_string()]),
+    );
+    args.extend(extra.iter().map(|s| s.to_string()));
+    let o = bin().args(&args).output().unwrap();
+    (o, dir)
+}
+
+const MOVERS: &str = "east\n2\nSE**** E1,0\nP1,0 A**+* C00 + C00 0001 #*01 + C00 0000\nstop\n1\nSE**** F1,0\nSSTOP0 MNhello\n";
+const MOVERS_AGENTS: &str = "U0,9,0,3\n0,0 SE0000 A0010\n1,0 A0100\n0,2 SE0000\n5,2\n";
+
+#[test]
+fn run_is_deterministic_and_writes_everything() {
+    let (o1, d1) = run_files(MOVERS, MOVERS_AGENTS, "det1", &["--no-timing"]);
+    let (o2, d2) = run_files(MOVERS, MOVERS_AGENTS, "det2", &["--no-timing"]);
+    assert_eq!(o1.status.code(), Some(0), "{}", stderr(&o1));
+    assert_eq!(o2.status.code(), Some(0));
+    for f in ["out.txt", "stats.json", "trace.jsonl"] {
+        let a = std::fs::read(d1.join(f)).unwrap();
+        let b = std::fs::read(d2.join(f)).unwrap();
+        assert!(!a.is_empty(), "{f} is empty");
+        assert_eq!(a, b, "{f} differs between two runs");
+    }
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d1.join("stats.json")).unwrap()).unwrap();
+    assert_eq!(stats["stopped_by"], "quiescence");
+    assert!(stats.get("wall_time_s").is_none());
+    assert_eq!(stats["firings"][0]["rule"], "east");
+    for line in std::fs::read_to_string(d1.join("trace.jsonl"))
+        .unwrap()
+        .lines()
+    {
+        let v: serde_json::Value = serde_json::from_str(line).expect("each trace line is JSON");
+        assert!(v["step"].as_u64().unwrap() >= 1);
+        assert!(v["event"].is_string());
+    }
+    assert!(stderr(&o1).contains("quiescent"), "{}", stderr(&o1));
+}
+
+#[test]
+fn zero_steps_write_back_the_agents_and_reload_unchanged() {
+    let agents = "// comment\nU-5,5,-5,5\n1,1 SLEAD0 A0010 C03 -7 C00 5\n2,1 A0100\n-3,4\n";
+    let (o, d) = run_files(
+        "r\n1\nS*****\nS*****\n",
+        agents,
+        "zero",
+        &["--max-steps", "0"],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = std::fs::read_to_string(d.join("out.txt")).unwrap();
+    assert_eq!(
+        out,
+        "U-5,5,-5,5\n1,1 SLEAD0 A0010 C00 5 C03 -7\n2,1 S00000 A0100\n-3,4 S00000\n"
+    );
+    let (o2, d2) = run_files(
+        "r\n1\nS*****\nS*****\n",
+        &out,
+        "zero2",
+        &["--max-steps", "0"],
+    );
+    assert_eq!(o2.status.code(), Some(0));
+    assert_eq!(std::fs::read_to_string(d2.join("out.txt")).unwrap(), out);
+}
+
+#[test]
+fn run_refuses_rules_with_errors() {
+    let (o, _) = run_files("r\n1\nN1*0*1*\nS*****\n", "0,0\n", "bad", &[]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("error[E302]"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("nothing was run"));
+}
+
+#[test]
+fn strict_stops_before_the_step_with_an_error() {
+    // Step 1 moves agent 0 east; step 2 would divide by zero: --strict keeps the state after
+    // step 1 and exits 3.
+    let rules = "a\n1\nS0****\nP1,0 SA****\nb\n1\nSA****\nC00 / C00 0000\n";
+    let (o, d) = run_files(rules, "0,0\n", "strict", &["--strict"]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read_to_string(d.join("out.txt")).unwrap(),
+        "1,0 SA0000\n"
+    );
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("stats.json")).unwrap()).unwrap();
+    assert_eq!(stats["stopped_by"], "strict");
+    assert_eq!(stats["steps"], 1);
+    // Without --strict the run goes on and counts the records.
+    let (o, d) = run_files(rules, "0,0\n", "lenient", &["--max-steps", "3"]);
+    assert_eq!(o.status.code(), Some(0));
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("stats.json")).unwrap()).unwrap();
+    assert_eq!(stats["records"]["by_kind"]["division-by-zero"], 2);
+    assert!(
+        stderr(&o).contains("error[division-by-zero] step 2"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn a_flood_of_records_is_summarised() {
+    let rules = "d\n1\nS*****\nC00 / C00 0000\n";
+    let (o, _) = run_files(rules, "0,0\n", "flood", &["--max-steps", "50"]);
+    assert_eq!(o.status.code(), Some(0));
+    let e = stderr(&o);
+    assert_eq!(e.matches("error[division-by-zero]").count(), 5, "{e}");
+    assert!(
+        e.contains("... and 45 more division-by-zero records"),
+        "{e}"
+    );
+}
+
+#[test]
+fn ctrl_c_stops_after_the_step_and_still_writes() {
+    let r = tmp("int-rules.txt", b"spin\n1\nS*****\nC00 + C00 0001\n");
+    let a = tmp("int-agents.txt", b"0,0\n");
+    let dir = r.parent().unwrap().join("int");
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut child = bin()
+        .args([
+            "run",
+            r.to_str().unwrap(),
+            a.to_str().unwrap(),
+            "--max-steps",
+            "1000000000",
+        ])
+        .arg("--out")
+        .arg(dir.join("out.txt"))
+        .arg("--stats")
+        .arg(dir.join("stats.json"))
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let ok = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(ok.success());
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(130));
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("stats.json")).unwrap()).unwrap();
+    assert_eq!(stats["stopped_by"], "interrupted");
+    let steps = stats["steps"].as_u64().unwrap();
+    assert!(steps > 0);
+    let out = std::fs::read_to_string(dir.join("out.txt")).unwrap();
+    let want = (steps as i64).min(32767);
+    assert_eq!(
+        out,
+        format!("0,0 S00000 C00 {want}\n"),
+        "the state after the last full step"
+    );
+}
