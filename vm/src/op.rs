@@ -363,3 +363,18 @@ mod tests {
         assert_eq!(code[2].to_string(), "cmp op=> a=#*02 b=-5");
     }
 }
+
+#[cfg(test)]
+mod doc_tests {
+    use super::Op;
+
+    #[test]
+    fn bytecode_page_lists_every_opcode() {
+        let doc = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/bytecode.md"))
+            .expect("docs/bytecode.md exists");
+        for (code, name) in Op::TABLE {
+            let row = format!("| `{code:#04x}` | `{name}` |");
+            assert!(doc.contains(&row), "docs/bytecode.md has no row {row}");
+        }
+    }
+}
