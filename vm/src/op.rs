@@ -370,8 +370,9 @@ mod doc_tests {
 
     #[test]
     fn bytecode_page_lists_every_opcode() {
-        let doc = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/bytecode.md"))
-            .expect("docs/bytecode.md exists");
+        let doc =
+            std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/bytecode.md"))
+                .expect("docs/bytecode.md exists");
         for (code, name) in Op::TABLE {
             let row = format!("| `{code:#04x}` | `{name}` |");
             assert!(doc.contains(&row), "docs/bytecode.md has no row {row}");

@@ -1,0 +1,445 @@
+//! The engine (bytecode VM, flat lattice) against the reference evaluator (condition trees,
+//! a plain list of agents): random rule sets using every kind of term and action, on random
+//! configurations, several steps; both must agree on the configuration after every step,
+//! the records and the statistics.
+//!
+//! `PROPTEST_CASES` sets the number of cases (default 200); see docs/testing.md.
+
+#![allow(clippy::needless_range_loop)]
+
+mod reference;
+
+use latticesim_compiler::{check, lower, Input};
+use latticesim_runtime::{Engine, Lattice, Options, Order};
+use proptest::prelude::*;
+use reference::{Rec, World};
+
+const STATES: [&str; 3] = ["A0000", "B0000", "A1000"];
+
+fn pick<T: Clone + std::fmt::Debug + 'static>(v: Vec<T>) -> impl Strategy<Value = T> {
+    proptest::sample::select(v)
+}
+
+fn dirs(d3: bool) -> Vec<char> {
+    if d3 {
+        vec!['N', 'W', 'E', 'S', 'A', 'B']
+    } else {
+        vec!['N', 'W', 'E', 'S']
+    }
+}
+
+fn pat(len: usize, alphabet: &'static str) -> impl Strategy<Value = String> {
+    proptest::collection::vec(pick(alphabet.chars().collect()), len)
+        .prop_map(|v| v.into_iter().collect())
+}
+
+fn coord() -> impl Strategy<Value = String> {
+    prop_oneof![4 => (-1i32..=1).prop_map(|v| v.to_string()), 1 => (0u8..3).prop_map(|c| format!("C{c:02}"))]
+}
+
+fn offset(d3: bool) -> impl Strategy<Value = String> {
+    proptest::collection::vec(coord(), if d3 { 3 } else { 2 }).prop_map(|v| v.join(","))
+}
+
+fn value(d3: bool, any: bool) -> BoxedStrategy<String> {
+    let mut ds = dirs(d3);
+    if any {
+        ds.push('*');
+    }
+    prop_oneof![
+        (-2i32..=2).prop_map(|v| if v < 0 {
+            format!("-{:04}", -v)
+        } else {
+            format!("{v:04}")
+        }),
+        (0u8..3).prop_map(|c| format!("C{c:02}")),
+        (pick(ds), 1u8..3).prop_map(|(d, k)| format!("#{d}{k:02}")),
+    ]
+    .boxed()
+}
+
+fn state_pat() -> impl Strategy<Value = String> {
+    (pick(vec!["A", "B", "*"]), pick(vec!["0", "1", "*"])).prop_map(|(a, b)| format!("{a}{b}***"))
+}
+
+fn pre_leaf(d3: bool) -> BoxedStrategy<String> {
+    let n = if d3 { 6 } else { 4 };
+    let mut all: Vec<BoxedStrategy<String>> = vec![
+        pat(n, "01**").prop_map(|p| format!("N{p}")).boxed(),
+        pat(n, "01***").prop_map(|p| format!("A{p}")).boxed(),
+        pat(n, "<=**").prop_map(|p| format!("P{p}")).boxed(),
+        state_pat().prop_map(|p| format!("S{p}")).boxed(),
+        (
+            pick({
+                let mut d = dirs(d3);
+                d.push('*');
+                d
+            }),
+            pick(vec!["hi***", "h****"]),
+        )
+            .prop_map(|(d, t)| format!("M{d}{t}"))
+            .boxed(),
+        (pick(vec!['E', 'F', 'L', 'Q']), offset(d3))
+            .prop_map(|(l, o)| format!("{l}{o}"))
+            .boxed(),
+        (offset(d3), state_pat())
+            .prop_map(|(o, s)| format!("T{o},{s}"))
+            .boxed(),
+        (pick(vec!['<', '>', '=']), value(d3, true), value(d3, false))
+            .prop_map(|(o, a, b)| format!("{o}{a} {b}"))
+            .boxed(),
+    ];
+    if !d3 {
+        all.push(
+            (
+                pick(vec!['V', 'W']),
+                offset(false),
+                0u8..3,
+                value(false, true),
+            )
+                .prop_map(|(l, o, c, v)| format!("{l}{o},C{c:02} {v}"))
+                .boxed(),
+        );
+    }
+    proptest::strategy::Union::new(all).boxed()
+}
+
+fn pre(d3: bool) -> BoxedStrategy<String> {
+    let term = pre_leaf(d3).prop_recursive(2, 6, 3, |inner| {
+        prop_oneof![
+            inner.clone().prop_map(|t| format!("!{t}")),
+            proptest::collection::vec(inner, 1..3).prop_map(|v| format!("({})", v.join(" "))),
+        ]
+    });
+    proptest::collection::vec(term, 1..4)
+        .prop_map(|v| v.join(" "))
+        .boxed()
+}
+
+fn operand(d3: bool) -> BoxedStrategy<String> {
+    if d3 {
+        value(true, false)
+    } else {
+        prop_oneof![3 => value(false, false), 1 => (coord(), coord(), 0u8..3).prop_map(|(x, y, c)| format!("{x},{y},C{c:02}"))].boxed()
+    }
+}
+
+fn post(d3: bool) -> BoxedStrategy<String> {
+    let n = if d3 { 6 } else { 4 };
+    let ds = dirs(d3);
+    let mut tds = ds.clone();
+    tds.push('*');
+    let calc = (
+        prop_oneof![
+            (0u8..3).prop_map(|c| format!("C{c:02}")),
+            (pick(tds.clone()), 1u8..3).prop_map(|(d, k)| format!("#{d}{k:02}"))
+        ],
+        pick(vec!['+', '-', '*', '/', 'M', 'A', 'I']),
+        // At most one external counter per calculation, on either side.
+        prop_oneof![
+            (operand(d3), value(d3, false)),
+            (value(d3, false), operand(d3))
+        ],
+    )
+        .prop_map(|(t, o, (a, b))| format!("{t} {o} {a} {b}"));
+    (
+        proptest::option::of(prop_oneof![
+            offset(d3).prop_map(|o| format!("P{o}")),
+            pick(ds).prop_map(|d| format!("X{d}"))
+        ]),
+        proptest::option::of(pat(n, "01*+*").prop_map(|p| format!("A{p}"))),
+        proptest::option::of(state_pat().prop_map(|p| format!("S{p}"))),
+        proptest::option::of(
+            (pick(tds), pick(vec!["hi000", "hello"])).prop_map(|(d, t)| format!("M{d}{t}")),
+        ),
+        proptest::collection::vec(calc, 0..3),
+    )
+        .prop_map(|(m, a, s, msg, calcs)| {
+            let mut v: Vec<String> = [m, a, s, msg].into_iter().flatten().collect();
+            v.extend(calcs);
+            if v.is_empty() {
+                v.push("S*****".into());
+            }
+            v.join(" ")
+        })
+        .boxed()
+}
+
+fn rules(d3: bool) -> impl Strategy<Value = String> {
+    proptest::collection::vec((1u16..4, pre(d3), post(d3)), 1..5).prop_map(|rs| {
+        rs.iter()
+            .enumerate()
+            .map(|(i, (p, pre, post))| format!("r{i}\n{p}\n{pre}\n{post}\n"))
+            .collect::<Vec<_>>()
+            .join("\n")
+    })
+}
+
+fn agents(d3: bool) -> impl Strategy<Value = String> {
+    let cell = if d3 {
+        (0i32..3, 0i32..3, 0i32..3).boxed()
+    } else {
+        (0i32..4, 0i32..4, Just(0)).boxed()
+    };
+    (
+        proptest::collection::btree_set(cell, 1..9),
+        proptest::collection::vec((pick(STATES.to_vec()), -3i16..4, -3i16..4, 0u8..64), 9),
+        proptest::bool::ANY,
+    )
+        .prop_map(move |(cells, attrs, bounded)| {
+            let cells: Vec<(i32, i32, i32)> = cells.into_iter().collect();
+            let n = if d3 { 6 } else { 4 };
+            let at = |p: (i32, i32, i32)| cells.iter().position(|&c| c == p);
+            let mut text = String::new();
+            if bounded {
+                text += if d3 { "U0,2,0,2,0,2\n" } else { "U0,3,0,3\n" };
+            }
+            for (i, &(x, y, z)) in cells.iter().enumerate() {
+                let (st, c0, c1, bits) = attrs[i];
+                // Attach only where a neighbour stands and both ends agree.
+                let mut a = String::new();
+                for d in 0..n {
+                    let o = latticesim_compiler::program::Dir::ALL[d].offset();
+                    let nb = at((x + o[0], y + o[1], z + o[2]));
+                    let on = nb.is_some_and(|j| {
+                        let pair = (i.min(j) * 7 + i.max(j) * 3) as u8;
+                        (bits ^ attrs[j].3) & 1 == 0 && pair % 3 != 0
+                    });
+                    a.push(if on { '1' } else { '0' });
+                }
+                let pos = if d3 {
+                    format!("{x},{y},{z}")
+                } else {
+                    format!("{x},{y}")
+                };
+                text += &format!("{pos} S{st} A{a} C00 {c0} C01 {c1}\n");
+            }
+            text
+        })
+}
+
+fn compare(e: &Engine, w: &World, step: u64) -> Result<(), TestCaseError> {
+    let nd = w.dim.dirs();
+    let ns = w.dim.slots();
+    for (i, a) in w.agents.iter().enumerate() {
+        prop_assert_eq!(
+            e.lat.pos[i],
+            a.pos,
+            "step {}: position of agent {}",
+            step,
+            i
+        );
+        prop_assert_eq!(
+            e.lat.state[i],
+            a.state,
+            "step {}: state of agent {}",
+            step,
+            i
+        );
+        prop_assert_eq!(
+            e.lat.attach[i],
+            a.attach,
+            "step {}: attachments of agent {}",
+            step,
+            i
+        );
+        prop_assert_eq!(
+            &e.lat.counters[i * a.counters.len()..(i + 1) * a.counters.len()],
+            &a.counters[..],
+            "step {}: counters of agent {}",
+            step,
+            i
+        );
+        for d in 0..nd {
+            for s in 0..ns {
+                prop_assert_eq!(
+                    e.lat.inbox_num[(i * nd + d) * ns + s],
+                    a.inbox_num[d][s],
+                    "step {}: inbox of {}",
+                    step,
+                    i
+                );
+            }
+            let t = (e.lat.inbox_text_has[i] & (1 << d) != 0).then(|| e.lat.inbox_text[i * nd + d]);
+            prop_assert_eq!(t, a.inbox_text[d], "step {}: text inbox of {}", step, i);
+        }
+    }
+    Ok(())
+}
+
+fn differential(
+    rules: &str,
+    agents: &str,
+    order: Order,
+    static_first: bool,
+) -> Result<(), TestCaseError> {
+    let c = check(
+        Input {
+            name: "rules.txt",
+            bytes: rules.as_bytes(),
+        },
+        Some(Input {
+            name: "agents.txt",
+            bytes: agents.as_bytes(),
+        }),
+        None,
+    );
+    prop_assert_eq!(
+        c.errors(),
+        0,
+        "generated files have errors: {:?}\n{}\n{}",
+        c.diags.first(),
+        rules,
+        agents
+    );
+    let program = c.program.clone().unwrap();
+    let config = c.config.clone().unwrap();
+    let prog = lower(&program);
+    prop_assert!(prog.verify().is_ok());
+    let mut e = Engine::new(
+        prog,
+        Lattice::new(&config),
+        Options {
+            order,
+            static_first,
+            trace: false,
+        },
+    );
+    let mut w = World::new(
+        program,
+        &config,
+        order == Order::MessagesFirst,
+        static_first,
+    );
+    for step in 1..=6u64 {
+        let rep = e.step();
+        let (quiet, recs) = w.step();
+        prop_assert_eq!(
+            rep.quiescent,
+            quiet,
+            "step {}: quiescence\n{}\n{}",
+            step,
+            rules,
+            agents
+        );
+        let mut mine: Vec<Rec> = rep
+            .records
+            .iter()
+            .map(|r| {
+                let mut ids: Vec<u32> = r.agents.iter().map(|a| a.0).collect();
+                ids.sort();
+                Rec {
+                    step: r.step,
+                    kind: r.kind.name(),
+                    agents: ids,
+                }
+            })
+            .collect();
+        let mut theirs: Vec<Rec> = recs
+            .into_iter()
+            .map(|mut r| {
+                r.agents.sort();
+                r
+            })
+            .collect();
+        mine.sort();
+        theirs.sort();
+        prop_assert_eq!(
+            mine,
+            theirs,
+            "step {}: records\n{}\n{}",
+            step,
+            rules,
+            agents
+        );
+        compare(&e, &w, step)
+            .map_err(|err| TestCaseError::fail(format!("{err}\n{rules}\n{agents}")))?;
+        if quiet {
+            break;
+        }
+    }
+    let s = &e.stats;
+    let r = &w.stats;
+    prop_assert_eq!(s.steps, r.steps);
+    prop_assert_eq!(&s.firings, &r.firings);
+    prop_assert_eq!((s.moves, s.swaps), (r.moves, r.swaps));
+    prop_assert_eq!(
+        (s.sent, s.delivered, s.dropped),
+        (r.sent, r.delivered, r.dropped)
+    );
+    let by_kind: std::collections::BTreeMap<&str, u64> =
+        s.records.iter().map(|(k, n)| (k.name(), *n)).collect();
+    prop_assert_eq!(by_kind, r.records.clone());
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: std::env::var("PROPTEST_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(200),
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    })]
+
+    #[test]
+    fn engine_agrees_with_reference_2d(r in rules(false), a in agents(false), mf in proptest::bool::ANY, sf in proptest::bool::ANY) {
+        differential(&r, &a, if mf { Order::MessagesFirst } else { Order::ActionsFirst }, sf)?;
+    }
+
+    #[test]
+    fn engine_agrees_with_reference_3d(r in rules(true), a in agents(true), mf in proptest::bool::ANY, sf in proptest::bool::ANY) {
+        differential(&r, &a, if mf { Order::MessagesFirst } else { Order::ActionsFirst }, sf)?;
+    }
+}
+
+/// The generators reach every kind of record, moves, swaps and deliveries: the comparison
+/// above is not vacuous.
+#[test]
+fn generators_reach_every_record_kind() {
+    use proptest::strategy::ValueTree;
+    use proptest::test_runner::{Config, TestRunner};
+    let mut runner = TestRunner::new(Config {
+        rng_seed: proptest::test_runner::RngSeed::Fixed(7),
+        ..Config::default()
+    });
+    let mut kinds = std::collections::BTreeSet::new();
+    let (mut moves, mut swaps, mut delivered) = (0, 0, 0);
+    for i in 0..3000 {
+        let d3 = i % 4 == 3;
+        let r = rules(d3).new_tree(&mut runner).unwrap().current();
+        let a = agents(d3).new_tree(&mut runner).unwrap().current();
+        let c = check(
+            Input {
+                name: "r",
+                bytes: r.as_bytes(),
+            },
+            Some(Input {
+                name: "a",
+                bytes: a.as_bytes(),
+            }),
+            None,
+        );
+        let (Some(p), Some(cfg)) = (&c.program, &c.config) else {
+            panic!("{:?}", c.diags.first())
+        };
+        let mut e = Engine::new(lower(p), Lattice::new(cfg), Options::default());
+        for _ in 0..6 {
+            if e.step().quiescent {
+                break;
+            }
+        }
+        kinds.extend(e.stats.records.keys().copied());
+        moves += e.stats.moves;
+        swaps += e.stats.swaps;
+        delivered += e.stats.delivered;
+    }
+    let missing: Vec<&str> = latticesim_runtime::RecordKind::ALL
+        .iter()
+        .filter(|k| !kinds.contains(k))
+        .map(|k| k.name())
+        .collect();
+    assert!(missing.is_empty(), "never produced: {missing:?}");
+    assert!(
+        moves > 100 && swaps > 10 && delivered > 100,
+        "{moves} moves, {swaps} swaps, {delivered} delivered"
+    );
+}
