@@ -557,3 +557,31 @@ fn three_d_rigid_group_moves_up() {
     assert_eq!(pos(&e, 1), [0, 0, 2]);
     assert_eq!((e.lat.attach[0], e.lat.attach[1]), (0b010000, 0b100000));
 }
+
+#[test]
+fn different_attachment_letters_count_as_star() {
+    // Two rules of agent 0 disagree about east (0 and +): an error, east counts as `*`, so
+    // the bond to agent 1 (not moving) is removed and re-formed. North: both say 1, so agent
+    // 0 attaches to agent 2.
+    let mut e = engine(
+        "a\n1\nSA****\nA1*0*\nb\n1\nSA****\nA1*+*\n",
+        "0,0 SA0000 A0010\n1,0 A0100\n0,1\n",
+    );
+    let r = e.step();
+    assert_eq!(kinds(&r), vec!["attach-conflict"]);
+    assert_eq!(e.lat.attach[0], 0b0101, "north and east");
+    assert_eq!(e.lat.attach[2], 0b1000);
+}
+
+#[test]
+fn a_later_text_to_the_same_direction_overwrites() {
+    // `a` sends `first` east, `b` (same priority, later in the file) sends `later` to all.
+    let mut e = engine(
+        "a\n1\nSS****\nMEfirst\nb\n1\nSS****\nM*later\nr\n1\nS0**** MWlater\nSGOT00\n",
+        "0,0 SS0000\n1,0\n",
+    );
+    e.step();
+    e.step();
+    assert_eq!(state(&e, 1), "GOT00");
+    assert_eq!(e.stats.sent, 8, "each step: four directions, east written twice but sent once");
+}
