@@ -29,21 +29,13 @@ enum Format {
 }
 
 #[derive(Clone, Copy, ValueEnum)]
-enum Color {
+pub(crate) enum Color {
     /// Colour when stderr is a terminal.
     Auto,
     /// Always colour.
     Always,
     /// Never colour.
     Never,
-}
-
-#[derive(Clone, Copy, ValueEnum)]
-enum OrderArg {
-    /// Actions, then calculations and messages (the paper's order).
-    ActionsFirst,
-    /// Calculations and messages, then actions.
-    MessagesFirst,
 }
 
 #[derive(Subcommand)]
@@ -53,42 +45,7 @@ enum Command {
     /// Exit status: 0 done, 1 errors in the input files, 2 usage or I/O failure, 3 stopped by
     /// --strict at an error record, 130 interrupted (Ctrl-C). --out and --stats are written
     /// in every case but 1 and 2.
-    Run {
-        /// The rules file.
-        rules: PathBuf,
-        /// The agents file.
-        agents: PathBuf,
-        /// Stop after this many steps at the latest.
-        #[arg(long, default_value_t = 10_000)]
-        max_steps: u64,
-        /// Write the final configuration here (agents.txt syntax); default: standard output.
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Write statistics here (JSON).
-        #[arg(long)]
-        stats: Option<PathBuf>,
-        /// Write every action and record of every step here (JSON Lines).
-        #[arg(long)]
-        trace: Option<PathBuf>,
-        /// Which comes first in a step.
-        #[arg(long, value_enum, default_value_t = OrderArg::ActionsFirst)]
-        order: OrderArg,
-        /// Rules without a move or swap act before the rules with one.
-        #[arg(long)]
-        static_first: bool,
-        /// Stop at the first error record, keeping the state before that step.
-        #[arg(long)]
-        strict: bool,
-        /// Leave the wall time out of --stats, so that the file is the same on every run.
-        #[arg(long)]
-        no_timing: bool,
-        /// Print no records or summary (errors in the input files are still printed).
-        #[arg(long, short)]
-        quiet: bool,
-        /// Colour in diagnostics.
-        #[arg(long, value_enum, default_value_t = Color::Auto)]
-        color: Color,
-    },
+    Run(run::RunArgs),
     /// Check a rules file (and an agents file) and report every problem.
     ///
     /// Exit status: 0 no errors (warnings allowed), 1 errors, 2 usage or I/O failure.
@@ -113,7 +70,7 @@ enum Command {
     },
 }
 
-fn read(path: &PathBuf) -> Result<Vec<u8>, ExitCode> {
+pub(crate) fn read(path: &PathBuf) -> Result<Vec<u8>, ExitCode> {
     std::fs::read(path).map_err(|e| {
         eprintln!("error: cannot read `{}`: {e}", path.display());
         ExitCode::from(2)
@@ -220,7 +177,7 @@ fn run_check(
     ExitCode::SUCCESS
 }
 
-fn colour(color: Color) -> bool {
+pub(crate) fn colour(color: Color) -> bool {
     match color {
         Color::Always => true,
         Color::Never => false,
@@ -228,7 +185,7 @@ fn colour(color: Color) -> bool {
     }
 }
 
-fn write_file(path: &PathBuf, text: &str) -> Result<(), ExitCode> {
+pub(crate) fn write_file(path: &PathBuf, text: &str) -> Result<(), ExitCode> {
     std::fs::write(path, text).map_err(|e| {
         eprintln!("error: cannot write `{}`: {e}", path.display());
         ExitCode::from(2)
@@ -236,7 +193,7 @@ fn write_file(path: &PathBuf, text: &str) -> Result<(), ExitCode> {
 }
 
 /// How many records of one kind are printed before the rest are only counted.
-const RECORDS_SHOWN_PER_KIND: u64 = 5;
+pub(crate) const RECORDS_SHOWN_PER_KIND: u64 = 5;
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
@@ -249,35 +206,6 @@ fn main() -> ExitCode {
             color,
             dump_bytecode,
         } => run_check(rules, agents, dim, format, color, dump_bytecode),
-        Command::Run {
-            rules,
-            agents,
-            max_steps,
-            out,
-            stats,
-            trace,
-            order,
-            static_first,
-            strict,
-            no_timing,
-            quiet,
-            color,
-        } => run::run(run::RunArgs {
-            rules,
-            agents,
-            max_steps,
-            out,
-            stats,
-            trace,
-            order: match order {
-                OrderArg::ActionsFirst => latticesim_runtime::Order::ActionsFirst,
-                OrderArg::MessagesFirst => latticesim_runtime::Order::MessagesFirst,
-            },
-            static_first,
-            strict,
-            no_timing,
-            quiet,
-            colour: colour(color),
-        }),
+        Command::Run(args) => run::run(args),
     }
 }

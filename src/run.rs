@@ -1,6 +1,7 @@
 //! `latticesim run`: check, compile, step until quiescence, write the results.
 
-use crate::{read, write_file, RECORDS_SHOWN_PER_KIND};
+use crate::{colour, read, write_file, Color, RECORDS_SHOWN_PER_KIND};
+use clap::ValueEnum;
 use latticesim_compiler::{check, lower, Input};
 use latticesim_runtime::{Engine, Lattice, Options, Order, RecordKind, Stats};
 use serde_json::json;
@@ -12,19 +13,51 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+/// The arguments of `latticesim run`.
+#[derive(clap::Args)]
 pub struct RunArgs {
-    pub rules: PathBuf,
-    pub agents: PathBuf,
-    pub max_steps: u64,
-    pub out: Option<PathBuf>,
-    pub stats: Option<PathBuf>,
-    pub trace: Option<PathBuf>,
-    pub order: Order,
-    pub static_first: bool,
-    pub strict: bool,
-    pub no_timing: bool,
-    pub quiet: bool,
-    pub colour: bool,
+    /// The rules file.
+    rules: PathBuf,
+    /// The agents file.
+    agents: PathBuf,
+    /// Stop after this many steps at the latest.
+    #[arg(long, default_value_t = 10_000)]
+    max_steps: u64,
+    /// Write the final configuration here (agents.txt syntax); default: standard output.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Write statistics here (JSON).
+    #[arg(long)]
+    stats: Option<PathBuf>,
+    /// Write every action and record of every step here (JSON Lines).
+    #[arg(long)]
+    trace: Option<PathBuf>,
+    /// Which comes first in a step.
+    #[arg(long, value_enum, default_value_t = OrderArg::ActionsFirst)]
+    order: OrderArg,
+    /// Rules without a move or swap act before the rules with one.
+    #[arg(long)]
+    static_first: bool,
+    /// Stop at the first error record, keeping the state before that step.
+    #[arg(long)]
+    strict: bool,
+    /// Leave the wall time out of --stats, so that the file is the same on every run.
+    #[arg(long)]
+    no_timing: bool,
+    /// Print no records or summary (errors in the input files are still printed).
+    #[arg(long, short)]
+    quiet: bool,
+    /// Colour in diagnostics.
+    #[arg(long, value_enum, default_value_t = Color::Auto)]
+    color: Color,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum OrderArg {
+    /// Actions, then calculations and messages (the paper's order).
+    ActionsFirst,
+    /// Calculations and messages, then actions.
+    MessagesFirst,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -56,18 +89,7 @@ fn stats_json(e: &Engine, stop: Stop, wall: Option<Duration>) -> serde_json::Val
         .map(|(r, n)| json!({ "rule": r.name, "firings": n }))
         .collect();
     let by_kind: BTreeMap<&str, u64> = s.records.iter().map(|(k, n)| (k.name(), *n)).collect();
-    let errors: u64 = s
-        .records
-        .iter()
-        .filter(|(k, _)| k.is_error())
-        .map(|(_, n)| n)
-        .sum();
-    let warnings: u64 = s
-        .records
-        .iter()
-        .filter(|(k, _)| !k.is_error())
-        .map(|(_, n)| n)
-        .sum();
+    let (errors, warnings) = (s.errors(), s.warnings());
     let mut v = json!({
         "steps": s.steps,
         "stopped_by": stop.name(),
@@ -87,6 +109,11 @@ fn stats_json(e: &Engine, stop: Stop, wall: Option<Duration>) -> serde_json::Val
 }
 
 pub fn run(args: RunArgs) -> ExitCode {
+    let order = match args.order {
+        OrderArg::ActionsFirst => Order::ActionsFirst,
+        OrderArg::MessagesFirst => Order::MessagesFirst,
+    };
+    let colour = colour(args.color);
     let (rules_bytes, agents_bytes) = match (read(&args.rules), read(&args.agents)) {
         (Ok(r), Ok(a)) => (r, a),
         (Err(c), _) | (_, Err(c)) => return c,
@@ -105,11 +132,8 @@ pub fn run(args: RunArgs) -> ExitCode {
         None,
     );
     if !checked.diags.is_empty() && (checked.errors() > 0 || !args.quiet) {
-        let _ = latticesim_compiler::render::render_stderr(
-            &checked.diags,
-            &checked.sources,
-            args.colour,
-        );
+        let _ =
+            latticesim_compiler::render::render_stderr(&checked.diags, &checked.sources, colour);
     }
     let (Some(program), Some(config)) = (&checked.program, &checked.config) else {
         eprintln!(
@@ -135,7 +159,7 @@ pub fn run(args: RunArgs) -> ExitCode {
         None => None,
     };
     let opts = Options {
-        order: args.order,
+        order,
         static_first: args.static_first,
         trace: trace_out.is_some(),
     };
@@ -259,18 +283,7 @@ pub fn run(args: RunArgs) -> ExitCode {
             }
         }
         let s = &engine.stats;
-        let errors: u64 = s
-            .records
-            .iter()
-            .filter(|(k, _)| k.is_error())
-            .map(|(_, n)| n)
-            .sum();
-        let warnings: u64 = s
-            .records
-            .iter()
-            .filter(|(k, _)| !k.is_error())
-            .map(|(_, n)| n)
-            .sum();
+        let (errors, warnings) = (s.errors(), s.warnings());
         let firings: u64 = s.firings.iter().sum();
         let why = match stop {
             Stop::Quiescence => "quiescent".to_string(),

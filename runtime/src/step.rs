@@ -60,6 +60,26 @@ pub struct Stats {
     pub records: BTreeMap<RecordKind, u64>,
 }
 
+impl Stats {
+    /// Error records so far.
+    pub fn errors(&self) -> u64 {
+        self.records
+            .iter()
+            .filter(|(k, _)| k.is_error())
+            .map(|(_, n)| n)
+            .sum()
+    }
+
+    /// Warning records so far.
+    pub fn warnings(&self) -> u64 {
+        self.records
+            .iter()
+            .filter(|(k, _)| !k.is_error())
+            .map(|(_, n)| n)
+            .sum()
+    }
+}
+
 /// What one step did.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct StepReport {

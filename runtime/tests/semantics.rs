@@ -583,5 +583,8 @@ fn a_later_text_to_the_same_direction_overwrites() {
     e.step();
     e.step();
     assert_eq!(state(&e, 1), "GOT00");
-    assert_eq!(e.stats.sent, 8, "each step: four directions, east written twice but sent once");
+    assert_eq!(
+        e.stats.sent, 8,
+        "each step: four directions, east written twice but sent once"
+    );
 }
