@@ -7,6 +7,7 @@ use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+mod gen;
 mod run;
 
 #[derive(Parser)]
@@ -46,6 +47,8 @@ enum Command {
     /// --strict at an error record, 130 interrupted (Ctrl-C). --out and --stats are written
     /// in every case but 1 and 2.
     Run(run::RunArgs),
+    /// Generate an agents file: a line, a block, a random connected shape or a cloud.
+    Gen(gen::GenArgs),
     /// Check a rules file (and an agents file) and report every problem.
     ///
     /// Exit status: 0 no errors (warnings allowed), 1 errors, 2 usage or I/O failure.
@@ -207,5 +210,6 @@ fn main() -> ExitCode {
             dump_bytecode,
         } => run_check(rules, agents, dim, format, color, dump_bytecode),
         Command::Run(args) => run::run(args),
+        Command::Gen(args) => gen::gen(args),
     }
 }

@@ -5,6 +5,7 @@
 //! [`TraceEvent`]s, and updates the [`Stats`]. The runtime does no I/O.
 #![warn(missing_docs)]
 
+pub mod gen;
 mod lattice;
 mod record;
 mod step;

@@ -1,0 +1,120 @@
+//! `latticesim gen`: agents files for lines, blocks, random connected shapes and clouds.
+
+use crate::write_file;
+use clap::ValueEnum;
+use latticesim_runtime::gen::{agents_text, GenOptions, Shape};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Clone, Copy, ValueEnum)]
+enum ShapeArg {
+    /// `--n` agents in a row along x.
+    Line,
+    /// A full rectangle (2D) or box (3D): `--width`, `--height` (and `--depth`).
+    #[value(alias = "rect", alias = "box")]
+    Block,
+    /// A random connected polyomino (2D) or polycube (3D) of `--n` cells, grown from the
+    /// origin (agent 0 stands there).
+    #[value(alias = "polyomino", alias = "polycube")]
+    Connected,
+    /// `--n` cells drawn at random from a `--width` x `--height` (x `--depth`) box.
+    Cloud,
+}
+
+/// The arguments of `latticesim gen`.
+#[derive(clap::Args)]
+pub struct GenArgs {
+    /// The shape.
+    #[arg(value_enum)]
+    shape: ShapeArg,
+    /// Number of agents (line, connected, cloud).
+    #[arg(long, short)]
+    n: Option<u32>,
+    /// Width (block, cloud).
+    #[arg(long)]
+    width: Option<u32>,
+    /// Height (block, cloud).
+    #[arg(long)]
+    height: Option<u32>,
+    /// Depth (3D block, 3D cloud).
+    #[arg(long, default_value_t = 1)]
+    depth: u32,
+    /// 2 or 3.
+    #[arg(long, default_value = "2", value_parser = ["2", "3"])]
+    dim: String,
+    /// Seed of the random choices.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// State of every agent.
+    #[arg(long)]
+    state: Option<String>,
+    /// State of agent 0 (the origin of a connected shape), e.g. a root.
+    #[arg(long)]
+    first_state: Option<String>,
+    /// Put unique ids 1..n, in random order, into this counter (e.g. C00).
+    #[arg(long)]
+    ids: Option<String>,
+    /// Add a universe line: the bounding box of the agents.
+    #[arg(long)]
+    universe: bool,
+    /// Write here instead of standard output.
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+pub fn gen(a: GenArgs) -> ExitCode {
+    let three_d = a.dim == "3";
+    let need = |v: Option<u32>, name: &str| {
+        v.ok_or_else(|| format!("this shape needs --{name}"))
+    };
+    let shape = match a.shape {
+        ShapeArg::Line => need(a.n, "n").map(|n| Shape::Line { n }),
+        ShapeArg::Block => need(a.width, "width")
+            .and_then(|w| need(a.height, "height").map(|h| Shape::Block { w, h, d: a.depth })),
+        ShapeArg::Connected => need(a.n, "n").map(|n| Shape::Connected { n }),
+        ShapeArg::Cloud => need(a.n, "n").and_then(|n| {
+            need(a.width, "width")
+                .and_then(|w| need(a.height, "height").map(|h| Shape::Cloud { n, w, h, d: a.depth }))
+        }),
+    };
+    let ids = match a.ids.as_deref().map(parse_counter).transpose() {
+        Ok(v) => v,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let opts = GenOptions {
+        three_d,
+        state: a.state,
+        first_state: a.first_state,
+        ids,
+        universe: a.universe,
+        seed: a.seed,
+    };
+    let text = match shape.and_then(|s| agents_text(&s, &opts)) {
+        Ok(t) => t,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    match &a.out {
+        Some(p) => match write_file(p, &text) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(c) => c,
+        },
+        None => {
+            print!("{text}");
+            ExitCode::SUCCESS
+        }
+    }
+}
+
+fn parse_counter(s: &str) -> Result<u8, String> {
+    let d = s.strip_prefix('C').ok_or(format!("`{s}` is not a counter such as C00"))?;
+    match d.parse::<u8>() {
+        Ok(v) if d.len() == 2 && v < 45 => Ok(v),
+        _ => Err(format!("`{s}` is not a counter such as C00")),
+    }
+}
