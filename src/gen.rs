@@ -64,17 +64,21 @@ pub struct GenArgs {
 
 pub fn gen(a: GenArgs) -> ExitCode {
     let three_d = a.dim == "3";
-    let need = |v: Option<u32>, name: &str| {
-        v.ok_or_else(|| format!("this shape needs --{name}"))
-    };
+    let need = |v: Option<u32>, name: &str| v.ok_or_else(|| format!("this shape needs --{name}"));
     let shape = match a.shape {
         ShapeArg::Line => need(a.n, "n").map(|n| Shape::Line { n }),
         ShapeArg::Block => need(a.width, "width")
             .and_then(|w| need(a.height, "height").map(|h| Shape::Block { w, h, d: a.depth })),
         ShapeArg::Connected => need(a.n, "n").map(|n| Shape::Connected { n }),
         ShapeArg::Cloud => need(a.n, "n").and_then(|n| {
-            need(a.width, "width")
-                .and_then(|w| need(a.height, "height").map(|h| Shape::Cloud { n, w, h, d: a.depth }))
+            need(a.width, "width").and_then(|w| {
+                need(a.height, "height").map(|h| Shape::Cloud {
+                    n,
+                    w,
+                    h,
+                    d: a.depth,
+                })
+            })
         }),
     };
     let ids = match a.ids.as_deref().map(parse_counter).transpose() {
@@ -112,7 +116,9 @@ pub fn gen(a: GenArgs) -> ExitCode {
 }
 
 fn parse_counter(s: &str) -> Result<u8, String> {
-    let d = s.strip_prefix('C').ok_or(format!("`{s}` is not a counter such as C00"))?;
+    let d = s
+        .strip_prefix('C')
+        .ok_or(format!("`{s}` is not a counter such as C00"))?;
     match d.parse::<u8>() {
         Ok(v) if d.len() == 2 && v < 45 => Ok(v),
         _ => Err(format!("`{s}` is not a counter such as C00")),

@@ -309,3 +309,57 @@ fn ctrl_c_stops_after_the_step_and_still_writes() {
         "the state after the last full step"
     );
 }
+
+#[test]
+fn gen_writes_agents_files_that_check() {
+    let o = run(&[
+        "gen",
+        "connected",
+        "--n",
+        "30",
+        "--seed",
+        "5",
+        "--ids",
+        "C00",
+        "--first-state",
+        "ROOT0",
+        "--state",
+        "WAIT0",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let text = String::from_utf8(o.stdout).unwrap();
+    assert_eq!(text.lines().count(), 30);
+    assert!(text.starts_with("0,0 SROOT0 C00 "));
+    let p = tmp("gen-agents.txt", text.as_bytes());
+    let c = run(&[
+        "check",
+        "examples/leader-election/rules.txt",
+        "--agents",
+        p.to_str().unwrap(),
+    ]);
+    assert_eq!(c.status.code(), Some(0), "{}", stderr(&c));
+    let o = run(&[
+        "gen",
+        "block",
+        "--width",
+        "2",
+        "--height",
+        "3",
+        "--depth",
+        "2",
+        "--dim",
+        "3",
+        "--universe",
+    ]);
+    assert_eq!(
+        String::from_utf8(o.stdout).unwrap().lines().next(),
+        Some("U0,1,0,2,0,1")
+    );
+    let o = run(&["gen", "cloud", "--n", "5"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("needs --width"));
+    let o = run(&["gen", "line", "--n", "3", "--state", "AB"]);
+    assert_eq!(o.status.code(), Some(2));
+    let o = run(&["gen", "line", "--n", "3", "--ids", "C99"]);
+    assert_eq!(o.status.code(), Some(2));
+}

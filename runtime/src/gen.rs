@@ -85,7 +85,14 @@ pub struct GenOptions {
 pub fn cells(shape: &Shape, three_d: bool, seed: u64) -> Result<Vec<[i32; 3]>, String> {
     let mut rng = Rng::new(seed);
     let dirs: &[[i32; 3]] = if three_d {
-        &[[0, 1, 0], [-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]]
+        &[
+            [0, 1, 0],
+            [-1, 0, 0],
+            [1, 0, 0],
+            [0, -1, 0],
+            [0, 0, 1],
+            [0, 0, -1],
+        ]
     } else {
         &[[0, 1, 0], [-1, 0, 0], [1, 0, 0], [0, -1, 0]]
     };
@@ -143,7 +150,9 @@ pub fn cells(shape: &Shape, three_d: bool, seed: u64) -> Result<Vec<[i32; 3]>, S
 pub fn agents_text(shape: &Shape, o: &GenOptions) -> Result<String, String> {
     for s in [&o.state, &o.first_state].into_iter().flatten() {
         if s.chars().count() != 5 || s.chars().any(|c| c == '*' || !c.is_ascii_graphic()) {
-            return Err(format!("`{s}` is not a state: 5 printable characters other than `*`"));
+            return Err(format!(
+                "`{s}` is not a state: 5 printable characters other than `*`"
+            ));
         }
     }
     let cs = cells(shape, o.three_d, o.seed)?;
@@ -169,7 +178,11 @@ pub fn agents_text(shape: &Shape, o: &GenOptions) -> Result<String, String> {
         } else {
             let _ = write!(s, "{},{}", c[0], c[1]);
         }
-        let state = if i == 0 { o.first_state.as_ref().or(o.state.as_ref()) } else { o.state.as_ref() };
+        let state = if i == 0 {
+            o.first_state.as_ref().or(o.state.as_ref())
+        } else {
+            o.state.as_ref()
+        };
         if let Some(st) = state {
             let _ = write!(s, " S{st}");
         }
@@ -191,7 +204,14 @@ mod tests {
         let mut stack = vec![cs[0]];
         seen.insert(cs[0]);
         while let Some(c) = stack.pop() {
-            for o in [[0, 1, 0], [-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]] {
+            for o in [
+                [0, 1, 0],
+                [-1, 0, 0],
+                [1, 0, 0],
+                [0, -1, 0],
+                [0, 0, 1],
+                [0, 0, -1],
+            ] {
                 let d = [c[0] + o[0], c[1] + o[1], c[2] + o[2]];
                 if set.contains(&d) && seen.insert(d) {
                     stack.push(d);
@@ -216,12 +236,28 @@ mod tests {
 
     #[test]
     fn ids_are_a_permutation_and_seeds_repeat() {
-        let o = GenOptions { ids: Some(0), seed: 3, ..Default::default() };
+        let o = GenOptions {
+            ids: Some(0),
+            seed: 3,
+            ..Default::default()
+        };
         let a = agents_text(&Shape::Line { n: 50 }, &o).unwrap();
         assert_eq!(a, agents_text(&Shape::Line { n: 50 }, &o).unwrap());
-        let mut ids: Vec<u32> = a.lines().map(|l| l.rsplit(' ').next().unwrap().parse().unwrap()).collect();
+        let mut ids: Vec<u32> = a
+            .lines()
+            .map(|l| l.rsplit(' ').next().unwrap().parse().unwrap())
+            .collect();
         ids.sort();
         assert_eq!(ids, (1..=50).collect::<Vec<_>>());
-        assert!(agents_text(&Shape::Cloud { n: 10, w: 3, h: 3, d: 1 }, &o).is_err());
+        assert!(agents_text(
+            &Shape::Cloud {
+                n: 10,
+                w: 3,
+                h: 3,
+                d: 1
+            },
+            &o
+        )
+        .is_err());
     }
 }
