@@ -275,3 +275,182 @@ fn bounding_box() {
         );
     }
 }
+
+/// Follows parent directions (state character `k`) from `from` until `stop`; returns the
+/// agents visited.
+fn follow(e: &Engine, from: usize, k: usize, stop: impl Fn(usize) -> bool) -> Vec<usize> {
+    let at: HashMap<[i32; 3], usize> = e.lat.pos.iter().enumerate().map(|(i, p)| (*p, i)).collect();
+    let mut path = vec![from];
+    let mut a = from;
+    while !stop(a) {
+        let d = e.lat.state[a][k] as char;
+        let o = latticesim_vm::model::Dir::from_char(d)
+            .unwrap_or_else(|| panic!("agent {a} has no parent"))
+            .offset();
+        let p = e.lat.pos[a];
+        a = at[&[p[0] + o[0], p[1] + o[1], p[2] + o[2]]];
+        path.push(a);
+        assert!(path.len() <= e.lat.len(), "a cycle");
+    }
+    path
+}
+
+fn path_finding_case(name: &str, agents: &str, source: usize) {
+    let mut e = engine("path-finding/rules.txt", agents);
+    let n = e.lat.len();
+    run(&mut e, 10_000, |_| {});
+    let target = (0..n).find(|&a| e.lat.state[a][0] == b'T').unwrap();
+    let dist = bfs(&e.lat.pos, target, false);
+    for a in 0..n {
+        assert_eq!(
+            ctr(&e, a, 1) as u32,
+            dist[a],
+            "{name}: distance of agent {a}"
+        );
+    }
+    let path = follow(&e, source, 2, |a| a == target);
+    assert_eq!(
+        path.len() as u32,
+        dist[source] + 1,
+        "{name}: a shortest path"
+    );
+    for &a in &path {
+        assert_eq!(
+            e.lat.state[a][1], b'2',
+            "{name}: agent {a} on the path is marked"
+        );
+    }
+    let marked = (0..n).filter(|&a| e.lat.state[a][1] == b'2').count();
+    assert_eq!(marked, path.len(), "{name}: nothing else is marked");
+}
+
+#[test]
+fn path_finding() {
+    for (name, shape, seed) in shapes(false) {
+        let text = gen(&shape, false, seed, "F0-00", Some("T0-00"), false);
+        let pos: Vec<[i32; 3]> = text
+            .lines()
+            .map(|l| {
+                let v: Vec<i32> = l
+                    .split(' ')
+                    .next()
+                    .unwrap()
+                    .split(',')
+                    .map(|x| x.parse().unwrap())
+                    .collect();
+                [v[0], v[1], 0]
+            })
+            .collect();
+        // The source: the agent farthest from the target.
+        let d = bfs(&pos, 0, false);
+        let source = (0..pos.len()).max_by_key(|&a| (d[a], a)).unwrap();
+        let text: String = text
+            .lines()
+            .enumerate()
+            .map(|(i, l)| if i == source { l.replace("SF0-00", "SS0-00") } else { l.to_string() } + "\n")
+            .collect();
+        path_finding_case(&name, &text, source);
+    }
+    // Around an obstacle: a 15 x 9 block with a wall at x = 7 open only at the top.
+    let mut text = String::new();
+    for x in 0..15 {
+        for y in 0..9 {
+            if x == 7 && y < 8 {
+                continue;
+            }
+            let st = match (x, y) {
+                (0, 0) => "SS0-00",
+                (14, 0) => "ST0-00",
+                _ => "SF0-00",
+            };
+            text += &format!("{x},{y} {st}\n");
+        }
+    }
+    path_finding_case("wall", &text, 0);
+}
+
+#[test]
+fn gravity_3d() {
+    for seed in 0..4u64 {
+        let shape = Shape::Cloud {
+            n: 120,
+            w: 5,
+            h: 4,
+            d: 12,
+        };
+        let mut text = String::from("U0,4,0,3,0,11\n");
+        text += &gen(&shape, true, seed, "00000", None, false);
+        let mut e = engine("gravity-3d/rules.txt", &text);
+        let before = e.lat.pos.clone();
+        run(&mut e, 1_000, |_| {});
+        let mut cols: HashMap<(i32, i32), Vec<i32>> = HashMap::new();
+        for p in &before {
+            cols.entry((p[0], p[1])).or_default().push(p[2]);
+        }
+        let mut expect_moves = 0;
+        for hs in cols.values_mut() {
+            hs.sort();
+            expect_moves += hs
+                .iter()
+                .enumerate()
+                .map(|(i, h)| (h - i as i32) as u64)
+                .sum::<u64>();
+        }
+        let mut after: HashMap<(i32, i32), Vec<i32>> = HashMap::new();
+        for p in &e.lat.pos {
+            after.entry((p[0], p[1])).or_default().push(p[2]);
+        }
+        for (col, hs) in &cols {
+            let mut got = after[col].clone();
+            got.sort();
+            assert_eq!(
+                got,
+                (0..hs.len() as i32).collect::<Vec<_>>(),
+                "seed {seed}: column {col:?} is a stack from the floor"
+            );
+        }
+        assert_eq!(
+            e.stats.moves, expect_moves,
+            "seed {seed}: every agent moved exactly its drop"
+        );
+    }
+}
+
+#[test]
+fn bouncing_dots_never_collide() {
+    for seed in 0..4u64 {
+        let shape = Shape::Cloud {
+            n: 40,
+            w: 16,
+            h: 10,
+            d: 1,
+        };
+        let mut text = String::from("U0,15,0,9\n");
+        for (i, l) in gen(&shape, false, seed, "NE000", None, false)
+            .lines()
+            .enumerate()
+        {
+            text += &l.replace(
+                "NE000",
+                ["NE000", "NW000", "SE000", "SW000"][(i * 7 + seed as usize) % 4],
+            );
+            text.push('\n');
+        }
+        let mut e = engine("bouncing/rules.txt", &text);
+        for _ in 0..300 {
+            let r = e.step();
+            assert!(r.records.is_empty(), "seed {seed}: {:?}", r.records);
+            assert!(!r.quiescent);
+        }
+        assert!(
+            e.stats.moves > 1000,
+            "seed {seed}: the dots keep flying ({} moves)",
+            e.stats.moves
+        );
+        assert!(e
+            .lat
+            .pos
+            .iter()
+            .all(|p| (0..16).contains(&p[0]) && (0..10).contains(&p[1])));
+    }
+}
