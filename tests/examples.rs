@@ -301,12 +301,8 @@ fn path_finding_case(name: &str, agents: &str, source: usize) {
     run(&mut e, 10_000, |_| {});
     let target = (0..n).find(|&a| e.lat.state[a][0] == b'T').unwrap();
     let dist = bfs(&e.lat.pos, target, false);
-    for a in 0..n {
-        assert_eq!(
-            ctr(&e, a, 1) as u32,
-            dist[a],
-            "{name}: distance of agent {a}"
-        );
+    for (a, d) in dist.iter().enumerate() {
+        assert_eq!(ctr(&e, a, 1) as u32, *d, "{name}: distance of agent {a}");
     }
     let path = follow(&e, source, 2, |a| a == target);
     assert_eq!(
