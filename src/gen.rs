@@ -115,7 +115,7 @@ pub fn gen(a: GenArgs) -> ExitCode {
     }
 }
 
-fn parse_counter(s: &str) -> Result<u8, String> {
+pub(crate) fn parse_counter(s: &str) -> Result<u8, String> {
     let d = s
         .strip_prefix('C')
         .ok_or(format!("`{s}` is not a counter such as C00"))?;

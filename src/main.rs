@@ -9,6 +9,7 @@ use std::process::ExitCode;
 
 mod gen;
 mod run;
+mod sweep;
 
 #[derive(Parser)]
 #[command(
@@ -49,6 +50,8 @@ enum Command {
     Run(run::RunArgs),
     /// Generate an agents file: a line, a block, a random connected shape or a cloud.
     Gen(gen::GenArgs),
+    /// Run rules over generated shapes of growing n and write CSV (and a plot) of the cost.
+    Sweep(sweep::SweepArgs),
     /// Check a rules file (and an agents file) and report every problem.
     ///
     /// Exit status: 0 no errors (warnings allowed), 1 errors, 2 usage or I/O failure.
@@ -211,5 +214,6 @@ fn main() -> ExitCode {
         } => run_check(rules, agents, dim, format, color, dump_bytecode),
         Command::Run(args) => run::run(args),
         Command::Gen(args) => gen::gen(args),
+        Command::Sweep(args) => sweep::sweep(args),
     }
 }

@@ -77,6 +77,17 @@ fn bfs(pos: &[[i32; 3]], from: usize, three_d: bool) -> Vec<u32> {
 
 fn shapes(three_d: bool) -> Vec<(String, Shape, u64)> {
     let mut v = vec![("line".to_string(), Shape::Line { n: 25 }, 0)];
+    // EXAMPLE_SEEDS=K adds K more random connected shapes of 10 to 1,000 agents (300 in 3D)
+    // for the longer run documented in docs/testing.md.
+    let extra: u64 = std::env::var("EXAMPLE_SEEDS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0);
+    let top = if three_d { 300 } else { 1000 };
+    for seed in 100..100 + extra {
+        let n = 10 + (seed * 7919 % (top - 9)) as u32;
+        v.push((format!("extra-{n}-{seed}"), Shape::Connected { n }, seed));
+    }
     if three_d {
         v.push(("box".into(), Shape::Block { w: 4, h: 3, d: 5 }, 0));
         for (n, seed) in [(10, 1), (60, 2), (150, 3), (300, 4)] {
