@@ -363,3 +363,50 @@ fn gen_writes_agents_files_that_check() {
     let o = run(&["gen", "line", "--n", "3", "--ids", "C99"]);
     assert_eq!(o.status.code(), Some(2));
 }
+
+#[test]
+fn sweep_writes_csv_and_plot() {
+    let dir = std::env::temp_dir().join(format!("latticesim-sweep-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (csv, svg) = (dir.join("r.csv"), dir.join("r.svg"));
+    let o = run(&[
+        "sweep",
+        "examples/leader-election/rules.txt",
+        "--sizes",
+        "5,20",
+        "--seeds",
+        "2",
+        "--state",
+        "INIT0",
+        "--ids",
+        "C00",
+        "--out",
+        csv.to_str().unwrap(),
+        "--plot",
+        svg.to_str().unwrap(),
+        "--threads",
+        "2",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(
+        lines[0],
+        "n,seed,steps,stopped_by,moves,messages,wall_time_s"
+    );
+    assert_eq!(lines.len(), 5);
+    assert!(lines[1].starts_with("5,1,"), "{}", lines[1]);
+    assert!(lines.iter().skip(1).all(|l| l.contains(",quiescence,")));
+    assert!(std::fs::read_to_string(&svg).unwrap().starts_with("<svg"));
+    assert!(stderr(&o).contains("steps ~ n^"));
+    // Rules that do not fit the generated agents: exit 1.
+    let o = run(&[
+        "sweep",
+        "examples/leader-election/rules-3d.txt",
+        "--sizes",
+        "5",
+        "--out",
+        csv.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+}
