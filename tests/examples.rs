@@ -144,7 +144,15 @@ fn leader_election() {
         for (name, shape, seed) in shapes(three_d) {
             let mut e = engine(file, &gen(&shape, three_d, seed, "INIT0", None, true));
             let n = e.lat.len();
-            let steps = run(&mut e, 10_000, |_| {});
+            // At every step the agent with the largest id is a leader, never a follower.
+            let steps = run(&mut e, 10_000, |e| {
+                let top = (0..n).max_by_key(|&a| ctr(e, a, 0)).unwrap();
+                assert_eq!(
+                    state(e, top),
+                    "LEAD0",
+                    "{name}: the largest id always leads"
+                );
+            });
             let top = (0..n).max_by_key(|&a| ctr(&e, a, 0)).unwrap();
             assert_eq!(ctr(&e, top, 0) as usize, n, "{name}: ids are 1..n");
             let leaders: Vec<usize> = (0..n).filter(|&a| state(&e, a) == "LEAD0").collect();
@@ -206,7 +214,24 @@ fn spanning_tree() {
                 file,
                 &gen(&shape, three_d, seed, "WAIT0", Some("ROOT0"), false),
             );
-            let steps = run(&mut e, 10_000, |_| {});
+            let dist = bfs(&e.lat.pos, 0, three_d);
+            // At every step, the agents in the tree so far form a tree: each one's parent is
+            // in it and one breadth-first step closer to the root.
+            let steps = run(&mut e, 10_000, |e| {
+                let at: HashMap<[i32; 3], usize> =
+                    e.lat.pos.iter().enumerate().map(|(i, p)| (*p, i)).collect();
+                for a in 1..e.lat.len() {
+                    let s = state(e, a);
+                    if let Some(d) = s.strip_prefix("TREE").and_then(|d| d.chars().next()) {
+                        let o = latticesim_vm::model::Dir::from_char(d).unwrap().offset();
+                        let p = e.lat.pos[a];
+                        let parent = at[&[p[0] + o[0], p[1] + o[1], p[2] + o[2]]];
+                        let joined = parent == 0 || state(e, parent).starts_with("TREE");
+                        assert!(joined, "{name}: the parent of {a} is not in the tree");
+                        assert_eq!(dist[parent] + 1, dist[a], "{name}");
+                    }
+                }
+            });
             tree_check(&e, three_d, &name, "TROOT", |s| {
                 s.strip_prefix("TREE").and_then(|d| d.chars().next())
             });
