@@ -271,44 +271,58 @@ fn counting() {
 
 #[test]
 fn bounding_box() {
-    for (name, shape, seed) in shapes(false) {
-        let mut e = engine(
-            "bounding-box/rules.txt",
-            &gen(&shape, false, seed, "WAIT0", Some("ROOT0"), false),
-        );
-        let n = e.lat.len();
-        let steps = run(&mut e, 10_000, |_| {});
-        let r = e.lat.pos[0];
-        let xs: Vec<i32> = e.lat.pos.iter().map(|p| p[0] - r[0]).collect();
-        let ys: Vec<i32> = e.lat.pos.iter().map(|p| p[1] - r[1]).collect();
-        let want = [
-            *xs.iter().max().unwrap(),
-            *xs.iter().min().unwrap(),
-            *ys.iter().max().unwrap(),
-            *ys.iter().min().unwrap(),
-        ];
-        for a in 0..n {
-            let got = [
-                ctr(&e, a, 15),
-                ctr(&e, a, 16),
-                ctr(&e, a, 17),
-                ctr(&e, a, 18),
-            ]
-            .map(i32::from);
-            assert_eq!(got, want, "{name}: agent {a}");
-            assert_eq!(ctr(&e, a, 21) as i32, want[0] - want[1] + 1);
-            assert_eq!(ctr(&e, a, 22) as i32, want[2] - want[3] + 1);
-            assert_eq!(
-                [ctr(&e, a, 2) as i32, ctr(&e, a, 3) as i32],
-                [xs[a], ys[a]],
-                "{name}: own coordinates"
+    for three_d in [false, true] {
+        // Where each file keeps (max x, min x, max y, min y[, max z, min z]), the sizes, and
+        // the own coordinates.
+        let (file, extremes, sizes): (&str, &[usize], &[usize]) = if three_d {
+            (
+                "bounding-box/rules-3d.txt",
+                &[11, 12, 13, 14, 15, 16],
+                &[17, 18, 19],
+            )
+        } else {
+            ("bounding-box/rules.txt", &[15, 16, 17, 18], &[21, 22])
+        };
+        let axes = if three_d { 3 } else { 2 };
+        for (name, shape, seed) in shapes(three_d) {
+            let mut e = engine(
+                file,
+                &gen(&shape, three_d, seed, "WAIT0", Some("ROOT0"), false),
             );
+            let n = e.lat.len();
+            let steps = run(&mut e, 10_000, |_| {});
+            let r = e.lat.pos[0];
+            let rel: Vec<[i32; 3]> = e
+                .lat
+                .pos
+                .iter()
+                .map(|p| [p[0] - r[0], p[1] - r[1], p[2] - r[2]])
+                .collect();
+            let mut want = Vec::new();
+            for k in 0..axes {
+                want.push(rel.iter().map(|p| p[k]).max().unwrap());
+                want.push(rel.iter().map(|p| p[k]).min().unwrap());
+            }
+            for a in 0..n {
+                let got: Vec<i32> = extremes.iter().map(|&c| ctr(&e, a, c) as i32).collect();
+                assert_eq!(got, want, "{name}: agent {a}");
+                for k in 0..axes {
+                    assert_eq!(
+                        ctr(&e, a, sizes[k]) as i32,
+                        want[2 * k] - want[2 * k + 1] + 1,
+                        "{name}"
+                    );
+                    assert_eq!(
+                        ctr(&e, a, 2 + k) as i32,
+                        rel[a][k],
+                        "{name}: own coordinates"
+                    );
+                }
+            }
+            let ecc = *bfs(&e.lat.pos, 0, three_d).iter().max().unwrap() as u64;
+            let bound = if three_d { 6 * ecc + 8 } else { 3 * ecc + 4 };
+            assert!(steps <= bound, "{name}: {steps} steps, eccentricity {ecc}");
         }
-        let ecc = *bfs(&e.lat.pos, 0, false).iter().max().unwrap() as u64;
-        assert!(
-            steps <= 3 * ecc + 4,
-            "{name}: {steps} steps, eccentricity {ecc}"
-        );
     }
 }
 
