@@ -3,6 +3,9 @@
 //! independent computation done here: breadth-first search over the positions, counting,
 //! geometry.
 
+// The checks index agents, positions and counters in parallel.
+#![allow(clippy::needless_range_loop)]
+
 use latticesim_compiler::{check, lower, Input};
 use latticesim_runtime::gen::{agents_text, GenOptions, Shape};
 use latticesim_runtime::{Engine, Lattice, Options};
