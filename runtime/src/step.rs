@@ -950,7 +950,6 @@ impl Engine {
             Vec::new()
         };
         let nc = self.lat.nc();
-        let d = self.lat.dim;
         for a in 0..n {
             let rs = &sel[sel_start[a] as usize..sel_start[a + 1] as usize];
             for &r in rs {
@@ -1012,7 +1011,6 @@ impl Engine {
                 }
             }
         }
-        let _ = d;
     }
 
     /// Paper step 3, second half: empty every inbox, then deliver every outgoing message to

@@ -75,7 +75,6 @@ impl Program {
     /// rule, the precondition stack balanced and within [`MAX_STACK`], and each instruction
     /// on its side (precondition or postcondition).
     pub fn verify(&self) -> Result<(), VerifyError> {
-        let d = self.dim;
         for (ri, r) in self.rules.iter().enumerate() {
             let err = |what: String| VerifyError { rule: ri, what };
             if r.pre.start > r.pre.end
@@ -123,7 +122,6 @@ impl Program {
                 self.check_operands(op).map_err(err)?;
             }
         }
-        let _ = d;
         Ok(())
     }
 
@@ -257,7 +255,7 @@ impl Program {
         if !self.offsets.is_empty() {
             let _ = writeln!(s, "\noffsets:");
             for (i, o) in self.offsets.iter().enumerate() {
-                let cs: Vec<String> = o[..d_coords(self.dim)].iter().map(show_coord).collect();
+                let cs: Vec<String> = o[..self.dim.coords()].iter().map(show_coord).collect();
                 let _ = writeln!(s, "  {i:4}  {}", cs.join(","));
             }
         }
@@ -296,8 +294,4 @@ impl Program {
         }
         s
     }
-}
-
-fn d_coords(d: Dim) -> usize {
-    d.coords()
 }
