@@ -1,6 +1,8 @@
 //! Inputs for the benchmarks: deterministic generators of large rules files.
 #![warn(missing_docs)]
 
+pub mod native;
+
 /// A small deterministic generator (PCG-style LCG), so inputs are the same on every machine.
 pub struct Lcg(u64);
 
@@ -193,4 +195,57 @@ pub mod workloads {
         }
         s
     }
+}
+
+/// Compiles a workload for the engine: rules and agents text to a ready engine.
+pub fn engine(rules: &str, agents: &str) -> latticesim_runtime::Engine {
+    let c = latticesim_compiler::check(
+        latticesim_compiler::Input {
+            name: "rules",
+            bytes: rules.as_bytes(),
+        },
+        Some(latticesim_compiler::Input {
+            name: "agents",
+            bytes: agents.as_bytes(),
+        }),
+        None,
+    );
+    assert_eq!(c.errors(), 0, "{:?}", c.diags.first());
+    let prog = latticesim_compiler::lower(c.program.as_ref().expect("no errors"));
+    latticesim_runtime::Engine::new(
+        prog,
+        latticesim_runtime::Lattice::new(c.config.as_ref().expect("no errors")),
+        latticesim_runtime::Options::default(),
+    )
+}
+
+/// The sum of C00 over all agents.
+pub fn sum_c00(e: &latticesim_runtime::Engine) -> u64 {
+    let nc = e.lat.nc();
+    (0..e.lat.len())
+        .map(|a| e.lat.counters[a * nc] as u64)
+        .sum()
+}
+
+/// B2's checksum: the sum of x * 100003 + y over the agents.
+pub fn b2_checksum(e: &latticesim_runtime::Engine) -> u64 {
+    e.lat
+        .pos
+        .iter()
+        .map(|p| p[0] as u64 * 100003 + p[1] as u64)
+        .sum()
+}
+
+/// B3's checksum: the sum of the state numbers.
+pub fn b3_checksum(e: &latticesim_runtime::Engine) -> u64 {
+    e.lat
+        .state
+        .iter()
+        .map(|s| {
+            std::str::from_utf8(&s[1..])
+                .ok()
+                .and_then(|t| t.parse::<u64>().ok())
+                .unwrap_or(0)
+        })
+        .sum()
 }
