@@ -51,6 +51,10 @@ pub struct GenArgs {
     /// State of agent 0 (the origin of a connected shape), e.g. a root.
     #[arg(long)]
     first_state: Option<String>,
+    /// Give --first-state to the easternmost agent instead of agent 0 (a root whose row is
+    /// free to the east).
+    #[arg(long)]
+    first_east: bool,
     /// Put unique ids 1..n, in random order, into this counter (e.g. C00).
     #[arg(long)]
     ids: Option<String>,
@@ -92,6 +96,7 @@ pub fn gen(a: GenArgs) -> ExitCode {
         three_d,
         state: a.state,
         first_state: a.first_state,
+        first_east: a.first_east,
         ids,
         universe: a.universe,
         seed: a.seed,

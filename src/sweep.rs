@@ -48,6 +48,9 @@ pub struct SweepArgs {
     /// State of agent 0 (e.g. a root).
     #[arg(long)]
     first_state: Option<String>,
+    /// Give --first-state to the easternmost agent instead of agent 0.
+    #[arg(long)]
+    first_east: bool,
     /// Unique ids 1..n in this counter.
     #[arg(long)]
     ids: Option<String>,
@@ -125,6 +128,7 @@ fn run_one(rules: &[u8], a: &SweepArgs, n: u32, seed: u64, ids: Option<u8>) -> R
         three_d,
         state: a.state.clone(),
         first_state: a.first_state.clone(),
+        first_east: a.first_east,
         ids,
         universe: a.universe,
         seed,

@@ -503,3 +503,84 @@ fn bouncing_dots_never_collide() {
             .all(|p| (0..16).contains(&p[0]) && (0..10).contains(&p[1])));
     }
 }
+
+fn connected_now(pos: &[[i32; 3]]) -> bool {
+    let at: HashMap<[i32; 3], usize> = pos.iter().enumerate().map(|(i, p)| (*p, i)).collect();
+    let mut seen = vec![false; pos.len()];
+    let mut stack = vec![0];
+    seen[0] = true;
+    let mut count = 1;
+    while let Some(a) = stack.pop() {
+        for o in dirs(false) {
+            let p = pos[a];
+            if let Some(&b) = at.get(&[p[0] + o[0], p[1] + o[1], p[2]]) {
+                if !seen[b] {
+                    seen[b] = true;
+                    count += 1;
+                    stack.push(b);
+                }
+            }
+        }
+    }
+    count == pos.len()
+}
+
+#[test]
+fn reconfiguration_into_a_line() {
+    let extra: u64 = std::env::var("EXAMPLE_SEEDS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0);
+    let mut cases: Vec<(String, Shape, u64)> = vec![
+        ("line".into(), Shape::Line { n: 8 }, 0),
+        ("rect".into(), Shape::Block { w: 5, h: 4, d: 1 }, 0),
+    ];
+    for (n, seed) in [(10, 1), (10, 2), (25, 3), (40, 4), (60, 5)] {
+        cases.push((
+            format!("polyomino-{n}-{seed}"),
+            Shape::Connected { n },
+            seed,
+        ));
+    }
+    for seed in 100..100 + extra / 10 {
+        let n = 10 + (seed * 7919 % 141) as u32;
+        cases.push((format!("extra-{n}-{seed}"), Shape::Connected { n }, seed));
+    }
+    for (name, shape, seed) in cases {
+        let text = gen(&shape, false, seed, "WAIT0", None, false);
+        let pos: Vec<[i32; 2]> = text
+            .lines()
+            .map(|l| {
+                let v: Vec<i32> = l
+                    .split(' ')
+                    .next()
+                    .unwrap()
+                    .split(',')
+                    .map(|x| x.parse().unwrap())
+                    .collect();
+                [v[0], v[1]]
+            })
+            .collect();
+        // The root: an easternmost agent, so that its row is free to the east.
+        let root = (0..pos.len())
+            .max_by_key(|&a| (pos[a][0], pos[a][1]))
+            .unwrap();
+        let text: String = text
+            .lines()
+            .enumerate()
+            .map(|(i, l)| if i == root { l.replace("SWAIT0", "SROOT0") } else { l.to_string() } + "\n")
+            .collect();
+        let mut e = engine("reconfigure-line/rules.txt", &text);
+        let n = e.lat.len();
+        run(&mut e, 200_000, |e| {
+            assert!(connected_now(&e.lat.pos), "{name}: disconnected")
+        });
+        let mut got: Vec<[i32; 3]> = e.lat.pos.clone();
+        got.sort();
+        let want: Vec<[i32; 3]> = (0..n as i32)
+            .map(|i| [pos[root][0] + i, pos[root][1], 0])
+            .collect();
+        assert_eq!(got, want, "{name}: a line east of the root's cell");
+        assert!(e.stats.moves > 0 || n == 1);
+    }
+}

@@ -73,6 +73,9 @@ pub struct GenOptions {
     pub state: Option<String>,
     /// The state of agent 0 (e.g. a root), if different.
     pub first_state: Option<String>,
+    /// Give `first_state` to the easternmost agent (largest x, then largest y) instead of
+    /// agent 0: a root whose row is free to the east.
+    pub first_east: bool,
     /// A counter to hold unique ids 1..n, in a seeded random order.
     pub ids: Option<u8>,
     /// Write a universe line (the bounding box of the agents).
@@ -157,6 +160,13 @@ pub fn agents_text(shape: &Shape, o: &GenOptions) -> Result<String, String> {
     }
     let cs = cells(shape, o.three_d, o.seed)?;
     let n = cs.len();
+    let first = if o.first_east {
+        (0..n)
+            .max_by_key(|&i| (cs[i][0], cs[i][1], cs[i][2]))
+            .unwrap_or(0)
+    } else {
+        0
+    };
     let mut ids: Vec<u32> = (1..=n as u32).collect();
     let mut rng = Rng::new(o.seed ^ 0x5eed);
     for i in (1..n).rev() {
@@ -178,7 +188,7 @@ pub fn agents_text(shape: &Shape, o: &GenOptions) -> Result<String, String> {
         } else {
             let _ = write!(s, "{},{}", c[0], c[1]);
         }
-        let state = if i == 0 {
+        let state = if i == first {
             o.first_state.as_ref().or(o.state.as_ref())
         } else {
             o.state.as_ref()
