@@ -113,6 +113,7 @@ pub fn cells(shape: &Shape, three_d: bool, seed: u64) -> Result<Vec<[i32; 3]>, S
             }
             v
         }
+        Shape::Connected { n: 0 } => Vec::new(),
         Shape::Connected { n } => {
             let mut v = vec![[0, 0, 0]];
             let mut seen: HashSet<[i32; 3]> = v.iter().copied().collect();
@@ -241,6 +242,13 @@ mod tests {
                 assert!(connected(&cs));
                 assert!(three_d || cs.iter().all(|c| c[2] == 0));
             }
+        }
+    }
+
+    #[test]
+    fn empty_shapes_are_empty() {
+        for s in [Shape::Line { n: 0 }, Shape::Connected { n: 0 }, Shape::Block { w: 0, h: 3, d: 1 }] {
+            assert!(cells(&s, false, 1).unwrap().is_empty());
         }
     }
 
