@@ -51,6 +51,9 @@ pub struct GenArgs {
     /// State of agent 0 (the origin of a connected shape), e.g. a root.
     #[arg(long)]
     first_state: Option<String>,
+    /// Fill the holes of a 2D shape, so that it is simply connected.
+    #[arg(long)]
+    fill_holes: bool,
     /// Give --first-state to the easternmost agent instead of agent 0 (a root whose row is
     /// free to the east).
     #[arg(long)]
@@ -97,6 +100,7 @@ pub fn gen(a: GenArgs) -> ExitCode {
         state: a.state,
         first_state: a.first_state,
         first_east: a.first_east,
+        fill_holes: a.fill_holes,
         ids,
         universe: a.universe,
         seed: a.seed,

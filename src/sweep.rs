@@ -48,6 +48,9 @@ pub struct SweepArgs {
     /// State of agent 0 (e.g. a root).
     #[arg(long)]
     first_state: Option<String>,
+    /// Fill the holes of a 2D shape, so that it is simply connected.
+    #[arg(long)]
+    fill_holes: bool,
     /// Give --first-state to the easternmost agent instead of agent 0.
     #[arg(long)]
     first_east: bool,
@@ -129,6 +132,7 @@ fn run_one(rules: &[u8], a: &SweepArgs, n: u32, seed: u64, ids: Option<u8>) -> R
         state: a.state.clone(),
         first_state: a.first_state.clone(),
         first_east: a.first_east,
+        fill_holes: a.fill_holes,
         ids,
         universe: a.universe,
         seed,

@@ -80,6 +80,9 @@ pub struct GenOptions {
     pub ids: Option<u8>,
     /// Write a universe line (the bounding box of the agents).
     pub universe: bool,
+    /// Fill the holes of a 2D shape (add every empty cell that is enclosed), so that it is
+    /// simply connected.
+    pub fill_holes: bool,
     /// The seed.
     pub seed: u64,
 }
@@ -150,6 +153,47 @@ pub fn cells(shape: &Shape, three_d: bool, seed: u64) -> Result<Vec<[i32; 3]>, S
     })
 }
 
+/// Adds every empty cell of the bounding box that the outside cannot reach (2D).
+pub fn fill_holes(cs: &mut Vec<[i32; 3]>) {
+    if cs.is_empty() {
+        return;
+    }
+    let set: HashSet<[i32; 3]> = cs.iter().copied().collect();
+    let (x0, x1) = (
+        cs.iter().map(|c| c[0]).min().unwrap() - 1,
+        cs.iter().map(|c| c[0]).max().unwrap() + 1,
+    );
+    let (y0, y1) = (
+        cs.iter().map(|c| c[1]).min().unwrap() - 1,
+        cs.iter().map(|c| c[1]).max().unwrap() + 1,
+    );
+    let mut outside = HashSet::new();
+    let mut stack = vec![[x0, y0, 0]];
+    outside.insert([x0, y0, 0]);
+    while let Some(c) = stack.pop() {
+        for o in [[0, 1], [-1, 0], [1, 0], [0, -1]] {
+            let d = [c[0] + o[0], c[1] + o[1], 0];
+            if d[0] >= x0
+                && d[0] <= x1
+                && d[1] >= y0
+                && d[1] <= y1
+                && !set.contains(&d)
+                && outside.insert(d)
+            {
+                stack.push(d);
+            }
+        }
+    }
+    for x in x0..=x1 {
+        for y in y0..=y1 {
+            let c = [x, y, 0];
+            if !set.contains(&c) && !outside.contains(&c) {
+                cs.push(c);
+            }
+        }
+    }
+}
+
 /// An agents file for a shape.
 pub fn agents_text(shape: &Shape, o: &GenOptions) -> Result<String, String> {
     for s in [&o.state, &o.first_state].into_iter().flatten() {
@@ -159,7 +203,10 @@ pub fn agents_text(shape: &Shape, o: &GenOptions) -> Result<String, String> {
             ));
         }
     }
-    let cs = cells(shape, o.three_d, o.seed)?;
+    let mut cs = cells(shape, o.three_d, o.seed)?;
+    if o.fill_holes && !o.three_d {
+        fill_holes(&mut cs);
+    }
     let n = cs.len();
     let first = if o.first_east {
         (0..n)
@@ -247,7 +294,11 @@ mod tests {
 
     #[test]
     fn empty_shapes_are_empty() {
-        for s in [Shape::Line { n: 0 }, Shape::Connected { n: 0 }, Shape::Block { w: 0, h: 3, d: 1 }] {
+        for s in [
+            Shape::Line { n: 0 },
+            Shape::Connected { n: 0 },
+            Shape::Block { w: 0, h: 3, d: 1 },
+        ] {
             assert!(cells(&s, false, 1).unwrap().is_empty());
         }
     }
