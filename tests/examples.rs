@@ -525,14 +525,24 @@ fn connected_now(pos: &[[i32; 3]]) -> bool {
     count == pos.len()
 }
 
-fn reconfiguration_case(
-    file: &str,
-    name: &str,
-    shape: &Shape,
-    seed: u64,
+/// What a reconfiguration example is run on and checked for, besides connectivity at every
+/// step and the final line.
+#[derive(Clone, Copy)]
+struct Reconf {
+    /// Fill the generated shapes' holes.
     fill_holes: bool,
+    /// At most one agent moves per step, to a touching cell.
     one_mover: bool,
-) {
+    /// The line ends as one chain of attached agents.
+    bonded_line: bool,
+}
+
+fn reconfiguration_case(file: &str, name: &str, shape: &Shape, seed: u64, r: Reconf) {
+    let Reconf {
+        fill_holes,
+        one_mover,
+        bonded_line,
+    } = r;
     let o = GenOptions {
         state: Some("WAIT0".into()),
         first_state: Some("ROOT0".into()),
@@ -570,6 +580,18 @@ fn reconfiguration_case(
     got.sort();
     let want: Vec<[i32; 3]> = (0..n as i32).map(|i| [start[0] + i, start[1], 0]).collect();
     assert_eq!(got, want, "{name}: a line east of the root's cell");
+    if bonded_line {
+        // The line is a chain of attached agents: W and E bonds, none at the two ends.
+        for a in 0..n {
+            let x = e.lat.pos[a][0] - start[0];
+            let want =
+                (if x > 0 { 0b0010 } else { 0 }) | (if x < n as i32 - 1 { 0b0100 } else { 0 });
+            assert_eq!(
+                e.lat.attach[a], want,
+                "{name}: bonds of the agent at x + {x}"
+            );
+        }
+    }
 }
 
 fn reconfiguration_cases() -> Vec<(String, Shape, u64)> {
@@ -598,14 +620,12 @@ fn reconfiguration_cases() -> Vec<(String, Shape, u64)> {
 #[test]
 fn reconfiguration_into_a_line() {
     for (name, shape, seed) in reconfiguration_cases() {
-        reconfiguration_case(
-            "reconfigure-line/rules.txt",
-            &name,
-            &shape,
-            seed,
-            false,
-            false,
-        );
+        let r = Reconf {
+            fill_holes: false,
+            one_mover: false,
+            bonded_line: true,
+        };
+        reconfiguration_case("reconfigure-line/rules.txt", &name, &shape, seed, r);
     }
 }
 
@@ -613,13 +633,11 @@ fn reconfiguration_into_a_line() {
 fn reconfiguration_by_walking_along_the_surface() {
     // Without holes (the shapes' holes are filled): a walker on a hole's rim could not leave.
     for (name, shape, seed) in reconfiguration_cases() {
-        reconfiguration_case(
-            "reconfigure-walk/rules.txt",
-            &name,
-            &shape,
-            seed,
-            true,
-            true,
-        );
+        let r = Reconf {
+            fill_holes: true,
+            one_mover: true,
+            bonded_line: false,
+        };
+        reconfiguration_case("reconfigure-walk/rules.txt", &name, &shape, seed, r);
     }
 }
