@@ -28,18 +28,65 @@ fn stderr(o: &Output) -> String {
 
 #[test]
 fn examples_check_clean() {
-    for ex in ["maxflood", "gravity", "tour"] {
-        let rules = format!("examples/{ex}/rules.txt");
-        let agents = format!("examples/{ex}/agents.txt");
-        let o = run(&["check", &rules, "--agents", &agents]);
-        assert_eq!(o.status.code(), Some(0), "{ex}: {}", stderr(&o));
-        let e = stderr(&o);
-        assert!(e.contains("0 errors, 0 warnings"), "{ex}: {e}");
-        assert!(
-            !e.contains('\u{1b}'),
-            "no colour when stderr is not a terminal"
-        );
+    // Every rules file of every example, with every agents file of the same dimension in its
+    // folder: no error and no warning.
+    let mut checked = 0;
+    let mut dirs: Vec<PathBuf> =
+        std::fs::read_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("examples"))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.is_dir() && !p.ends_with("mistakes"))
+            .collect();
+    dirs.sort();
+    for dir in dirs {
+        let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .collect();
+        files.sort();
+        let name = |p: &PathBuf| p.file_name().unwrap().to_string_lossy().to_string();
+        let is_3d = |p: &PathBuf| name(p).contains("3d");
+        for rules in files.iter().filter(|p| name(p).starts_with("rules")) {
+            let agents: Vec<&PathBuf> = files
+                .iter()
+                .filter(|p| name(p).starts_with("agents") && is_3d(p) == is_3d(rules))
+                .collect();
+            assert!(
+                !agents.is_empty(),
+                "{}: no agents file for {}",
+                dir.display(),
+                name(rules)
+            );
+            for a in agents {
+                let o = run(&[
+                    "check",
+                    rules.to_str().unwrap(),
+                    "--agents",
+                    a.to_str().unwrap(),
+                ]);
+                assert_eq!(
+                    o.status.code(),
+                    Some(0),
+                    "{}: {}",
+                    rules.display(),
+                    stderr(&o)
+                );
+                let e = stderr(&o);
+                assert!(
+                    e.contains("0 errors, 0 warnings"),
+                    "{} with {}: {e}",
+                    rules.display(),
+                    a.display()
+                );
+                assert!(
+                    !e.contains('\u{1b}'),
+                    "no colour when stderr is not a terminal"
+                );
+                checked += 1;
+            }
+        }
     }
+    assert!(checked >= 20, "only {checked} example pairs");
 }
 
 #[test]
