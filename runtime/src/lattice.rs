@@ -1,9 +1,9 @@
 //! The lattice as structure-of-arrays: one column per agent attribute, indexed by agent id,
 //! and a cell-to-agent index that serves dense and sparse, unbounded universes alike.
 
+use crate::cells::CellIndex;
 use latticesim_vm::eval::Cell;
 use latticesim_vm::model::{Bounds, Config, Dim, Dir};
-use rustc_hash::FxHashMap;
 use std::fmt::Write;
 
 /// The agents and their cells.
@@ -27,7 +27,7 @@ pub struct Lattice {
     pub inbox_text: Vec<[u8; 5]>,
     /// Which text messages were received: bit i = from direction i.
     pub inbox_text_has: Vec<u8>,
-    cells: FxHashMap<[i32; 3], u32>,
+    cells: CellIndex,
 }
 
 impl Lattice {
@@ -46,7 +46,10 @@ impl Lattice {
             inbox_num: vec![0; n * d.dirs() * d.slots()],
             inbox_text: vec![[0; 5]; n * d.dirs()],
             inbox_text_has: vec![0; n],
-            cells: FxHashMap::with_capacity_and_hasher(n, Default::default()),
+            cells: CellIndex::new(
+                &cfg.agents.iter().map(|a| a.pos).collect::<Vec<_>>(),
+                d == Dim::Three,
+            ),
         };
         for (i, a) in cfg.agents.iter().enumerate() {
             lat.pos.push(a.pos);
@@ -55,7 +58,6 @@ impl Lattice {
             for &(c, v) in &a.counters {
                 lat.counters[i * nc + c as usize] = v;
             }
-            lat.cells.insert(a.pos, i as u32);
         }
         lat
     }
@@ -104,15 +106,15 @@ impl Lattice {
         if !self.inside(p) {
             return Cell::Blocked;
         }
-        match self.cells.get(&[p[0] as i32, p[1] as i32, p[2] as i32]) {
-            Some(&id) => Cell::Agent(id),
+        match self.cells.get([p[0] as i32, p[1] as i32, p[2] as i32]) {
+            Some(id) => Cell::Agent(id),
             None => Cell::Empty,
         }
     }
 
     /// The agent at a cell, if any.
     pub fn agent_at(&self, p: [i32; 3]) -> Option<u32> {
-        self.cells.get(&p).copied()
+        self.cells.get(p)
     }
 
     /// The neighbour of agent `a` in direction `d`, if any.
@@ -127,9 +129,7 @@ impl Lattice {
     pub fn relocate(&mut self, moves: &[(u32, [i32; 3])]) {
         for &(a, _) in moves {
             let old = self.pos[a as usize];
-            if self.cells.get(&old) == Some(&a) {
-                self.cells.remove(&old);
-            }
+            self.cells.remove(old, a);
         }
         for &(a, p) in moves {
             self.pos[a as usize] = p;

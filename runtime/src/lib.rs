@@ -5,6 +5,7 @@
 //! [`TraceEvent`]s, and updates the [`Stats`]. The runtime does no I/O.
 #![warn(missing_docs)]
 
+mod cells;
 pub mod gen;
 mod lattice;
 mod record;

@@ -102,6 +102,8 @@ pub struct Engine {
     /// Counts so far.
     pub stats: Stats,
     by_prio: Vec<u32>,
+    /// Per rule: it has a move, swap, attachment or state action.
+    has_actions: Vec<bool>,
     out_num: Vec<i16>,
     out_bits: Vec<u32>,
     out_text: Vec<[u8; 5]>,
@@ -220,6 +222,16 @@ impl Engine {
                 ..Stats::default()
             },
             by_prio,
+            has_actions: prog
+                .rules
+                .iter()
+                .map(|i| {
+                    i.moves.is_some()
+                        || i.swaps.is_some()
+                        || i.attaches.is_some()
+                        || i.sets_state.is_some()
+                })
+                .collect(),
             out_num: vec![0; n * d.dirs() * d.slots()],
             out_bits: vec![0; n],
             out_text: vec![[0; 5]; n * d.dirs()],
@@ -485,18 +497,26 @@ impl Engine {
     ) {
         let n = self.lat.len();
         let nd = self.lat.dim.dirs();
+        // Rules with nothing to do in this phase (only calculations and sends) are left out.
+        let has_actions = std::mem::take(&mut self.has_actions);
+        let acts = |r: u32| has_actions[r as usize];
+        if !sel.iter().any(|&r| pick(r) && acts(r)) {
+            self.has_actions = has_actions;
+            return;
+        }
         let mut intents: Vec<Intent> = vec![Intent::default(); n];
-        let mut acting = false;
+        let mut rs: Vec<u32> = Vec::new();
         for a in 0..n {
-            let rs: Vec<u32> = sel[sel_start[a] as usize..sel_start[a + 1] as usize]
-                .iter()
-                .copied()
-                .filter(|&r| pick(r))
-                .collect();
+            rs.clear();
+            rs.extend(
+                sel[sel_start[a] as usize..sel_start[a + 1] as usize]
+                    .iter()
+                    .copied()
+                    .filter(|&r| pick(r) && acts(r)),
+            );
             if rs.is_empty() {
                 continue;
             }
-            acting = true;
             let mut it = Intent::default();
             let mut moves: Vec<(u32, [i32; 3])> = Vec::new();
             let mut swaps: Vec<(u32, Dir)> = Vec::new();
@@ -593,9 +613,7 @@ impl Engine {
             }
             intents[a] = it;
         }
-        if !acting {
-            return;
-        }
+        self.has_actions = has_actions;
         self.detach_move_attach(&intents, rep);
         // 5. State updates.
         for (a, it) in intents.iter().enumerate() {
@@ -814,15 +832,20 @@ impl Engine {
                     continue;
                 }
                 let la = intents[a].letters[d];
+                // Only `1`, or `*`/`+` towards a former partner, can form a bond: look up
+                // the neighbour only then.
+                let wants = match la {
+                    AttachLetter::Attach => true,
+                    AttachLetter::Keep | AttachLetter::Rigid => keep_partner[a][d].is_some(),
+                    AttachLetter::Detach => false,
+                };
+                if !wants {
+                    continue;
+                }
                 let Some(b) = self.lat.neighbour(a as u32, Dir::ALL[d]) else {
                     continue;
                 };
-                let decided = match la {
-                    AttachLetter::Attach => true,
-                    AttachLetter::Keep | AttachLetter::Rigid => keep_partner[a][d] == Some(b),
-                    AttachLetter::Detach => false,
-                };
-                if !decided {
+                if la != AttachLetter::Attach && keep_partner[a][d] != Some(b) {
                     continue;
                 }
                 let od = Dir::ALL[d].opposite().index();

@@ -1,0 +1,150 @@
+//! The cell-to-agent index: a flat grid where the agents are dense, a hash map where they
+//! are sparse. The grid covers the agents' bounding box (with a margin) when that box has
+//! at most a few cells per agent; cells outside it fall back to a hash map, so agents may
+//! go anywhere. A sparse set in a huge universe costs memory in proportion to the agents.
+
+use rustc_hash::FxHashMap;
+
+const EMPTY: u32 = u32::MAX;
+/// Grid cells allowed per agent before the index is a hash map.
+const CELLS_PER_AGENT: i64 = 4;
+/// Cells added around the agents' bounding box.
+const MARGIN: i32 = 2;
+
+/// Which agent stands on which cell.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CellIndex {
+    grid: Option<Grid>,
+    map: FxHashMap<[i32; 3], u32>,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+struct Grid {
+    lo: [i32; 3],
+    size: [i64; 3],
+    cells: Vec<u32>,
+}
+
+impl Grid {
+    fn slot(&self, p: [i32; 3]) -> Option<usize> {
+        let mut i: i64 = 0;
+        for k in 0..3 {
+            let o = p[k] as i64 - self.lo[k] as i64;
+            if o < 0 || o >= self.size[k] {
+                return None;
+            }
+            i = i * self.size[k] + o;
+        }
+        Some(i as usize)
+    }
+}
+
+impl CellIndex {
+    /// An index for agents at these positions (z = 0 in 2D).
+    pub fn new(pos: &[[i32; 3]], three_d: bool) -> CellIndex {
+        let mut grid = None;
+        if !pos.is_empty() {
+            let mut lo = [i32::MAX; 3];
+            let mut hi = [i32::MIN; 3];
+            for p in pos {
+                for k in 0..3 {
+                    lo[k] = lo[k].min(p[k]);
+                    hi[k] = hi[k].max(p[k]);
+                }
+            }
+            let margin = |k: usize| if k == 2 && !three_d { 0 } else { MARGIN };
+            let lo = [0, 1, 2].map(|k| lo[k].saturating_sub(margin(k)));
+            let size = [0, 1, 2].map(|k| hi[k].saturating_add(margin(k)) as i64 - lo[k] as i64 + 1);
+            let volume = size[0].saturating_mul(size[1]).saturating_mul(size[2]);
+            if volume <= CELLS_PER_AGENT * pos.len() as i64 + 4096 {
+                grid = Some(Grid {
+                    lo,
+                    size,
+                    cells: vec![EMPTY; volume as usize],
+                });
+            }
+        }
+        let mut idx = CellIndex {
+            grid,
+            map: FxHashMap::default(),
+        };
+        for (i, p) in pos.iter().enumerate() {
+            idx.insert(*p, i as u32);
+        }
+        idx
+    }
+
+    /// The agent on a cell.
+    #[inline]
+    pub fn get(&self, p: [i32; 3]) -> Option<u32> {
+        if let Some(g) = &self.grid {
+            if let Some(i) = g.slot(p) {
+                let a = g.cells[i];
+                return (a != EMPTY).then_some(a);
+            }
+        }
+        self.map.get(&p).copied()
+    }
+
+    /// Puts an agent on a cell.
+    pub fn insert(&mut self, p: [i32; 3], a: u32) {
+        if let Some(g) = &mut self.grid {
+            if let Some(i) = g.slot(p) {
+                g.cells[i] = a;
+                return;
+            }
+        }
+        self.map.insert(p, a);
+    }
+
+    /// Empties a cell if agent `a` stands there.
+    pub fn remove(&mut self, p: [i32; 3], a: u32) {
+        if let Some(g) = &mut self.grid {
+            if let Some(i) = g.slot(p) {
+                if g.cells[i] == a {
+                    g.cells[i] = EMPTY;
+                }
+                return;
+            }
+        }
+        if self.map.get(&p) == Some(&a) {
+            self.map.remove(&p);
+        }
+    }
+
+    /// Whether the index is a grid.
+    #[cfg(test)]
+    pub fn is_grid(&self) -> bool {
+        self.grid.is_some()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dense_is_a_grid_sparse_is_a_map_and_both_answer_alike() {
+        let dense: Vec<[i32; 3]> = (0..100).map(|i| [i % 10, i / 10, 0]).collect();
+        let sparse: Vec<[i32; 3]> = (0..100).map(|i| [i * 100_000, -i * 7_000, 0]).collect();
+        for (pos, grid) in [(dense, true), (sparse, false)] {
+            let mut idx = CellIndex::new(&pos, false);
+            assert_eq!(idx.is_grid(), grid);
+            for (i, p) in pos.iter().enumerate() {
+                assert_eq!(idx.get(*p), Some(i as u32));
+            }
+            assert_eq!(idx.get([5, 1_000_000, 0]), None);
+            // Moving far outside the grid, and back.
+            idx.remove(pos[3], 3);
+            idx.insert([i32::MAX, i32::MIN, 0], 3);
+            assert_eq!(idx.get(pos[3]), None);
+            assert_eq!(idx.get([i32::MAX, i32::MIN, 0]), Some(3));
+            idx.remove([i32::MAX, i32::MIN, 0], 3);
+            idx.insert(pos[3], 3);
+            assert_eq!(idx.get(pos[3]), Some(3));
+            // Removing a cell that another agent holds changes nothing.
+            idx.remove(pos[4], 3);
+            assert_eq!(idx.get(pos[4]), Some(4));
+        }
+    }
+}
