@@ -28,12 +28,12 @@ struct Grid {
 impl Grid {
     fn slot(&self, p: [i32; 3]) -> Option<usize> {
         let mut i: i64 = 0;
-        for k in 0..3 {
-            let o = p[k] as i64 - self.lo[k] as i64;
-            if o < 0 || o >= self.size[k] {
+        for ((&c, &lo), &size) in p.iter().zip(&self.lo).zip(&self.size) {
+            let o = c as i64 - lo as i64;
+            if o < 0 || o >= size {
                 return None;
             }
-            i = i * self.size[k] + o;
+            i = i * size + o;
         }
         Some(i as usize)
     }
@@ -47,9 +47,9 @@ impl CellIndex {
             let mut lo = [i32::MAX; 3];
             let mut hi = [i32::MIN; 3];
             for p in pos {
-                for k in 0..3 {
-                    lo[k] = lo[k].min(p[k]);
-                    hi[k] = hi[k].max(p[k]);
+                for ((l, h), &c) in lo.iter_mut().zip(hi.iter_mut()).zip(p) {
+                    *l = (*l).min(c);
+                    *h = (*h).max(c);
                 }
             }
             let margin = |k: usize| if k == 2 && !three_d { 0 } else { MARGIN };
