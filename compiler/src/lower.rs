@@ -167,12 +167,14 @@ impl Lowering {
         let mut reads_priorities = false;
         self.cond(&r.pre, pre_start, &mut reads_priorities);
         let pre = pre_start as u32..self.code.len() as u32;
+        let state_filter = top_state(&r.pre).map(|p| self.pats.intern(p));
         let mut info = RuleInfo {
             name: r.name.clone(),
             priority: r.priority,
             pre,
             post: 0..0,
             reads_priorities,
+            state_filter,
             moves: None,
             swaps: None,
             attaches: None,
@@ -241,6 +243,15 @@ impl Lowering {
         }
         info.post = post_start..self.code.len() as u32;
         info
+    }
+}
+
+/// The first state pattern among the terms joined by AND at the top of a precondition.
+fn top_state(c: &Cond) -> Option<p::TextPat> {
+    match c {
+        Cond::State(p) => Some(*p),
+        Cond::And(cs) => cs.iter().find_map(top_state),
+        _ => None,
     }
 }
 

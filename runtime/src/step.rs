@@ -13,6 +13,7 @@ use latticesim_vm::eval::{eval_pre, run_post, CalcEnv, CalcIssue, Cell, Env, Tri
 use latticesim_vm::model::{AttachLetter, Dir, TextPat};
 use latticesim_vm::op::ANY_DIR;
 use latticesim_vm::Program;
+use rustc_hash::FxHashMap;
 use std::collections::BTreeMap;
 
 /// Which of the paper's steps 2 and 3 comes first.
@@ -102,6 +103,8 @@ pub struct Engine {
     /// Counts so far.
     pub stats: Stats,
     by_prio: Vec<u32>,
+    /// Per state seen so far: the rules (in `by_prio` order) whose state filter it passes.
+    candidates: FxHashMap<[u8; 5], Vec<u32>>,
     /// Per rule: it has a move, swap, attachment or state action.
     has_actions: Vec<bool>,
     out_num: Vec<i16>,
@@ -222,6 +225,7 @@ impl Engine {
                 ..Stats::default()
             },
             by_prio,
+            candidates: FxHashMap::default(),
             has_actions: prog
                 .rules
                 .iter()
@@ -271,6 +275,12 @@ impl Engine {
         let mut cur = vec![0u16; n];
         let mut levels: BTreeMap<u16, Vec<u32>> = BTreeMap::new();
         ent_start.push(0);
+        // Rule dispatch by state: an agent evaluates only the rules whose top-level state
+        // pattern its state matches (computed once per distinct state).
+        let mut candidates = std::mem::take(&mut self.candidates);
+        if candidates.len() > 1 << 16 {
+            candidates.clear();
+        }
         for a in 0..n as u32 {
             let env = SelEnv {
                 lat: &self.lat,
@@ -278,7 +288,19 @@ impl Engine {
                 prio: None,
             };
             let start = ent_rule.len();
-            for &r in &self.by_prio {
+            let st = self.lat.state[a as usize];
+            let rules = candidates.entry(st).or_insert_with(|| {
+                self.by_prio
+                    .iter()
+                    .copied()
+                    .filter(|&r| {
+                        prog.rules[r as usize].state_filter.is_none_or(|p| {
+                            latticesim_vm::eval::matches(&prog.pats[p as usize], &st)
+                        })
+                    })
+                    .collect()
+            });
+            for &r in rules.iter() {
                 let t = eval_pre(prog, r as usize, &env);
                 if t != Tri::F {
                     ent_rule.push(r);
@@ -307,6 +329,8 @@ impl Engine {
                 levels.entry(p).or_default().push(a);
             }
         }
+        self.candidates = candidates;
+        let prog = &self.prog;
         let prio_of = |e: usize| prog.rules[ent_rule[e] as usize].priority;
         let mut circles: Vec<(Vec<u32>, String)> = Vec::new();
         while let Some((p, mut list)) = levels.pop_last() {

@@ -18,6 +18,9 @@ pub struct RuleInfo {
     pub post: Range<u32>,
     /// The precondition has a `P`, `L` or `Q` term.
     pub reads_priorities: bool,
+    /// A state pattern the precondition requires at its top level (an index into
+    /// [`Program::pats`]): agents in other states need not evaluate the rule.
+    pub state_filter: Option<u16>,
     /// The move offset (index into [`Program::offsets`]), if it has a `P` action.
     pub moves: Option<u16>,
     /// The swap direction, if it has an `X` action.
@@ -85,6 +88,11 @@ impl Program {
             }
             if r.priority == 0 || r.priority > 32767 {
                 return Err(err(format!("priority {}", r.priority)));
+            }
+            if r.state_filter
+                .is_some_and(|p| p as usize >= self.pats.len())
+            {
+                return Err(err("state filter outside the pattern table".into()));
             }
             let pre = &self.code[r.pre.start as usize..r.pre.end as usize];
             let mut depth: i32 = 0;
