@@ -28,7 +28,17 @@ pub struct Lattice {
     /// Which text messages were received: bit i = from direction i.
     pub inbox_text_has: Vec<u8>,
     cells: CellIndex,
+    /// What stands next to each agent, `dirs` per agent ([`NO_AGENT`], [`BLOCKED`] or an
+    /// id), valid while `nbr_valid`: positions change only in the actions phase, so the
+    /// table is rebuilt at most once a step, and only after a move or swap.
+    nbr: Vec<u32>,
+    nbr_valid: bool,
 }
+
+/// In the neighbour table: a free cell.
+const NO_AGENT: u32 = u32::MAX;
+/// In the neighbour table: a cell outside the universe.
+const BLOCKED: u32 = u32::MAX - 1;
 
 impl Lattice {
     /// Builds the lattice of a checked configuration.
@@ -46,6 +56,8 @@ impl Lattice {
             inbox_num: vec![0; n * d.dirs() * d.slots()],
             inbox_text: vec![[0; 5]; n * d.dirs()],
             inbox_text_has: vec![0; n],
+            nbr: Vec::new(),
+            nbr_valid: false,
             cells: CellIndex::new(
                 &cfg.agents.iter().map(|a| a.pos).collect::<Vec<_>>(),
                 d == Dim::Three,
@@ -118,15 +130,54 @@ impl Lattice {
     }
 
     /// The neighbour of agent `a` in direction `d`, if any.
+    #[inline]
     pub fn neighbour(&self, a: u32, d: Dir) -> Option<u32> {
-        match self.cell_at(self.pos[a as usize], d.offset()) {
+        match self.neighbour_cell(a, d.index()) {
             Cell::Agent(b) => Some(b),
             _ => None,
         }
     }
 
+    /// What stands next to agent `a` in direction index `d`.
+    #[inline]
+    pub fn neighbour_cell(&self, a: u32, d: usize) -> Cell {
+        if !self.nbr_valid {
+            return self.cell_at(self.pos[a as usize], Dir::ALL[d].offset());
+        }
+        match self.nbr[a as usize * self.dim.dirs() + d] {
+            NO_AGENT => Cell::Empty,
+            BLOCKED => Cell::Blocked,
+            b => Cell::Agent(b),
+        }
+    }
+
+    /// Rebuilds the neighbour table if a move or swap made it stale.
+    pub fn refresh_neighbours(&mut self) {
+        if self.nbr_valid {
+            return;
+        }
+        let nd = self.dim.dirs();
+        let mut nbr = std::mem::take(&mut self.nbr);
+        nbr.clear();
+        nbr.reserve(self.len() * nd);
+        for a in 0..self.len() {
+            for d in Dir::ALL.iter().take(nd) {
+                nbr.push(match self.cell_at(self.pos[a], d.offset()) {
+                    Cell::Agent(b) => b,
+                    Cell::Empty => NO_AGENT,
+                    Cell::Blocked => BLOCKED,
+                });
+            }
+        }
+        self.nbr = nbr;
+        self.nbr_valid = true;
+    }
+
     /// Moves agents to new positions all at once (the caller guarantees no two share a cell).
     pub fn relocate(&mut self, moves: &[(u32, [i32; 3])]) {
+        if !moves.is_empty() {
+            self.nbr_valid = false;
+        }
         for &(a, _) in moves {
             let old = self.pos[a as usize];
             self.cells.remove(old, a);

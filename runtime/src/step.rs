@@ -175,6 +175,9 @@ impl Env for SelEnv<'_> {
     fn dirs(&self) -> u8 {
         self.lat.dim.dirs() as u8
     }
+    fn neighbour_cell(&self, d: u8) -> Cell {
+        self.lat.neighbour_cell(self.a, d as usize)
+    }
 }
 
 /// The combined actions of one agent's selected rules.
@@ -464,6 +467,7 @@ impl Engine {
     /// One step. Returns what happened; `stats` is updated.
     pub fn step(&mut self) -> StepReport {
         let mut rep = StepReport::default();
+        self.lat.refresh_neighbours();
         let (sel_start, sel) = self.select(&mut rep);
         rep.quiescent = sel.is_empty();
         for a in 0..self.lat.len() {
@@ -989,6 +993,7 @@ impl Engine {
 
     /// Paper step 3, first half: every selected rule's calculations and sends.
     fn calculations(&mut self, sel_start: &[u32], sel: &[u32], rep: &mut StepReport) {
+        self.lat.refresh_neighbours();
         let n = self.lat.len();
         let uses_ext = !self.prog.externals.is_empty();
         let snapshot = if uses_ext {
@@ -1063,6 +1068,7 @@ impl Engine {
     /// Paper step 3, second half: empty every inbox, then deliver every outgoing message to
     /// the agent standing in its direction now.
     fn deliver(&mut self, rep: &mut StepReport) {
+        self.lat.refresh_neighbours();
         let d = self.lat.dim;
         let (nd, ns) = (d.dirs(), d.slots());
         self.lat.inbox_num.iter_mut().for_each(|v| *v = 0);

@@ -87,6 +87,11 @@ pub trait Env {
     fn prio(&self, other: Option<u32>, p: u16, strict: bool) -> Tri;
     /// Number of directions (4 or 6).
     fn dirs(&self) -> u8;
+    /// The cell next to the agent in direction index `d` (an implementation may answer
+    /// from a table).
+    fn neighbour_cell(&self, d: u8) -> Cell {
+        self.cell(Dir::ALL[d as usize].offset())
+    }
 }
 
 /// Whether a text matches a pattern.
@@ -138,7 +143,7 @@ pub fn eval_pre<E: Env + ?Sized>(prog: &Program, rule: usize, env: &E) -> Tri {
                         continue;
                     }
                     let want_filled = want & (1 << d) != 0;
-                    ok &= match env.cell(Dir::ALL[d as usize].offset()) {
+                    ok &= match env.neighbour_cell(d) {
                         Cell::Blocked => false,
                         Cell::Empty => !want_filled,
                         Cell::Agent(_) => want_filled,
@@ -157,7 +162,7 @@ pub fn eval_pre<E: Env + ?Sized>(prog: &Program, rule: usize, env: &E) -> Tri {
                         if (strict | leq) & bit == 0 {
                             continue;
                         }
-                        let other = match env.cell(Dir::ALL[d as usize].offset()) {
+                        let other = match env.neighbour_cell(d) {
                             Cell::Agent(id) => Some(id),
                             _ => None,
                         };
