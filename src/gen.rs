@@ -21,6 +21,54 @@ enum ShapeArg {
     Cloud,
 }
 
+/// What every generated agent gets besides its position; shared by `gen` and `sweep`.
+#[derive(clap::Args)]
+pub struct AgentOptions {
+    /// 2 or 3.
+    #[arg(long, default_value = "2", value_parser = ["2", "3"])]
+    dim: String,
+    /// State of every agent.
+    #[arg(long)]
+    state: Option<String>,
+    /// State of agent 0 (the origin of a connected shape), e.g. a root.
+    #[arg(long)]
+    first_state: Option<String>,
+    /// Give --first-state to the easternmost agent instead of agent 0 (a root whose row is
+    /// free to the east).
+    #[arg(long)]
+    first_east: bool,
+    /// Put unique ids 1..n, in random order, into this counter (e.g. C00).
+    #[arg(long)]
+    ids: Option<String>,
+    /// Add a universe line: the bounding box of the agents.
+    #[arg(long)]
+    universe: bool,
+    /// Fill the holes of a 2D shape, so that it is simply connected.
+    #[arg(long)]
+    fill_holes: bool,
+}
+
+impl AgentOptions {
+    /// True for 3D.
+    pub fn three_d(&self) -> bool {
+        self.dim == "3"
+    }
+
+    /// The generator's options for one seed, or a message for a bad `--ids`.
+    pub fn gen_options(&self, seed: u64) -> Result<GenOptions, String> {
+        Ok(GenOptions {
+            three_d: self.three_d(),
+            state: self.state.clone(),
+            first_state: self.first_state.clone(),
+            first_east: self.first_east,
+            fill_holes: self.fill_holes,
+            ids: self.ids.as_deref().map(parse_counter).transpose()?,
+            universe: self.universe,
+            seed,
+        })
+    }
+}
+
 /// The arguments of `latticesim gen`.
 #[derive(clap::Args)]
 pub struct GenArgs {
@@ -39,38 +87,17 @@ pub struct GenArgs {
     /// Depth (3D block, 3D cloud).
     #[arg(long, default_value_t = 1)]
     depth: u32,
-    /// 2 or 3.
-    #[arg(long, default_value = "2", value_parser = ["2", "3"])]
-    dim: String,
     /// Seed of the random choices.
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// State of every agent.
-    #[arg(long)]
-    state: Option<String>,
-    /// State of agent 0 (the origin of a connected shape), e.g. a root.
-    #[arg(long)]
-    first_state: Option<String>,
-    /// Fill the holes of a 2D shape, so that it is simply connected.
-    #[arg(long)]
-    fill_holes: bool,
-    /// Give --first-state to the easternmost agent instead of agent 0 (a root whose row is
-    /// free to the east).
-    #[arg(long)]
-    first_east: bool,
-    /// Put unique ids 1..n, in random order, into this counter (e.g. C00).
-    #[arg(long)]
-    ids: Option<String>,
-    /// Add a universe line: the bounding box of the agents.
-    #[arg(long)]
-    universe: bool,
+    #[command(flatten)]
+    agents: AgentOptions,
     /// Write here instead of standard output.
     #[arg(long)]
     out: Option<PathBuf>,
 }
 
 pub fn gen(a: GenArgs) -> ExitCode {
-    let three_d = a.dim == "3";
     let need = |v: Option<u32>, name: &str| v.ok_or_else(|| format!("this shape needs --{name}"));
     let shape = match a.shape {
         ShapeArg::Line => need(a.n, "n").map(|n| Shape::Line { n }),
@@ -88,22 +115,12 @@ pub fn gen(a: GenArgs) -> ExitCode {
             })
         }),
     };
-    let ids = match a.ids.as_deref().map(parse_counter).transpose() {
-        Ok(v) => v,
+    let opts = match a.agents.gen_options(a.seed) {
+        Ok(o) => o,
         Err(e) => {
             eprintln!("error: {e}");
             return ExitCode::from(2);
         }
-    };
-    let opts = GenOptions {
-        three_d,
-        state: a.state,
-        first_state: a.first_state,
-        first_east: a.first_east,
-        fill_holes: a.fill_holes,
-        ids,
-        universe: a.universe,
-        seed: a.seed,
     };
     let text = match shape.and_then(|s| agents_text(&s, &opts)) {
         Ok(t) => t,
@@ -124,7 +141,7 @@ pub fn gen(a: GenArgs) -> ExitCode {
     }
 }
 
-pub(crate) fn parse_counter(s: &str) -> Result<u8, String> {
+fn parse_counter(s: &str) -> Result<u8, String> {
     let d = s
         .strip_prefix('C')
         .ok_or(format!("`{s}` is not a counter such as C00"))?;

@@ -2,10 +2,11 @@
 //! and write one CSV row per run (and, with --plot, an SVG of steps and moves against n with
 //! fitted power laws).
 
+use crate::gen::AgentOptions;
 use crate::write_file;
 use clap::ValueEnum;
 use latticesim_compiler::{check, lower, Input};
-use latticesim_runtime::gen::{agents_text, GenOptions, Shape};
+use latticesim_runtime::gen::{agents_text, Shape};
 use latticesim_runtime::{Engine, Lattice, Options};
 use plotters::prelude::*;
 use rayon::prelude::*;
@@ -39,27 +40,8 @@ pub struct SweepArgs {
     /// Runs (seeds 1..=K) per size.
     #[arg(long, default_value_t = 3)]
     seeds: u64,
-    /// 2 or 3.
-    #[arg(long, default_value = "2", value_parser = ["2", "3"])]
-    dim: String,
-    /// State of every agent.
-    #[arg(long)]
-    state: Option<String>,
-    /// State of agent 0 (e.g. a root).
-    #[arg(long)]
-    first_state: Option<String>,
-    /// Fill the holes of a 2D shape, so that it is simply connected.
-    #[arg(long)]
-    fill_holes: bool,
-    /// Give --first-state to the easternmost agent instead of agent 0.
-    #[arg(long)]
-    first_east: bool,
-    /// Unique ids 1..n in this counter.
-    #[arg(long)]
-    ids: Option<String>,
-    /// Add a universe line: the bounding box of each generated shape.
-    #[arg(long)]
-    universe: bool,
+    #[command(flatten)]
+    agents: AgentOptions,
     /// Stop a run after this many steps.
     #[arg(long, default_value_t = 100_000)]
     max_steps: u64,
@@ -109,8 +91,8 @@ pub fn fit_power(points: &[(f64, f64)]) -> Option<(f64, f64)> {
     Some((my - b * mx, b))
 }
 
-fn run_one(rules: &[u8], a: &SweepArgs, n: u32, seed: u64, ids: Option<u8>) -> Result<Row, String> {
-    let three_d = a.dim == "3";
+fn run_one(rules: &[u8], a: &SweepArgs, n: u32, seed: u64) -> Result<Row, String> {
+    let three_d = a.agents.three_d();
     let shape = match a.shape {
         SweepShape::Line => Shape::Line { n },
         SweepShape::Connected => Shape::Connected { n },
@@ -127,17 +109,7 @@ fn run_one(rules: &[u8], a: &SweepArgs, n: u32, seed: u64, ids: Option<u8>) -> R
             }
         }
     };
-    let opts = GenOptions {
-        three_d,
-        state: a.state.clone(),
-        first_state: a.first_state.clone(),
-        first_east: a.first_east,
-        fill_holes: a.fill_holes,
-        ids,
-        universe: a.universe,
-        seed,
-    };
-    let agents = agents_text(&shape, &opts)?;
+    let agents = agents_text(&shape, &a.agents.gen_options(seed)?)?;
     let c = check(
         Input {
             name: &a.rules.display().to_string(),
@@ -249,13 +221,10 @@ pub fn sweep(a: SweepArgs) -> ExitCode {
         Ok(b) => b,
         Err(c) => return c,
     };
-    let ids = match a.ids.as_deref().map(crate::gen::parse_counter).transpose() {
-        Ok(v) => v,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::from(2);
-        }
-    };
+    if let Err(e) = a.agents.gen_options(0) {
+        eprintln!("error: {e}");
+        return ExitCode::from(2);
+    }
     let jobs: Vec<(u32, u64)> = a
         .sizes
         .iter()
@@ -273,7 +242,7 @@ pub fn sweep(a: SweepArgs) -> ExitCode {
     };
     let results: Vec<Result<Row, String>> = pool.install(|| {
         jobs.par_iter()
-            .map(|&(n, s)| run_one(&rules, &a, n, s, ids))
+            .map(|&(n, s)| run_one(&rules, &a, n, s))
             .collect()
     });
     let mut rows = Vec::with_capacity(results.len());

@@ -1,6 +1,7 @@
 //! Generators of agents files: lines, rectangles and boxes, random connected polyominoes and
 //! polycubes, random sparse clouds. Seeded and deterministic on every machine.
 
+use latticesim_vm::model::Dir;
 use std::collections::HashSet;
 use std::fmt::Write;
 
@@ -90,18 +91,10 @@ pub struct GenOptions {
 /// The cells of a shape, in generation order; the first is the origin where that applies.
 pub fn cells(shape: &Shape, three_d: bool, seed: u64) -> Result<Vec<[i32; 3]>, String> {
     let mut rng = Rng::new(seed);
-    let dirs: &[[i32; 3]] = if three_d {
-        &[
-            [0, 1, 0],
-            [-1, 0, 0],
-            [1, 0, 0],
-            [0, -1, 0],
-            [0, 0, 1],
-            [0, 0, -1],
-        ]
-    } else {
-        &[[0, 1, 0], [-1, 0, 0], [1, 0, 0], [0, -1, 0]]
-    };
+    let dirs: Vec<[i32; 3]> = Dir::ALL[..if three_d { 6 } else { 4 }]
+        .iter()
+        .map(|d| d.offset())
+        .collect();
     Ok(match *shape {
         Shape::Line { n } => (0..n as i32).map(|x| [x, 0, 0]).collect(),
         Shape::Block { w, h, d } => {
