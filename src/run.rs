@@ -44,6 +44,10 @@ pub struct RunArgs {
     /// Leave the wall time out of --stats, so that the file is the same on every run.
     #[arg(long)]
     no_timing: bool,
+    /// Threads for the per-agent work (default: all cores); the results are the same for
+    /// any number.
+    #[arg(long)]
+    threads: Option<usize>,
     /// Print no records or summary (errors in the input files are still printed).
     #[arg(long, short)]
     quiet: bool,
@@ -158,7 +162,11 @@ pub fn run(args: RunArgs) -> ExitCode {
         },
         None => None,
     };
+    let threads = args
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let opts = Options {
+        threads,
         order,
         static_first: args.static_first,
         trace: trace_out.is_some(),

@@ -1,16 +1,25 @@
-//! Runs B1 (L = 300, 10 steps) through the engine once, for profilers.
+//! Runs B1 (10 steps) through the engine once, for profilers: `profile_b1 [L] [threads]`.
 use latticesim_benches::workloads::*;
 
 fn main() {
-    let l: u64 = std::env::args()
-        .nth(1)
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(300);
-    let mut e = latticesim_benches::engine(B1_RULES, &b1_agents(l));
+    let arg = |i: usize, default: u64| {
+        std::env::args()
+            .nth(i)
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(default)
+    };
+    let (l, threads) = (arg(1, 300), arg(2, 1) as usize);
+    let e = latticesim_benches::engine(B1_RULES, &b1_agents(l));
+    let opts = latticesim_runtime::Options { threads, ..e.opts };
+    let mut e = latticesim_runtime::Engine::new(e.prog, e.lat, opts);
     let t = std::time::Instant::now();
     for _ in 0..10 {
         e.step();
     }
-    eprintln!("{:?} for {} agent-steps", t.elapsed(), l * l * 10);
+    eprintln!(
+        "{:?} for {} agent-steps with {threads} thread(s)",
+        t.elapsed(),
+        l * l * 10
+    );
     println!("{}", latticesim_benches::sum_c00(&e));
 }

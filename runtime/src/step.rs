@@ -36,6 +36,8 @@ pub struct Options {
     pub static_first: bool,
     /// Collect trace events.
     pub trace: bool,
+    /// Threads for the per-agent work (0 or 1: none); the results do not depend on it.
+    pub threads: usize,
 }
 
 /// Counts over a run.
@@ -107,6 +109,8 @@ pub struct Engine {
     candidates: FxHashMap<[u8; 5], Vec<u32>>,
     /// Per rule: it has a move, swap, attachment or state action.
     has_actions: Vec<bool>,
+    /// Worker threads, when more than one was asked for.
+    pool: Option<rayon::ThreadPool>,
     out_num: Vec<i16>,
     out_bits: Vec<u32>,
     out_text: Vec<[u8; 5]>,
@@ -229,6 +233,14 @@ impl Engine {
             },
             by_prio,
             candidates: FxHashMap::default(),
+            pool: (opts.threads > 1)
+                .then(|| {
+                    rayon::ThreadPoolBuilder::new()
+                        .num_threads(opts.threads)
+                        .build()
+                        .ok()
+                })
+                .flatten(),
             has_actions: prog
                 .rules
                 .iter()
@@ -246,6 +258,25 @@ impl Engine {
             prog,
             lat,
             opts,
+        }
+    }
+
+    /// Runs `f` over the agents `0..n` in chunks, in parallel when the engine has threads,
+    /// and returns the chunks' results in agent order.
+    fn par_chunks<T: Send>(&self, n: usize, f: &(dyn Fn(usize, usize) -> T + Sync)) -> Vec<T> {
+        match &self.pool {
+            Some(pool) if n >= 1024 => {
+                use rayon::prelude::*;
+                let chunks = pool.current_num_threads() * 4;
+                let size = n.div_ceil(chunks);
+                pool.install(|| {
+                    (0..n.div_ceil(size))
+                        .into_par_iter()
+                        .map(|c| f(c * size, ((c + 1) * size).min(n)))
+                        .collect()
+                })
+            }
+            _ => vec![f(0, n)],
         }
     }
 
@@ -279,46 +310,67 @@ impl Engine {
         let mut levels: BTreeMap<u16, Vec<u32>> = BTreeMap::new();
         ent_start.push(0);
         // Rule dispatch by state: an agent evaluates only the rules whose top-level state
-        // pattern its state matches (computed once per distinct state).
+        // pattern its state matches (computed once per distinct state, before the agents
+        // are evaluated, so that they can be evaluated in parallel).
         let mut candidates = std::mem::take(&mut self.candidates);
         if candidates.len() > 1 << 16 {
             candidates.clear();
         }
-        for a in 0..n as u32 {
-            let env = SelEnv {
-                lat: &self.lat,
-                a,
-                prio: None,
-            };
-            let start = ent_rule.len();
-            let st = self.lat.state[a as usize];
-            let rules = candidates.entry(st).or_insert_with(|| {
-                self.by_prio
+        for st in &self.lat.state {
+            if !candidates.contains_key(st) {
+                let rules = self
+                    .by_prio
                     .iter()
                     .copied()
                     .filter(|&r| {
                         prog.rules[r as usize].state_filter.is_none_or(|p| {
-                            latticesim_vm::eval::matches(&prog.pats[p as usize], &st)
+                            latticesim_vm::eval::matches(&prog.pats[p as usize], st)
                         })
                     })
-                    .collect()
-            });
-            for &r in rules.iter() {
-                let t = eval_pre(prog, r as usize, &env);
-                if t != Tri::F {
-                    ent_rule.push(r);
-                    ent_tri.push(t);
-                }
+                    .collect();
+                candidates.insert(*st, rules);
             }
-            ent_start.push(ent_rule.len() as u32);
-            if start == ent_rule.len() {
-                fixed[a as usize] = 0;
+        }
+        // Pass 1: every agent's valid rules with priority terms unknown, in chunks of
+        // agents (in parallel with --threads), joined in agent order.
+        let lat = &self.lat;
+        let pass1 = |lo: usize, hi: usize| {
+            let mut rules_out = Vec::new();
+            let mut tris = Vec::new();
+            let mut ends = Vec::with_capacity(hi - lo);
+            for a in lo..hi {
+                let env = SelEnv {
+                    lat,
+                    a: a as u32,
+                    prio: None,
+                };
+                for &r in &candidates[&lat.state[a]] {
+                    let t = eval_pre(prog, r as usize, &env);
+                    if t != Tri::F {
+                        rules_out.push(r);
+                        tris.push(t);
+                    }
+                }
+                ends.push(rules_out.len() as u32);
+            }
+            (rules_out, tris, ends)
+        };
+        let parts = self.par_chunks(n, &pass1);
+        for (rules_out, tris, ends) in parts {
+            let base = ent_rule.len() as u32;
+            ent_start.extend(ends.iter().map(|e| base + e));
+            ent_rule.extend(rules_out);
+            ent_tri.extend(tris);
+        }
+        for a in 0..n {
+            let (start, end) = (ent_start[a] as usize, ent_start[a + 1] as usize);
+            if start == end {
+                fixed[a] = 0;
                 continue;
             }
             let p = prog.rules[ent_rule[start] as usize].priority;
-            cur[a as usize] = p;
-            let top = (start..ent_rule.len())
-                .take_while(|&e| prog.rules[ent_rule[e] as usize].priority == p);
+            cur[a] = p;
+            let top = (start..end).take_while(|&e| prog.rules[ent_rule[e] as usize].priority == p);
             let mut any_t = false;
             let mut any_u = false;
             for e in top {
@@ -326,10 +378,10 @@ impl Engine {
                 any_u |= ent_tri[e] == Tri::U;
             }
             if any_t {
-                fixed[a as usize] = p as i32;
+                fixed[a] = p as i32;
             }
             if any_u {
-                levels.entry(p).or_default().push(a);
+                levels.entry(p).or_default().push(a as u32);
             }
         }
         self.candidates = candidates;
@@ -995,73 +1047,118 @@ impl Engine {
     fn calculations(&mut self, sel_start: &[u32], sel: &[u32], rep: &mut StepReport) {
         self.lat.refresh_neighbours();
         let n = self.lat.len();
-        let uses_ext = !self.prog.externals.is_empty();
-        let snapshot = if uses_ext {
-            self.lat.counters.clone()
-        } else {
+        let d = self.lat.dim;
+        let (nc, nd, ns) = (d.counters(), d.dirs(), d.slots());
+        // External counters read the values at the start of this phase.
+        let snapshot = if self.prog.externals.is_empty() {
             Vec::new()
+        } else {
+            self.lat.counters.clone()
         };
-        let nc = self.lat.nc();
-        for a in 0..n {
-            let rs = &sel[sel_start[a] as usize..sel_start[a + 1] as usize];
-            for &r in rs {
-                if !self.prog.rules[r as usize].computes {
-                    continue;
-                }
-                let before: Vec<i16> = if self.opts.trace {
-                    self.lat.counters[a * nc..(a + 1) * nc].to_vec()
-                } else {
-                    Vec::new()
-                };
-                let mut env = CalcCtx {
-                    lat: &mut self.lat,
-                    a,
-                    snapshot: &snapshot,
-                    out_num: &mut self.out_num,
-                    out_bits: &mut self.out_bits,
-                    out_text: &mut self.out_text,
-                    out_text_bits: &mut self.out_text_bits,
-                    issues: Vec::new(),
-                };
-                run_post(&self.prog, r as usize, &mut env);
-                let issues = std::mem::take(&mut env.issues);
-                for (_, issue) in issues {
-                    let name = self.rule_name(r).to_string();
-                    let (kind, msg) = match issue {
-                        CalcIssue::Saturated { exact } => (
-                            RecordKind::Saturation,
-                            format!("agent {a}, rule `{name}`: the result {exact} is saturated to the 16-bit range"),
-                        ),
-                        CalcIssue::DivisionByZero => (
-                            RecordKind::DivisionByZero,
-                            format!("agent {a}, rule `{name}`: division by zero; the target is unchanged"),
-                        ),
-                        CalcIssue::NoExternalAgent { off } => (
-                            RecordKind::NoExternalAgent,
-                            format!(
-                                "agent {a}, rule `{name}`: no agent at ({},{}) to read an external counter from; the calculation is skipped",
-                                off[0], off[1]
-                            ),
-                        ),
+        // Each agent writes only its own counters and outbox: the agents are split into
+        // chunks (worked on in parallel with --threads) whose issues and trace events are
+        // joined in agent order afterwards.
+        let mut counters = std::mem::take(&mut self.lat.counters);
+        let mut out_num = std::mem::take(&mut self.out_num);
+        let mut out_bits = std::mem::take(&mut self.out_bits);
+        let mut out_text = std::mem::take(&mut self.out_text);
+        let mut out_text_bits = std::mem::take(&mut self.out_text_bits);
+        let chunk = match &self.pool {
+            Some(p) if n >= 1024 => n.div_ceil(p.current_num_threads() * 4),
+            _ => n.max(1),
+        };
+        let (prog, lat, trace) = (&self.prog, &self.lat, self.opts.trace);
+        let work = |(c, (((ctr, onum), obits), (otext, otbits))): (usize, CalcChunk<'_>)| {
+            let lo = c * chunk;
+            let mut issues: Vec<(u32, u32, CalcIssue)> = Vec::new();
+            let mut events = Vec::new();
+            for a in lo..(lo + obits.len()) {
+                for &r in &sel[sel_start[a] as usize..sel_start[a + 1] as usize] {
+                    if !prog.rules[r as usize].computes {
+                        continue;
+                    }
+                    let k = a - lo;
+                    let before: Vec<i16> = if trace {
+                        ctr[k * nc..(k + 1) * nc].to_vec()
+                    } else {
+                        Vec::new()
                     };
-                    self.record(rep, kind, &[a as u32], msg);
-                }
-                if self.opts.trace {
-                    for (i, (&old, &new)) in before
-                        .iter()
-                        .zip(&self.lat.counters[a * nc..(a + 1) * nc])
-                        .enumerate()
-                    {
-                        if old != new {
-                            rep.trace.push(TraceEvent::Counter {
-                                agent: a as u32,
-                                counter: i as u8,
-                                value: new,
-                            });
+                    let mut env = CalcCtx {
+                        lat,
+                        a,
+                        k,
+                        counters: &mut *ctr,
+                        snapshot: &snapshot,
+                        out_num: &mut *onum,
+                        out_bits: &mut *obits,
+                        out_text: &mut *otext,
+                        out_text_bits: &mut *otbits,
+                        issues: Vec::new(),
+                    };
+                    run_post(prog, r as usize, &mut env);
+                    issues.extend(env.issues.into_iter().map(|(_, i)| (a as u32, r, i)));
+                    if trace {
+                        for (i, (&old, &new)) in
+                            before.iter().zip(&ctr[k * nc..(k + 1) * nc]).enumerate()
+                        {
+                            if old != new {
+                                events.push(TraceEvent::Counter {
+                                    agent: a as u32,
+                                    counter: i as u8,
+                                    value: new,
+                                });
+                            }
                         }
                     }
                 }
             }
+            (issues, events)
+        };
+        let chunks = counters
+            .chunks_mut(chunk * nc)
+            .zip(out_num.chunks_mut(chunk * nd * ns))
+            .zip(out_bits.chunks_mut(chunk))
+            .zip(
+                out_text
+                    .chunks_mut(chunk * nd)
+                    .zip(out_text_bits.chunks_mut(chunk)),
+            );
+        let results: Vec<_> = match &self.pool {
+            Some(pool) if n >= 1024 => {
+                use rayon::prelude::*;
+                let items: Vec<_> = chunks.enumerate().collect();
+                pool.install(|| items.into_par_iter().map(work).collect())
+            }
+            _ => chunks.enumerate().map(work).collect(),
+        };
+        self.lat.counters = counters;
+        self.out_num = out_num;
+        self.out_bits = out_bits;
+        self.out_text = out_text;
+        self.out_text_bits = out_text_bits;
+        for (issues, events) in results {
+            for (a, r, issue) in issues {
+                let name = self.rule_name(r).to_string();
+                let (kind, msg) = match issue {
+                    CalcIssue::Saturated { exact } => (
+                        RecordKind::Saturation,
+                        format!("agent {a}, rule `{name}`: the result {exact} is saturated to the 16-bit range"),
+                    ),
+                    CalcIssue::DivisionByZero => (
+                        RecordKind::DivisionByZero,
+                        format!("agent {a}, rule `{name}`: division by zero; the target is unchanged"),
+                    ),
+                    CalcIssue::NoExternalAgent { off } => (
+                        RecordKind::NoExternalAgent,
+                        format!(
+                            "agent {a}, rule `{name}`: no agent at ({},{}) to read an external counter from; the calculation is skipped",
+                            off[0], off[1]
+                        ),
+                    ),
+                };
+                self.record(rep, kind, &[a], msg);
+            }
+            rep.trace.extend(events);
         }
     }
 
@@ -1138,9 +1235,20 @@ impl Engine {
     }
 }
 
+/// One chunk of agents' counters, numeric outbox (values, bits) and text outbox (texts,
+/// bits), as the calculation phase splits them.
+type CalcChunk<'a> = (
+    ((&'a mut [i16], &'a mut [i16]), &'a mut [u32]),
+    (&'a mut [[u8; 5]], &'a mut [u8]),
+);
+
+/// What the calculations of agent `a` (the `k`-th of its chunk) read and write: the
+/// lattice for positions and inboxes, and the chunk's own counters and outbox.
 struct CalcCtx<'a> {
-    lat: &'a mut Lattice,
+    lat: &'a Lattice,
     a: usize,
+    k: usize,
+    counters: &'a mut [i16],
     snapshot: &'a [i16],
     out_num: &'a mut [i16],
     out_bits: &'a mut [u32],
@@ -1151,11 +1259,11 @@ struct CalcCtx<'a> {
 
 impl CalcEnv for CalcCtx<'_> {
     fn counter(&self, i: u8) -> i16 {
-        self.lat.counters[self.a * self.lat.nc() + i as usize]
+        self.counters[self.k * self.lat.nc() + i as usize]
     }
     fn set_counter(&mut self, i: u8, v: i16) {
         let nc = self.lat.nc();
-        self.lat.counters[self.a * nc + i as usize] = v;
+        self.counters[self.k * nc + i as usize] = v;
     }
     fn inbox_num(&self, dir: u8, slot: u8) -> i16 {
         let d = self.lat.dim;
@@ -1176,8 +1284,8 @@ impl CalcEnv for CalcCtx<'_> {
             dir as usize..dir as usize + 1
         };
         for k in dirs {
-            self.out_num[(self.a * nd + k) * ns + slot as usize] = v;
-            self.out_bits[self.a] |= 1 << (k * ns + slot as usize);
+            self.out_num[(self.k * nd + k) * ns + slot as usize] = v;
+            self.out_bits[self.k] |= 1 << (k * ns + slot as usize);
         }
     }
     fn send_text(&mut self, dir: u8, text: [u8; 5]) {
@@ -1188,8 +1296,8 @@ impl CalcEnv for CalcCtx<'_> {
             dir as usize..dir as usize + 1
         };
         for k in dirs {
-            self.out_text[self.a * nd + k] = text;
-            self.out_text_bits[self.a] |= 1 << k;
+            self.out_text[self.k * nd + k] = text;
+            self.out_text_bits[self.k] |= 1 << k;
         }
     }
     fn issue(&mut self, pc: usize, issue: CalcIssue) {

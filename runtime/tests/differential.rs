@@ -303,6 +303,7 @@ fn differential(
             order,
             static_first,
             trace: false,
+            threads: 1,
         },
     );
     let mut w = World::new(
@@ -442,4 +443,80 @@ fn generators_reach_every_record_kind() {
         moves > 100 && swaps > 10 && delivered > 100,
         "{moves} moves, {swaps} swaps, {delivered} delivered"
     );
+}
+
+/// Threads change nothing: random rule sets on configurations large enough to be split
+/// into chunks, run with 1 and with 3 threads, agree on everything after every step.
+#[test]
+fn threads_give_the_same_results() {
+    use latticesim_runtime::gen::{agents_text, GenOptions, Shape};
+    use proptest::strategy::ValueTree;
+    use proptest::test_runner::{Config, TestRunner};
+    let mut runner = TestRunner::new(Config {
+        rng_seed: proptest::test_runner::RngSeed::Fixed(11),
+        ..Config::default()
+    });
+    for i in 0..24u64 {
+        let d3 = i % 3 == 2;
+        let r = rules(d3).new_tree(&mut runner).unwrap().current();
+        let o = GenOptions {
+            three_d: d3,
+            seed: i,
+            ..Default::default()
+        };
+        let base = agents_text(&Shape::Connected { n: 2500 }, &o).unwrap();
+        // Give the agents the generators' states and some counters.
+        let a: String = base
+            .lines()
+            .enumerate()
+            .map(|(k, l)| {
+                format!(
+                    "{l} S{} C00 {} C01 {}\n",
+                    STATES[k % 3],
+                    (k % 7) as i32 - 3,
+                    (k % 5) as i32 - 2
+                )
+            })
+            .collect();
+        let c = check(
+            Input {
+                name: "r",
+                bytes: r.as_bytes(),
+            },
+            Some(Input {
+                name: "a",
+                bytes: a.as_bytes(),
+            }),
+            None,
+        );
+        let (Some(p), Some(cfg)) = (&c.program, &c.config) else {
+            panic!("{:?}", c.diags.first())
+        };
+        let order = if i % 2 == 0 {
+            Order::ActionsFirst
+        } else {
+            Order::MessagesFirst
+        };
+        let mk = |threads| {
+            Engine::new(
+                lower(p),
+                Lattice::new(cfg),
+                Options {
+                    order,
+                    threads,
+                    ..Options::default()
+                },
+            )
+        };
+        let (mut one, mut three) = (mk(1), mk(3));
+        for step in 0..6 {
+            let (a, b) = (one.step(), three.step());
+            assert_eq!(a, b, "case {i}, step {step}: reports");
+            assert!(
+                one.lat == three.lat,
+                "case {i}, step {step}: lattices differ\n{r}"
+            );
+            assert_eq!(one.stats, three.stats, "case {i}, step {step}: statistics");
+        }
+    }
 }
