@@ -1166,6 +1166,10 @@ impl Engine {
     /// the agent standing in its direction now.
     fn deliver(&mut self, rep: &mut StepReport) {
         self.lat.refresh_neighbours();
+        if !self.opts.trace && self.pool.is_some() && self.lat.len() >= 1024 {
+            self.deliver_parallel();
+            return;
+        }
         let d = self.lat.dim;
         let (nd, ns) = (d.dirs(), d.slots());
         self.lat.inbox_num.iter_mut().for_each(|v| *v = 0);
@@ -1244,6 +1248,73 @@ type CalcChunk<'a> = (
 
 /// What the calculations of agent `a` (the `k`-th of its chunk) read and write: the
 /// lattice for positions and inboxes, and the chunk's own counters and outbox.
+impl Engine {
+    /// The post office without tracing, in parallel: every agent pulls, from the neighbour
+    /// in each direction, what that neighbour sent towards it.
+    fn deliver_parallel(&mut self) {
+        use rayon::prelude::*;
+        let d = self.lat.dim;
+        let (n, nd, ns) = (self.lat.len(), d.dirs(), d.slots());
+        let sent: u64 = self
+            .out_bits
+            .iter()
+            .zip(&self.out_text_bits)
+            .map(|(b, t)| (b.count_ones() + t.count_ones()) as u64)
+            .sum();
+        let mut inbox_num = std::mem::take(&mut self.lat.inbox_num);
+        let mut inbox_text = std::mem::take(&mut self.lat.inbox_text);
+        let mut inbox_has = std::mem::take(&mut self.lat.inbox_text_has);
+        let (lat, out_num, out_bits) = (&self.lat, &self.out_num, &self.out_bits);
+        let (out_text, out_text_bits) = (&self.out_text, &self.out_text_bits);
+        let pool = self.pool.as_ref().expect("called with a pool");
+        let chunk = n.div_ceil(pool.current_num_threads() * 4);
+        let delivered: u64 = pool.install(|| {
+            inbox_num
+                .par_chunks_mut(chunk * nd * ns)
+                .zip(inbox_text.par_chunks_mut(chunk * nd))
+                .zip(inbox_has.par_chunks_mut(chunk))
+                .enumerate()
+                .map(|(c, ((num, text), has))| {
+                    let mut got = 0u64;
+                    for k in 0..has.len() {
+                        let b = (c * chunk + k) as u32;
+                        has[k] = 0;
+                        for dir in 0..nd {
+                            let slots = &mut num[(k * nd + dir) * ns..(k * nd + dir + 1) * ns];
+                            slots.iter_mut().for_each(|v| *v = 0);
+                            let Cell::Agent(s) = lat.neighbour_cell(b, dir) else {
+                                continue;
+                            };
+                            let (s, od) = (s as usize, Dir::ALL[dir].opposite().index());
+                            let bits = (out_bits[s] >> (od * ns)) & ((1 << ns) - 1);
+                            for (slot, v) in slots.iter_mut().enumerate() {
+                                if bits & (1 << slot) != 0 {
+                                    *v = out_num[(s * nd + od) * ns + slot];
+                                    got += 1;
+                                }
+                            }
+                            if out_text_bits[s] & (1 << od) != 0 {
+                                text[k * nd + dir] = out_text[s * nd + od];
+                                has[k] |= 1 << dir;
+                                got += 1;
+                            }
+                        }
+                    }
+                    got
+                })
+                .sum()
+        });
+        self.lat.inbox_num = inbox_num;
+        self.lat.inbox_text = inbox_text;
+        self.lat.inbox_text_has = inbox_has;
+        self.out_bits.iter_mut().for_each(|b| *b = 0);
+        self.out_text_bits.iter_mut().for_each(|b| *b = 0);
+        self.stats.sent += sent;
+        self.stats.delivered += delivered;
+        self.stats.dropped += sent - delivered;
+    }
+}
+
 struct CalcCtx<'a> {
     lat: &'a Lattice,
     a: usize,
