@@ -106,7 +106,12 @@ pub struct Engine {
     pub stats: Stats,
     by_prio: Vec<u32>,
     /// Per state seen so far: the rules (in `by_prio` order) whose state filter it passes.
-    candidates: FxHashMap<[u8; 5], Vec<u32>>,
+    candidates: FxHashMap<[u8; 5], u32>,
+    /// The candidate lists, indexed by `candidates`' values.
+    cand_lists: Vec<Vec<u32>>,
+    /// Per agent: its candidate list, and the state it was looked up for.
+    cand_of: Vec<u32>,
+    cand_state: Vec<[u8; 5]>,
     /// Per rule: it has a move, swap, attachment or state action.
     has_actions: Vec<bool>,
     /// Worker threads, when more than one was asked for.
@@ -233,6 +238,9 @@ impl Engine {
             },
             by_prio,
             candidates: FxHashMap::default(),
+            cand_lists: Vec::new(),
+            cand_of: Vec::new(),
+            cand_state: Vec::new(),
             pool: (opts.threads > 1)
                 .then(|| {
                     rayon::ThreadPoolBuilder::new()
@@ -312,24 +320,41 @@ impl Engine {
         // Rule dispatch by state: an agent evaluates only the rules whose top-level state
         // pattern its state matches (computed once per distinct state, before the agents
         // are evaluated, so that they can be evaluated in parallel).
+        // Each agent remembers which list it uses and for which state, so only agents
+        // whose state changed look the list up again.
         let mut candidates = std::mem::take(&mut self.candidates);
-        if candidates.len() > 1 << 16 {
+        let mut lists = std::mem::take(&mut self.cand_lists);
+        let mut of = std::mem::take(&mut self.cand_of);
+        let mut seen = std::mem::take(&mut self.cand_state);
+        if lists.len() > 1 << 16 {
             candidates.clear();
+            lists.clear();
+            of.clear();
         }
-        for st in &self.lat.state {
-            if !candidates.contains_key(st) {
-                let rules = self
-                    .by_prio
-                    .iter()
-                    .copied()
-                    .filter(|&r| {
-                        prog.rules[r as usize].state_filter.is_none_or(|p| {
-                            latticesim_vm::eval::matches(&prog.pats[p as usize], st)
-                        })
-                    })
-                    .collect();
-                candidates.insert(*st, rules);
+        if of.len() != n {
+            of = vec![u32::MAX; n];
+            seen = vec![[0; 5]; n];
+        }
+        for (a, st) in self.lat.state.iter().enumerate() {
+            if of[a] != u32::MAX && seen[a] == *st {
+                continue;
             }
+            let idx = *candidates.entry(*st).or_insert_with(|| {
+                lists.push(
+                    self.by_prio
+                        .iter()
+                        .copied()
+                        .filter(|&r| {
+                            prog.rules[r as usize].state_filter.is_none_or(|p| {
+                                latticesim_vm::eval::matches(&prog.pats[p as usize], st)
+                            })
+                        })
+                        .collect(),
+                );
+                (lists.len() - 1) as u32
+            });
+            of[a] = idx;
+            seen[a] = *st;
         }
         // Pass 1: every agent's valid rules with priority terms unknown, in chunks of
         // agents (in parallel with --threads), joined in agent order.
@@ -344,7 +369,7 @@ impl Engine {
                     a: a as u32,
                     prio: None,
                 };
-                for &r in &candidates[&lat.state[a]] {
+                for &r in &lists[of[a] as usize] {
                     let t = eval_pre(prog, r as usize, &env);
                     if t != Tri::F {
                         rules_out.push(r);
@@ -385,6 +410,9 @@ impl Engine {
             }
         }
         self.candidates = candidates;
+        self.cand_lists = lists;
+        self.cand_of = of;
+        self.cand_state = seen;
         let prog = &self.prog;
         let prio_of = |e: usize| prog.rules[ent_rule[e] as usize].priority;
         let mut circles: Vec<(Vec<u32>, String)> = Vec::new();
