@@ -114,5 +114,33 @@ fn b3(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, b1, b2, b3);
+/// B1 through the engine with one and with two threads (results are identical).
+fn b1_threads(c: &mut Criterion) {
+    let (l, s) = (300usize, 10u64);
+    let mut g = c.benchmark_group(format!("B1-L{l}-S{s}-threads"));
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(l as u64 * l as u64 * s));
+    let base = engine(B1_RULES, &b1_agents(l as u64));
+    for threads in [1usize, 2] {
+        let opts = latticesim_runtime::Options {
+            threads,
+            ..base.opts
+        };
+        g.bench_function(format!("engine-{threads}"), |b| {
+            b.iter_batched(
+                || latticesim_runtime::Engine::new(base.prog.clone(), base.lat.clone(), opts),
+                |mut e| {
+                    for _ in 0..s {
+                        e.step();
+                    }
+                    sum_c00(&e)
+                },
+                BatchSize::LargeInput,
+            )
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, b1, b2, b3, b1_threads);
 criterion_main!(benches);
