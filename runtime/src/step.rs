@@ -1190,99 +1190,17 @@ impl Engine {
         }
     }
 
-    /// Paper step 3, second half: empty every inbox, then deliver every outgoing message to
-    /// the agent standing in its direction now.
+    /// Paper step 3, second half: every inbox is emptied and filled with what this step's
+    /// outboxes hold, each agent pulling from the neighbour in each direction what that
+    /// neighbour sent towards it (in chunks of agents, in parallel with --threads).
     fn deliver(&mut self, rep: &mut StepReport) {
-        self.lat.refresh_neighbours();
-        if !self.opts.trace && self.pool.is_some() && self.lat.len() >= 1024 {
-            self.deliver_parallel();
-            return;
-        }
-        let d = self.lat.dim;
-        let (nd, ns) = (d.dirs(), d.slots());
-        self.lat.inbox_num.iter_mut().for_each(|v| *v = 0);
-        self.lat.inbox_text_has.iter_mut().for_each(|v| *v = 0);
-        for a in 0..self.lat.len() {
-            let bits = std::mem::take(&mut self.out_bits[a]);
-            let tbits = std::mem::take(&mut self.out_text_bits[a]);
-            if bits == 0 && tbits == 0 {
-                continue;
-            }
-            for dir in 0..nd {
-                let slots = (bits >> (dir * ns)) & ((1 << ns) - 1);
-                let has_text = tbits & (1 << dir) != 0;
-                if slots == 0 && !has_text {
-                    continue;
-                }
-                let to = self.lat.neighbour(a as u32, Dir::ALL[dir]);
-                let od = Dir::ALL[dir].opposite().index();
-                for s in 0..ns {
-                    if slots & (1 << s) == 0 {
-                        continue;
-                    }
-                    let v = self.out_num[(a * nd + dir) * ns + s];
-                    self.stats.sent += 1;
-                    match to {
-                        Some(b) => {
-                            self.lat.inbox_num[(b as usize * nd + od) * ns + s] = v;
-                            self.stats.delivered += 1;
-                        }
-                        None => self.stats.dropped += 1,
-                    }
-                    if self.opts.trace {
-                        rep.trace.push(TraceEvent::Message {
-                            from: a as u32,
-                            to,
-                            dir: Dir::ALL[dir].letter(),
-                            slot: Some(s as u8 + 1),
-                            value: Some(v),
-                            text: None,
-                        });
-                    }
-                }
-                if has_text {
-                    let t = self.out_text[a * nd + dir];
-                    self.stats.sent += 1;
-                    match to {
-                        Some(b) => {
-                            self.lat.inbox_text[b as usize * nd + od] = t;
-                            self.lat.inbox_text_has[b as usize] |= 1 << od;
-                            self.stats.delivered += 1;
-                        }
-                        None => self.stats.dropped += 1,
-                    }
-                    if self.opts.trace {
-                        rep.trace.push(TraceEvent::Message {
-                            from: a as u32,
-                            to,
-                            dir: Dir::ALL[dir].letter(),
-                            slot: None,
-                            value: None,
-                            text: Some(text(&t)),
-                        });
-                    }
-                }
-            }
-        }
-    }
-}
-
-/// One chunk of agents' counters, numeric outbox (values, bits) and text outbox (texts,
-/// bits), as the calculation phase splits them.
-type CalcChunk<'a> = (
-    ((&'a mut [i16], &'a mut [i16]), &'a mut [u32]),
-    (&'a mut [[u8; 5]], &'a mut [u8]),
-);
-
-/// What the calculations of agent `a` (the `k`-th of its chunk) read and write: the
-/// lattice for positions and inboxes, and the chunk's own counters and outbox.
-impl Engine {
-    /// The post office without tracing, in parallel: every agent pulls, from the neighbour
-    /// in each direction, what that neighbour sent towards it.
-    fn deliver_parallel(&mut self) {
         use rayon::prelude::*;
+        self.lat.refresh_neighbours();
         let d = self.lat.dim;
         let (n, nd, ns) = (self.lat.len(), d.dirs(), d.slots());
+        if self.opts.trace {
+            self.trace_messages(rep);
+        }
         let sent: u64 = self
             .out_bits
             .iter()
@@ -1294,44 +1212,55 @@ impl Engine {
         let mut inbox_has = std::mem::take(&mut self.lat.inbox_text_has);
         let (lat, out_num, out_bits) = (&self.lat, &self.out_num, &self.out_bits);
         let (out_text, out_text_bits) = (&self.out_text, &self.out_text_bits);
-        let pool = self.pool.as_ref().expect("called with a pool");
-        let chunk = n.div_ceil(pool.current_num_threads() * 4);
-        let delivered: u64 = pool.install(|| {
-            inbox_num
-                .par_chunks_mut(chunk * nd * ns)
-                .zip(inbox_text.par_chunks_mut(chunk * nd))
-                .zip(inbox_has.par_chunks_mut(chunk))
-                .enumerate()
-                .map(|(c, ((num, text), has))| {
-                    let mut got = 0u64;
-                    for k in 0..has.len() {
-                        let b = (c * chunk + k) as u32;
-                        has[k] = 0;
-                        for dir in 0..nd {
-                            let slots = &mut num[(k * nd + dir) * ns..(k * nd + dir + 1) * ns];
-                            slots.iter_mut().for_each(|v| *v = 0);
-                            let Cell::Agent(s) = lat.neighbour_cell(b, dir) else {
-                                continue;
-                            };
-                            let (s, od) = (s as usize, Dir::ALL[dir].opposite().index());
-                            let bits = (out_bits[s] >> (od * ns)) & ((1 << ns) - 1);
-                            for (slot, v) in slots.iter_mut().enumerate() {
-                                if bits & (1 << slot) != 0 {
-                                    *v = out_num[(s * nd + od) * ns + slot];
-                                    got += 1;
-                                }
-                            }
-                            if out_text_bits[s] & (1 << od) != 0 {
-                                text[k * nd + dir] = out_text[s * nd + od];
-                                has[k] |= 1 << dir;
-                                got += 1;
-                            }
+        let pool = self.pool.as_ref().filter(|_| n >= 1024);
+        let chunk = pool.map_or(n.max(1), |p| n.div_ceil(p.current_num_threads() * 4));
+        // Fills one chunk of recipients; returns how many messages arrived.
+        let pull = |(c, ((num, text), has)): (usize, InboxChunk<'_>)| {
+            let mut got = 0u64;
+            for k in 0..has.len() {
+                let b = (c * chunk + k) as u32;
+                has[k] = 0;
+                for dir in 0..nd {
+                    let slots = &mut num[(k * nd + dir) * ns..(k * nd + dir + 1) * ns];
+                    slots.iter_mut().for_each(|v| *v = 0);
+                    let Cell::Agent(s) = lat.neighbour_cell(b, dir) else {
+                        continue;
+                    };
+                    let (s, od) = (s as usize, Dir::ALL[dir].opposite().index());
+                    let bits = (out_bits[s] >> (od * ns)) & ((1 << ns) - 1);
+                    for (slot, v) in slots.iter_mut().enumerate() {
+                        if bits & (1 << slot) != 0 {
+                            *v = out_num[(s * nd + od) * ns + slot];
+                            got += 1;
                         }
                     }
-                    got
-                })
-                .sum()
-        });
+                    if out_text_bits[s] & (1 << od) != 0 {
+                        text[k * nd + dir] = out_text[s * nd + od];
+                        has[k] |= 1 << dir;
+                        got += 1;
+                    }
+                }
+            }
+            got
+        };
+        let delivered: u64 = match pool {
+            Some(pool) => pool.install(|| {
+                inbox_num
+                    .par_chunks_mut(chunk * nd * ns)
+                    .zip(inbox_text.par_chunks_mut(chunk * nd))
+                    .zip(inbox_has.par_chunks_mut(chunk))
+                    .enumerate()
+                    .map(pull)
+                    .sum()
+            }),
+            None => inbox_num
+                .chunks_mut(chunk * nd * ns)
+                .zip(inbox_text.chunks_mut(chunk * nd))
+                .zip(inbox_has.chunks_mut(chunk))
+                .enumerate()
+                .map(pull)
+                .sum(),
+        };
         self.lat.inbox_num = inbox_num;
         self.lat.inbox_text = inbox_text;
         self.lat.inbox_text_has = inbox_has;
@@ -1341,8 +1270,58 @@ impl Engine {
         self.stats.delivered += delivered;
         self.stats.dropped += sent - delivered;
     }
+
+    /// One trace event per message of this step's outboxes, senders in id order.
+    fn trace_messages(&self, rep: &mut StepReport) {
+        let d = self.lat.dim;
+        let (nd, ns) = (d.dirs(), d.slots());
+        for a in 0..self.lat.len() {
+            let (bits, tbits) = (self.out_bits[a], self.out_text_bits[a]);
+            for dir in 0..nd {
+                let slots = (bits >> (dir * ns)) & ((1 << ns) - 1);
+                let has_text = tbits & (1 << dir) != 0;
+                if slots == 0 && !has_text {
+                    continue;
+                }
+                let to = self.lat.neighbour(a as u32, Dir::ALL[dir]);
+                let letter = Dir::ALL[dir].letter();
+                for s in (0..ns).filter(|s| slots & (1 << s) != 0) {
+                    rep.trace.push(TraceEvent::Message {
+                        from: a as u32,
+                        to,
+                        dir: letter,
+                        slot: Some(s as u8 + 1),
+                        value: Some(self.out_num[(a * nd + dir) * ns + s]),
+                        text: None,
+                    });
+                }
+                if has_text {
+                    rep.trace.push(TraceEvent::Message {
+                        from: a as u32,
+                        to,
+                        dir: letter,
+                        slot: None,
+                        value: None,
+                        text: Some(text(&self.out_text[a * nd + dir])),
+                    });
+                }
+            }
+        }
+    }
 }
 
+/// One chunk of agents' inboxes: numeric slots, texts, text bits.
+type InboxChunk<'a> = ((&'a mut [i16], &'a mut [[u8; 5]]), &'a mut [u8]);
+
+/// One chunk of agents' counters, numeric outbox (values, bits) and text outbox (texts,
+/// bits), as the calculation phase splits them.
+type CalcChunk<'a> = (
+    ((&'a mut [i16], &'a mut [i16]), &'a mut [u32]),
+    (&'a mut [[u8; 5]], &'a mut [u8]),
+);
+
+/// What the calculations of agent `a` (the `k`-th of its chunk) read and write: the
+/// lattice for positions and inboxes, and the chunk's own counters and outbox.
 struct CalcCtx<'a> {
     lat: &'a Lattice,
     a: usize,
