@@ -54,9 +54,21 @@ fn dirs(three_d: bool) -> Vec<[i32; 3]> {
     v
 }
 
-/// Breadth-first distances from agent `from` over the positions.
-fn bfs(pos: &[[i32; 3]], from: usize, three_d: bool) -> Vec<u32> {
-    let at: HashMap<[i32; 3], usize> = pos.iter().enumerate().map(|(i, p)| (*p, i)).collect();
+/// Which agent stands on each cell.
+fn cell_map(pos: &[[i32; 3]]) -> HashMap<[i32; 3], usize> {
+    pos.iter().enumerate().map(|(i, p)| (*p, i)).collect()
+}
+
+/// The agent next to agent `a` in the direction with letter `d`, if any.
+fn toward(pos: &[[i32; 3]], at: &HashMap<[i32; 3], usize>, a: usize, d: char) -> Option<usize> {
+    let o = latticesim_vm::model::Dir::from_char(d)?.offset();
+    let p = pos[a];
+    at.get(&[p[0] + o[0], p[1] + o[1], p[2] + o[2]]).copied()
+}
+
+/// Breadth-first distances from agent `from` over the positions (`u32::MAX`: unreachable).
+fn reach(pos: &[[i32; 3]], from: usize, three_d: bool) -> Vec<u32> {
+    let at = cell_map(pos);
     let mut dist = vec![u32::MAX; pos.len()];
     dist[from] = 0;
     let mut q = VecDeque::from([from]);
@@ -71,6 +83,12 @@ fn bfs(pos: &[[i32; 3]], from: usize, three_d: bool) -> Vec<u32> {
             }
         }
     }
+    dist
+}
+
+/// Breadth-first distances from agent `from` over a connected shape.
+fn bfs(pos: &[[i32; 3]], from: usize, three_d: bool) -> Vec<u32> {
+    let dist = reach(pos, from, three_d);
     assert!(
         dist.iter().all(|&d| d != u32::MAX),
         "the shape is connected"
@@ -188,14 +206,12 @@ fn tree_check(
     let n = e.lat.len();
     let dist = bfs(&e.lat.pos, 0, three_d);
     assert_eq!(state(e, 0), root_state, "{name}");
-    let at: HashMap<[i32; 3], usize> = e.lat.pos.iter().enumerate().map(|(i, p)| (*p, i)).collect();
+    let at = cell_map(&e.lat.pos);
     for a in 1..n {
         let s = state(e, a);
-        let d =
-            parent_of(&s).unwrap_or_else(|| panic!("{name}: agent {a} in state {s} has no parent"));
-        let o = latticesim_vm::model::Dir::from_char(d).unwrap().offset();
-        let p = e.lat.pos[a];
-        let parent = at[&[p[0] + o[0], p[1] + o[1], p[2] + o[2]]];
+        let parent = parent_of(&s)
+            .and_then(|d| toward(&e.lat.pos, &at, a, d))
+            .unwrap_or_else(|| panic!("{name}: agent {a} in state {s} has no parent"));
         assert_eq!(
             dist[parent] + 1,
             dist[a],
@@ -221,14 +237,11 @@ fn spanning_tree() {
             // At every step, the agents in the tree so far form a tree: each one's parent is
             // in it and one breadth-first step closer to the root.
             let steps = run(&mut e, 10_000, |e| {
-                let at: HashMap<[i32; 3], usize> =
-                    e.lat.pos.iter().enumerate().map(|(i, p)| (*p, i)).collect();
+                let at = cell_map(&e.lat.pos);
                 for a in 1..e.lat.len() {
                     let s = state(e, a);
                     if let Some(d) = s.strip_prefix("TREE").and_then(|d| d.chars().next()) {
-                        let o = latticesim_vm::model::Dir::from_char(d).unwrap().offset();
-                        let p = e.lat.pos[a];
-                        let parent = at[&[p[0] + o[0], p[1] + o[1], p[2] + o[2]]];
+                        let parent = toward(&e.lat.pos, &at, a, d).expect("a parent");
                         let joined = parent == 0 || state(e, parent).starts_with("TREE");
                         assert!(joined, "{name}: the parent of {a} is not in the tree");
                         assert_eq!(dist[parent] + 1, dist[a], "{name}");
@@ -332,16 +345,12 @@ fn bounding_box() {
 /// Follows parent directions (state character `k`) from `from` until `stop`; returns the
 /// agents visited.
 fn follow(e: &Engine, from: usize, k: usize, stop: impl Fn(usize) -> bool) -> Vec<usize> {
-    let at: HashMap<[i32; 3], usize> = e.lat.pos.iter().enumerate().map(|(i, p)| (*p, i)).collect();
+    let at = cell_map(&e.lat.pos);
     let mut path = vec![from];
     let mut a = from;
     while !stop(a) {
-        let d = e.lat.state[a][k] as char;
-        let o = latticesim_vm::model::Dir::from_char(d)
-            .unwrap_or_else(|| panic!("agent {a} has no parent"))
-            .offset();
-        let p = e.lat.pos[a];
-        a = at[&[p[0] + o[0], p[1] + o[1], p[2] + o[2]]];
+        a = toward(&e.lat.pos, &at, a, e.lat.state[a][k] as char)
+            .unwrap_or_else(|| panic!("agent {a} has no parent"));
         path.push(a);
         assert!(path.len() <= e.lat.len(), "a cycle");
     }
@@ -505,24 +514,7 @@ fn bouncing_dots_never_collide() {
 }
 
 fn connected_now(pos: &[[i32; 3]]) -> bool {
-    let at: HashMap<[i32; 3], usize> = pos.iter().enumerate().map(|(i, p)| (*p, i)).collect();
-    let mut seen = vec![false; pos.len()];
-    let mut stack = vec![0];
-    seen[0] = true;
-    let mut count = 1;
-    while let Some(a) = stack.pop() {
-        for o in dirs(false) {
-            let p = pos[a];
-            if let Some(&b) = at.get(&[p[0] + o[0], p[1] + o[1], p[2]]) {
-                if !seen[b] {
-                    seen[b] = true;
-                    count += 1;
-                    stack.push(b);
-                }
-            }
-        }
-    }
-    count == pos.len()
+    reach(pos, 0, false).iter().all(|&d| d != u32::MAX)
 }
 
 /// What a reconfiguration example is run on and checked for, besides connectivity at every
