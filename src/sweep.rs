@@ -122,7 +122,21 @@ fn run_one(rules: &[u8], a: &SweepArgs, n: u32, seed: u64) -> Result<Row, String
         None,
     );
     let (Some(p), Some(cfg)) = (&c.program, &c.config) else {
-        return Err(format!("n = {n}, seed {seed}: the rules or the generated agents have errors (run `latticesim check`)"));
+        let first = c
+            .diags
+            .iter()
+            .find(|d| d.is_error())
+            .expect("no program means an error");
+        let (line, col) = c
+            .sources
+            .line_col(first.primary.file, first.primary.span.start);
+        return Err(format!(
+            "n = {n}, seed {seed}: {}:{line}:{col}: error[{}]: {} ({} errors in all; `latticesim check` shows them)",
+            c.sources.name(first.primary.file),
+            first.code.as_str(),
+            first.message,
+            c.errors()
+        ));
     };
     let started = Instant::now();
     let mut e = Engine::new(lower(p), Lattice::new(cfg), Options::default());

@@ -5,7 +5,7 @@
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use latticesim_benches::workloads::*;
-use latticesim_benches::{b2_checksum, b3_checksum, engine, native, sum_c00};
+use latticesim_benches::{b2_checksum, b3_checksum, engine, fresh, native, sum_c00};
 use std::hint::black_box;
 
 fn b1(c: &mut Criterion) {
@@ -30,7 +30,7 @@ fn b1(c: &mut Criterion) {
     });
     g.bench_function("engine", |b| {
         b.iter_batched(
-            || latticesim_runtime::Engine::new(base.prog.clone(), base.lat.clone(), base.opts),
+            || fresh(&base, base.opts),
             |mut e| {
                 for _ in 0..s {
                     e.step();
@@ -71,7 +71,7 @@ fn b2(c: &mut Criterion) {
     });
     g.bench_function("engine", |b| {
         b.iter_batched(
-            || latticesim_runtime::Engine::new(base.prog.clone(), base.lat.clone(), base.opts),
+            || fresh(&base, base.opts),
             |e| run(e).stats.steps,
             BatchSize::LargeInput,
         )
@@ -86,7 +86,7 @@ fn b3(c: &mut Criterion) {
         g.sample_size(10);
         g.throughput(Throughput::Elements(l * l * s));
         let base = engine(&b3_rules(k), &b3_agents(l, k));
-        let mut e = latticesim_runtime::Engine::new(base.prog.clone(), base.lat.clone(), base.opts);
+        let mut e = fresh(&base, base.opts);
         (0..s).for_each(|_| {
             e.step();
         });
@@ -100,7 +100,7 @@ fn b3(c: &mut Criterion) {
         });
         g.bench_function("engine", |b| {
             b.iter_batched(
-                || latticesim_runtime::Engine::new(base.prog.clone(), base.lat.clone(), base.opts),
+                || fresh(&base, base.opts),
                 |mut e| {
                     for _ in 0..s {
                         e.step();
@@ -128,7 +128,7 @@ fn b1_threads(c: &mut Criterion) {
         };
         g.bench_function(format!("engine-{threads}"), |b| {
             b.iter_batched(
-                || latticesim_runtime::Engine::new(base.prog.clone(), base.lat.clone(), opts),
+                || fresh(&base, opts),
                 |mut e| {
                     for _ in 0..s {
                         e.step();

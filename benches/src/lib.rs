@@ -219,6 +219,14 @@ pub fn engine(rules: &str, agents: &str) -> latticesim_runtime::Engine {
     )
 }
 
+/// A new engine with `base`'s program and initial lattice, and these options.
+pub fn fresh(
+    base: &latticesim_runtime::Engine,
+    opts: latticesim_runtime::Options,
+) -> latticesim_runtime::Engine {
+    latticesim_runtime::Engine::new(base.prog.clone(), base.lat.clone(), opts)
+}
+
 /// The sum of C00 over all agents.
 pub fn sum_c00(e: &latticesim_runtime::Engine) -> u64 {
     let nc = e.lat.nc();
