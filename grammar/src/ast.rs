@@ -39,7 +39,8 @@ pub enum Operand<'a> {
     External(Offset<'a>),
 }
 
-/// `<`, `>` or `=`.
+/// `<`, `>` or `=`, as written. (The VM has its own `CmpOp` and `CalcOp`: the bytecode
+/// crate depends on no front-end crate, and the checker maps one onto the other.)
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum CmpOp {
     /// `<`

@@ -255,14 +255,7 @@ mod tests {
         let mut stack = vec![cs[0]];
         seen.insert(cs[0]);
         while let Some(c) = stack.pop() {
-            for o in [
-                [0, 1, 0],
-                [-1, 0, 0],
-                [1, 0, 0],
-                [0, -1, 0],
-                [0, 0, 1],
-                [0, 0, -1],
-            ] {
+            for o in Dir::ALL.map(Dir::offset) {
                 let d = [c[0] + o[0], c[1] + o[1], c[2] + o[2]];
                 if set.contains(&d) && seen.insert(d) {
                     stack.push(d);

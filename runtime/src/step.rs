@@ -189,6 +189,28 @@ impl Env for SelEnv<'_> {
     }
 }
 
+/// An open agent left with no rule at its level drops to its next valid priority `next`
+/// (to be resolved at that level), or, with none left, is fixed at priority 0.
+fn drop_to(
+    a: u32,
+    next: Option<u16>,
+    fixed: &mut [i32],
+    cur: &mut [u16],
+    levels: &mut BTreeMap<u16, Vec<u32>>,
+) {
+    let ai = a as usize;
+    match next {
+        Some(q) => {
+            cur[ai] = q;
+            levels.entry(q).or_default().push(a);
+        }
+        None => {
+            fixed[ai] = 0;
+            cur[ai] = 0;
+        }
+    }
+}
+
 /// The combined actions of one agent's selected rules.
 #[derive(Clone, Copy)]
 struct Intent {
@@ -458,16 +480,10 @@ impl Engine {
                     }
                     if fixed[ai] == OPEN && !alive {
                         changed = true;
-                        match (s..e).find(|&k| prio_of(k) < p && ent_tri[k] != Tri::F) {
-                            Some(k) => {
-                                cur[ai] = prio_of(k);
-                                levels.entry(cur[ai]).or_default().push(a);
-                            }
-                            None => {
-                                fixed[ai] = 0;
-                                cur[ai] = 0;
-                            }
-                        }
+                        let next = (s..e)
+                            .find(|&k| prio_of(k) < p && ent_tri[k] != Tri::F)
+                            .map(prio_of);
+                        drop_to(a, next, &mut fixed, &mut cur, &mut levels);
                     }
                 }
                 if !changed {
@@ -497,16 +513,10 @@ impl Engine {
                 if hit {
                     circle.push(a);
                     if fixed[ai] == OPEN {
-                        match (s..e).find(|&k| prio_of(k) < p && ent_tri[k] != Tri::F) {
-                            Some(k) => {
-                                cur[ai] = prio_of(k);
-                                levels.entry(cur[ai]).or_default().push(a);
-                            }
-                            None => {
-                                fixed[ai] = 0;
-                                cur[ai] = 0;
-                            }
-                        }
+                        let next = (s..e)
+                            .find(|&k| prio_of(k) < p && ent_tri[k] != Tri::F)
+                            .map(prio_of);
+                        drop_to(a, next, &mut fixed, &mut cur, &mut levels);
                     }
                 }
             }
