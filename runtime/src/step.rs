@@ -291,14 +291,20 @@ impl Engine {
         }
     }
 
+    /// How per-agent work on `n` agents is split: the thread pool and the chunk size when
+    /// there are threads and enough agents (the one place that decides), else `None`.
+    fn parallel(&self, n: usize) -> Option<(&rayon::ThreadPool, usize)> {
+        const MIN_AGENTS: usize = 1024;
+        let pool = self.pool.as_ref().filter(|_| n >= MIN_AGENTS)?;
+        Some((pool, n.div_ceil(pool.current_num_threads() * 4)))
+    }
+
     /// Runs `f` over the agents `0..n` in chunks, in parallel when the engine has threads,
     /// and returns the chunks' results in agent order.
     fn par_chunks<T: Send>(&self, n: usize, f: &(dyn Fn(usize, usize) -> T + Sync)) -> Vec<T> {
-        match &self.pool {
-            Some(pool) if n >= 1024 => {
+        match self.parallel(n) {
+            Some((pool, size)) => {
                 use rayon::prelude::*;
-                let chunks = pool.current_num_threads() * 4;
-                let size = n.div_ceil(chunks);
                 pool.install(|| {
                     (0..n.div_ceil(size))
                         .into_par_iter()
@@ -1101,10 +1107,8 @@ impl Engine {
         let mut out_bits = std::mem::take(&mut self.out_bits);
         let mut out_text = std::mem::take(&mut self.out_text);
         let mut out_text_bits = std::mem::take(&mut self.out_text_bits);
-        let chunk = match &self.pool {
-            Some(p) if n >= 1024 => n.div_ceil(p.current_num_threads() * 4),
-            _ => n.max(1),
-        };
+        let par = self.parallel(n);
+        let chunk = par.map_or(n.max(1), |p| p.1);
         let (prog, lat, trace) = (&self.prog, &self.lat, self.opts.trace);
         let work = |(c, (((ctr, onum), obits), (otext, otbits))): (usize, CalcChunk<'_>)| {
             let lo = c * chunk;
@@ -1161,8 +1165,8 @@ impl Engine {
                     .chunks_mut(chunk * nd)
                     .zip(out_text_bits.chunks_mut(chunk)),
             );
-        let results: Vec<_> = match &self.pool {
-            Some(pool) if n >= 1024 => {
+        let results: Vec<_> = match par {
+            Some((pool, _)) => {
                 use rayon::prelude::*;
                 let items: Vec<_> = chunks.enumerate().collect();
                 pool.install(|| items.into_par_iter().map(work).collect())
@@ -1222,8 +1226,8 @@ impl Engine {
         let mut inbox_has = std::mem::take(&mut self.lat.inbox_text_has);
         let (lat, out_num, out_bits) = (&self.lat, &self.out_num, &self.out_bits);
         let (out_text, out_text_bits) = (&self.out_text, &self.out_text_bits);
-        let pool = self.pool.as_ref().filter(|_| n >= 1024);
-        let chunk = pool.map_or(n.max(1), |p| n.div_ceil(p.current_num_threads() * 4));
+        let par = self.parallel(n);
+        let chunk = par.map_or(n.max(1), |p| p.1);
         // Fills one chunk of recipients; returns how many messages arrived.
         let pull = |(c, ((num, text), has)): (usize, InboxChunk<'_>)| {
             let mut got = 0u64;
@@ -1253,8 +1257,8 @@ impl Engine {
             }
             got
         };
-        let delivered: u64 = match pool {
-            Some(pool) => pool.install(|| {
+        let delivered: u64 = match par {
+            Some((pool, _)) => pool.install(|| {
                 inbox_num
                     .par_chunks_mut(chunk * nd * ns)
                     .zip(inbox_text.par_chunks_mut(chunk * nd))
