@@ -105,7 +105,8 @@ pub struct Engine {
     /// Counts so far.
     pub stats: Stats,
     by_prio: Vec<u32>,
-    /// Per state seen so far: the rules (in `by_prio` order) whose state filter it passes.
+    /// Per state seen so far: the index in `cand_lists` of the rules (in `by_prio` order)
+    /// whose state filter it passes.
     candidates: FxHashMap<[u8; 5], u32>,
     /// The candidate lists, indexed by `candidates`' values.
     cand_lists: Vec<Vec<u32>>,
