@@ -151,7 +151,7 @@ fn state(e: &Engine, a: usize) -> String {
 }
 
 fn ctr(e: &Engine, a: usize, i: usize) -> i16 {
-    e.lat.counters[a * e.lat.nc() + i]
+    e.lat.counter(a as u32, i as u8)
 }
 
 #[test]

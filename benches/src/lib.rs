@@ -229,9 +229,8 @@ pub fn fresh(
 
 /// The sum of C00 over all agents.
 pub fn sum_c00(e: &latticesim_runtime::Engine) -> u64 {
-    let nc = e.lat.nc();
-    (0..e.lat.len())
-        .map(|a| e.lat.counters[a * nc] as u64)
+    (0..e.lat.len() as u32)
+        .map(|a| e.lat.counter(a, 0) as u64)
         .sum()
 }
 

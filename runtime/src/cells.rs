@@ -5,7 +5,8 @@
 
 use rustc_hash::FxHashMap;
 
-const EMPTY: u32 = u32::MAX;
+/// In the grid and in neighbour lists: no agent.
+pub const EMPTY: u32 = u32::MAX;
 /// Grid cells allowed per agent before the index is a hash map.
 const CELLS_PER_AGENT: i64 = 4;
 /// Cells added around the agents' bounding box.
@@ -23,9 +24,38 @@ struct Grid {
     lo: [i32; 3],
     size: [i64; 3],
     cells: Vec<u32>,
+    /// Per direction (`Dir::ALL` order): the step in `cells` to the neighbouring cell.
+    delta: [isize; 6],
+    /// Per axis: the interior starts `first` cells in and is `span` cells long (the grid
+    /// minus its outer layer; a one-cell axis is all interior).
+    first: [u32; 3],
+    span: [u32; 3],
 }
 
+/// The unit offsets of the directions, in `Dir::ALL` order (N W E S A B).
+const DIRS: [[i32; 3]; 6] = [
+    [0, 1, 0],
+    [-1, 0, 0],
+    [1, 0, 0],
+    [0, -1, 0],
+    [0, 0, 1],
+    [0, 0, -1],
+];
+
 impl Grid {
+    /// The slot of a cell whose neighbours in every direction are also in the grid (in 2D
+    /// the grid is one cell thick in z: only its one layer counts, and the caller asks only
+    /// for the four directions in the plane).
+    #[inline]
+    fn interior(&self, p: [i32; 3]) -> Option<usize> {
+        let o = [0, 1, 2].map(|k| p[k].wrapping_sub(self.lo[k]) as u32);
+        let inside = (0..3).all(|k| o[k].wrapping_sub(self.first[k]) < self.span[k]);
+        inside.then(|| {
+            (o[0] as usize * self.size[1] as usize + o[1] as usize) * self.size[2] as usize
+                + o[2] as usize
+        })
+    }
+
     fn slot(&self, p: [i32; 3]) -> Option<usize> {
         let mut i: i64 = 0;
         for ((&c, &lo), &size) in p.iter().zip(&self.lo).zip(&self.size) {
@@ -57,10 +87,16 @@ impl CellIndex {
             let size = [0, 1, 2].map(|k| hi[k].saturating_add(margin(k)) as i64 - lo[k] as i64 + 1);
             let volume = size[0].saturating_mul(size[1]).saturating_mul(size[2]);
             if volume <= CELLS_PER_AGENT * pos.len() as i64 + 4096 {
+                let delta = DIRS.map(|d| {
+                    ((d[0] as i64 * size[1] + d[1] as i64) * size[2] + d[2] as i64) as isize
+                });
                 grid = Some(Grid {
                     lo,
                     size,
                     cells: vec![EMPTY; volume as usize],
+                    delta,
+                    first: size.map(|s| (s > 1) as u32),
+                    span: size.map(|s| if s > 1 { s as u32 - 2 } else { 1 }),
                 });
             }
         }
@@ -84,6 +120,32 @@ impl CellIndex {
             }
         }
         self.map.get(&p).copied()
+    }
+
+    /// The agent next to `p` in direction index `d`, when `p` lies inside the grid with a
+    /// cell of margin (`None` when the grid cannot answer; the caller then asks [`get`]).
+    ///
+    /// [`get`]: CellIndex::get
+    #[inline]
+    pub fn neighbour_in_grid(&self, p: [i32; 3], d: usize) -> Option<Option<u32>> {
+        let g = self.grid.as_ref()?;
+        let i = g.interior(p)?;
+        let a = g.cells[(i as isize + g.delta[d]) as usize];
+        Some((a != EMPTY).then_some(a))
+    }
+
+    /// The agents next to `p` in the first `nd` directions ([`EMPTY`] = none), when `p`
+    /// lies inside the grid with a cell of margin; `false` when the grid cannot answer.
+    #[inline]
+    pub fn neighbours_in_grid(&self, p: [i32; 3], nd: usize, out: &mut [u32; 6]) -> bool {
+        let Some(g) = &self.grid else { return false };
+        let Some(i) = g.interior(p) else {
+            return false;
+        };
+        for (o, &delta) in out.iter_mut().zip(&g.delta).take(nd) {
+            *o = g.cells[(i as isize + delta) as usize];
+        }
+        true
     }
 
     /// Puts an agent on a cell.
@@ -113,9 +175,14 @@ impl CellIndex {
     }
 
     /// Whether the index is a grid.
-    #[cfg(test)]
     pub fn is_grid(&self) -> bool {
         self.grid.is_some()
+    }
+
+    /// Bytes held (the hash map counted at its capacity, with its control bytes).
+    pub fn bytes(&self) -> usize {
+        let grid = self.grid.as_ref().map_or(0, |g| g.cells.capacity() * 4);
+        grid + self.map.capacity() * (std::mem::size_of::<([i32; 3], u32)>() + 1)
     }
 }
 

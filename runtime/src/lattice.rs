@@ -1,10 +1,20 @@
 //! The lattice as structure-of-arrays: one column per agent attribute, indexed by agent id,
 //! and a cell-to-agent index that serves dense and sparse, unbounded universes alike.
+//!
+//! Counters and message slots are stored only for the ones in use: a counter gets a column
+//! when the agents file sets it or the rules read or write it, a numeric slot gets one
+//! inbox column per direction when the rules send or read it, and text inboxes exist only
+//! when the rules use text messages ([`Lattice::ensure_counter`], [`Lattice::ensure_slot`],
+//! [`Lattice::ensure_text`]; the engine asks for what its program uses). A counter without
+//! a column reads 0, as does a slot without one.
 
 use crate::cells::CellIndex;
 use latticesim_vm::eval::Cell;
-use latticesim_vm::model::{Bounds, Config, Dim, Dir};
+use latticesim_vm::model::{AgentInit, Bounds, Config, Dim, Dir};
 use std::fmt::Write;
+
+/// In a column map: no column.
+pub(crate) const NO_COL: u8 = u8::MAX;
 
 /// The agents and their cells.
 #[derive(Debug, Clone, PartialEq)]
@@ -19,59 +29,108 @@ pub struct Lattice {
     pub state: Vec<[u8; 5]>,
     /// Attachment bits, bit i = direction i; symmetric between neighbours.
     pub attach: Vec<u8>,
-    /// Counters, `counters()` per agent.
-    pub counters: Vec<i16>,
-    /// Numeric messages received, `dirs * slots` per agent, by direction then slot.
-    pub inbox_num: Vec<i16>,
-    /// Text messages received, `dirs` per agent.
-    pub inbox_text: Vec<[u8; 5]>,
-    /// Which text messages were received: bit i = from direction i.
-    pub inbox_text_has: Vec<u8>,
-    cells: CellIndex,
-    /// What stands next to each agent, `dirs` per agent ([`NO_AGENT`], [`BLOCKED`] or an
-    /// id), valid while `nbr_valid`: positions change only in the actions phase, so the
-    /// table is rebuilt at most once a step, and only after a move or swap.
-    nbr: Vec<u32>,
+    /// Per counter number: its column in `counters`, or [`NO_COL`].
+    pub(crate) counter_col: [u8; 45],
+    /// Counter columns, one value per agent each.
+    pub(crate) counters: Vec<Vec<i16>>,
+    /// Per slot number (0-based): its index among the slots in use, or [`NO_COL`].
+    pub(crate) slot_col: [u8; 8],
+    /// Slots in use.
+    pub(crate) slots: u8,
+    /// Numeric messages received: one column per direction and slot in use, at
+    /// `dir * slots + slot_col[slot]`.
+    pub(crate) inbox_num: Vec<Vec<i16>>,
+    /// Text messages received, `dirs` per agent (empty when no rule uses texts).
+    pub(crate) inbox_text: Vec<[u8; 5]>,
+    /// Which text messages were received: bit i = from direction i (empty when no rule
+    /// uses texts).
+    pub(crate) inbox_text_has: Vec<u8>,
+    pub(crate) cells: CellIndex,
+    /// What stands next to each agent when the cell index is a hash map: one column per
+    /// direction ([`NO_AGENT`], [`BLOCKED`] or an id), valid while `nbr_valid`. Positions
+    /// change only in the actions phase, so the table is rebuilt at most once a step, and
+    /// only after a move or swap. A grid answers as fast without it.
+    nbr: Vec<Vec<u32>>,
     nbr_valid: bool,
 }
 
-/// In the neighbour table: a free cell.
-const NO_AGENT: u32 = u32::MAX;
+/// In the neighbour table and in [`Lattice::neighbours`]: a free cell.
+pub const NO_AGENT: u32 = crate::cells::EMPTY;
 /// In the neighbour table: a cell outside the universe.
 const BLOCKED: u32 = u32::MAX - 1;
+
+/// Builds a lattice one agent at a time, without holding a whole [`Config`] in memory.
+pub struct LatticeBuilder {
+    lat: Lattice,
+}
+
+impl LatticeBuilder {
+    /// An empty lattice of this dimension and universe, with room for `capacity` agents.
+    pub fn new(dim: Dim, universe: Option<Bounds>, capacity: usize) -> LatticeBuilder {
+        LatticeBuilder {
+            lat: Lattice {
+                dim,
+                universe,
+                pos: Vec::with_capacity(capacity),
+                state: Vec::with_capacity(capacity),
+                attach: Vec::with_capacity(capacity),
+                counter_col: [NO_COL; 45],
+                counters: Vec::new(),
+                slot_col: [NO_COL; 8],
+                slots: 0,
+                inbox_num: Vec::new(),
+                inbox_text: Vec::new(),
+                inbox_text_has: Vec::new(),
+                cells: CellIndex::new(&[], false),
+                nbr: Vec::new(),
+                nbr_valid: false,
+            },
+        }
+    }
+
+    /// Adds an agent (the caller guarantees a free cell and valid counters).
+    pub fn push(&mut self, pos: [i32; 3], state: [u8; 5], attach: u8, counters: &[(u8, i16)]) {
+        let lat = &mut self.lat;
+        let a = lat.pos.len();
+        lat.pos.push(pos);
+        lat.state.push(state);
+        lat.attach.push(attach);
+        for &(c, v) in counters {
+            if v != 0 {
+                let col = lat.ensure_counter(c);
+                let column = &mut lat.counters[col];
+                column.resize(a + 1, 0);
+                column[a] = v;
+            }
+        }
+    }
+
+    /// The lattice.
+    pub fn finish(mut self) -> Lattice {
+        let n = self.lat.pos.len();
+        for col in &mut self.lat.counters {
+            col.resize(n, 0);
+            col.shrink_to_fit();
+        }
+        self.lat.cells = CellIndex::new(&self.lat.pos, self.lat.dim == Dim::Three);
+        self.lat
+    }
+}
 
 impl Lattice {
     /// Builds the lattice of a checked configuration.
     pub fn new(cfg: &Config) -> Lattice {
-        let n = cfg.agents.len();
-        let d = cfg.dim;
-        let nc = d.counters();
-        let mut lat = Lattice {
-            dim: d,
-            universe: cfg.universe,
-            pos: Vec::with_capacity(n),
-            state: Vec::with_capacity(n),
-            attach: Vec::with_capacity(n),
-            counters: vec![0; n * nc],
-            inbox_num: vec![0; n * d.dirs() * d.slots()],
-            inbox_text: vec![[0; 5]; n * d.dirs()],
-            inbox_text_has: vec![0; n],
-            nbr: Vec::new(),
-            nbr_valid: false,
-            cells: CellIndex::new(
-                &cfg.agents.iter().map(|a| a.pos).collect::<Vec<_>>(),
-                d == Dim::Three,
-            ),
-        };
-        for (i, a) in cfg.agents.iter().enumerate() {
-            lat.pos.push(a.pos);
-            lat.state.push(a.state);
-            lat.attach.push(a.attach);
-            for &(c, v) in &a.counters {
-                lat.counters[i * nc + c as usize] = v;
-            }
+        let mut b = LatticeBuilder::new(cfg.dim, cfg.universe, cfg.agents.len());
+        for AgentInit {
+            pos,
+            state,
+            attach,
+            counters,
+        } in &cfg.agents
+        {
+            b.push(*pos, *state, *attach, counters);
         }
-        lat
+        b.finish()
     }
 
     /// Number of agents.
@@ -84,17 +143,110 @@ impl Lattice {
         self.pos.is_empty()
     }
 
-    /// Counters per agent.
+    /// Counters per agent that the dimension has (25 or 45).
     pub fn nc(&self) -> usize {
         self.dim.counters()
     }
 
-    /// A counter of an agent.
+    /// The column of counter `i`, creating it (all zero) if needed.
+    pub fn ensure_counter(&mut self, i: u8) -> usize {
+        if self.counter_col[i as usize] == NO_COL {
+            self.counter_col[i as usize] = self.counters.len() as u8;
+            self.counters.push(vec![0; self.len()]);
+        }
+        self.counter_col[i as usize] as usize
+    }
+
+    /// Creates the inbox columns of numeric slot `s` (0-based) if needed.
+    pub fn ensure_slot(&mut self, s: u8) {
+        if self.slot_col[s as usize] != NO_COL {
+            return;
+        }
+        self.slot_col[s as usize] = self.slots;
+        self.slots += 1;
+        let (nd, ns, n) = (self.dim.dirs(), self.slots as usize, self.len());
+        // Columns are ordered by direction, then slot.
+        let mut cols = std::mem::take(&mut self.inbox_num).into_iter();
+        for _ in 0..nd {
+            for k in 0..ns {
+                self.inbox_num.push(if k + 1 < ns {
+                    cols.next().expect("one column per direction and slot")
+                } else {
+                    vec![0; n]
+                });
+            }
+        }
+    }
+
+    /// Creates the text inboxes if needed.
+    pub fn ensure_text(&mut self) {
+        if self.inbox_text_has.len() != self.len() {
+            self.inbox_text = vec![[0; 5]; self.len() * self.dim.dirs()];
+            self.inbox_text_has = vec![0; self.len()];
+        }
+    }
+
+    /// Counter `i` of agent `a` (0 when no agent has it and no rule uses it).
+    #[inline]
     pub fn counter(&self, a: u32, i: u8) -> i16 {
-        self.counters[a as usize * self.nc() + i as usize]
+        match self.counter_col[i as usize] {
+            NO_COL => 0,
+            c => self.counters[c as usize][a as usize],
+        }
+    }
+
+    /// Sets counter `i` of agent `a`.
+    pub fn set_counter(&mut self, a: u32, i: u8, v: i16) {
+        let c = self.ensure_counter(i);
+        self.counters[c][a as usize] = v;
+    }
+
+    /// The numeric message agent `a` received from direction index `dir` in slot `slot`
+    /// (0-based), 0 when none.
+    #[inline]
+    pub fn inbox(&self, a: u32, dir: u8, slot: u8) -> i16 {
+        match self.slot_col[slot as usize] {
+            NO_COL => 0,
+            s => self.inbox_num[dir as usize * self.slots as usize + s as usize][a as usize],
+        }
+    }
+
+    /// The text message agent `a` received from direction index `dir`, if any.
+    #[inline]
+    pub fn inbox_text(&self, a: u32, dir: u8) -> Option<[u8; 5]> {
+        let a = a as usize;
+        (self
+            .inbox_text_has
+            .get(a)
+            .is_some_and(|h| h & (1 << dir) != 0))
+        .then(|| self.inbox_text[a * self.dim.dirs() + dir as usize])
+    }
+
+    /// Bytes held per agent by the columns (positions, states, attachments, counters and
+    /// messages in use, the neighbour table) and the cell index, for reports.
+    pub fn bytes(&self) -> usize {
+        let cols: usize = self
+            .counters
+            .iter()
+            .map(|c| c.capacity() * 2)
+            .sum::<usize>()
+            + self
+                .inbox_num
+                .iter()
+                .map(|c| c.capacity() * 2)
+                .sum::<usize>()
+            + self.nbr.iter().map(|c| c.capacity() * 4).sum::<usize>();
+        self.pos.capacity() * 12
+            + self.state.capacity() * 5
+            + self.attach.capacity()
+            + cols
+            + self.inbox_text.capacity() * 5
+            + self.inbox_text_has.capacity()
+            + self.cells.bytes()
     }
 
     /// Whether a position lies inside the universe.
+    #[inline]
     pub fn inside(&self, p: [i64; 3]) -> bool {
         let in_i32 = p
             .iter()
@@ -109,6 +261,7 @@ impl Lattice {
     }
 
     /// What is at `from + off`.
+    #[inline]
     pub fn cell_at(&self, from: [i32; 3], off: [i32; 3]) -> Cell {
         let p = [
             from[0] as i64 + off[0] as i64,
@@ -139,35 +292,82 @@ impl Lattice {
     }
 
     /// What stands next to agent `a` in direction index `d`.
-    #[inline]
+    #[inline(always)]
     pub fn neighbour_cell(&self, a: u32, d: usize) -> Cell {
-        if !self.nbr_valid {
-            return self.cell_at(self.pos[a as usize], Dir::ALL[d].offset());
+        if self.nbr_valid {
+            return match self.nbr[d][a as usize] {
+                NO_AGENT => Cell::Empty,
+                BLOCKED => Cell::Blocked,
+                b => Cell::Agent(b),
+            };
         }
-        match self.nbr[a as usize * self.dim.dirs() + d] {
-            NO_AGENT => Cell::Empty,
-            BLOCKED => Cell::Blocked,
-            b => Cell::Agent(b),
+        let p = self.pos[a as usize];
+        // In a grid, away from its rim and from the universe's walls, one load answers.
+        if self.universe.is_none() {
+            if let Some(c) = self.cells.neighbour_in_grid(p, d) {
+                return c.map_or(Cell::Empty, Cell::Agent);
+            }
+        }
+        self.neighbour_cell_slow(p, d)
+    }
+
+    /// The agents next to agent `a` in every direction of the dimension: an id, or
+    /// [`NO_AGENT`] for an empty cell or one outside the universe.
+    #[inline(always)]
+    pub fn neighbours(&self, a: u32, out: &mut [u32; 6]) {
+        let nd = self.dim.dirs();
+        if self.nbr_valid {
+            for (o, col) in out.iter_mut().zip(&self.nbr).take(nd) {
+                *o = match col[a as usize] {
+                    BLOCKED => NO_AGENT,
+                    b => b,
+                };
+            }
+            return;
+        }
+        if self.universe.is_none() && self.cells.neighbours_in_grid(self.pos[a as usize], nd, out) {
+            return;
+        }
+        for (d, o) in out.iter_mut().enumerate().take(nd) {
+            *o = match self.neighbour_cell_slow(self.pos[a as usize], d) {
+                Cell::Agent(b) => b,
+                _ => NO_AGENT,
+            };
         }
     }
 
-    /// Rebuilds the neighbour table if a move or swap made it stale.
+    #[cold]
+    #[inline(never)]
+    fn neighbour_cell_slow(&self, p: [i32; 3], d: usize) -> Cell {
+        if let Some(u) = self.universe {
+            let walls = (0..self.dim.coords()).any(|k| p[k] <= u[k].0 || p[k] >= u[k].1);
+            if !walls {
+                if let Some(c) = self.cells.neighbour_in_grid(p, d) {
+                    return c.map_or(Cell::Empty, Cell::Agent);
+                }
+            }
+        }
+        self.cell_at(p, Dir::ALL[d].offset())
+    }
+
+    /// Rebuilds the neighbour table if a move or swap made it stale (only when the cell
+    /// index is a hash map; a grid answers directly).
     pub fn refresh_neighbours(&mut self) {
-        if self.nbr_valid {
+        if self.nbr_valid || self.cells.is_grid() {
             return;
         }
         let nd = self.dim.dirs();
         let mut nbr = std::mem::take(&mut self.nbr);
-        nbr.clear();
-        nbr.reserve(self.len() * nd);
-        for a in 0..self.len() {
-            for d in Dir::ALL.iter().take(nd) {
-                nbr.push(match self.cell_at(self.pos[a], d.offset()) {
-                    Cell::Agent(b) => b,
-                    Cell::Empty => NO_AGENT,
-                    Cell::Blocked => BLOCKED,
-                });
-            }
+        nbr.resize(nd, Vec::new());
+        for (d, col) in nbr.iter_mut().enumerate() {
+            col.clear();
+            col.reserve(self.len());
+            let off = Dir::ALL[d].offset();
+            col.extend(self.pos.iter().map(|&p| match self.cell_at(p, off) {
+                Cell::Agent(b) => b,
+                Cell::Empty => NO_AGENT,
+                Cell::Blocked => BLOCKED,
+            }));
         }
         self.nbr = nbr;
         self.nbr_valid = true;
@@ -220,7 +420,7 @@ impl Lattice {
                 }
             }
             for i in 0..self.nc() {
-                let v = self.counters[a * self.nc() + i];
+                let v = self.counter(a as u32, i as u8);
                 if v != 0 {
                     let _ = write!(s, " C{i:02} {v}");
                 }

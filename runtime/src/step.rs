@@ -7,11 +7,12 @@
 #![allow(clippy::needless_range_loop)]
 
 use crate::lattice::Lattice;
+use crate::lattice::{NO_AGENT, NO_COL};
 use crate::record::{Record, RecordKind};
 use crate::trace::TraceEvent;
 use latticesim_vm::eval::{eval_pre, run_post, CalcEnv, CalcIssue, Cell, Env, Tri};
-use latticesim_vm::model::{AttachLetter, Dir, TextPat};
-use latticesim_vm::op::ANY_DIR;
+use latticesim_vm::model::{AttachLetter, CalcOp, Dir, TextPat};
+use latticesim_vm::op::{Op, Target, Val, ANY_DIR};
 use latticesim_vm::Program;
 use rustc_hash::FxHashMap;
 use std::collections::BTreeMap;
@@ -98,7 +99,8 @@ pub struct StepReport {
 pub struct Engine {
     /// The compiled rules.
     pub prog: Program,
-    /// The agents.
+    /// The agents. Their states may be read at any time; change them only through the
+    /// engine's steps (the rule dispatch remembers each agent's state).
     pub lat: Lattice,
     /// How it steps.
     pub opts: Options,
@@ -110,17 +112,88 @@ pub struct Engine {
     candidates: FxHashMap<[u8; 5], u32>,
     /// The candidate lists, indexed by `candidates`' values.
     cand_lists: Vec<Vec<u32>>,
-    /// Per agent: its candidate list, and the state it was looked up for.
+    /// Per candidate list: the one rule every agent with it executes, when the list's
+    /// first rule needs nothing but the state filter and no other rule shares its priority.
+    cand_single: Vec<u32>,
+    /// Per agent: its candidate list (`NO_LIST` after its state changed).
     cand_of: Vec<u32>,
-    cand_state: Vec<[u8; 5]>,
+    /// Some agent's state changed since the candidate lists were looked up.
+    cand_dirty: bool,
+    /// Per rule: its precondition is only its state filter (or nothing).
+    trivial: Vec<bool>,
+    /// Some rule reads neighbours' priorities.
+    any_prio: bool,
     /// Per rule: it has a move, swap, attachment or state action.
     has_actions: Vec<bool>,
+    /// Per rule: its calculations can run on a range of agents at once (no external
+    /// counters).
+    batchable: Vec<bool>,
     /// Worker threads, when more than one was asked for.
     pool: Option<rayon::ThreadPool>,
-    out_num: Vec<i16>,
-    out_bits: Vec<u32>,
+    sel: Selection,
+    /// Numeric outboxes: a column per direction and slot in use (as the inboxes), and a
+    /// bit set per column of which agents wrote it.
+    out_num: Vec<Vec<i16>>,
+    out_has: Vec<Vec<u64>>,
+    /// Text outboxes, `dirs` per agent, and which directions were written (empty when no
+    /// rule sends texts).
     out_text: Vec<[u8; 5]>,
     out_text_bits: Vec<u8>,
+}
+
+/// The rules each agent executes in a step: one entry per agent, either [`NO_RULE`], a
+/// rule, or [`MANY`] with an index into `starts`/`many` (in file order).
+#[derive(Default)]
+struct Selection {
+    one: Vec<u32>,
+    starts: Vec<u32>,
+    many: Vec<u32>,
+}
+
+const NO_RULE: u32 = u32::MAX;
+/// The opposite of each direction index.
+const OPPOSITE: [usize; 6] = [3, 2, 1, 0, 5, 4];
+const MANY: u32 = 1 << 31;
+const NO_LIST: u32 = u32::MAX;
+/// In `cand_single`: the agents of this list evaluate their rules.
+const EVALUATE: u32 = u32::MAX - 1;
+
+impl Selection {
+    /// The rules agent `a` executes, in file order.
+    #[inline]
+    fn of(&self, a: usize) -> &[u32] {
+        match self.one[a] {
+            NO_RULE => &[],
+            v if v & MANY == 0 => std::slice::from_ref(&self.one[a]),
+            v => {
+                let k = (v & !MANY) as usize;
+                &self.many[self.starts[k] as usize..self.starts[k + 1] as usize]
+            }
+        }
+    }
+
+    /// Sets agent `a`'s rules (agents must be set in increasing order for several rules).
+    fn set(&mut self, a: usize, rules: &[u32]) {
+        self.one[a] = match rules {
+            [] => NO_RULE,
+            [r] => *r,
+            _ => {
+                if self.starts.is_empty() {
+                    self.starts.push(0);
+                }
+                self.many.extend_from_slice(rules);
+                self.starts.push(self.many.len() as u32);
+                MANY | (self.starts.len() - 2) as u32
+            }
+        };
+    }
+
+    fn reset(&mut self, n: usize) {
+        self.one.clear();
+        self.one.resize(n, NO_RULE);
+        self.starts.clear();
+        self.many.clear();
+    }
 }
 
 const OPEN: i32 = -1;
@@ -156,12 +229,10 @@ impl Env for SelEnv<'_> {
         self.lat.counter(id, i)
     }
     fn inbox_num(&self, dir: u8, slot: u8) -> i16 {
-        let d = self.lat.dim;
-        self.lat.inbox_num[(self.a as usize * d.dirs() + dir as usize) * d.slots() + slot as usize]
+        self.lat.inbox(self.a, dir, slot)
     }
     fn inbox_text(&self, dir: u8) -> Option<[u8; 5]> {
-        (self.lat.inbox_text_has[self.a as usize] & (1 << dir) != 0)
-            .then(|| self.lat.inbox_text[self.a as usize * self.lat.dim.dirs() + dir as usize])
+        self.lat.inbox_text(self.a, dir)
     }
     fn priorities_known(&self) -> bool {
         self.prio.is_some()
@@ -248,12 +319,50 @@ fn text(s: &[u8; 5]) -> String {
 
 impl Engine {
     /// A program ready to run on a lattice. The program must have passed `verify` and match
-    /// the lattice's dimension.
-    pub fn new(prog: Program, lat: Lattice, opts: Options) -> Engine {
+    /// the lattice's dimension. The lattice gets columns for every counter, message slot
+    /// and text inbox the program uses.
+    pub fn new(prog: Program, mut lat: Lattice, opts: Options) -> Engine {
         let mut by_prio: Vec<u32> = (0..prog.rules.len() as u32).collect();
         by_prio.sort_by_key(|&r| std::cmp::Reverse(prog.rules[r as usize].priority));
+        let uses = prog.uses();
+        for c in 0..lat.nc() as u8 {
+            if uses.counters & (1 << c) != 0 {
+                lat.ensure_counter(c);
+            }
+        }
+        for slot in 0..lat.dim.slots() as u8 {
+            if uses.slots & (1 << slot) != 0 {
+                lat.ensure_slot(slot);
+            }
+        }
+        if uses.texts {
+            lat.ensure_text();
+        }
         let n = lat.len();
-        let d = lat.dim;
+        let cols = lat.inbox_num.len();
+        let trivial = prog
+            .rules
+            .iter()
+            .map(
+                |r| match &prog.code[r.pre.start as usize..r.pre.end as usize] {
+                    [Op::True {}] => true,
+                    [Op::State { pat }] => r.state_filter == Some(*pat),
+                    _ => false,
+                },
+            )
+            .collect();
+        let batchable = prog
+            .rules
+            .iter()
+            .map(|r| {
+                prog.code[r.post.start as usize..r.post.end as usize]
+                    .iter()
+                    .all(|op| {
+                        !matches!(op, Op::Calc { a, b, .. }
+                            if matches!(a, Val::Ext(_)) || matches!(b, Val::Ext(_)))
+                    })
+            })
+            .collect();
         Engine {
             stats: Stats {
                 firings: vec![0; prog.rules.len()],
@@ -262,8 +371,12 @@ impl Engine {
             by_prio,
             candidates: FxHashMap::default(),
             cand_lists: Vec::new(),
-            cand_of: Vec::new(),
-            cand_state: Vec::new(),
+            cand_single: Vec::new(),
+            cand_of: vec![NO_LIST; n],
+            cand_dirty: true,
+            trivial,
+            any_prio: prog.rules.iter().any(|r| r.reads_priorities),
+            batchable,
             pool: (opts.threads > 1)
                 .then(|| {
                     rayon::ThreadPoolBuilder::new()
@@ -282,22 +395,45 @@ impl Engine {
                         || i.sets_state.is_some()
                 })
                 .collect(),
-            out_num: vec![0; n * d.dirs() * d.slots()],
-            out_bits: vec![0; n],
-            out_text: vec![[0; 5]; n * d.dirs()],
-            out_text_bits: vec![0; n],
+            sel: Selection::default(),
+            out_num: vec![vec![0; n]; cols],
+            out_has: vec![vec![0; n.div_ceil(64)]; cols],
+            out_text: if uses.texts {
+                vec![[0; 5]; n * lat.dim.dirs()]
+            } else {
+                Vec::new()
+            },
+            out_text_bits: if uses.texts { vec![0; n] } else { Vec::new() },
             prog,
             lat,
             opts,
         }
     }
 
+    /// Bytes the engine holds per agent beyond the lattice's columns (outboxes, rule
+    /// dispatch, the selection), for reports.
+    pub fn bytes(&self) -> usize {
+        self.lat.bytes()
+            + self.out_num.iter().map(|c| c.capacity() * 2).sum::<usize>()
+            + self.out_has.iter().map(|c| c.capacity() * 8).sum::<usize>()
+            + self.out_text.capacity() * 5
+            + self.out_text_bits.capacity()
+            + self.cand_of.capacity() * 4
+            + self.sel.one.capacity() * 4
+            + (self.sel.starts.capacity() + self.sel.many.capacity()) * 4
+    }
+
     /// How per-agent work on `n` agents is split: the thread pool and the chunk size when
     /// there are threads and enough agents (the one place that decides), else `None`.
+    /// Chunks are whole multiples of 64 agents, so that they split bit sets by words.
     fn parallel(&self, n: usize) -> Option<(&rayon::ThreadPool, usize)> {
         const MIN_AGENTS: usize = 1024;
         let pool = self.pool.as_ref().filter(|_| n >= MIN_AGENTS)?;
-        Some((pool, n.div_ceil(pool.current_num_threads() * 4)))
+        Some((
+            pool,
+            n.div_ceil(pool.current_num_threads() * 4)
+                .next_multiple_of(64),
+        ))
     }
 
     /// Runs `f` over the agents `0..n` in chunks, in parallel when the engine has threads,
@@ -335,8 +471,137 @@ impl Engine {
         &self.prog.rules[r as usize].name
     }
 
-    /// Selection: which rules each agent executes this step (flat, per agent in file order).
-    fn select(&mut self, rep: &mut StepReport) -> (Vec<u32>, Vec<u32>) {
+    /// Rule dispatch by state: an agent evaluates only the rules whose top-level state
+    /// pattern its state matches. The list is computed once per distinct state, and each
+    /// agent keeps its list until its state changes, so only those agents look it up again.
+    fn update_candidates(&mut self) {
+        let n = self.lat.len();
+        if self.cand_lists.len() > 1 << 16 {
+            self.candidates.clear();
+            self.cand_lists.clear();
+            self.cand_single.clear();
+            self.cand_of.iter_mut().for_each(|c| *c = NO_LIST);
+            self.cand_dirty = true;
+        }
+        if !self.cand_dirty && self.cand_of.len() == n {
+            return;
+        }
+        self.cand_of.resize(n, NO_LIST);
+        let prog = &self.prog;
+        for (a, st) in self.lat.state.iter().enumerate() {
+            if self.cand_of[a] != NO_LIST {
+                continue;
+            }
+            let lists = &mut self.cand_lists;
+            let single = &mut self.cand_single;
+            let (by_prio, trivial) = (&self.by_prio, &self.trivial);
+            self.cand_of[a] = *self.candidates.entry(*st).or_insert_with(|| {
+                let list: Vec<u32> = by_prio
+                    .iter()
+                    .copied()
+                    .filter(|&r| {
+                        prog.rules[r as usize].state_filter.is_none_or(|p| {
+                            latticesim_vm::eval::matches(&prog.pats[p as usize], st)
+                        })
+                    })
+                    .collect();
+                let prio = |r: u32| prog.rules[r as usize].priority;
+                single.push(match list[..] {
+                    [] => NO_RULE,
+                    [r, ..]
+                        if trivial[r as usize]
+                            && list.get(1).is_none_or(|&q| prio(q) < prio(r)) =>
+                    {
+                        r
+                    }
+                    _ => EVALUATE,
+                });
+                lists.push(list);
+                (lists.len() - 1) as u32
+            });
+        }
+        self.cand_dirty = false;
+    }
+
+    /// Selection when no rule reads priorities: each agent executes its true rules of the
+    /// highest priority among its true rules. Agents whose candidate list decides alone are
+    /// not evaluated at all.
+    fn select_plain(&mut self) {
+        let n = self.lat.len();
+        let mut one = std::mem::take(&mut self.sel.one);
+        one.resize(n, NO_RULE);
+        let (prog, lat, trivial) = (&self.prog, &self.lat, &self.trivial);
+        let (lists, single, of) = (&self.cand_lists, &self.cand_single, &self.cand_of);
+        let par = self.parallel(n);
+        let chunk = par.map_or(n.max(1), |p| p.1);
+        let work = |(c, one): (usize, &mut [u32])| {
+            let lo = c * chunk;
+            let mut multi: Vec<(u32, Vec<u32>)> = Vec::new();
+            let mut buf: Vec<u32> = Vec::new();
+            for (k, slot) in one.iter_mut().enumerate() {
+                let a = lo + k;
+                let idx = of[a] as usize;
+                if single[idx] != EVALUATE {
+                    *slot = single[idx];
+                    continue;
+                }
+                let env = SelEnv {
+                    lat,
+                    a: a as u32,
+                    prio: None,
+                };
+                buf.clear();
+                let mut top = None;
+                for &r in &lists[idx] {
+                    let p = prog.rules[r as usize].priority;
+                    if top.is_some_and(|t| p < t) {
+                        break;
+                    }
+                    if trivial[r as usize] || eval_pre(prog, r as usize, &env) == Tri::T {
+                        top = Some(p);
+                        buf.push(r);
+                    }
+                }
+                *slot = match buf[..] {
+                    [] => NO_RULE,
+                    [r] => r,
+                    _ => {
+                        buf.sort_unstable();
+                        multi.push((a as u32, buf.clone()));
+                        MANY
+                    }
+                };
+            }
+            multi
+        };
+        let multis: Vec<_> = match par {
+            Some((pool, _)) => {
+                use rayon::prelude::*;
+                pool.install(|| one.par_chunks_mut(chunk).enumerate().map(work).collect())
+            }
+            None => one.chunks_mut(chunk).enumerate().map(work).collect(),
+        };
+        self.sel.one = one;
+        self.sel.starts.clear();
+        self.sel.many.clear();
+        for (a, rules) in multis.into_iter().flatten() {
+            self.sel.set(a as usize, &rules);
+        }
+    }
+
+    /// Selection: which rules each agent executes this step (into `self.sel`).
+    fn select(&mut self, rep: &mut StepReport) {
+        self.update_candidates();
+        if self.any_prio {
+            self.select_with_priorities(rep);
+        } else {
+            self.select_plain();
+        }
+    }
+
+    /// Selection when rules read neighbours' priorities: a first pass with priorities
+    /// unknown, then the levels from the top down (SEMANTICS section 5).
+    fn select_with_priorities(&mut self, rep: &mut StepReport) {
         let n = self.lat.len();
         let prog = &self.prog;
         let mut ent_rule: Vec<u32> = Vec::with_capacity(n);
@@ -346,45 +611,7 @@ impl Engine {
         let mut cur = vec![0u16; n];
         let mut levels: BTreeMap<u16, Vec<u32>> = BTreeMap::new();
         ent_start.push(0);
-        // Rule dispatch by state: an agent evaluates only the rules whose top-level state
-        // pattern its state matches (computed once per distinct state, before the agents
-        // are evaluated, so that they can be evaluated in parallel).
-        // Each agent remembers which list it uses and for which state, so only agents
-        // whose state changed look the list up again.
-        let mut candidates = std::mem::take(&mut self.candidates);
-        let mut lists = std::mem::take(&mut self.cand_lists);
-        let mut of = std::mem::take(&mut self.cand_of);
-        let mut seen = std::mem::take(&mut self.cand_state);
-        if lists.len() > 1 << 16 {
-            candidates.clear();
-            lists.clear();
-            of.clear();
-        }
-        if of.len() != n {
-            of = vec![u32::MAX; n];
-            seen = vec![[0; 5]; n];
-        }
-        for (a, st) in self.lat.state.iter().enumerate() {
-            if of[a] != u32::MAX && seen[a] == *st {
-                continue;
-            }
-            let idx = *candidates.entry(*st).or_insert_with(|| {
-                lists.push(
-                    self.by_prio
-                        .iter()
-                        .copied()
-                        .filter(|&r| {
-                            prog.rules[r as usize].state_filter.is_none_or(|p| {
-                                latticesim_vm::eval::matches(&prog.pats[p as usize], st)
-                            })
-                        })
-                        .collect(),
-                );
-                (lists.len() - 1) as u32
-            });
-            of[a] = idx;
-            seen[a] = *st;
-        }
+        let (lists, of) = (&self.cand_lists, &self.cand_of);
         // Pass 1: every agent's valid rules with priority terms unknown, in chunks of
         // agents (in parallel with --threads), joined in agent order.
         let lat = &self.lat;
@@ -438,10 +665,6 @@ impl Engine {
                 levels.entry(p).or_default().push(a as u32);
             }
         }
-        self.candidates = candidates;
-        self.cand_lists = lists;
-        self.cand_of = of;
-        self.cand_state = seen;
         let prog = &self.prog;
         let prio_of = |e: usize| prog.rules[ent_rule[e] as usize].priority;
         let mut circles: Vec<(Vec<u32>, String)> = Vec::new();
@@ -538,41 +761,46 @@ impl Engine {
             }
         }
         // Each agent executes its rules that are true at its final priority, in file order.
-        let mut sel_start = Vec::with_capacity(n + 1);
-        let mut sel = Vec::new();
-        sel_start.push(0u32);
+        let mut sel = std::mem::take(&mut self.sel);
+        sel.reset(n);
+        let mut rules = Vec::new();
         for a in 0..n {
             let f = fixed[a];
             if f > 0 {
-                let first = sel.len();
+                rules.clear();
                 for k in ent_start[a] as usize..ent_start[a + 1] as usize {
                     if prog.rules[ent_rule[k] as usize].priority as i32 == f && ent_tri[k] == Tri::T
                     {
-                        sel.push(ent_rule[k]);
+                        rules.push(ent_rule[k]);
                     }
                 }
-                sel[first..].sort_unstable();
+                rules.sort_unstable();
+                sel.set(a, &rules);
             }
-            sel_start.push(sel.len() as u32);
         }
+        self.sel = sel;
         for (circle, msg) in circles {
             self.record(rep, RecordKind::CircularPriority, &circle, msg);
         }
-        (sel_start, sel)
     }
 
     /// One step. Returns what happened; `stats` is updated.
     pub fn step(&mut self) -> StepReport {
         let mut rep = StepReport::default();
         self.lat.refresh_neighbours();
-        let (sel_start, sel) = self.select(&mut rep);
-        rep.quiescent = sel.is_empty();
+        self.select(&mut rep);
+        let sel = std::mem::take(&mut self.sel);
+        rep.quiescent = true;
         for a in 0..self.lat.len() {
-            let rs = &sel[sel_start[a] as usize..sel_start[a + 1] as usize];
+            let rs = sel.of(a);
+            if rs.is_empty() {
+                continue;
+            }
+            rep.quiescent = false;
             for &r in rs {
                 self.stats.firings[r as usize] += 1;
             }
-            if self.opts.trace && !rs.is_empty() {
+            if self.opts.trace {
                 rep.trace.push(TraceEvent::Fire {
                     agent: a as u32,
                     rules: rs.iter().map(|&r| self.rule_name(r).to_string()).collect(),
@@ -582,22 +810,23 @@ impl Engine {
         }
         match self.opts.order {
             Order::ActionsFirst => {
-                self.all_actions(&sel_start, &sel, &mut rep);
-                self.calculations(&sel_start, &sel, &mut rep);
+                self.all_actions(&sel, &mut rep);
+                self.calculations(&sel, &mut rep);
                 self.deliver(&mut rep);
             }
             Order::MessagesFirst => {
-                self.calculations(&sel_start, &sel, &mut rep);
+                self.calculations(&sel, &mut rep);
                 self.deliver(&mut rep);
-                self.all_actions(&sel_start, &sel, &mut rep);
+                self.all_actions(&sel, &mut rep);
             }
         }
+        self.sel = sel;
         self.stats.steps += 1;
         self.stats.quiescent = rep.quiescent;
         rep
     }
 
-    fn all_actions(&mut self, sel_start: &[u32], sel: &[u32], rep: &mut StepReport) {
+    fn all_actions(&mut self, sel: &Selection, rep: &mut StepReport) {
         if self.opts.static_first {
             let prog = &self.prog;
             let still: Vec<bool> = prog
@@ -605,40 +834,26 @@ impl Engine {
                 .iter()
                 .map(|r| r.moves.is_none() && r.swaps.is_none())
                 .collect();
-            self.actions(sel_start, sel, rep, &|r| still[r as usize]);
-            self.actions(sel_start, sel, rep, &|r| !still[r as usize]);
+            self.actions(sel, rep, &|r| still[r as usize]);
+            self.actions(sel, rep, &|r| !still[r as usize]);
         } else {
-            self.actions(sel_start, sel, rep, &|_| true);
+            self.actions(sel, rep, &|_| true);
         }
     }
 
     /// Paper step 2 for the selected rules that `pick` accepts.
-    fn actions(
-        &mut self,
-        sel_start: &[u32],
-        sel: &[u32],
-        rep: &mut StepReport,
-        pick: &dyn Fn(u32) -> bool,
-    ) {
+    fn actions(&mut self, sel: &Selection, rep: &mut StepReport, pick: &dyn Fn(u32) -> bool) {
         let n = self.lat.len();
         let nd = self.lat.dim.dirs();
-        // Rules with nothing to do in this phase (only calculations and sends) are left out.
+        // Rules with nothing to do in this phase (only calculations and sends) are left out;
+        // only the agents with something to do get an intent.
         let has_actions = std::mem::take(&mut self.has_actions);
         let acts = |r: u32| has_actions[r as usize];
-        if !sel.iter().any(|&r| pick(r) && acts(r)) {
-            self.has_actions = has_actions;
-            return;
-        }
-        let mut intents: Vec<Intent> = vec![Intent::default(); n];
+        let mut intents: Vec<(u32, Intent)> = Vec::new();
         let mut rs: Vec<u32> = Vec::new();
         for a in 0..n {
             rs.clear();
-            rs.extend(
-                sel[sel_start[a] as usize..sel_start[a + 1] as usize]
-                    .iter()
-                    .copied()
-                    .filter(|&r| pick(r) && acts(r)),
-            );
+            rs.extend(sel.of(a).iter().copied().filter(|&r| pick(r) && acts(r)));
             if rs.is_empty() {
                 continue;
             }
@@ -736,15 +951,31 @@ impl Engine {
                     it.state[i] = Some(c);
                 }
             }
-            intents[a] = it;
+            intents.push((a32, it));
         }
         self.has_actions = has_actions;
-        self.detach_move_attach(&intents, rep);
+        if intents.is_empty() {
+            return;
+        }
+        let bonds = intents
+            .iter()
+            .any(|(_, it)| it.letters.iter().any(|&l| l != AttachLetter::Keep))
+            || self.lat.attach.iter().any(|&b| b != 0);
+        if bonds {
+            let mut dense = vec![Intent::default(); n];
+            for (a, it) in &intents {
+                dense[*a as usize] = *it;
+            }
+            self.detach_move_attach(&dense, rep);
+        } else {
+            self.move_alone(&intents, rep);
+        }
         // 5. State updates.
-        for (a, it) in intents.iter().enumerate() {
+        for &(a, ref it) in &intents {
             if it.state.iter().all(Option::is_none) {
                 continue;
             }
+            let a = a as usize;
             let old = self.lat.state[a];
             let mut new = old;
             for i in 0..5 {
@@ -754,6 +985,8 @@ impl Engine {
             }
             if new != old {
                 self.lat.state[a] = new;
+                self.cand_of[a] = NO_LIST;
+                self.cand_dirty = true;
                 if self.opts.trace {
                     rep.trace.push(TraceEvent::State {
                         agent: a as u32,
@@ -764,6 +997,83 @@ impl Engine {
             }
         }
         self.swaps(&intents, rep);
+    }
+
+    /// Steps 1 to 4 when no agent is attached and no rule attaches: every group is one
+    /// agent, so only the movers are looked at (the same decisions and records as
+    /// [`Engine::detach_move_attach`]).
+    fn move_alone(&mut self, intents: &[(u32, Intent)], rep: &mut StepReport) {
+        // Movers in agent order, with their targets.
+        let mut live: Vec<(u32, [i32; 3])> = Vec::new();
+        for &(a, ref it) in intents {
+            let (Some(o), false) = (it.mv, it.mv_bad) else {
+                continue;
+            };
+            let p = self.lat.pos[a as usize];
+            let t = [
+                p[0] as i64 + o[0] as i64,
+                p[1] as i64 + o[1] as i64,
+                p[2] as i64 + o[2] as i64,
+            ];
+            if self.lat.inside(t) {
+                live.push((a, [t[0] as i32, t[1] as i32, t[2] as i32]));
+            } else {
+                let msg = format!("agent {a} cannot move by ({},{},{}): the target cell is blocked; its group does not move", o[0], o[1], o[2]);
+                self.record(rep, RecordKind::MoveBlocked, &[a], msg);
+            }
+        }
+        // Collisions: cancel every move involved, until none is left.
+        loop {
+            let mut count: FxHashMap<[i32; 3], u32> = FxHashMap::default();
+            count.reserve(live.len());
+            for (_, t) in &live {
+                *count.entry(*t).or_insert(0) += 1;
+            }
+            let moving = |s: u32| live.binary_search_by_key(&s, |m| m.0).is_ok();
+            let mut bad: BTreeMap<[i32; 3], Vec<u32>> = BTreeMap::new();
+            for (a, t) in &live {
+                let stay = self.lat.agent_at(*t).filter(|&s| !moving(s));
+                if count[t] > 1 || stay.is_some() {
+                    bad.entry(*t).or_default().push(*a);
+                }
+            }
+            if bad.is_empty() {
+                break;
+            }
+            let mut cancel: Vec<(u32, [i32; 3], Vec<u32>)> = Vec::new();
+            for (cell, ms) in bad {
+                let mut involved = ms.clone();
+                involved.extend(self.lat.agent_at(cell).filter(|&s| !moving(s)));
+                for m in ms {
+                    cancel.push((m, cell, involved.clone()));
+                }
+            }
+            cancel.sort_by_key(|c| c.0);
+            for (a, cell, involved) in cancel {
+                let i = live.binary_search_by_key(&a, |m| m.0).expect("a mover");
+                live.remove(i);
+                let msg = format!(
+                    "a move of agent {} would put agents {} on the cell ({},{},{}); the moves are cancelled",
+                    a,
+                    involved.iter().map(|m| m.to_string()).collect::<Vec<_>>().join(", "),
+                    cell[0],
+                    cell[1],
+                    cell[2]
+                );
+                self.record(rep, RecordKind::MoveCollision, &[a], msg);
+            }
+        }
+        if self.opts.trace {
+            for &(m, to) in &live {
+                rep.trace.push(TraceEvent::Move {
+                    agent: m,
+                    from: self.lat.pos[m as usize],
+                    to,
+                });
+            }
+        }
+        self.stats.moves += live.len() as u64;
+        self.lat.relocate(&live);
     }
 
     /// Steps 1 to 4: detach, decide, move rigid groups, attach.
@@ -1021,11 +1331,10 @@ impl Engine {
     }
 
     /// Step 6: swaps.
-    fn swaps(&mut self, intents: &[Intent], rep: &mut StepReport) {
+    fn swaps(&mut self, intents: &[(u32, Intent)], rep: &mut StepReport) {
         let mut pairs: Vec<(u32, u32, Dir)> = Vec::new();
-        for (a, it) in intents.iter().enumerate() {
+        for &(a, ref it) in intents {
             let Some(d) = it.swap else { continue };
-            let a = a as u32;
             match self.lat.cell_at(self.lat.pos[a as usize], d.offset()) {
                 Cell::Agent(b) => {
                     // Two agents asking to swap with each other make one swap.
@@ -1089,40 +1398,77 @@ impl Engine {
     }
 
     /// Paper step 3, first half: every selected rule's calculations and sends.
-    fn calculations(&mut self, sel_start: &[u32], sel: &[u32], rep: &mut StepReport) {
+    ///
+    /// Each agent writes only its own counters and outbox, so the agents are split into
+    /// chunks (worked on in parallel with --threads) whose issues and trace events are
+    /// joined in agent order afterwards. Within a chunk, a run of consecutive agents that
+    /// execute the same single rule runs that rule's calculations one instruction at a
+    /// time over the whole run ([`run_batch`]), which amortises the dispatch and lets the
+    /// compiler vectorise; other agents run the rule alone ([`run_post`]).
+    fn calculations(&mut self, sel: &Selection, rep: &mut StepReport) {
         self.lat.refresh_neighbours();
         let n = self.lat.len();
-        let d = self.lat.dim;
-        let (nc, nd, ns) = (d.counters(), d.dirs(), d.slots());
+        let nd = self.lat.dim.dirs();
         // External counters read the values at the start of this phase.
         let snapshot = if self.prog.externals.is_empty() {
             Vec::new()
         } else {
             self.lat.counters.clone()
         };
-        // Each agent writes only its own counters and outbox: the agents are split into
-        // chunks (worked on in parallel with --threads) whose issues and trace events are
-        // joined in agent order afterwards.
         let mut counters = std::mem::take(&mut self.lat.counters);
         let mut out_num = std::mem::take(&mut self.out_num);
-        let mut out_bits = std::mem::take(&mut self.out_bits);
+        let mut out_has = std::mem::take(&mut self.out_has);
         let mut out_text = std::mem::take(&mut self.out_text);
         let mut out_text_bits = std::mem::take(&mut self.out_text_bits);
         let par = self.parallel(n);
-        let chunk = par.map_or(n.max(1), |p| p.1);
+        let size = par.map_or(n.max(1), |p| p.1);
+        let chunks = n.div_ceil(size);
+        let mut ctr = split_columns(&mut counters, size, chunks).into_iter();
+        let mut onum = split_columns(&mut out_num, size, chunks).into_iter();
+        let mut ohas = split_columns(&mut out_has, size.div_ceil(64), chunks).into_iter();
+        let mut otext = parts(&mut out_text, size * nd, chunks).into_iter();
+        let mut otbits = parts(&mut out_text_bits, size, chunks).into_iter();
+        let items: Vec<CalcChunk<'_>> = (0..chunks)
+            .map(|c| CalcChunk {
+                lo: c * size,
+                len: size.min(n - c * size),
+                counters: ctr.next().unwrap_or_default(),
+                out_num: onum.next().unwrap_or_default(),
+                out_has: ohas.next().unwrap_or_default(),
+                out_text: otext.next().unwrap_or_default(),
+                out_text_bits: otbits.next().unwrap_or_default(),
+            })
+            .collect();
         let (prog, lat, trace) = (&self.prog, &self.lat, self.opts.trace);
-        let work = |(c, (((ctr, onum), obits), (otext, otbits))): (usize, CalcChunk<'_>)| {
-            let lo = c * chunk;
+        let batchable = &self.batchable;
+        let work = |mut ch: CalcChunk<'_>| {
             let mut issues: Vec<(u32, u32, CalcIssue)> = Vec::new();
             let mut events = Vec::new();
-            for a in lo..(lo + obits.len()) {
-                for &r in &sel[sel_start[a] as usize..sel_start[a + 1] as usize] {
+            let mut k = 0;
+            while k < ch.len {
+                let a = ch.lo + k;
+                let rs = sel.of(a);
+                if let [r] = *rs {
+                    if !prog.rules[r as usize].computes {
+                        k += 1;
+                        continue;
+                    }
+                    if batchable[r as usize] && !trace {
+                        let mut end = k + 1;
+                        while end < ch.len && sel.one[ch.lo + end] == r {
+                            end += 1;
+                        }
+                        run_batch(prog, r, lat, &mut ch, k..end, &mut issues);
+                        k = end;
+                        continue;
+                    }
+                }
+                for &r in rs {
                     if !prog.rules[r as usize].computes {
                         continue;
                     }
-                    let k = a - lo;
                     let before: Vec<i16> = if trace {
-                        ctr[k * nc..(k + 1) * nc].to_vec()
+                        (0..lat.nc() as u8).map(|i| ch.counter(lat, k, i)).collect()
                     } else {
                         Vec::new()
                     };
@@ -1130,20 +1476,15 @@ impl Engine {
                         lat,
                         a,
                         k,
-                        counters: &mut *ctr,
+                        ch: &mut ch,
                         snapshot: &snapshot,
-                        out_num: &mut *onum,
-                        out_bits: &mut *obits,
-                        out_text: &mut *otext,
-                        out_text_bits: &mut *otbits,
                         issues: Vec::new(),
                     };
                     run_post(prog, r as usize, &mut env);
                     issues.extend(env.issues.into_iter().map(|(_, i)| (a as u32, r, i)));
                     if trace {
-                        for (i, (&old, &new)) in
-                            before.iter().zip(&ctr[k * nc..(k + 1) * nc]).enumerate()
-                        {
+                        for (i, &old) in before.iter().enumerate() {
+                            let new = ch.counter(lat, k, i as u8);
                             if old != new {
                                 events.push(TraceEvent::Counter {
                                     agent: a as u32,
@@ -1154,29 +1495,20 @@ impl Engine {
                         }
                     }
                 }
+                k += 1;
             }
             (issues, events)
         };
-        let chunks = counters
-            .chunks_mut(chunk * nc)
-            .zip(out_num.chunks_mut(chunk * nd * ns))
-            .zip(out_bits.chunks_mut(chunk))
-            .zip(
-                out_text
-                    .chunks_mut(chunk * nd)
-                    .zip(out_text_bits.chunks_mut(chunk)),
-            );
         let results: Vec<_> = match par {
             Some((pool, _)) => {
                 use rayon::prelude::*;
-                let items: Vec<_> = chunks.enumerate().collect();
                 pool.install(|| items.into_par_iter().map(work).collect())
             }
-            _ => chunks.enumerate().map(work).collect(),
+            _ => items.into_iter().map(work).collect(),
         };
         self.lat.counters = counters;
         self.out_num = out_num;
-        self.out_bits = out_bits;
+        self.out_has = out_has;
         self.out_text = out_text;
         self.out_text_bits = out_text_bits;
         for (issues, events) in results {
@@ -1209,48 +1541,75 @@ impl Engine {
     /// outboxes hold, each agent pulling from the neighbour in each direction what that
     /// neighbour sent towards it (in chunks of agents, in parallel with --threads).
     fn deliver(&mut self, rep: &mut StepReport) {
-        use rayon::prelude::*;
         self.lat.refresh_neighbours();
         let d = self.lat.dim;
-        let (n, nd, ns) = (self.lat.len(), d.dirs(), d.slots());
+        let (n, nd, ns) = (self.lat.len(), d.dirs(), self.lat.slots as usize);
         if self.opts.trace {
             self.trace_messages(rep);
         }
         let sent: u64 = self
-            .out_bits
+            .out_has
             .iter()
-            .zip(&self.out_text_bits)
-            .map(|(b, t)| (b.count_ones() + t.count_ones()) as u64)
-            .sum();
+            .flatten()
+            .map(|w| w.count_ones() as u64)
+            .sum::<u64>()
+            + self
+                .out_text_bits
+                .iter()
+                .map(|t| t.count_ones() as u64)
+                .sum::<u64>();
+        let texts = !self.out_text_bits.is_empty();
         let mut inbox_num = std::mem::take(&mut self.lat.inbox_num);
         let mut inbox_text = std::mem::take(&mut self.lat.inbox_text);
         let mut inbox_has = std::mem::take(&mut self.lat.inbox_text_has);
-        let (lat, out_num, out_bits) = (&self.lat, &self.out_num, &self.out_bits);
-        let (out_text, out_text_bits) = (&self.out_text, &self.out_text_bits);
         let par = self.parallel(n);
-        let chunk = par.map_or(n.max(1), |p| p.1);
+        let size = par.map_or(n.max(1), |p| p.1);
+        let chunks = n.div_ceil(size);
+        let mut num = split_columns(&mut inbox_num, size, chunks).into_iter();
+        let mut text = parts(&mut inbox_text, size * nd, chunks).into_iter();
+        let mut has = parts(&mut inbox_has, size, chunks).into_iter();
+        let items: Vec<InboxChunk<'_>> = (0..chunks)
+            .map(|c| InboxChunk {
+                lo: c * size,
+                len: size.min(n - c * size),
+                num: num.next().unwrap_or_default(),
+                text: text.next().unwrap_or_default(),
+                has: has.next().unwrap_or_default(),
+            })
+            .collect();
+        let (lat, out_num, out_has) = (&self.lat, &self.out_num, &self.out_has);
+        let (out_text, out_text_bits) = (&self.out_text, &self.out_text_bits);
         // Fills one chunk of recipients; returns how many messages arrived.
-        let pull = |(c, ((num, text), has)): (usize, InboxChunk<'_>)| {
+        let pull = |ch: InboxChunk<'_>| {
             let mut got = 0u64;
-            for k in 0..has.len() {
-                let b = (c * chunk + k) as u32;
-                has[k] = 0;
+            let InboxChunk {
+                lo,
+                len,
+                mut num,
+                text,
+                has,
+            } = ch;
+            if texts {
+                has.fill(0);
+            }
+            let mut nb = [NO_AGENT; 6];
+            for k in 0..len {
+                lat.neighbours((lo + k) as u32, &mut nb);
                 for dir in 0..nd {
-                    let slots = &mut num[(k * nd + dir) * ns..(k * nd + dir + 1) * ns];
-                    slots.iter_mut().for_each(|v| *v = 0);
-                    let Cell::Agent(s) = lat.neighbour_cell(b, dir) else {
-                        continue;
-                    };
-                    let (s, od) = (s as usize, Dir::ALL[dir].opposite().index());
-                    let bits = (out_bits[s] >> (od * ns)) & ((1 << ns) - 1);
-                    for (slot, v) in slots.iter_mut().enumerate() {
-                        if bits & (1 << slot) != 0 {
-                            *v = out_num[(s * nd + od) * ns + slot];
+                    let (from, od) = (nb[dir] as usize, OPPOSITE[dir]);
+                    for sc in 0..ns {
+                        let cout = od * ns + sc;
+                        num[dir * ns + sc][k] = if nb[dir] != NO_AGENT
+                            && out_has[cout][from >> 6] & (1 << (from & 63)) != 0
+                        {
                             got += 1;
-                        }
+                            out_num[cout][from]
+                        } else {
+                            0
+                        };
                     }
-                    if out_text_bits[s] & (1 << od) != 0 {
-                        text[k * nd + dir] = out_text[s * nd + od];
+                    if texts && nb[dir] != NO_AGENT && out_text_bits[from] & (1 << od) != 0 {
+                        text[k * nd + dir] = out_text[from * nd + od];
                         has[k] |= 1 << dir;
                         got += 1;
                     }
@@ -1259,28 +1618,17 @@ impl Engine {
             got
         };
         let delivered: u64 = match par {
-            Some((pool, _)) => pool.install(|| {
-                inbox_num
-                    .par_chunks_mut(chunk * nd * ns)
-                    .zip(inbox_text.par_chunks_mut(chunk * nd))
-                    .zip(inbox_has.par_chunks_mut(chunk))
-                    .enumerate()
-                    .map(pull)
-                    .sum()
-            }),
-            None => inbox_num
-                .chunks_mut(chunk * nd * ns)
-                .zip(inbox_text.chunks_mut(chunk * nd))
-                .zip(inbox_has.chunks_mut(chunk))
-                .enumerate()
-                .map(pull)
-                .sum(),
+            Some((pool, _)) => {
+                use rayon::prelude::*;
+                pool.install(|| items.into_par_iter().map(pull).sum())
+            }
+            None => items.into_iter().map(pull).sum(),
         };
         self.lat.inbox_num = inbox_num;
         self.lat.inbox_text = inbox_text;
         self.lat.inbox_text_has = inbox_has;
-        self.out_bits.iter_mut().for_each(|b| *b = 0);
-        self.out_text_bits.iter_mut().for_each(|b| *b = 0);
+        self.out_has.iter_mut().for_each(|c| c.fill(0));
+        self.out_text_bits.fill(0);
         self.stats.sent += sent;
         self.stats.delivered += delivered;
         self.stats.dropped += sent - delivered;
@@ -1290,23 +1638,32 @@ impl Engine {
     fn trace_messages(&self, rep: &mut StepReport) {
         let d = self.lat.dim;
         let (nd, ns) = (d.dirs(), d.slots());
+        let has = |col: usize, a: usize| self.out_has[col][a >> 6] & (1 << (a & 63)) != 0;
         for a in 0..self.lat.len() {
-            let (bits, tbits) = (self.out_bits[a], self.out_text_bits[a]);
             for dir in 0..nd {
-                let slots = (bits >> (dir * ns)) & ((1 << ns) - 1);
-                let has_text = tbits & (1 << dir) != 0;
-                if slots == 0 && !has_text {
+                let slots: Vec<usize> = (0..ns)
+                    .filter(|&s| {
+                        let c = self.lat.slot_col[s];
+                        c != NO_COL && has(dir * self.lat.slots as usize + c as usize, a)
+                    })
+                    .collect();
+                let has_text = self
+                    .out_text_bits
+                    .get(a)
+                    .is_some_and(|t| t & (1 << dir) != 0);
+                if slots.is_empty() && !has_text {
                     continue;
                 }
                 let to = self.lat.neighbour(a as u32, Dir::ALL[dir]);
                 let letter = Dir::ALL[dir].letter();
-                for s in (0..ns).filter(|s| slots & (1 << s) != 0) {
+                for s in slots {
+                    let col = dir * self.lat.slots as usize + self.lat.slot_col[s] as usize;
                     rep.trace.push(TraceEvent::Message {
                         from: a as u32,
                         to,
                         dir: letter,
                         slot: Some(s as u8 + 1),
-                        value: Some(self.out_num[(a * nd + dir) * ns + s]),
+                        value: Some(self.out_num[col][a]),
                         text: None,
                     });
                 }
@@ -1325,72 +1682,257 @@ impl Engine {
     }
 }
 
-/// One chunk of agents' inboxes: numeric slots, texts, text bits.
-type InboxChunk<'a> = ((&'a mut [i16], &'a mut [[u8; 5]]), &'a mut [u8]);
+/// Splits each column into `chunks` parts of `size` (the last may be shorter) and returns,
+/// per part, that part of every column.
+fn split_columns<T>(cols: &mut [Vec<T>], size: usize, chunks: usize) -> Vec<Vec<&mut [T]>> {
+    let mut out: Vec<Vec<&mut [T]>> = (0..chunks)
+        .map(|_| Vec::with_capacity(cols.len()))
+        .collect();
+    for col in cols {
+        for (k, part) in parts(col, size, chunks).into_iter().enumerate() {
+            out[k].push(part);
+        }
+    }
+    out
+}
 
-/// One chunk of agents' counters, numeric outbox (values, bits) and text outbox (texts,
-/// bits), as the calculation phase splits them.
-type CalcChunk<'a> = (
-    ((&'a mut [i16], &'a mut [i16]), &'a mut [u32]),
-    (&'a mut [[u8; 5]], &'a mut [u8]),
-);
+/// `chunks` parts of `size` of a column (empty parts when the column is empty or short).
+fn parts<T>(col: &mut [T], size: usize, chunks: usize) -> Vec<&mut [T]> {
+    let mut out: Vec<&mut [T]> = col.chunks_mut(size.max(1)).collect();
+    out.resize_with(chunks, Default::default);
+    out
+}
+
+/// One chunk of recipients: `len` agents from `lo`, their numeric inbox columns, text
+/// inboxes and text bits.
+struct InboxChunk<'a> {
+    lo: usize,
+    len: usize,
+    num: Vec<&'a mut [i16]>,
+    text: &'a mut [[u8; 5]],
+    has: &'a mut [u8],
+}
+
+/// One chunk of agents as the calculation phase splits them: `len` agents from `lo` (a
+/// multiple of 64), their counter columns, numeric outbox columns and bits, text outbox.
+struct CalcChunk<'a> {
+    lo: usize,
+    len: usize,
+    counters: Vec<&'a mut [i16]>,
+    out_num: Vec<&'a mut [i16]>,
+    out_has: Vec<&'a mut [u64]>,
+    out_text: &'a mut [[u8; 5]],
+    out_text_bits: &'a mut [u8],
+}
+
+impl CalcChunk<'_> {
+    /// Counter `i` of the chunk's `k`-th agent.
+    fn counter(&self, lat: &Lattice, k: usize, i: u8) -> i16 {
+        match lat.counter_col[i as usize] {
+            NO_COL => 0,
+            c => self.counters[c as usize][k],
+        }
+    }
+
+    /// The outbox columns of a send towards `dir` (or all directions) in `slot`.
+    fn send_cols(lat: &Lattice, dir: u8, slot: u8) -> impl Iterator<Item = usize> {
+        let (nd, ns, sc) = (
+            lat.dim.dirs(),
+            lat.slots as usize,
+            lat.slot_col[slot as usize] as usize,
+        );
+        let dirs = if dir == ANY_DIR {
+            0..nd
+        } else {
+            dir as usize..dir as usize + 1
+        };
+        dirs.map(move |d| d * ns + sc)
+    }
+
+    /// The text outbox directions of a send towards `dir` (or all directions).
+    fn text_dirs(lat: &Lattice, dir: u8) -> std::ops::Range<usize> {
+        if dir == ANY_DIR {
+            0..lat.dim.dirs()
+        } else {
+            dir as usize..dir as usize + 1
+        }
+    }
+}
+
+/// Agents per inner batch of [`run_batch`].
+const BATCH: usize = 256;
+
+/// Runs rule `r`'s calculations and sends for the chunk's agents `range` (all of which
+/// execute `r` alone), one instruction at a time over up to [`BATCH`] agents. The results,
+/// and the issues (in agent order, then instruction order), are those of [`run_post`] run
+/// for each agent in turn: an agent's instructions touch only its own counters and outbox.
+fn run_batch(
+    prog: &Program,
+    r: u32,
+    lat: &Lattice,
+    ch: &mut CalcChunk<'_>,
+    range: std::ops::Range<usize>,
+    issues: &mut Vec<(u32, u32, CalcIssue)>,
+) {
+    let info = &prog.rules[r as usize];
+    let code = &prog.code[info.post.start as usize..info.post.end as usize];
+    let nd = lat.dim.dirs();
+    let mut found: Vec<(u32, CalcIssue)> = Vec::new();
+    let mut x = [0i32; BATCH];
+    let mut y = [0i32; BATCH];
+    let mut ok = [true; BATCH];
+    let mut start = range.start;
+    while start < range.end {
+        let len = (range.end - start).min(BATCH);
+        let ks = start..start + len;
+        let first = ch.lo + start;
+        for op in code {
+            match *op {
+                Op::Send { dir, text } => {
+                    let t = prog.texts[text as usize];
+                    for d in CalcChunk::text_dirs(lat, dir) {
+                        for k in ks.clone() {
+                            ch.out_text[k * nd + d] = t;
+                            ch.out_text_bits[k] |= 1 << d;
+                        }
+                    }
+                }
+                Op::Calc { target, op, a, b } => {
+                    let load = |v: Val, into: &mut [i32], ch: &CalcChunk<'_>| match v {
+                        Val::Lit(c) => into.fill(c as i32),
+                        Val::Counter(c) => {
+                            let col = &ch.counters[lat.counter_col[c as usize] as usize];
+                            for (t, &s) in into.iter_mut().zip(&col[ks.clone()]) {
+                                *t = s as i32;
+                            }
+                        }
+                        Val::Msg { dir, slot } => {
+                            let col = &lat.inbox_num[dir as usize * lat.slots as usize
+                                + lat.slot_col[slot as usize] as usize];
+                            for (t, &s) in into.iter_mut().zip(&col[first..first + len]) {
+                                *t = s as i32;
+                            }
+                        }
+                        Val::Ext(_) => unreachable!("rules with external counters are not batched"),
+                    };
+                    load(a, &mut x[..len], ch);
+                    load(b, &mut y[..len], ch);
+                    let (xs, ys) = (&mut x[..len], &y[..len]);
+                    let mut all_ok = true;
+                    match op {
+                        CalcOp::Max => xs.iter_mut().zip(ys).for_each(|(p, &q)| *p = (*p).max(q)),
+                        CalcOp::Min => xs.iter_mut().zip(ys).for_each(|(p, &q)| *p = (*p).min(q)),
+                        CalcOp::Add => xs.iter_mut().zip(ys).for_each(|(p, &q)| *p += q),
+                        CalcOp::Sub => xs.iter_mut().zip(ys).for_each(|(p, &q)| *p -= q),
+                        CalcOp::Mul => xs.iter_mut().zip(ys).for_each(|(p, &q)| *p *= q),
+                        CalcOp::Div | CalcOp::Mod => {
+                            for (j, (p, &q)) in xs.iter_mut().zip(ys).enumerate() {
+                                ok[j] = q != 0;
+                                all_ok &= q != 0;
+                                if q == 0 {
+                                    found.push(((first + j) as u32, CalcIssue::DivisionByZero));
+                                } else if op == CalcOp::Div {
+                                    *p /= q;
+                                } else {
+                                    *p %= q;
+                                }
+                            }
+                        }
+                    }
+                    // Saturation (operands are within +-32767, so i32 holds every result).
+                    if xs.iter().any(|&v| !(-32767..=32767).contains(&v)) {
+                        for (j, v) in xs.iter_mut().enumerate() {
+                            if ok[j] && !(-32767..=32767).contains(v) {
+                                found.push((
+                                    (first + j) as u32,
+                                    CalcIssue::Saturated { exact: *v as i64 },
+                                ));
+                                *v = (*v).clamp(-32767, 32767);
+                            }
+                        }
+                    }
+                    let xs = &x[..len];
+                    match target {
+                        Target::Counter(c) => {
+                            let col =
+                                &mut ch.counters[lat.counter_col[c as usize] as usize][ks.clone()];
+                            for (j, (t, &v)) in col.iter_mut().zip(xs).enumerate() {
+                                if all_ok || ok[j] {
+                                    *t = v as i16;
+                                }
+                            }
+                        }
+                        Target::Msg { dir, slot } => {
+                            for c in CalcChunk::send_cols(lat, dir, slot) {
+                                let col = &mut ch.out_num[c][ks.clone()];
+                                let bits = &mut *ch.out_has[c];
+                                for (j, (t, &v)) in col.iter_mut().zip(xs).enumerate() {
+                                    if all_ok || ok[j] {
+                                        *t = v as i16;
+                                        let k = start + j;
+                                        bits[k >> 6] |= 1 << (k & 63);
+                                    }
+                                }
+                            }
+                        }
+                    }
+                    if !all_ok {
+                        ok[..len].fill(true);
+                    }
+                }
+                _ => {}
+            }
+        }
+        // Issues in agent order, then instruction order (the sort is stable).
+        found.sort_by_key(|f| f.0);
+        issues.extend(found.drain(..).map(|(a, i)| (a, r, i)));
+        start += len;
+    }
+}
 
 /// What the calculations of agent `a` (the `k`-th of its chunk) read and write: the
 /// lattice for positions and inboxes, and the chunk's own counters and outbox.
-struct CalcCtx<'a> {
+struct CalcCtx<'a, 'c, 'd> {
     lat: &'a Lattice,
     a: usize,
     k: usize,
-    counters: &'a mut [i16],
-    snapshot: &'a [i16],
-    out_num: &'a mut [i16],
-    out_bits: &'a mut [u32],
-    out_text: &'a mut [[u8; 5]],
-    out_text_bits: &'a mut [u8],
+    ch: &'c mut CalcChunk<'d>,
+    snapshot: &'a [Vec<i16>],
     issues: Vec<(usize, CalcIssue)>,
 }
 
-impl CalcEnv for CalcCtx<'_> {
+impl CalcEnv for CalcCtx<'_, '_, '_> {
     fn counter(&self, i: u8) -> i16 {
-        self.counters[self.k * self.lat.nc() + i as usize]
+        self.ch.counter(self.lat, self.k, i)
     }
     fn set_counter(&mut self, i: u8, v: i16) {
-        let nc = self.lat.nc();
-        self.counters[self.k * nc + i as usize] = v;
+        let c = self.lat.counter_col[i as usize] as usize;
+        self.ch.counters[c][self.k] = v;
     }
     fn inbox_num(&self, dir: u8, slot: u8) -> i16 {
-        let d = self.lat.dim;
-        self.lat.inbox_num[(self.a * d.dirs() + dir as usize) * d.slots() + slot as usize]
+        self.lat.inbox(self.a as u32, dir, slot)
     }
     fn external(&self, off: [i32; 2], counter: u8) -> Option<i16> {
         match self.lat.cell_at(self.lat.pos[self.a], [off[0], off[1], 0]) {
-            Cell::Agent(b) => Some(self.snapshot[b as usize * self.lat.nc() + counter as usize]),
+            Cell::Agent(b) => Some(match self.lat.counter_col[counter as usize] {
+                NO_COL => 0,
+                c => self.snapshot[c as usize][b as usize],
+            }),
             _ => None,
         }
     }
     fn send_num(&mut self, dir: u8, slot: u8, v: i16) {
-        let d = self.lat.dim;
-        let (nd, ns) = (d.dirs(), d.slots());
-        let dirs = if dir == ANY_DIR {
-            0..nd
-        } else {
-            dir as usize..dir as usize + 1
-        };
-        for k in dirs {
-            self.out_num[(self.k * nd + k) * ns + slot as usize] = v;
-            self.out_bits[self.k] |= 1 << (k * ns + slot as usize);
+        let k = self.k;
+        for c in CalcChunk::send_cols(self.lat, dir, slot) {
+            self.ch.out_num[c][k] = v;
+            self.ch.out_has[c][k >> 6] |= 1 << (k & 63);
         }
     }
     fn send_text(&mut self, dir: u8, text: [u8; 5]) {
         let nd = self.lat.dim.dirs();
-        let dirs = if dir == ANY_DIR {
-            0..nd
-        } else {
-            dir as usize..dir as usize + 1
-        };
-        for k in dirs {
-            self.out_text[self.k * nd + k] = text;
-            self.out_text_bits[self.k] |= 1 << k;
+        for d in CalcChunk::text_dirs(self.lat, dir) {
+            self.ch.out_text[self.k * nd + d] = text;
+            self.ch.out_text_bits[self.k] |= 1 << d;
         }
     }
     fn issue(&mut self, pc: usize, issue: CalcIssue) {

@@ -244,8 +244,10 @@ fn compare(e: &Engine, w: &World, step: u64) -> Result<(), TestCaseError> {
             i
         );
         prop_assert_eq!(
-            &e.lat.counters[i * a.counters.len()..(i + 1) * a.counters.len()],
-            &a.counters[..],
+            (0..a.counters.len())
+                .map(|c| e.lat.counter(i as u32, c as u8))
+                .collect::<Vec<_>>(),
+            a.counters.clone(),
             "step {}: counters of agent {}",
             step,
             i
@@ -253,14 +255,14 @@ fn compare(e: &Engine, w: &World, step: u64) -> Result<(), TestCaseError> {
         for d in 0..nd {
             for s in 0..ns {
                 prop_assert_eq!(
-                    e.lat.inbox_num[(i * nd + d) * ns + s],
+                    e.lat.inbox(i as u32, d as u8, s as u8),
                     a.inbox_num[d][s],
                     "step {}: inbox of {}",
                     step,
                     i
                 );
             }
-            let t = (e.lat.inbox_text_has[i] & (1 << d) != 0).then(|| e.lat.inbox_text[i * nd + d]);
+            let t = e.lat.inbox_text(i as u32, d as u8);
             prop_assert_eq!(t, a.inbox_text[d], "step {}: text inbox of {}", step, i);
         }
     }

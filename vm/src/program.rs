@@ -54,6 +54,18 @@ pub struct Program {
     pub externals: Vec<(Coord, Coord, u8)>,
 }
 
+/// The counters, message slots and texts a program reads or writes anywhere (so that a
+/// runtime can store only those).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Uses {
+    /// Bit i: counter i.
+    pub counters: u64,
+    /// Bit s: numeric slot s (0-based).
+    pub slots: u8,
+    /// Text messages are sent or read.
+    pub texts: bool,
+}
+
 /// Why a program is rejected.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct VerifyError {
@@ -73,6 +85,54 @@ impl fmt::Display for VerifyError {
 pub const MAX_STACK: usize = 64;
 
 impl Program {
+    /// What the program reads and writes: counters, numeric slots, texts.
+    pub fn uses(&self) -> Uses {
+        let mut u = Uses::default();
+        let val = |u: &mut Uses, v: Val| match v {
+            Val::Counter(c) => u.counters |= 1 << c,
+            Val::Msg { slot, .. } => u.slots |= 1 << slot,
+            Val::Lit(_) | Val::Ext(_) => {}
+        };
+        for op in &self.code {
+            match *op {
+                Op::Cmp { a, b, .. } => {
+                    val(&mut u, a);
+                    val(&mut u, b);
+                }
+                Op::RCmp { counter, b, .. } => {
+                    u.counters |= 1 << counter;
+                    val(&mut u, b);
+                }
+                Op::Calc { target, a, b, .. } => {
+                    match target {
+                        Target::Counter(c) => u.counters |= 1 << c,
+                        Target::Msg { slot, .. } => u.slots |= 1 << slot,
+                    }
+                    val(&mut u, a);
+                    val(&mut u, b);
+                }
+                Op::Msg { .. } | Op::Send { .. } => u.texts = true,
+                _ => {}
+            }
+        }
+        let coord = |u: &mut Uses, c: Coord| {
+            if let Coord::Counter(i) = c {
+                u.counters |= 1 << i;
+            }
+        };
+        for o in &self.offsets {
+            for &c in o {
+                coord(&mut u, c);
+            }
+        }
+        for &(x, y, c) in &self.externals {
+            coord(&mut u, x);
+            coord(&mut u, y);
+            u.counters |= 1 << c;
+        }
+        u
+    }
+
     /// Checks once, before running, what the evaluator then trusts: every index in range,
     /// counters, slots and directions valid for the dimension, jumps forward inside their
     /// rule, the precondition stack balanced and within [`MAX_STACK`], and each instruction
