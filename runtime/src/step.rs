@@ -790,22 +790,32 @@ impl Engine {
         self.lat.refresh_neighbours();
         self.select(&mut rep);
         let sel = std::mem::take(&mut self.sel);
-        rep.quiescent = true;
-        for a in 0..self.lat.len() {
-            let rs = sel.of(a);
-            if rs.is_empty() {
-                continue;
+        // Firings: runs of agents with the same single rule are counted at once.
+        rep.quiescent = sel.many.is_empty();
+        let mut run = (NO_RULE, 0u64);
+        for &v in sel.one.iter().chain([&NO_RULE]) {
+            if v != run.0 {
+                if run.0 & MANY == 0 {
+                    self.stats.firings[run.0 as usize] += run.1;
+                    rep.quiescent = false;
+                }
+                run = (v, 0);
             }
-            rep.quiescent = false;
-            for &r in rs {
-                self.stats.firings[r as usize] += 1;
-            }
-            if self.opts.trace {
-                rep.trace.push(TraceEvent::Fire {
-                    agent: a as u32,
-                    rules: rs.iter().map(|&r| self.rule_name(r).to_string()).collect(),
-                    priority: self.prog.rules[rs[0] as usize].priority,
-                });
+            run.1 += 1;
+        }
+        for &r in &sel.many {
+            self.stats.firings[r as usize] += 1;
+        }
+        if self.opts.trace {
+            for a in 0..self.lat.len() {
+                let rs = sel.of(a);
+                if !rs.is_empty() {
+                    rep.trace.push(TraceEvent::Fire {
+                        agent: a as u32,
+                        rules: rs.iter().map(|&r| self.rule_name(r).to_string()).collect(),
+                        priority: self.prog.rules[rs[0] as usize].priority,
+                    });
+                }
             }
         }
         match self.opts.order {
@@ -847,11 +857,19 @@ impl Engine {
         let nd = self.lat.dim.dirs();
         // Rules with nothing to do in this phase (only calculations and sends) are left out;
         // only the agents with something to do get an intent.
+        if !self.has_actions.iter().any(|&h| h) {
+            return;
+        }
         let has_actions = std::mem::take(&mut self.has_actions);
         let acts = |r: u32| has_actions[r as usize];
         let mut intents: Vec<(u32, Intent)> = Vec::new();
         let mut rs: Vec<u32> = Vec::new();
         for a in 0..n {
+            match sel.one[a] {
+                NO_RULE => continue,
+                r if r & MANY == 0 && !acts(r) => continue,
+                _ => {}
+            }
             rs.clear();
             rs.extend(sel.of(a).iter().copied().filter(|&r| pick(r) && acts(r)));
             if rs.is_empty() {
@@ -1592,26 +1610,44 @@ impl Engine {
             if texts {
                 has.fill(0);
             }
-            let mut nb = [NO_AGENT; 6];
-            for k in 0..len {
-                lat.neighbours((lo + k) as u32, &mut nb);
+            // In batches: first every recipient's neighbours, then one tight loop per
+            // direction and slot.
+            let mut nb = [[NO_AGENT; BATCH]; 6];
+            let mut one = [NO_AGENT; 6];
+            for base in (0..len).step_by(BATCH) {
+                let m = BATCH.min(len - base);
+                for j in 0..m {
+                    lat.neighbours((lo + base + j) as u32, &mut one);
+                    for (col, &v) in nb.iter_mut().zip(&one).take(nd) {
+                        col[j] = v;
+                    }
+                }
                 for dir in 0..nd {
-                    let (from, od) = (nb[dir] as usize, OPPOSITE[dir]);
+                    let (from, od) = (&nb[dir][..m], OPPOSITE[dir]);
                     for sc in 0..ns {
                         let cout = od * ns + sc;
-                        num[dir * ns + sc][k] = if nb[dir] != NO_AGENT
-                            && out_has[cout][from >> 6] & (1 << (from & 63)) != 0
-                        {
-                            got += 1;
-                            out_num[cout][from]
-                        } else {
-                            0
-                        };
+                        let (out, bits) = (&out_num[cout][..], &out_has[cout][..]);
+                        let inb = &mut num[dir * ns + sc][base..base + m];
+                        for (v, &f) in inb.iter_mut().zip(from) {
+                            let f = f as usize;
+                            *v = if f != NO_AGENT as usize && bits[f >> 6] & (1 << (f & 63)) != 0 {
+                                got += 1;
+                                out[f]
+                            } else {
+                                0
+                            };
+                        }
                     }
-                    if texts && nb[dir] != NO_AGENT && out_text_bits[from] & (1 << od) != 0 {
-                        text[k * nd + dir] = out_text[from * nd + od];
-                        has[k] |= 1 << dir;
-                        got += 1;
+                    if texts {
+                        for (j, &f) in from.iter().enumerate() {
+                            let f = f as usize;
+                            if f != NO_AGENT as usize && out_text_bits[f] & (1 << od) != 0 {
+                                let k = base + j;
+                                text[k * nd + dir] = out_text[f * nd + od];
+                                has[k] |= 1 << dir;
+                                got += 1;
+                            }
+                        }
                     }
                 }
             }
@@ -1759,7 +1795,24 @@ impl CalcChunk<'_> {
     }
 }
 
-/// Agents per inner batch of [`run_batch`].
+/// Sets the bits `range` of a bit set.
+fn set_bits(bits: &mut [u64], range: std::ops::Range<usize>) {
+    let (mut i, end) = (range.start, range.end);
+    while i < end {
+        let w = i >> 6;
+        let lo = i & 63;
+        let hi = (end - (w << 6)).min(64);
+        let mask = if hi - lo == 64 {
+            u64::MAX
+        } else {
+            ((1u64 << (hi - lo)) - 1) << lo
+        };
+        bits[w] |= mask;
+        i = (w << 6) + hi;
+    }
+}
+
+/// Agents per inner batch of [`run_batch`] and of the post office.
 const BATCH: usize = 256;
 
 /// Runs rule `r`'s calculations and sends for the chunk's agents `range` (all of which
@@ -1852,13 +1905,18 @@ fn run_batch(
                         }
                     }
                     let xs = &x[..len];
+                    let keep = |j: usize| all_ok || ok[j];
                     match target {
                         Target::Counter(c) => {
                             let col =
                                 &mut ch.counters[lat.counter_col[c as usize] as usize][ks.clone()];
-                            for (j, (t, &v)) in col.iter_mut().zip(xs).enumerate() {
-                                if all_ok || ok[j] {
-                                    *t = v as i16;
+                            if all_ok {
+                                col.iter_mut().zip(xs).for_each(|(t, &v)| *t = v as i16);
+                            } else {
+                                for (j, (t, &v)) in col.iter_mut().zip(xs).enumerate() {
+                                    if keep(j) {
+                                        *t = v as i16;
+                                    }
                                 }
                             }
                         }
@@ -1866,11 +1924,16 @@ fn run_batch(
                             for c in CalcChunk::send_cols(lat, dir, slot) {
                                 let col = &mut ch.out_num[c][ks.clone()];
                                 let bits = &mut *ch.out_has[c];
-                                for (j, (t, &v)) in col.iter_mut().zip(xs).enumerate() {
-                                    if all_ok || ok[j] {
-                                        *t = v as i16;
-                                        let k = start + j;
-                                        bits[k >> 6] |= 1 << (k & 63);
+                                if all_ok {
+                                    col.iter_mut().zip(xs).for_each(|(t, &v)| *t = v as i16);
+                                    set_bits(bits, ks.clone());
+                                } else {
+                                    for (j, (t, &v)) in col.iter_mut().zip(xs).enumerate() {
+                                        if keep(j) {
+                                            *t = v as i16;
+                                            let k = start + j;
+                                            bits[k >> 6] |= 1 << (k & 63);
+                                        }
                                     }
                                 }
                             }
