@@ -148,6 +148,18 @@ impl CellIndex {
         true
     }
 
+    /// The grid slot of a cell (`None` outside the grid or without one), and the number
+    /// of slots: callers may keep their own per-cell marks.
+    #[inline]
+    pub fn slot(&self, p: [i32; 3]) -> Option<usize> {
+        self.grid.as_ref()?.slot(p)
+    }
+
+    /// The number of grid slots (0 without a grid).
+    pub fn slots(&self) -> usize {
+        self.grid.as_ref().map_or(0, |g| g.cells.len())
+    }
+
     /// Puts an agent on a cell.
     pub fn insert(&mut self, p: [i32; 3], a: u32) {
         if let Some(g) = &mut self.grid {

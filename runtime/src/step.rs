@@ -11,7 +11,7 @@ use crate::lattice::{NO_AGENT, NO_COL};
 use crate::record::{Record, RecordKind};
 use crate::trace::TraceEvent;
 use latticesim_vm::eval::{eval_pre, run_post, CalcEnv, CalcIssue, Cell, Env, Tri};
-use latticesim_vm::model::{AttachLetter, CalcOp, Dir, TextPat};
+use latticesim_vm::model::{AttachLetter, CalcOp, Coord, Dir, TextPat};
 use latticesim_vm::op::{Op, Target, Val, ANY_DIR};
 use latticesim_vm::Program;
 use rustc_hash::FxHashMap;
@@ -125,12 +125,16 @@ pub struct Engine {
     any_prio: bool,
     /// Per rule: it has a move, swap, attachment or state action.
     has_actions: Vec<bool>,
+    /// Per entry of the program's offsets: its value when it has no counter in it.
+    literal_offsets: Vec<Option<[i32; 3]>>,
     /// Per rule: its calculations can run on a range of agents at once (no external
     /// counters).
     batchable: Vec<bool>,
     /// Worker threads, when more than one was asked for.
     pool: Option<rayon::ThreadPool>,
     sel: Selection,
+    /// Per-cell and per-agent marks for the moves (allocated at the first move).
+    scratch: MoveScratch,
     /// Numeric outboxes: a column per direction and slot in use (as the inboxes), and a
     /// bit set per column of which agents wrote it.
     out_num: Vec<Vec<i16>>,
@@ -139,6 +143,15 @@ pub struct Engine {
     /// rule sends texts).
     out_text: Vec<[u8; 5]>,
     out_text_bits: Vec<u8>,
+}
+
+/// Marks for deciding moves: per grid cell (stamp, movers targeting it), per agent the
+/// stamp of the round it was last seen moving in.
+#[derive(Default)]
+struct MoveScratch {
+    claims: Vec<(u32, u32)>,
+    moving: Vec<u32>,
+    stamp: u32,
 }
 
 /// The rules each agent executes in a step: one entry per agent, either [`NO_RULE`], a
@@ -395,7 +408,19 @@ impl Engine {
                         || i.sets_state.is_some()
                 })
                 .collect(),
+            literal_offsets: prog
+                .offsets
+                .iter()
+                .map(|o| {
+                    let lit = |c: &Coord| match *c {
+                        Coord::Lit(v) => Some(v),
+                        Coord::Counter(_) => None,
+                    };
+                    Some([lit(&o[0])?, lit(&o[1])?, lit(&o[2])?])
+                })
+                .collect(),
             sel: Selection::default(),
+            scratch: MoveScratch::default(),
             out_num: vec![vec![0; n]; cols],
             out_has: vec![vec![0; n.div_ceil(64)]; cols],
             out_text: if uses.texts {
@@ -875,6 +900,11 @@ impl Engine {
             if rs.is_empty() {
                 continue;
             }
+            if let [r] = rs[..] {
+                // One rule: nothing can conflict.
+                intents.push((a as u32, self.intent_of(a as u32, r)));
+                continue;
+            }
             let mut it = Intent::default();
             let mut moves: Vec<(u32, [i32; 3])> = Vec::new();
             let mut swaps: Vec<(u32, Dir)> = Vec::new();
@@ -1017,6 +1047,36 @@ impl Engine {
         self.swaps(&intents, rep);
     }
 
+    /// The actions of agent `a` executing rule `r` alone.
+    fn intent_of(&self, a: u32, r: u32) -> Intent {
+        let info = &self.prog.rules[r as usize];
+        let mut it = Intent::default();
+        if let Some(off) = info.moves {
+            let o = match self.literal_offsets[off as usize] {
+                Some(o) => o,
+                None => {
+                    let env = SelEnv {
+                        lat: &self.lat,
+                        a,
+                        prio: None,
+                    };
+                    latticesim_vm::eval::resolve(&self.prog.offsets[off as usize], &env)
+                }
+            };
+            if o != [0, 0, 0] {
+                it.mv = Some(o);
+            }
+        }
+        it.swap = info.swaps;
+        if let Some(l) = info.attaches {
+            it.letters = self.prog.letters[l as usize];
+        }
+        if let Some(p) = info.sets_state {
+            it.state = self.prog.pats[p as usize];
+        }
+        it
+    }
+
     /// Steps 1 to 4 when no agent is attached and no rule attaches: every group is one
     /// agent, so only the movers are looked at (the same decisions and records as
     /// [`Engine::detach_move_attach`]).
@@ -1040,18 +1100,42 @@ impl Engine {
                 self.record(rep, RecordKind::MoveBlocked, &[a], msg);
             }
         }
-        // Collisions: cancel every move involved, until none is left.
+        // Collisions: cancel every move involved, until none is left. Targets are counted
+        // in per-cell marks where the grid covers them (stamped, so never cleared), in a
+        // hash map elsewhere; movers are marked per agent the same way.
+        let cells = self.lat.cells.slots();
+        let mut scratch = std::mem::take(&mut self.scratch);
+        if scratch.claims.len() != cells || scratch.moving.len() != self.lat.len() {
+            scratch.claims = vec![(0, 0); cells];
+            scratch.moving = vec![0; self.lat.len()];
+            scratch.stamp = 0;
+        }
         loop {
-            let mut count: FxHashMap<[i32; 3], u32> = FxHashMap::default();
-            count.reserve(live.len());
-            for (_, t) in &live {
-                *count.entry(*t).or_insert(0) += 1;
+            scratch.stamp = scratch.stamp.wrapping_add(1);
+            if scratch.stamp == 0 {
+                scratch.claims.fill((0, 0));
+                scratch.moving.fill(0);
+                scratch.stamp = 1;
             }
-            let moving = |s: u32| live.binary_search_by_key(&s, |m| m.0).is_ok();
+            let stamp = scratch.stamp;
+            let mut count: FxHashMap<[i32; 3], u32> = FxHashMap::default();
+            for &(a, t) in &live {
+                scratch.moving[a as usize] = stamp;
+                match self.lat.cells.slot(t) {
+                    Some(s) if scratch.claims[s].0 == stamp => scratch.claims[s].1 += 1,
+                    Some(s) => scratch.claims[s] = (stamp, 1),
+                    None => *count.entry(t).or_insert(0) += 1,
+                }
+            }
+            let moving = |s: u32| scratch.moving[s as usize] == stamp;
+            let claimed = |t: [i32; 3]| match self.lat.cells.slot(t) {
+                Some(s) => scratch.claims[s].1,
+                None => count[&t],
+            };
             let mut bad: BTreeMap<[i32; 3], Vec<u32>> = BTreeMap::new();
             for (a, t) in &live {
                 let stay = self.lat.agent_at(*t).filter(|&s| !moving(s));
-                if count[t] > 1 || stay.is_some() {
+                if claimed(*t) > 1 || stay.is_some() {
                     bad.entry(*t).or_default().push(*a);
                 }
             }
@@ -1081,6 +1165,7 @@ impl Engine {
                 self.record(rep, RecordKind::MoveCollision, &[a], msg);
             }
         }
+        self.scratch = scratch;
         if self.opts.trace {
             for &(m, to) in &live {
                 rep.trace.push(TraceEvent::Move {
