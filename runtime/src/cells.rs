@@ -148,6 +148,57 @@ impl CellIndex {
         true
     }
 
+    /// For agents `first, first + 1, ...` (at most `max`), the first standing at `p`: how
+    /// many stand on consecutive cells along the grid's innermost axis (y in 2D, z in 3D)
+    /// away from the grid's rim, and per direction the grid cells next to them (agent ids
+    /// or [`EMPTY`]). `None` when fewer than 8 do.
+    ///
+    /// The grid itself tells: agent `first + j` stands `j` cells further exactly when that
+    /// cell holds it, so the test is one vectorised compare of a slice of the grid.
+    #[inline]
+    pub fn neighbour_run(
+        &self,
+        first: u32,
+        p: [i32; 3],
+        max: usize,
+        nd: usize,
+    ) -> Option<(usize, [&[u32]; 6])> {
+        const MIN_RUN: usize = 8;
+        let g = self.grid.as_ref()?;
+        let i = g.interior(p)?;
+        // Interior cells left in this row of the innermost axis.
+        let axis = if g.size[2] > 1 { 2 } else { 1 };
+        let o = (p[axis] as i64 - g.lo[axis] as i64) as usize;
+        let row = (g.size[axis] as usize - 1 - o).min(max);
+        let cells = &g.cells[i..i + row];
+        let mut m = 0;
+        for block in cells.chunks(32) {
+            let base = first.wrapping_add(m as u32);
+            let ok = block
+                .iter()
+                .enumerate()
+                .fold(true, |ok, (j, &c)| ok & (c == base.wrapping_add(j as u32)));
+            if !ok {
+                m += block
+                    .iter()
+                    .enumerate()
+                    .take_while(|&(j, &c)| c == base.wrapping_add(j as u32))
+                    .count();
+                break;
+            }
+            m += block.len();
+        }
+        if m < MIN_RUN {
+            return None;
+        }
+        let mut out: [&[u32]; 6] = [&[]; 6];
+        for (o, &delta) in out.iter_mut().zip(&g.delta).take(nd) {
+            let s = (i as isize + delta) as usize;
+            *o = &g.cells[s..s + m];
+        }
+        Some((m, out))
+    }
+
     /// The grid slot of a cell (`None` outside the grid or without one), and the number
     /// of slots: callers may keep their own per-cell marks.
     #[inline]

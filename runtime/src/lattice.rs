@@ -336,6 +336,19 @@ impl Lattice {
         }
     }
 
+    /// For agents from `first` (at most `len`) standing on consecutive cells of a grid with
+    /// no universe walls: how many do, and per direction the ids next to them
+    /// ([`NO_AGENT`] for none), read straight from the grid. `None` when the grid cannot
+    /// answer for a run of them at once.
+    #[inline]
+    pub fn neighbour_run(&self, first: usize, len: usize) -> Option<(usize, [&[u32]; 6])> {
+        if self.nbr_valid || self.universe.is_some() {
+            return None;
+        }
+        self.cells
+            .neighbour_run(first as u32, self.pos[first], len, self.dim.dirs())
+    }
+
     #[cold]
     #[inline(never)]
     fn neighbour_cell_slow(&self, p: [i32; 3], d: usize) -> Cell {

@@ -1557,10 +1557,7 @@ impl Engine {
                         continue;
                     }
                     if batchable[r as usize] && !trace {
-                        let mut end = k + 1;
-                        while end < ch.len && sel.one[ch.lo + end] == r {
-                            end += 1;
-                        }
+                        let end = k + run_of(&sel.one[ch.lo + k..ch.lo + ch.len], r);
                         run_batch(prog, r, lat, &mut ch, k..end, &mut issues);
                         k = end;
                         continue;
@@ -1697,22 +1694,42 @@ impl Engine {
             }
             // In batches: first every recipient's neighbours, then one tight loop per
             // direction and slot.
+            // Agents on consecutive cells of a grid read their neighbours straight from it.
             let mut nb = [[NO_AGENT; BATCH]; 6];
             let mut one = [NO_AGENT; 6];
-            for base in (0..len).step_by(BATCH) {
-                let m = BATCH.min(len - base);
-                for j in 0..m {
-                    lat.neighbours((lo + base + j) as u32, &mut one);
-                    for (col, &v) in nb.iter_mut().zip(&one).take(nd) {
-                        col[j] = v;
+            let mut base = 0;
+            while base < len {
+                let mut m = BATCH.min(len - base);
+                let run = lat.neighbour_run(lo + base, m);
+                if let Some((r, _)) = run {
+                    m = r;
+                } else {
+                    for j in 0..m {
+                        lat.neighbours((lo + base + j) as u32, &mut one);
+                        for (col, &v) in nb.iter_mut().zip(&one).take(nd) {
+                            col[j] = v;
+                        }
                     }
                 }
                 for dir in 0..nd {
-                    let (from, od) = (&nb[dir][..m], OPPOSITE[dir]);
+                    let from = match &run {
+                        Some((_, r)) => r[dir],
+                        None => &nb[dir][..m],
+                    };
+                    let od = OPPOSITE[dir];
+                    // The senders are themselves consecutive agents.
+                    let f0 = from[0] as usize;
+                    let dense = from[0] != NO_AGENT
+                        && from.iter().enumerate().all(|(j, &f)| f as usize == f0 + j);
                     for sc in 0..ns {
                         let cout = od * ns + sc;
                         let (out, bits) = (&out_num[cout][..], &out_has[cout][..]);
                         let inb = &mut num[dir * ns + sc][base..base + m];
+                        if dense && all_bits(bits, f0..f0 + m) {
+                            inb.copy_from_slice(&out[f0..f0 + m]);
+                            got += m as u64;
+                            continue;
+                        }
                         for (v, &f) in inb.iter_mut().zip(from) {
                             let f = f as usize;
                             *v = if f != NO_AGENT as usize && bits[f >> 6] & (1 << (f & 63)) != 0 {
@@ -1735,6 +1752,7 @@ impl Engine {
                         }
                     }
                 }
+                base += m;
             }
             got
         };
@@ -1897,6 +1915,92 @@ fn set_bits(bits: &mut [u64], range: std::ops::Range<usize>) {
     }
 }
 
+/// How many of the first values of `s` equal `v` (compared in blocks, which vectorises).
+fn run_of(s: &[u32], v: u32) -> usize {
+    let mut n = 0;
+    for block in s.chunks(32) {
+        if block.iter().fold(true, |ok, &x| ok & (x == v)) {
+            n += block.len();
+        } else {
+            return n + block.iter().take_while(|&&x| x == v).count();
+        }
+    }
+    n
+}
+
+/// Whether every bit of `range` is set.
+fn all_bits(bits: &[u64], range: std::ops::Range<usize>) -> bool {
+    let (mut i, end) = (range.start, range.end);
+    while i < end {
+        let w = i >> 6;
+        let lo = i & 63;
+        let hi = (end - (w << 6)).min(64);
+        let mask = if hi - lo == 64 {
+            u64::MAX
+        } else {
+            ((1u64 << (hi - lo)) - 1) << lo
+        };
+        if bits[w] & mask != mask {
+            return false;
+        }
+        i = (w << 6) + hi;
+    }
+    true
+}
+
+/// The most frequent calculations over a run of agents, without a detour through 32-bit
+/// temporaries: `Cxx = Cxx max/min (message or literal)` in place (cannot saturate), and
+/// sending a counter as it is (`x + 0`, `x - 0`). Returns false for anything else.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn fast_calc(
+    lat: &Lattice,
+    ch: &mut CalcChunk<'_>,
+    ks: std::ops::Range<usize>,
+    first: usize,
+    target: Target,
+    op: CalcOp,
+    a: Val,
+    b: Val,
+) -> bool {
+    let len = ks.len();
+    match (target, op, a, b) {
+        (Target::Counter(c), CalcOp::Max | CalcOp::Min, Val::Counter(ca), b) if ca == c => {
+            let col = &mut ch.counters[lat.counter_col[c as usize] as usize][ks];
+            let max = op == CalcOp::Max;
+            match b {
+                Val::Lit(v) if max => col.iter_mut().for_each(|t| *t = (*t).max(v)),
+                Val::Lit(v) => col.iter_mut().for_each(|t| *t = (*t).min(v)),
+                Val::Msg { dir, slot } if dir != ANY_DIR => {
+                    let src = &lat.inbox_num
+                        [dir as usize * lat.slots as usize + lat.slot_col[slot as usize] as usize]
+                        [first..first + len];
+                    if max {
+                        col.iter_mut().zip(src).for_each(|(t, &v)| *t = (*t).max(v));
+                    } else {
+                        col.iter_mut().zip(src).for_each(|(t, &v)| *t = (*t).min(v));
+                    }
+                }
+                _ => return false,
+            }
+            true
+        }
+        (Target::Msg { dir, slot }, CalcOp::Add | CalcOp::Sub, Val::Counter(c), Val::Lit(0)) => {
+            let src = lat.counter_col[c as usize] as usize;
+            for col in CalcChunk::send_cols(lat, dir, slot) {
+                let (counters, out) = (
+                    &ch.counters[src][ks.clone()],
+                    &mut ch.out_num[col][ks.clone()],
+                );
+                out.copy_from_slice(counters);
+                set_bits(ch.out_has[col], ks.clone());
+            }
+            true
+        }
+        _ => false,
+    }
+}
+
 /// Agents per inner batch of [`run_batch`] and of the post office.
 const BATCH: usize = 256;
 
@@ -1935,6 +2039,8 @@ fn run_batch(
                         }
                     }
                 }
+                Op::Calc { target, op, a, b }
+                    if fast_calc(lat, ch, ks.clone(), first, target, op, a, b) => {}
                 Op::Calc { target, op, a, b } => {
                     let load = |v: Val, into: &mut [i32], ch: &CalcChunk<'_>| match v {
                         Val::Lit(c) => into.fill(c as i32),
