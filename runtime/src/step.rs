@@ -133,6 +133,13 @@ pub struct Engine {
     /// Worker threads, when more than one was asked for.
     pool: Option<rayon::ThreadPool>,
     sel: Selection,
+    /// The last selection was decided by the agents' states alone (no agent evaluated a
+    /// precondition): while no state changes, it holds for the next step too.
+    sel_by_state: bool,
+    /// The last selection was reused (so the firings of the last step repeat).
+    sel_reused: bool,
+    /// The firings per rule of the last step, with whether it was quiescent.
+    last_firings: (Vec<(u32, u64)>, bool),
     /// Per-cell and per-agent marks for the moves (allocated at the first move).
     scratch: MoveScratch,
     /// Numeric outboxes: a column per direction and slot in use (as the inboxes), and a
@@ -420,6 +427,9 @@ impl Engine {
                 })
                 .collect(),
             sel: Selection::default(),
+            sel_by_state: false,
+            sel_reused: false,
+            last_firings: (Vec::new(), true),
             scratch: MoveScratch::default(),
             out_num: vec![vec![0; n]; cols],
             out_has: vec![vec![0; n.div_ceil(64)]; cols],
@@ -563,6 +573,7 @@ impl Engine {
             let lo = c * chunk;
             let mut multi: Vec<(u32, Vec<u32>)> = Vec::new();
             let mut buf: Vec<u32> = Vec::new();
+            let mut evaluated = false;
             for (k, slot) in one.iter_mut().enumerate() {
                 let a = lo + k;
                 let idx = of[a] as usize;
@@ -570,6 +581,7 @@ impl Engine {
                     *slot = single[idx];
                     continue;
                 }
+                evaluated = true;
                 let env = SelEnv {
                     lat,
                     a: a as u32,
@@ -597,9 +609,9 @@ impl Engine {
                     }
                 };
             }
-            multi
+            (multi, evaluated)
         };
-        let multis: Vec<_> = match par {
+        let parts: Vec<_> = match par {
             Some((pool, _)) => {
                 use rayon::prelude::*;
                 pool.install(|| one.par_chunks_mut(chunk).enumerate().map(work).collect())
@@ -609,14 +621,23 @@ impl Engine {
         self.sel.one = one;
         self.sel.starts.clear();
         self.sel.many.clear();
-        for (a, rules) in multis.into_iter().flatten() {
-            self.sel.set(a as usize, &rules);
+        self.sel_by_state = true;
+        for (multi, evaluated) in parts {
+            self.sel_by_state &= !evaluated;
+            for (a, rules) in multi {
+                self.sel.set(a as usize, &rules);
+            }
         }
     }
 
     /// Selection: which rules each agent executes this step (into `self.sel`).
     fn select(&mut self, rep: &mut StepReport) {
+        let changed = self.cand_dirty || self.cand_of.len() != self.lat.len();
         self.update_candidates();
+        self.sel_reused = !self.any_prio && !changed && self.sel_by_state;
+        if self.sel_reused {
+            return;
+        }
         if self.any_prio {
             self.select_with_priorities(rep);
         } else {
@@ -815,21 +836,29 @@ impl Engine {
         self.lat.refresh_neighbours();
         self.select(&mut rep);
         let sel = std::mem::take(&mut self.sel);
-        // Firings: runs of agents with the same single rule are counted at once.
-        rep.quiescent = sel.many.is_empty();
-        let mut run = (NO_RULE, 0u64);
-        for &v in sel.one.iter().chain([&NO_RULE]) {
-            if v != run.0 {
-                if run.0 & MANY == 0 {
-                    self.stats.firings[run.0 as usize] += run.1;
-                    rep.quiescent = false;
+        // Firings: runs of agents with the same single rule are counted at once; a reused
+        // selection fires as the last step did.
+        if !self.sel_reused {
+            let mut counts: FxHashMap<u32, u64> = FxHashMap::default();
+            let mut run = (NO_RULE, 0u64);
+            for &v in sel.one.iter().chain([&NO_RULE]) {
+                if v != run.0 {
+                    if run.0 & MANY == 0 {
+                        *counts.entry(run.0).or_insert(0) += run.1;
+                    }
+                    run = (v, 0);
                 }
-                run = (v, 0);
+                run.1 += 1;
             }
-            run.1 += 1;
+            for &r in &sel.many {
+                *counts.entry(r).or_insert(0) += 1;
+            }
+            let quiet = counts.is_empty();
+            self.last_firings = (counts.into_iter().collect(), quiet);
         }
-        for &r in &sel.many {
-            self.stats.firings[r as usize] += 1;
+        rep.quiescent = self.last_firings.1;
+        for &(r, k) in &self.last_firings.0 {
+            self.stats.firings[r as usize] += k;
         }
         if self.opts.trace {
             for a in 0..self.lat.len() {
@@ -1719,8 +1748,7 @@ impl Engine {
                     let od = OPPOSITE[dir];
                     // The senders are themselves consecutive agents.
                     let f0 = from[0] as usize;
-                    let dense = from[0] != NO_AGENT
-                        && from.iter().enumerate().all(|(j, &f)| f as usize == f0 + j);
+                    let dense = from[0] != NO_AGENT && is_sequence(from, from[0]);
                     for sc in 0..ns {
                         let cout = od * ns + sc;
                         let (out, bits) = (&out_num[cout][..], &out_has[cout][..]);
@@ -1926,6 +1954,13 @@ fn run_of(s: &[u32], v: u32) -> usize {
         }
     }
     n
+}
+
+/// Whether `s` is `start, start + 1, ...` (compared without early exit, which vectorises).
+fn is_sequence(s: &[u32], start: u32) -> bool {
+    s.iter()
+        .enumerate()
+        .fold(true, |ok, (j, &x)| ok & (x == start.wrapping_add(j as u32)))
 }
 
 /// Whether every bit of `range` is set.
