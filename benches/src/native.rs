@@ -40,55 +40,90 @@ pub fn b1(l: usize, steps: usize) -> u64 {
     cur.iter().map(|&v| v as u64).sum()
 }
 
-/// B2 gravity on a W x H box until a step without a move: (steps, checksum).
-pub fn b2(w: usize, h: usize) -> (u64, u64) {
+/// B2's agents and occupancy grid, ready for [`b2_run`].
+pub struct B2 {
+    h: usize,
+    /// Agents as (x, y), x-major and bottom up within a column (the generation order,
+    /// which falling preserves: agents of a column never pass each other).
+    agents: Vec<(u32, u32)>,
+    /// Occupancy, `x * h + y`.
+    occ: Vec<bool>,
+}
+
+/// Sets up B2 on a W x H box.
+pub fn b2_setup(w: usize, h: usize) -> B2 {
+    let agents: Vec<(u32, u32)> = crate::workloads::b2_cells(w as u64, h as u64)
+        .into_iter()
+        .map(|(x, y)| (x as u32, y as u32))
+        .collect();
     let mut occ = vec![false; w * h];
-    for (x, y) in crate::workloads::b2_cells(w as u64, h as u64) {
+    for &(x, y) in &agents {
         occ[x as usize * h + y as usize] = true;
     }
+    B2 { h, agents, occ }
+}
+
+/// Runs B2 until a step without a move: (steps, checksum). Each step visits every agent
+/// once: it falls when the cell below was empty at the start of the step (agents are
+/// visited bottom up, so the agent just below may already have left its cell: that cell
+/// still counts as occupied).
+pub fn b2_run(s: &mut B2) -> (u64, u64) {
+    let h = s.h;
     let mut steps = 0;
     loop {
         steps += 1;
         let mut moved = false;
-        for x in 0..w {
-            let col = &mut occ[x * h..(x + 1) * h];
-            // Bottom up: an agent falls when the cell below was empty at the start of the
-            // step; the cell it leaves stays "occupied at the start" for the one above.
-            let mut below_was_empty = false;
-            for y in 0..h {
-                let here = col[y];
-                if here && y > 0 && below_was_empty {
-                    col[y - 1] = true;
-                    col[y] = false;
-                    moved = true;
-                }
-                below_was_empty = !here;
+        // The cell the previous agent left this step.
+        let mut left = usize::MAX;
+        for a in s.agents.iter_mut() {
+            let cell = a.0 as usize * h + a.1 as usize;
+            if a.1 > 0 && !s.occ[cell - 1] && left != cell - 1 {
+                s.occ[cell] = false;
+                s.occ[cell - 1] = true;
+                a.1 -= 1;
+                moved = true;
+                left = cell;
+            } else {
+                left = usize::MAX;
             }
         }
         if !moved {
             break;
         }
     }
-    let mut sum = 0u64;
-    for x in 0..w {
-        for y in 0..h {
-            if occ[x * h + y] {
-                sum += x as u64 * 100003 + y as u64;
-            }
+    let sum = s
+        .agents
+        .iter()
+        .map(|&(x, y)| x as u64 * 100003 + y as u64)
+        .sum();
+    (steps, sum)
+}
+
+/// B2 gravity on a W x H box until a step without a move: (steps, checksum).
+pub fn b2(w: usize, h: usize) -> (u64, u64) {
+    b2_run(&mut b2_setup(w, h))
+}
+
+/// B3's states for an L x L square with k rules, ready for [`b3_run`].
+pub fn b3_setup(l: usize, k: usize) -> Vec<u16> {
+    (0..l * l).map(|i| ((i / l + i % l) % k) as u16).collect()
+}
+
+/// Runs B3 for S steps: the sum of the state numbers.
+pub fn b3_run(s: &mut [u16], k: usize, steps: usize) -> u64 {
+    let k = k as u16;
+    for _ in 0..steps {
+        for v in s.iter_mut() {
+            let next = *v + 1;
+            *v = if next == k { 0 } else { next };
         }
     }
-    (steps, sum)
+    s.iter().map(|&v| v as u64).sum()
 }
 
 /// B3 on an L x L square with k rules for S steps: the sum of the state numbers.
 pub fn b3(l: usize, k: usize, steps: usize) -> u64 {
-    let mut s: Vec<u16> = (0..l * l).map(|i| ((i / l + i % l) % k) as u16).collect();
-    for _ in 0..steps {
-        for v in s.iter_mut() {
-            *v = if *v as usize + 1 == k { 0 } else { *v + 1 };
-        }
-    }
-    s.iter().map(|&v| v as u64).sum()
+    b3_run(&mut b3_setup(l, k), k, steps)
 }
 
 #[cfg(test)]
@@ -99,6 +134,7 @@ mod tests {
         assert_eq!(super::b1(100, 50), 327428190);
         assert_eq!(super::b2(30, 30), (26, 411013639));
         assert_eq!(super::b2(100, 100), (86, 14720785869));
+        assert_eq!(super::b2(316, 316), (238, 473921339434));
         assert_eq!(super::b3(30, 7, 10), 2704);
         assert_eq!(super::b3(100, 256, 5), 1040000);
     }

@@ -123,6 +123,10 @@ pub struct Engine {
     trivial: Vec<bool>,
     /// Some rule reads neighbours' priorities.
     any_prio: bool,
+    /// The offsets at which `L`/`Q` terms read priorities, when none depends on a counter
+    /// (an agent's priority is then read only by its neighbours and by the agents at these
+    /// offsets backwards); `None` when one does.
+    prio_offsets: Option<Vec<[i32; 3]>>,
     /// Per rule: it has a move, swap, attachment or state action.
     has_actions: Vec<bool>,
     /// Per entry of the program's offsets: its value when it has no counter in it.
@@ -230,33 +234,43 @@ struct SelEnv<'a> {
 }
 
 impl Env for SelEnv<'_> {
+    #[inline]
     fn counter(&self, i: u8) -> i16 {
         self.lat.counter(self.a, i)
     }
+    #[inline]
     fn state(&self) -> [u8; 5] {
         self.lat.state[self.a as usize]
     }
+    #[inline]
     fn attach(&self) -> u8 {
         self.lat.attach[self.a as usize]
     }
+    #[inline]
     fn cell(&self, off: [i32; 3]) -> Cell {
         self.lat.cell_at(self.lat.pos[self.a as usize], off)
     }
+    #[inline]
     fn agent_state(&self, id: u32) -> [u8; 5] {
         self.lat.state[id as usize]
     }
+    #[inline]
     fn agent_counter(&self, id: u32, i: u8) -> i16 {
         self.lat.counter(id, i)
     }
+    #[inline]
     fn inbox_num(&self, dir: u8, slot: u8) -> i16 {
         self.lat.inbox(self.a, dir, slot)
     }
+    #[inline]
     fn inbox_text(&self, dir: u8) -> Option<[u8; 5]> {
         self.lat.inbox_text(self.a, dir)
     }
+    #[inline]
     fn priorities_known(&self) -> bool {
         self.prio.is_some()
     }
+    #[inline]
     fn prio(&self, other: Option<u32>, p: u16, strict: bool) -> Tri {
         let Some(view) = &self.prio else {
             return Tri::U;
@@ -273,9 +287,11 @@ impl Env for SelEnv<'_> {
             Tri::U
         }
     }
+    #[inline]
     fn dirs(&self) -> u8 {
         self.lat.dim.dirs() as u8
     }
+    #[inline]
     fn neighbour_cell(&self, d: u8) -> Cell {
         self.lat.neighbour_cell(self.a, d as usize)
     }
@@ -323,6 +339,15 @@ impl Default for Intent {
             state: [None; 5],
         }
     }
+}
+
+/// An offset's value when it has no counter in it.
+fn literal(o: &latticesim_vm::model::Offset) -> Option<[i32; 3]> {
+    let lit = |c: &Coord| match *c {
+        Coord::Lit(v) => Some(v),
+        Coord::Counter(_) => None,
+    };
+    Some([lit(&o[0])?, lit(&o[1])?, lit(&o[2])?])
 }
 
 fn find(parent: &mut [u32], mut x: u32) -> u32 {
@@ -396,6 +421,15 @@ impl Engine {
             cand_dirty: true,
             trivial,
             any_prio: prog.rules.iter().any(|r| r.reads_priorities),
+            prio_offsets: prog
+                .code
+                .iter()
+                .filter_map(|op| match op {
+                    Op::Less { off } | Op::LessEq { off } => Some(*off),
+                    _ => None,
+                })
+                .map(|off| literal(&prog.offsets[off as usize]))
+                .collect(),
             batchable,
             pool: (opts.threads > 1)
                 .then(|| {
@@ -415,17 +449,7 @@ impl Engine {
                         || i.sets_state.is_some()
                 })
                 .collect(),
-            literal_offsets: prog
-                .offsets
-                .iter()
-                .map(|o| {
-                    let lit = |c: &Coord| match *c {
-                        Coord::Lit(v) => Some(v),
-                        Coord::Counter(_) => None,
-                    };
-                    Some([lit(&o[0])?, lit(&o[1])?, lit(&o[2])?])
-                })
-                .collect(),
+            literal_offsets: prog.offsets.iter().map(literal).collect(),
             sel: Selection::default(),
             sel_by_state: false,
             sel_reused: false,
@@ -656,6 +680,7 @@ impl Engine {
         let mut fixed = vec![OPEN; n];
         let mut cur = vec![0u16; n];
         let mut levels: BTreeMap<u16, Vec<u32>> = BTreeMap::new();
+        let mut queued = vec![false; n];
         ent_start.push(0);
         let (lists, of) = (&self.cand_lists, &self.cand_of);
         // Pass 1: every agent's valid rules with priority terms unknown, in chunks of
@@ -720,50 +745,73 @@ impl Engine {
             let at_level = |a: usize, fixed: &[i32], cur: &[u16]| {
                 (fixed[a] == OPEN && cur[a] == p) || fixed[a] == p as i32
             };
-            loop {
-                let mut changed = false;
-                for &a in &list {
-                    let ai = a as usize;
-                    if !at_level(ai, &fixed, &cur) {
+            // A worklist: every agent of the level once, then again only when an agent
+            // whose priority it may read was fixed or dropped (the same fixpoint as
+            // re-evaluating the whole level until nothing changes).
+            let mut queue: std::collections::VecDeque<u32> = list.iter().copied().collect();
+            for &a in &list {
+                queued[a as usize] = true;
+            }
+            while let Some(a) = queue.pop_front() {
+                let ai = a as usize;
+                queued[ai] = false;
+                if !at_level(ai, &fixed, &cur) {
+                    continue;
+                }
+                let before = (fixed[ai], cur[ai]);
+                let (s, e) = (ent_start[ai] as usize, ent_start[ai + 1] as usize);
+                let mut alive = false;
+                for k in s..e {
+                    if prio_of(k) != p {
                         continue;
                     }
-                    let (s, e) = (ent_start[ai] as usize, ent_start[ai + 1] as usize);
-                    let mut alive = false;
-                    for k in s..e {
-                        if prio_of(k) != p {
-                            continue;
+                    if ent_tri[k] == Tri::U {
+                        let env = SelEnv {
+                            lat: &self.lat,
+                            a,
+                            prio: Some(PrioView {
+                                fixed: &fixed,
+                                cur: &cur,
+                            }),
+                        };
+                        let v = eval_pre(prog, ent_rule[k] as usize, &env);
+                        if v != Tri::U {
+                            ent_tri[k] = v;
                         }
-                        if ent_tri[k] == Tri::U {
-                            let env = SelEnv {
-                                lat: &self.lat,
-                                a,
-                                prio: Some(PrioView {
-                                    fixed: &fixed,
-                                    cur: &cur,
-                                }),
-                            };
-                            let v = eval_pre(prog, ent_rule[k] as usize, &env);
-                            if v != Tri::U {
-                                ent_tri[k] = v;
-                                changed = true;
+                    }
+                    if ent_tri[k] == Tri::T && fixed[ai] == OPEN {
+                        fixed[ai] = p as i32;
+                    }
+                    alive |= ent_tri[k] != Tri::F;
+                }
+                if fixed[ai] == OPEN && !alive {
+                    let next = (s..e)
+                        .find(|&k| prio_of(k) < p && ent_tri[k] != Tri::F)
+                        .map(prio_of);
+                    drop_to(a, next, &mut fixed, &mut cur, &mut levels);
+                }
+                if (fixed[ai], cur[ai]) != before {
+                    let mut wake = |b: u32| {
+                        let bi = b as usize;
+                        if b != NO_AGENT && !queued[bi] && at_level(bi, &fixed, &cur) {
+                            queued[bi] = true;
+                            queue.push_back(b);
+                        }
+                    };
+                    match &self.prio_offsets {
+                        Some(offs) => {
+                            let mut nb = [NO_AGENT; 6];
+                            self.lat.neighbours(a, &mut nb);
+                            nb.iter().for_each(|&b| wake(b));
+                            for off in offs {
+                                let back = [-off[0], -off[1], -off[2]];
+                                if let Cell::Agent(b) = self.lat.cell_at(self.lat.pos[ai], back) {
+                                    wake(b);
+                                }
                             }
                         }
-                        if ent_tri[k] == Tri::T && fixed[ai] == OPEN {
-                            fixed[ai] = p as i32;
-                            changed = true;
-                        }
-                        alive |= ent_tri[k] != Tri::F;
+                        None => list.iter().for_each(|&b| wake(b)),
                     }
-                    if fixed[ai] == OPEN && !alive {
-                        changed = true;
-                        let next = (s..e)
-                            .find(|&k| prio_of(k) < p && ent_tri[k] != Tri::F)
-                            .map(prio_of);
-                        drop_to(a, next, &mut fixed, &mut cur, &mut levels);
-                    }
-                }
-                if !changed {
-                    break;
                 }
             }
             // What is still unknown depends on itself in a circle: remove it all.
@@ -1688,6 +1736,10 @@ impl Engine {
                 .map(|t| t.count_ones() as u64)
                 .sum::<u64>();
         let texts = !self.out_text_bits.is_empty();
+        if ns == 0 && !texts {
+            // No rule sends or reads messages: there is nothing to deliver.
+            return;
+        }
         let mut inbox_num = std::mem::take(&mut self.lat.inbox_num);
         let mut inbox_text = std::mem::take(&mut self.lat.inbox_text);
         let mut inbox_has = std::mem::take(&mut self.lat.inbox_text_has);
