@@ -1,73 +1,86 @@
 //! The workloads of ../shared/bench/WORKLOADS.md through the engine, each beside the
 //! hand-written native loop of `latticesim_benches::native`, so that engine/native is
-//! measured in the same run. Every benchmark checks its checksum before timing.
-//! Throughput is in agent-steps.
+//! measured in the same run. Every benchmark checks its checksum before timing; neither
+//! side's setup is timed. Throughput is in agent-steps.
+//!
+//! Groups (filter with `cargo bench --bench workloads -- <name>`):
+//! `B1-L300-S10`, `B1-L1000-S50` (the size), `B2-W316`, `B3-L1000-k{1,16,256}-S20`,
+//! `B1-L1000-S50-threads` (one and two threads), `P-L300-S10` (priority resolution along
+//! chains of 300 agents). B2 at W = H = 1000 takes 20 s an iteration through the engine:
+//! it is measured by the `scale` bench instead.
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use latticesim_benches::workloads::*;
-use latticesim_benches::{b2_checksum, b3_checksum, engine, fresh, native, sum_c00};
+use latticesim_benches::{b2_checksum, b3_checksum, engine, fresh, native, program, sum_c00};
+use latticesim_benches::{sum_counter, Engine};
 use std::hint::black_box;
 
-fn b1(c: &mut Criterion) {
-    let (l, s) = (300usize, 10u64);
+/// Runs `steps` steps.
+fn steps(mut e: Engine, s: u64) -> Engine {
+    for _ in 0..s {
+        e.step();
+    }
+    e
+}
+
+fn b1_group(c: &mut Criterion, l: u64, s: u64) {
     let mut g = c.benchmark_group(format!("B1-L{l}-S{s}"));
     g.sample_size(10);
-    g.throughput(Throughput::Elements(l as u64 * l as u64 * s));
-    let base = engine(B1_RULES, &b1_agents(l as u64));
-    {
-        let mut e = engine(B1_RULES, &b1_agents(l as u64));
-        (0..s).for_each(|_| {
-            e.step();
-        });
-        assert_eq!(
-            sum_c00(&e),
-            native::b1(l, s as usize),
-            "engine and native disagree"
-        );
-    }
+    g.throughput(Throughput::Elements(l * l * s));
+    let base = Engine::new(program(B1_RULES), b1_lattice(l), Default::default());
+    let expect = native::b1(l as usize, s as usize);
+    assert_eq!(
+        sum_c00(&steps(fresh(&base, base.opts), s)),
+        expect,
+        "B1 engine"
+    );
     g.bench_function("native", |b| {
-        b.iter(|| native::b1(black_box(l), s as usize))
+        b.iter_batched_ref(
+            || native::b1_setup(l as usize),
+            |st| native::b1_run(black_box(st), s as usize),
+            BatchSize::LargeInput,
+        )
     });
     g.bench_function("engine", |b| {
         b.iter_batched(
             || fresh(&base, base.opts),
-            |mut e| {
-                for _ in 0..s {
-                    e.step();
-                }
-                sum_c00(&e)
-            },
+            |e| sum_c00(&steps(e, s)),
             BatchSize::LargeInput,
         )
     });
     g.finish();
 }
 
+fn b1(c: &mut Criterion) {
+    b1_group(c, 300, 10);
+    b1_group(c, 1000, 50);
+}
+
 fn b2(c: &mut Criterion) {
-    let w = 100u64;
-    let (steps, sum) = native::b2(w as usize, w as usize);
-    assert_eq!((steps, sum), (86, 14720785869), "native B2 checksum");
+    let w = 316u64;
+    let (steps_done, sum) = native::b2(w as usize, w as usize);
+    assert_eq!((steps_done, sum), (238, 473921339434), "native B2 checksum");
     let base = engine(B2_RULES, &b2_agents(w, w));
     let n = base.lat.len() as u64;
     let mut g = c.benchmark_group(format!("B2-W{w}"));
     g.sample_size(10);
-    g.throughput(Throughput::Elements(n * steps));
-    let run = |mut e: latticesim_runtime::Engine| {
+    g.throughput(Throughput::Elements(n * steps_done));
+    let run = |mut e: Engine| {
         while !e.step().quiescent {}
         e
     };
-    let done = run(latticesim_runtime::Engine::new(
-        base.prog.clone(),
-        base.lat.clone(),
-        base.opts,
-    ));
+    let done = run(fresh(&base, base.opts));
     assert_eq!(
         (done.stats.steps, b2_checksum(&done)),
-        (steps, sum),
+        (steps_done, sum),
         "engine B2 checksum"
     );
     g.bench_function("native", |b| {
-        b.iter(|| native::b2(black_box(w as usize), w as usize))
+        b.iter_batched_ref(
+            || native::b2_setup(w as usize, w as usize),
+            |st| native::b2_run(black_box(st)),
+            BatchSize::LargeInput,
+        )
     });
     g.bench_function("engine", |b| {
         b.iter_batched(
@@ -80,33 +93,28 @@ fn b2(c: &mut Criterion) {
 }
 
 fn b3(c: &mut Criterion) {
-    let (l, s) = (100u64, 5u64);
+    let (l, s) = (1000u64, 20u64);
     for k in [1u64, 16, 256] {
         let mut g = c.benchmark_group(format!("B3-L{l}-k{k}-S{s}"));
         g.sample_size(10);
         g.throughput(Throughput::Elements(l * l * s));
         let base = engine(&b3_rules(k), &b3_agents(l, k));
-        let mut e = fresh(&base, base.opts);
-        (0..s).for_each(|_| {
-            e.step();
-        });
         assert_eq!(
-            b3_checksum(&e),
+            b3_checksum(&steps(fresh(&base, base.opts), s)),
             native::b3(l as usize, k as usize, s as usize),
             "B3 k={k}"
         );
         g.bench_function("native", |b| {
-            b.iter(|| native::b3(black_box(l as usize), k as usize, s as usize))
+            b.iter_batched_ref(
+                || native::b3_setup(l as usize, k as usize),
+                |st| native::b3_run(black_box(st), k as usize, s as usize),
+                BatchSize::LargeInput,
+            )
         });
         g.bench_function("engine", |b| {
             b.iter_batched(
                 || fresh(&base, base.opts),
-                |mut e| {
-                    for _ in 0..s {
-                        e.step();
-                    }
-                    e.stats.steps
-                },
+                |e| steps(e, s).stats.steps,
                 BatchSize::LargeInput,
             )
         });
@@ -116,11 +124,11 @@ fn b3(c: &mut Criterion) {
 
 /// B1 through the engine with one and with two threads (results are identical).
 fn b1_threads(c: &mut Criterion) {
-    let (l, s) = (300usize, 10u64);
+    let (l, s) = (1000u64, 50u64);
     let mut g = c.benchmark_group(format!("B1-L{l}-S{s}-threads"));
     g.sample_size(10);
-    g.throughput(Throughput::Elements(l as u64 * l as u64 * s));
-    let base = engine(B1_RULES, &b1_agents(l as u64));
+    g.throughput(Throughput::Elements(l * l * s));
+    let base = Engine::new(program(B1_RULES), b1_lattice(l), Default::default());
     for threads in [1usize, 2] {
         let opts = latticesim_runtime::Options {
             threads,
@@ -129,12 +137,7 @@ fn b1_threads(c: &mut Criterion) {
         g.bench_function(format!("engine-{threads}"), |b| {
             b.iter_batched(
                 || fresh(&base, opts),
-                |mut e| {
-                    for _ in 0..s {
-                        e.step();
-                    }
-                    sum_c00(&e)
-                },
+                |e| sum_c00(&steps(e, s)),
                 BatchSize::LargeInput,
             )
         });
@@ -142,5 +145,30 @@ fn b1_threads(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, b1, b2, b3, b1_threads);
+/// Priority resolution where neighbours' priorities interact: every row of an L x L
+/// square is a chain of dependencies (an agent's rule depends on its east neighbour's
+/// priority), checked against the directly computed result.
+fn priorities(c: &mut Criterion) {
+    let (l, s) = (300u64, 10u64);
+    let mut g = c.benchmark_group(format!("P-L{l}-S{s}"));
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(l * l * s));
+    let base = engine(P_RULES, &p_agents(l));
+    let done = steps(fresh(&base, base.opts), s);
+    assert_eq!(
+        (sum_counter(&done, 0), sum_counter(&done, 1)),
+        p_expected(l, s),
+        "P checksum"
+    );
+    g.bench_function("engine", |b| {
+        b.iter_batched(
+            || fresh(&base, base.opts),
+            |e| steps(e, s).stats.steps,
+            BatchSize::LargeInput,
+        )
+    });
+    g.finish();
+}
+
+criterion_group!(benches, b1, b2, b3, b1_threads, priorities);
 criterion_main!(benches);

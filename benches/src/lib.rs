@@ -138,6 +138,43 @@ pub mod workloads {
     /// B2 gravity: the rules.
     pub const B2_RULES: &str = "fall\n1\nN***0 >C00 0000\nP0,-1 C00 - C00 0001\n";
 
+    /// P (priority chains, not in WORKLOADS.md): on an L x L square every agent executes
+    /// `even` unless its east neighbour does, else `odd`, so each row is a chain of
+    /// priority dependencies L agents long, resolved from its east end.
+    pub const P_RULES: &str = "even\n2\nP**<*\nC00 + C00 0001\n\nodd\n1\nS*****\nC01 + C01 0001\n";
+
+    /// P agents: an L x L square.
+    pub fn p_agents(l: u64) -> String {
+        let mut s = String::with_capacity((l * l * 10) as usize);
+        for x in 0..l {
+            for y in 0..l {
+                let _ = writeln!(s, "{x},{y}");
+            }
+        }
+        s
+    }
+
+    /// P's checksum after S steps, computed directly: (sum of C00, sum of C01). In each
+    /// row the easternmost agent executes `even`, the next `odd`, and so on.
+    pub fn p_expected(l: u64, steps: u64) -> (u64, u64) {
+        (steps * l * l.div_ceil(2), steps * l * (l / 2))
+    }
+
+    /// The B1 lattice built directly, without an agents file (for sizes whose agents file
+    /// would take longer to read than to run).
+    pub fn b1_lattice(l: u64) -> latticesim_runtime::Lattice {
+        use latticesim_vm::model::Dim;
+        let n = (l * l) as usize;
+        let mut b = latticesim_runtime::LatticeBuilder::new(Dim::Two, None, n);
+        for x in 0..l {
+            for y in 0..l {
+                let c00 = (((x * l + y) * 7919) % 32749 + 1) as i16;
+                b.push([x as i32, y as i32, 0], *b"00000", 0, &[(0, c00)]);
+            }
+        }
+        b.finish()
+    }
+
     /// B1 agents: every cell of an L x L square, C00 = ((x*L + y) * 7919) % 32749 + 1.
     pub fn b1_agents(l: u64) -> String {
         let mut s = String::with_capacity((l * l * 20) as usize);
@@ -197,6 +234,8 @@ pub mod workloads {
     }
 }
 
+pub use latticesim_runtime::Engine;
+
 /// Compiles a workload for the engine: rules and agents text to a ready engine.
 pub fn engine(rules: &str, agents: &str) -> latticesim_runtime::Engine {
     let c = latticesim_compiler::check(
@@ -219,6 +258,27 @@ pub fn engine(rules: &str, agents: &str) -> latticesim_runtime::Engine {
     )
 }
 
+/// The compiled program of a rules file that must check without errors.
+pub fn program(rules: &str) -> latticesim_vm::Program {
+    let c = latticesim_compiler::check(
+        latticesim_compiler::Input {
+            name: "rules",
+            bytes: rules.as_bytes(),
+        },
+        None,
+        None,
+    );
+    assert_eq!(c.errors(), 0, "{:?}", c.diags.first());
+    latticesim_compiler::lower(c.program.as_ref().expect("no errors"))
+}
+
+/// The sum of a counter over all agents.
+pub fn sum_counter(e: &latticesim_runtime::Engine, c: u8) -> u64 {
+    (0..e.lat.len() as u32)
+        .map(|a| e.lat.counter(a, c) as u64)
+        .sum()
+}
+
 /// A new engine with `base`'s program and initial lattice, and these options.
 pub fn fresh(
     base: &latticesim_runtime::Engine,
@@ -229,9 +289,7 @@ pub fn fresh(
 
 /// The sum of C00 over all agents.
 pub fn sum_c00(e: &latticesim_runtime::Engine) -> u64 {
-    (0..e.lat.len() as u32)
-        .map(|a| e.lat.counter(a, 0) as u64)
-        .sum()
+    sum_counter(e, 0)
 }
 
 /// B2's checksum: the sum of x * 100003 + y over the agents.

@@ -2,11 +2,16 @@
 //! baselines the engine is measured against in the same benchmark run. Each returns the
 //! workload's checksum (and B2 its step count).
 
-/// B1 maxflood on an L x L square for S steps: the sum of C00. What an agent sends is its
-/// C00 after the update, so one array holds both; step 1 reads nothing. The grids carry a
-/// border of zeros (a missing neighbour sends nothing), so the inner loop has no branches
-/// and vectorises, and two buffers take turns.
-pub fn b1(l: usize, steps: usize) -> u64 {
+/// B1's state: C00 of an L x L square in a grid with a border of zeros (a missing
+/// neighbour sends nothing), and a second buffer; ready for [`b1_run`].
+pub struct B1 {
+    l: usize,
+    cur: Vec<i16>,
+    next: Vec<i16>,
+}
+
+/// Sets up B1 on an L x L square.
+pub fn b1_setup(l: usize) -> B1 {
     let w = l + 2;
     let mut cur = vec![0i16; w * w];
     for x in 0..l {
@@ -15,17 +20,25 @@ pub fn b1(l: usize, steps: usize) -> u64 {
                 (((x as u64 * l as u64 + y as u64) * 7919) % 32749 + 1) as i16;
         }
     }
-    let mut next = cur.clone();
+    let next = cur.clone();
+    B1 { l, cur, next }
+}
+
+/// Runs B1 for S steps: the sum of C00. What an agent sends is its C00 after the update,
+/// so one array holds both; step 1 reads nothing. The inner loop has no branches and
+/// vectorises; the two buffers take turns.
+pub fn b1_run(s: &mut B1, steps: usize) -> u64 {
+    let (l, w) = (s.l, s.l + 2);
     // Step 1 reads only zeros: nothing changes.
     for _ in 1..steps {
         for x in 1..=l {
             let row = x * w;
             let (up, mid, down) = (
-                &cur[row - w..row],
-                &cur[row..row + w],
-                &cur[row + w..row + 2 * w],
+                &s.cur[row - w..row],
+                &s.cur[row..row + w],
+                &s.cur[row + w..row + 2 * w],
             );
-            let out = &mut next[row + 1..row + 1 + l];
+            let out = &mut s.next[row + 1..row + 1 + l];
             for (((o, m), u), d) in out
                 .iter_mut()
                 .zip(mid.windows(3))
@@ -35,9 +48,14 @@ pub fn b1(l: usize, steps: usize) -> u64 {
                 *o = m[0].max(m[1]).max(m[2]).max(*u).max(*d);
             }
         }
-        std::mem::swap(&mut cur, &mut next);
+        std::mem::swap(&mut s.cur, &mut s.next);
     }
-    cur.iter().map(|&v| v as u64).sum()
+    s.cur.iter().map(|&v| v as u64).sum()
+}
+
+/// B1 maxflood on an L x L square for S steps: the sum of C00.
+pub fn b1(l: usize, steps: usize) -> u64 {
+    b1_run(&mut b1_setup(l), steps)
 }
 
 /// B2's agents and occupancy grid, ready for [`b2_run`].

@@ -12,7 +12,7 @@ mod record;
 mod step;
 mod trace;
 
-pub use lattice::Lattice;
+pub use lattice::{Lattice, LatticeBuilder};
 pub use record::{Record, RecordKind};
 pub use step::{Engine, Options, Order, Stats, StepReport};
 pub use trace::TraceEvent;

@@ -109,7 +109,9 @@ pub struct Engine {
     by_prio: Vec<u32>,
     /// Per state seen so far: the index in `cand_lists` of the rules (in `by_prio` order)
     /// whose state filter it passes.
-    candidates: FxHashMap<[u8; 5], u32>,
+    candidates: FxHashMap<u64, u32>,
+    /// A small direct-mapped cache in front of `candidates`: (state key + 1, list).
+    cand_cache: Vec<(u64, u32)>,
     /// The candidate lists, indexed by `candidates`' values.
     cand_lists: Vec<Vec<u32>>,
     /// Per candidate list: the one rule every agent with it executes, when the list's
@@ -117,8 +119,11 @@ pub struct Engine {
     cand_single: Vec<u32>,
     /// Per agent: its candidate list (`NO_LIST` after its state changed).
     cand_of: Vec<u32>,
-    /// Some agent's state changed since the candidate lists were looked up.
+    /// Some agent's state changed since the candidate lists were looked up, and it has
+    /// no list yet.
     cand_dirty: bool,
+    /// Some agent's state changed since the last selection.
+    states_changed: bool,
     /// Per rule: its precondition is only its state filter (or nothing).
     trivial: Vec<bool>,
     /// Some rule reads neighbours' priorities.
@@ -129,6 +134,10 @@ pub struct Engine {
     prio_offsets: Option<Vec<[i32; 3]>>,
     /// Per rule: it has a move, swap, attachment or state action.
     has_actions: Vec<bool>,
+    /// Per rule: its only action is setting the state.
+    state_only: Vec<bool>,
+    /// The program's patterns as [`pat_bits`].
+    pat_bits: Vec<(u64, u64)>,
     /// Per entry of the program's offsets: its value when it has no counter in it.
     literal_offsets: Vec<Option<[i32; 3]>>,
     /// Per rule: its calculations can run on a range of agents at once (no external
@@ -179,6 +188,8 @@ const NO_RULE: u32 = u32::MAX;
 const OPPOSITE: [usize; 6] = [3, 2, 1, 0, 5, 4];
 const MANY: u32 = 1 << 31;
 const NO_LIST: u32 = u32::MAX;
+/// Entries of the direct-mapped cache of candidate lists.
+const CAND_CACHE: usize = 1024;
 /// In `cand_single`: the agents of this list evaluate their rules.
 const EVALUATE: u32 = u32::MAX - 1;
 
@@ -341,6 +352,30 @@ impl Default for Intent {
     }
 }
 
+/// A state as a number (its five bytes, little-endian).
+#[inline]
+fn state_key(s: &[u8; 5]) -> u64 {
+    u64::from_le_bytes([s[0], s[1], s[2], s[3], s[4], 0, 0, 0])
+}
+
+/// The slot of a state key in the candidate cache: one multiplication hashes it.
+#[inline]
+fn cache_slot(key: u64) -> usize {
+    (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 54) as usize % CAND_CACHE
+}
+
+/// A state pattern as (mask of the characters it sets, their values) over state keys.
+fn pat_bits(pat: &TextPat) -> (u64, u64) {
+    let (mut mask, mut val) = ([0u8; 8], [0u8; 8]);
+    for (i, p) in pat.iter().enumerate() {
+        if let Some(p) = p {
+            mask[i] = 0xff;
+            val[i] = *p;
+        }
+    }
+    (u64::from_le_bytes(mask), u64::from_le_bytes(val))
+}
+
 /// An offset's value when it has no counter in it.
 fn literal(o: &latticesim_vm::model::Offset) -> Option<[i32; 3]> {
     let lit = |c: &Coord| match *c {
@@ -415,10 +450,12 @@ impl Engine {
             },
             by_prio,
             candidates: FxHashMap::default(),
+            cand_cache: vec![(0, 0); CAND_CACHE],
             cand_lists: Vec::new(),
             cand_single: Vec::new(),
             cand_of: vec![NO_LIST; n],
             cand_dirty: true,
+            states_changed: true,
             trivial,
             any_prio: prog.rules.iter().any(|r| r.reads_priorities),
             prio_offsets: prog
@@ -449,7 +486,18 @@ impl Engine {
                         || i.sets_state.is_some()
                 })
                 .collect(),
+            state_only: prog
+                .rules
+                .iter()
+                .map(|i| {
+                    i.sets_state.is_some()
+                        && i.moves.is_none()
+                        && i.swaps.is_none()
+                        && i.attaches.is_none()
+                })
+                .collect(),
             literal_offsets: prog.offsets.iter().map(literal).collect(),
+            pat_bits: prog.pats.iter().map(pat_bits).collect(),
             sel: Selection::default(),
             sel_by_state: false,
             sel_reused: false,
@@ -537,6 +585,7 @@ impl Engine {
         let n = self.lat.len();
         if self.cand_lists.len() > 1 << 16 {
             self.candidates.clear();
+            self.cand_cache.fill((0, 0));
             self.cand_lists.clear();
             self.cand_single.clear();
             self.cand_of.iter_mut().for_each(|c| *c = NO_LIST);
@@ -551,10 +600,16 @@ impl Engine {
             if self.cand_of[a] != NO_LIST {
                 continue;
             }
+            let key = state_key(st);
+            let slot = cache_slot(key);
+            if self.cand_cache[slot].0 == key + 1 {
+                self.cand_of[a] = self.cand_cache[slot].1;
+                continue;
+            }
             let lists = &mut self.cand_lists;
             let single = &mut self.cand_single;
             let (by_prio, trivial) = (&self.by_prio, &self.trivial);
-            self.cand_of[a] = *self.candidates.entry(*st).or_insert_with(|| {
+            let idx = *self.candidates.entry(key).or_insert_with(|| {
                 let list: Vec<u32> = by_prio
                     .iter()
                     .copied()
@@ -578,6 +633,8 @@ impl Engine {
                 lists.push(list);
                 (lists.len() - 1) as u32
             });
+            self.cand_cache[slot] = (key + 1, idx);
+            self.cand_of[a] = idx;
         }
         self.cand_dirty = false;
     }
@@ -656,7 +713,9 @@ impl Engine {
 
     /// Selection: which rules each agent executes this step (into `self.sel`).
     fn select(&mut self, rep: &mut StepReport) {
-        let changed = self.cand_dirty || self.cand_of.len() != self.lat.len();
+        let changed =
+            self.cand_dirty || self.states_changed || self.cand_of.len() != self.lat.len();
+        self.states_changed = false;
         self.update_candidates();
         self.sel_reused = !self.any_prio && !changed && self.sel_by_state;
         if self.sel_reused {
@@ -887,22 +946,26 @@ impl Engine {
         // Firings: runs of agents with the same single rule are counted at once; a reused
         // selection fires as the last step did.
         if !self.sel_reused {
-            let mut counts: FxHashMap<u32, u64> = FxHashMap::default();
+            let mut counts = vec![0u64; self.prog.rules.len()];
             let mut run = (NO_RULE, 0u64);
             for &v in sel.one.iter().chain([&NO_RULE]) {
                 if v != run.0 {
                     if run.0 & MANY == 0 {
-                        *counts.entry(run.0).or_insert(0) += run.1;
+                        counts[run.0 as usize] += run.1;
                     }
                     run = (v, 0);
                 }
                 run.1 += 1;
             }
             for &r in &sel.many {
-                *counts.entry(r).or_insert(0) += 1;
+                counts[r as usize] += 1;
             }
-            let quiet = counts.is_empty();
-            self.last_firings = (counts.into_iter().collect(), quiet);
+            let fired: Vec<(u32, u64)> = (0..counts.len() as u32)
+                .zip(counts)
+                .filter(|&(_, k)| k > 0)
+                .collect();
+            let quiet = fired.is_empty();
+            self.last_firings = (fired, quiet);
         }
         rep.quiescent = self.last_firings.1;
         for &(r, k) in &self.last_firings.0 {
@@ -965,11 +1028,20 @@ impl Engine {
         let has_actions = std::mem::take(&mut self.has_actions);
         let acts = |r: u32| has_actions[r as usize];
         let mut intents: Vec<(u32, Intent)> = Vec::new();
+        // Agents whose one rule only sets the state: (agent, pattern).
+        let mut states: Vec<(u32, u16)> = Vec::new();
         let mut rs: Vec<u32> = Vec::new();
         for a in 0..n {
             match sel.one[a] {
                 NO_RULE => continue,
                 r if r & MANY == 0 && !acts(r) => continue,
+                r if r & MANY == 0 && pick(r) && self.state_only[r as usize] => {
+                    let p = self.prog.rules[r as usize]
+                        .sets_state
+                        .expect("sets the state");
+                    states.push((a as u32, p));
+                    continue;
+                }
                 _ => {}
             }
             rs.clear();
@@ -1079,49 +1151,83 @@ impl Engine {
             intents.push((a32, it));
         }
         self.has_actions = has_actions;
-        if intents.is_empty() {
-            return;
-        }
-        let bonds = intents
-            .iter()
-            .any(|(_, it)| it.letters.iter().any(|&l| l != AttachLetter::Keep))
-            || self.lat.attach.iter().any(|&b| b != 0);
-        if bonds {
+        let any = |f: &dyn Fn(&Intent) -> bool| intents.iter().any(|(_, it)| f(it));
+        let letters = any(&|it| it.letters.iter().any(|&l| l != AttachLetter::Keep));
+        let moves = any(&|it| it.mv.is_some() || it.mv_bad);
+        // Bonds change only with attachment letters, or when attached agents move.
+        if letters || (moves && self.lat.attach.iter().any(|&b| b != 0)) {
             let mut dense = vec![Intent::default(); n];
             for (a, it) in &intents {
                 dense[*a as usize] = *it;
             }
             self.detach_move_attach(&dense, rep);
-        } else {
+        } else if moves {
             self.move_alone(&intents, rep);
         }
-        // 5. State updates.
-        for &(a, ref it) in &intents {
-            if it.state.iter().all(Option::is_none) {
-                continue;
-            }
+        // 5. State updates, in agent order (the two lists are each in agent order).
+        let mut from_intents = intents
+            .iter()
+            .filter(|(_, it)| it.state.iter().any(Option::is_some))
+            .map(|(a, it)| (*a, it.state))
+            .peekable();
+        let mut from_states = states
+            .iter()
+            .map(|&(a, p)| (a, self.pat_bits[p as usize]))
+            .peekable();
+        let (lat, trace) = (&mut self.lat, self.opts.trace);
+        let cache = &self.cand_cache;
+        let (mut changed, mut lookups) = (false, false);
+        let mut set = |a: u32, (mask, val): (u64, u64)| {
             let a = a as usize;
-            let old = self.lat.state[a];
-            let mut new = old;
-            for i in 0..5 {
-                if let Some(c) = it.state[i] {
-                    new[i] = c;
-                }
+            let old = lat.state[a];
+            let o = state_key(&old);
+            let v = (o & !mask) | val;
+            if v == o {
+                return;
             }
-            if new != old {
-                self.lat.state[a] = new;
+            let new: [u8; 5] = v.to_le_bytes()[..5].try_into().expect("five bytes");
+            lat.state[a] = new;
+            // The agent's rules for its new state, when the cache knows them.
+            let (key, idx) = cache[cache_slot(v)];
+            changed = true;
+            if key == v + 1 {
+                self.cand_of[a] = idx;
+            } else {
                 self.cand_of[a] = NO_LIST;
-                self.cand_dirty = true;
-                if self.opts.trace {
-                    rep.trace.push(TraceEvent::State {
-                        agent: a as u32,
-                        from: text(&old),
-                        to: text(&new),
-                    });
+                lookups = true;
+            }
+            if trace {
+                rep.trace.push(TraceEvent::State {
+                    agent: a as u32,
+                    from: text(&old),
+                    to: text(&new),
+                });
+            }
+        };
+        loop {
+            match (from_intents.peek(), from_states.peek()) {
+                (Some(x), Some(y)) if x.0 < y.0 => {
+                    let (a, pat) = from_intents.next().expect("peeked");
+                    set(a, pat_bits(&pat));
                 }
+                (_, Some(_)) => {
+                    let (a, bits) = from_states.next().expect("peeked");
+                    set(a, bits);
+                }
+                (Some(_), None) => {
+                    let (a, pat) = from_intents.next().expect("peeked");
+                    set(a, pat_bits(&pat));
+                }
+                (None, None) => break,
             }
         }
-        self.swaps(&intents, rep);
+        // Agents whose state changed and whose rules the cache did not know look them up
+        // again; any change of state ends the reuse of the selection.
+        self.cand_dirty |= lookups;
+        self.states_changed |= changed;
+        if any(&|it| it.swap.is_some()) {
+            self.swaps(&intents, rep);
+        }
     }
 
     /// The actions of agent `a` executing rule `r` alone.
