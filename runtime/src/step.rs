@@ -128,6 +128,8 @@ pub struct Engine {
     trivial: Vec<bool>,
     /// Some rule reads neighbours' priorities.
     any_prio: bool,
+    /// Some rule calculates or sends.
+    any_computes: bool,
     /// The offsets at which `L`/`Q` terms read priorities, when none depends on a counter
     /// (an agent's priority is then read only by its neighbours and by the agents at these
     /// offsets backwards); `None` when one does.
@@ -138,6 +140,8 @@ pub struct Engine {
     state_only: Vec<bool>,
     /// The program's patterns as [`pat_bits`].
     pat_bits: Vec<(u64, u64)>,
+    /// Per rule whose only action sets the state: that state pattern as [`pat_bits`].
+    direct_bits: Vec<Option<(u64, u64)>>,
     /// Per entry of the program's offsets: its value when it has no counter in it.
     literal_offsets: Vec<Option<[i32; 3]>>,
     /// Per rule: its calculations can run on a range of agents at once (no external
@@ -151,8 +155,12 @@ pub struct Engine {
     sel_by_state: bool,
     /// The last selection was reused (so the firings of the last step repeat).
     sel_reused: bool,
-    /// The firings per rule of the last step, with whether it was quiescent.
-    last_firings: (Vec<(u32, u64)>, bool),
+    /// Per rule: how many agents execute it in the current selection; and how many agents
+    /// execute any rule. Kept up to date when the selection is reused.
+    fire_counts: Vec<u64>,
+    active: u64,
+    /// Per rule: it calculates or sends.
+    computes: Vec<bool>,
     /// Per-cell and per-agent marks for the moves (allocated at the first move).
     scratch: MoveScratch,
     /// Numeric outboxes: a column per direction and slot in use (as the inboxes), and a
@@ -352,6 +360,35 @@ impl Default for Intent {
     }
 }
 
+/// Applies a state pattern (as [`pat_bits`]) to agent `a`. When the state changes: the
+/// old and new states, and whether the cache knew the new state's candidate list (the
+/// agent's list is set from it, or marked for lookup).
+#[inline(always)]
+fn apply_state(
+    lat: &mut Lattice,
+    cand_of: &mut [u32],
+    (cache, known_states): (&[(u64, u32)], &FxHashMap<u64, u32>),
+    a: usize,
+    (mask, val): (u64, u64),
+) -> Option<([u8; 5], [u8; 5], bool)> {
+    let old = lat.state[a];
+    let o = state_key(&old);
+    let v = (o & !mask) | val;
+    if v == o {
+        return None;
+    }
+    let new: [u8; 5] = v.to_le_bytes()[..5].try_into().expect("five bytes");
+    lat.state[a] = new;
+    let (key, idx) = cache[cache_slot(v)];
+    let idx = if key == v + 1 {
+        Some(idx)
+    } else {
+        known_states.get(&v).copied()
+    };
+    cand_of[a] = idx.unwrap_or(NO_LIST);
+    Some((old, new, idx.is_some()))
+}
+
 /// A state as a number (its five bytes, little-endian).
 #[inline]
 fn state_key(s: &[u8; 5]) -> u64 {
@@ -458,6 +495,7 @@ impl Engine {
             states_changed: true,
             trivial,
             any_prio: prog.rules.iter().any(|r| r.reads_priorities),
+            any_computes: prog.rules.iter().any(|r| r.computes),
             prio_offsets: prog
                 .code
                 .iter()
@@ -498,10 +536,20 @@ impl Engine {
                 .collect(),
             literal_offsets: prog.offsets.iter().map(literal).collect(),
             pat_bits: prog.pats.iter().map(pat_bits).collect(),
+            direct_bits: prog
+                .rules
+                .iter()
+                .map(|i| match (i.sets_state, i.moves, i.swaps, i.attaches) {
+                    (Some(p), None, None, None) => Some(pat_bits(&prog.pats[p as usize])),
+                    _ => None,
+                })
+                .collect(),
             sel: Selection::default(),
             sel_by_state: false,
             sel_reused: false,
-            last_firings: (Vec::new(), true),
+            fire_counts: vec![0; prog.rules.len()],
+            active: 0,
+            computes: prog.rules.iter().map(|r| r.computes).collect(),
             scratch: MoveScratch::default(),
             out_num: vec![vec![0; n]; cols],
             out_has: vec![vec![0; n.div_ceil(64)]; cols],
@@ -942,14 +990,19 @@ impl Engine {
         let mut rep = StepReport::default();
         self.lat.refresh_neighbours();
         self.select(&mut rep);
-        let sel = std::mem::take(&mut self.sel);
+        let mut sel = std::mem::take(&mut self.sel);
         // Firings: runs of agents with the same single rule are counted at once; a reused
-        // selection fires as the last step did.
+        // selection's counts were kept up to date.
         if !self.sel_reused {
-            let mut counts = vec![0u64; self.prog.rules.len()];
+            let counts = &mut self.fire_counts;
+            counts.fill(0);
+            self.active = 0;
             let mut run = (NO_RULE, 0u64);
             for &v in sel.one.iter().chain([&NO_RULE]) {
                 if v != run.0 {
+                    if run.0 != NO_RULE {
+                        self.active += run.1;
+                    }
                     if run.0 & MANY == 0 {
                         counts[run.0 as usize] += run.1;
                     }
@@ -960,16 +1013,10 @@ impl Engine {
             for &r in &sel.many {
                 counts[r as usize] += 1;
             }
-            let fired: Vec<(u32, u64)> = (0..counts.len() as u32)
-                .zip(counts)
-                .filter(|&(_, k)| k > 0)
-                .collect();
-            let quiet = fired.is_empty();
-            self.last_firings = (fired, quiet);
         }
-        rep.quiescent = self.last_firings.1;
-        for &(r, k) in &self.last_firings.0 {
-            self.stats.firings[r as usize] += k;
+        rep.quiescent = self.active == 0;
+        for (f, &k) in self.stats.firings.iter_mut().zip(&self.fire_counts) {
+            *f += k;
         }
         if self.opts.trace {
             for a in 0..self.lat.len() {
@@ -985,14 +1032,14 @@ impl Engine {
         }
         match self.opts.order {
             Order::ActionsFirst => {
-                self.all_actions(&sel, &mut rep);
+                self.all_actions(&mut sel, &mut rep);
                 self.calculations(&sel, &mut rep);
                 self.deliver(&mut rep);
             }
             Order::MessagesFirst => {
                 self.calculations(&sel, &mut rep);
                 self.deliver(&mut rep);
-                self.all_actions(&sel, &mut rep);
+                self.all_actions(&mut sel, &mut rep);
             }
         }
         self.sel = sel;
@@ -1001,7 +1048,7 @@ impl Engine {
         rep
     }
 
-    fn all_actions(&mut self, sel: &Selection, rep: &mut StepReport) {
+    fn all_actions(&mut self, sel: &mut Selection, rep: &mut StepReport) {
         if self.opts.static_first {
             let prog = &self.prog;
             let still: Vec<bool> = prog
@@ -1009,15 +1056,17 @@ impl Engine {
                 .iter()
                 .map(|r| r.moves.is_none() && r.swaps.is_none())
                 .collect();
-            self.actions(sel, rep, &|r| still[r as usize]);
-            self.actions(sel, rep, &|r| !still[r as usize]);
+            let moving: Vec<bool> = still.iter().map(|s| !s).collect();
+            self.actions(sel, rep, Some(&still));
+            self.actions(sel, rep, Some(&moving));
         } else {
-            self.actions(sel, rep, &|_| true);
+            self.actions(sel, rep, None);
         }
     }
 
-    /// Paper step 2 for the selected rules that `pick` accepts.
-    fn actions(&mut self, sel: &Selection, rep: &mut StepReport, pick: &dyn Fn(u32) -> bool) {
+    /// Paper step 2 for the selected rules that `pick` accepts (all without one).
+    fn actions(&mut self, sel: &mut Selection, rep: &mut StepReport, pick: Option<&[bool]>) {
+        let pick = |r: u32| pick.is_none_or(|p| p[r as usize]);
         let n = self.lat.len();
         let nd = self.lat.dim.dirs();
         // Rules with nothing to do in this phase (only calculations and sends) are left out;
@@ -1030,12 +1079,16 @@ impl Engine {
         let mut intents: Vec<(u32, Intent)> = Vec::new();
         // Agents whose one rule only sets the state: (agent, pattern).
         let mut states: Vec<(u32, u16)> = Vec::new();
+        let direct = !self.opts.trace;
         let mut rs: Vec<u32> = Vec::new();
         for a in 0..n {
             match sel.one[a] {
                 NO_RULE => continue,
                 r if r & MANY == 0 && !acts(r) => continue,
                 r if r & MANY == 0 && pick(r) && self.state_only[r as usize] => {
+                    if direct {
+                        continue;
+                    }
                     let p = self.prog.rules[r as usize]
                         .sets_state
                         .expect("sets the state");
@@ -1151,6 +1204,54 @@ impl Engine {
             intents.push((a32, it));
         }
         self.has_actions = has_actions;
+        // Without tracing (which reports state changes after moves), the agents whose one
+        // rule only sets the state do so at once: no other action of the step reads states.
+        // When the selection is decided by states alone, such an agent's entry is set at
+        // once to the rule of its new state (if that rule, like its old one, calculates
+        // nothing, which the calculations of this step would otherwise see), so that the
+        // next step can keep the selection.
+        if direct {
+            let keep = self.sel_by_state && !self.any_prio && !self.opts.static_first;
+            let (mut changed, mut lookups) = (false, false);
+            for a in 0..n {
+                let r = sel.one[a];
+                if r & MANY != 0 || !pick(r) {
+                    continue;
+                }
+                let Some(bits) = self.direct_bits[r as usize] else {
+                    continue;
+                };
+                let Some((_, _, known)) = apply_state(
+                    &mut self.lat,
+                    &mut self.cand_of,
+                    (&self.cand_cache, &self.candidates),
+                    a,
+                    bits,
+                ) else {
+                    continue;
+                };
+                let next = if known {
+                    self.cand_single[self.cand_of[a] as usize]
+                } else {
+                    EVALUATE
+                };
+                let quiet = |q: u32| q == NO_RULE || !self.computes[q as usize];
+                if keep && next != EVALUATE && quiet(r) && quiet(next) {
+                    sel.one[a] = next;
+                    self.fire_counts[r as usize] -= 1;
+                    if next == NO_RULE {
+                        self.active -= 1;
+                    } else {
+                        self.fire_counts[next as usize] += 1;
+                    }
+                } else {
+                    changed = true;
+                    lookups |= !known;
+                }
+            }
+            self.cand_dirty |= lookups;
+            self.states_changed |= changed;
+        }
         let any = |f: &dyn Fn(&Intent) -> bool| intents.iter().any(|(_, it)| f(it));
         let letters = any(&|it| it.letters.iter().any(|&l| l != AttachLetter::Keep));
         let moves = any(&|it| it.mv.is_some() || it.mv_bad);
@@ -1174,31 +1275,23 @@ impl Engine {
             .iter()
             .map(|&(a, p)| (a, self.pat_bits[p as usize]))
             .peekable();
-        let (lat, trace) = (&mut self.lat, self.opts.trace);
-        let cache = &self.cand_cache;
+        let trace = self.opts.trace;
         let (mut changed, mut lookups) = (false, false);
-        let mut set = |a: u32, (mask, val): (u64, u64)| {
-            let a = a as usize;
-            let old = lat.state[a];
-            let o = state_key(&old);
-            let v = (o & !mask) | val;
-            if v == o {
+        let mut set = |a: u32, bits: (u64, u64)| {
+            let Some((old, new, known)) = apply_state(
+                &mut self.lat,
+                &mut self.cand_of,
+                (&self.cand_cache, &self.candidates),
+                a as usize,
+                bits,
+            ) else {
                 return;
-            }
-            let new: [u8; 5] = v.to_le_bytes()[..5].try_into().expect("five bytes");
-            lat.state[a] = new;
-            // The agent's rules for its new state, when the cache knows them.
-            let (key, idx) = cache[cache_slot(v)];
+            };
             changed = true;
-            if key == v + 1 {
-                self.cand_of[a] = idx;
-            } else {
-                self.cand_of[a] = NO_LIST;
-                lookups = true;
-            }
+            lookups |= !known;
             if trace {
                 rep.trace.push(TraceEvent::State {
-                    agent: a as u32,
+                    agent: a,
                     from: text(&old),
                     to: text(&new),
                 });
@@ -1692,6 +1785,9 @@ impl Engine {
     /// time over the whole run ([`run_batch`]), which amortises the dispatch and lets the
     /// compiler vectorise; other agents run the rule alone ([`run_post`]).
     fn calculations(&mut self, sel: &Selection, rep: &mut StepReport) {
+        if !self.any_computes {
+            return;
+        }
         self.lat.refresh_neighbours();
         let n = self.lat.len();
         let nd = self.lat.dim.dirs();

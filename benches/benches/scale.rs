@@ -1,0 +1,507 @@
+//! How the engine scales, for docs/performance.md: agent-steps per second against n (B1)
+//! and against k (B3), engine/native at the sizes (B1 L = 1000, B2 W = H = 1000,
+//! B3 L = 1000), thread scaling, and peak memory per agent (measured in child processes,
+//! so that each figure is that workload's own peak).
+//!
+//! `cargo bench -p latticesim-benches --bench scale` writes docs/data/performance-*.csv
+//! and docs/img/performance-*.svg and prints the tables as Markdown. Every timing is the
+//! fastest of a few repeats (the machine is shared), and every engine run is checked
+//! against its reference checksum or the native loop first.
+//!
+//! Environment: `SCALE_BIG=1` adds B1 at L = 10000 (100 million agents; about 5 GB and
+//! a few minutes) to the memory table. `SCALE_QUICK=1` runs smaller sizes only (for a
+//! check that the harness works).
+
+use latticesim_benches::workloads::*;
+use latticesim_benches::{b2_checksum, b3_checksum, engine, fresh, native, program, sum_c00};
+use latticesim_benches::{Engine, Lcg};
+use latticesim_runtime::{LatticeBuilder, Options};
+use latticesim_vm::model::Dim;
+use plotters::prelude::*;
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+/// The fastest of `reps` runs of `f` (each given a fresh setup).
+fn best<S, T>(reps: usize, mut setup: impl FnMut() -> S, mut f: impl FnMut(S) -> T) -> Duration {
+    (0..reps)
+        .map(|_| {
+            let s = setup();
+            let t = Instant::now();
+            std::hint::black_box(f(s));
+            t.elapsed()
+        })
+        .min()
+        .unwrap_or_default()
+}
+
+fn run_steps(mut e: Engine, s: u64) -> Engine {
+    for _ in 0..s {
+        e.step();
+    }
+    e
+}
+
+fn b1_engine(l: u64, threads: usize) -> Engine {
+    Engine::new(
+        program(B1_RULES),
+        b1_lattice(l),
+        Options {
+            threads,
+            ..Options::default()
+        },
+    )
+}
+
+struct Out {
+    data: PathBuf,
+    img: PathBuf,
+    md: String,
+}
+
+impl Out {
+    fn csv(&self, name: &str, header: &str, rows: &[String]) {
+        let mut s = format!("{header}\n");
+        for r in rows {
+            s += r;
+            s.push('\n');
+        }
+        std::fs::write(self.data.join(name), s).expect("write CSV");
+    }
+}
+
+/// Agent-steps per second against n: B1 through the engine (one thread) and natively.
+fn b1_by_n(out: &mut Out, sizes: &[u64]) -> Vec<(u64, f64, f64)> {
+    let s = 20u64;
+    let mut rows = Vec::new();
+    for &l in sizes {
+        let n = l * l;
+        let base = b1_engine(l, 1);
+        let expect = native::b1(l as usize, s as usize);
+        assert_eq!(
+            sum_c00(&run_steps(fresh(&base, base.opts), s)),
+            expect,
+            "B1 L={l}"
+        );
+        let reps = if n >= 5_000_000 { 2 } else { 3 };
+        let eng = best(reps, || fresh(&base, base.opts), |e| run_steps(e, s));
+        let nat = best(
+            reps,
+            || native::b1_setup(l as usize),
+            |mut st| native::b1_run(&mut st, s as usize),
+        );
+        let per = |d: Duration| (n * s) as f64 / d.as_secs_f64();
+        rows.push((n, per(eng), per(nat)));
+        eprintln!(
+            "B1 L={l}: engine {:.1} M/s, native {:.1} M/s",
+            per(eng) / 1e6,
+            per(nat) / 1e6
+        );
+    }
+    out.csv(
+        "performance-b1-n.csv",
+        "n,engine_agent_steps_per_s,native_agent_steps_per_s",
+        &rows
+            .iter()
+            .map(|(n, e, v)| format!("{n},{e:.0},{v:.0}"))
+            .collect::<Vec<_>>(),
+    );
+    let _ = writeln!(
+        out.md,
+        "\n#### B1 (20 steps, one thread): agent-steps per second against n\n\n| n | engine | native | engine / native |\n|---:|---:|---:|---:|"
+    );
+    for (n, e, v) in &rows {
+        let _ = writeln!(
+            out.md,
+            "| {n} | {:.1} M/s | {:.0} M/s | 1/{:.1} |",
+            e / 1e6,
+            v / 1e6,
+            v / e
+        );
+    }
+    rows
+}
+
+/// Cost per agent-step against k: B3 at L through the engine and natively.
+fn b3_by_k(out: &mut Out, l: u64, ks: &[u64]) -> Vec<(u64, f64, f64)> {
+    let s = 20u64;
+    let n = l * l;
+    let mut rows = Vec::new();
+    for &k in ks {
+        let base = engine(&b3_rules(k), &b3_agents(l, k));
+        let e = run_steps(fresh(&base, base.opts), s);
+        assert_eq!(
+            b3_checksum(&e),
+            native::b3(l as usize, k as usize, s as usize),
+            "B3 k={k}"
+        );
+        let eng = best(3, || fresh(&base, base.opts), |e| run_steps(e, s));
+        let nat = best(
+            3,
+            || native::b3_setup(l as usize, k as usize),
+            |mut st| native::b3_run(&mut st, k as usize, s as usize),
+        );
+        let ns = |d: Duration| d.as_secs_f64() * 1e9 / (n * s) as f64;
+        rows.push((k, ns(eng), ns(nat)));
+        eprintln!(
+            "B3 k={k}: engine {:.2} ns, native {:.3} ns",
+            ns(eng),
+            ns(nat)
+        );
+    }
+    out.csv(
+        "performance-b3-k.csv",
+        "k,engine_ns_per_agent_step,native_ns_per_agent_step",
+        &rows
+            .iter()
+            .map(|(k, e, v)| format!("{k},{e:.3},{v:.4}"))
+            .collect::<Vec<_>>(),
+    );
+    let k1 = rows[0].1;
+    let _ = writeln!(
+        out.md,
+        "\n#### B3 (L = {l}, 20 steps): cost per agent-step against k\n\n| k | engine | relative to k = 1 | native |\n|---:|---:|---:|---:|"
+    );
+    for (k, e, v) in &rows {
+        let _ = writeln!(out.md, "| {k} | {e:.1} ns | {:.2} | {v:.2} ns |", e / k1);
+    }
+    rows
+}
+
+/// Engine/native for B2 to quiescence on a W x W box.
+fn b2_ratio(out: &mut Out, sizes: &[u64]) {
+    let mut rows = Vec::new();
+    for &w in sizes {
+        let base = engine(B2_RULES, &b2_agents(w, w));
+        let n = base.lat.len() as u64;
+        let run = |mut e: Engine| {
+            while !e.step().quiescent {}
+            e
+        };
+        let done = run(fresh(&base, base.opts));
+        let (steps, sum) = native::b2(w as usize, w as usize);
+        assert_eq!(
+            (done.stats.steps, b2_checksum(&done)),
+            (steps, sum),
+            "B2 W={w}"
+        );
+        let reps = if w >= 1000 { 2 } else { 3 };
+        let eng = best(reps, || fresh(&base, base.opts), run);
+        let nat = best(
+            reps,
+            || native::b2_setup(w as usize, w as usize),
+            |mut st| native::b2_run(&mut st),
+        );
+        let per = |d: Duration| (n * steps) as f64 / d.as_secs_f64();
+        eprintln!(
+            "B2 W={w}: engine {:.1} M/s, native {:.1} M/s",
+            per(eng) / 1e6,
+            per(nat) / 1e6
+        );
+        rows.push((w, n, steps, per(eng), per(nat)));
+    }
+    out.csv(
+        "performance-b2.csv",
+        "w,n,steps,engine_agent_steps_per_s,native_agent_steps_per_s",
+        &rows
+            .iter()
+            .map(|(w, n, s, e, v)| format!("{w},{n},{s},{e:.0},{v:.0}"))
+            .collect::<Vec<_>>(),
+    );
+    let _ = writeln!(
+        out.md,
+        "\n#### B2 (to quiescence, one thread)\n\n| W = H | n | steps | engine | native | engine / native |\n|---:|---:|---:|---:|---:|---:|"
+    );
+    for (w, n, s, e, v) in &rows {
+        let _ = writeln!(
+            out.md,
+            "| {w} | {n} | {s} | {:.1} M/s | {:.0} M/s | 1/{:.1} |",
+            e / 1e6,
+            v / 1e6,
+            v / e
+        );
+    }
+}
+
+/// B1 with one and two threads.
+fn threads(out: &mut Out, l: u64) -> Vec<(usize, f64)> {
+    let s = 50u64;
+    let mut rows = Vec::new();
+    let mut one = 0.0;
+    for t in [1usize, 2] {
+        let base = b1_engine(l, t);
+        let d = best(3, || fresh(&base, base.opts), |e| run_steps(e, s));
+        let per = (l * l * s) as f64 / d.as_secs_f64();
+        if t == 1 {
+            one = per;
+        }
+        eprintln!("B1 L={l} threads {t}: {:.1} M/s", per / 1e6);
+        rows.push((t, per));
+    }
+    out.csv(
+        "performance-threads.csv",
+        "threads,agent_steps_per_s",
+        &rows
+            .iter()
+            .map(|(t, p)| format!("{t},{p:.0}"))
+            .collect::<Vec<_>>(),
+    );
+    let _ = writeln!(
+        out.md,
+        "\n#### B1 (L = {l}, 50 steps): threads\n\n| threads | engine | speed-up |\n|---:|---:|---:|"
+    );
+    for (t, p) in &rows {
+        let _ = writeln!(out.md, "| {t} | {:.1} M/s | {:.2} |", p / 1e6, p / one);
+    }
+    rows
+}
+
+/// The memory child: builds one workload, runs it, prints `agents peak_bytes`.
+fn memory_child(spec: &str) {
+    let words: Vec<&str> = spec.split_whitespace().collect();
+    let num = |i: usize| {
+        words
+            .get(i)
+            .and_then(|w| w.parse::<u64>().ok())
+            .unwrap_or(0)
+    };
+    let (n, e) = match words.first().copied() {
+        Some("b1") => {
+            let (l, s) = (num(1), num(2));
+            let e = run_steps(b1_engine(l, num(3).max(1) as usize), s);
+            (l * l, e)
+        }
+        Some("sparse") => {
+            // n agents at distinct random cells of a side x side universe.
+            let (n, side, s) = (num(1), num(2), num(3));
+            let mut g = Lcg::new(7);
+            let mut b = LatticeBuilder::new(Dim::Two, None, n as usize);
+            let mut seen = rustc_hash::FxHashSet::default();
+            while (seen.len() as u64) < n {
+                let p = [g.below(side) as i32, g.below(side) as i32, 0];
+                if seen.insert(p) {
+                    b.push(p, *b"00000", 0, &[(0, (seen.len() % 1000) as i16)]);
+                }
+            }
+            drop(seen);
+            let lat = b.finish();
+            let e = run_steps(Engine::new(program(B1_RULES), lat, Options::default()), s);
+            (n, e)
+        }
+        _ => panic!("unknown memory workload {spec:?}"),
+    };
+    std::hint::black_box(&e);
+    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+    let kb = |key: &str| {
+        status
+            .lines()
+            .find(|l| l.starts_with(key))
+            .and_then(|l| l.split_whitespace().nth(1))
+            .and_then(|v| v.parse::<u64>().ok())
+            .unwrap_or(0)
+    };
+    println!("{n} {} {}", kb("VmHWM:") * 1024, e.bytes());
+}
+
+/// Peak memory per agent of each workload, each in its own process.
+fn memory(out: &mut Out, cases: &[(&str, String)]) -> Vec<(String, u64, f64, f64)> {
+    let exe = std::env::current_exe().expect("own path");
+    // The process's own baseline (code, allocator, a tiny lattice).
+    let probe = |spec: &str| -> (u64, u64, u64) {
+        let o = std::process::Command::new(&exe)
+            .env("SCALE_MEMORY_CHILD", spec)
+            .output()
+            .expect("run the memory child");
+        let text = String::from_utf8_lossy(&o.stdout);
+        let v: Vec<u64> = text
+            .split_whitespace()
+            .filter_map(|w| w.parse().ok())
+            .collect();
+        assert!(
+            v.len() == 3,
+            "memory child failed: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        (v[0], v[1], v[2])
+    };
+    let (_, base, _) = probe("b1 10 1");
+    let mut rows = Vec::new();
+    for (name, spec) in cases {
+        let (n, peak, held) = probe(spec);
+        let per = (peak.saturating_sub(base)) as f64 / n as f64;
+        let held = held as f64 / n as f64;
+        eprintln!("memory {name}: {per:.1} B/agent peak, {held:.1} B/agent held");
+        rows.push((name.to_string(), n, per, held));
+    }
+    out.csv(
+        "performance-memory.csv",
+        "workload,n,peak_bytes_per_agent,held_bytes_per_agent",
+        &rows
+            .iter()
+            .map(|(w, n, p, h)| format!("{w},{n},{p:.1},{h:.1}"))
+            .collect::<Vec<_>>(),
+    );
+    let _ = writeln!(
+        out.md,
+        "\n#### Peak memory per agent (peak resident size above the process's {:.1} MB baseline)\n\n| workload | n | peak per agent | held by the engine per agent |\n|---|---:|---:|---:|",
+        base as f64 / 1e6
+    );
+    for (w, n, p, h) in &rows {
+        let _ = writeln!(out.md, "| {w} | {n} | {p:.1} B | {h:.1} B |");
+    }
+    rows
+}
+
+/// A line of a plot: its name, its points, its colour.
+type Series = (&'static str, Vec<(f64, f64)>, RGBColor);
+
+fn plot_lines(
+    path: &PathBuf,
+    title: &str,
+    (xd, yd): (&str, &str),
+    series: &[Series],
+) -> Result<(), Box<dyn std::error::Error>> {
+    let pts = series.iter().flat_map(|s| s.1.iter());
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for &(x, y) in pts {
+        (x0, x1, y0, y1) = (x0.min(x), x1.max(x), y0.min(y), y1.max(y));
+    }
+    let root = SVGBackend::new(path, (720, 450)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 20))
+        .margin(15)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(
+            (x0 * 0.7..x1 * 1.4).log_scale(),
+            (y0 * 0.5..y1 * 2.0).log_scale(),
+        )?;
+    chart.configure_mesh().x_desc(xd).y_desc(yd).draw()?;
+    for (name, pts, color) in series {
+        chart
+            .draw_series(LineSeries::new(pts.clone(), color))?
+            .label(*name)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color));
+        chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, color.filled())))?;
+    }
+    chart
+        .configure_series_labels()
+        .border_style(BLACK)
+        .background_style(WHITE)
+        .position(SeriesLabelPosition::LowerRight)
+        .draw()?;
+    root.present()?;
+    Ok(())
+}
+
+fn main() {
+    if let Ok(spec) = std::env::var("SCALE_MEMORY_CHILD") {
+        memory_child(&spec);
+        return;
+    }
+    // cargo bench passes `--bench`; a filter argument that is not ours means another
+    // bench target was asked for.
+    if std::env::args()
+        .skip(1)
+        .any(|a| !a.starts_with('-') && !"scale".contains(a.as_str()))
+    {
+        return;
+    }
+    let quick = std::env::var("SCALE_QUICK").is_ok();
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("..")
+        .join("docs");
+    let mut out = Out {
+        data: root.join("data"),
+        img: root.join("img"),
+        md: String::new(),
+    };
+    std::fs::create_dir_all(&out.data).expect("docs/data");
+    std::fs::create_dir_all(&out.img).expect("docs/img");
+    let (b1_sizes, big_l, b2_sizes, b3_l): (&[u64], u64, &[u64], u64) = if quick {
+        (&[30, 100], 100, &[60], 100)
+    } else {
+        (&[100, 316, 1000, 3162], 1000, &[316, 1000], 1000)
+    };
+    let b1 = b1_by_n(&mut out, b1_sizes);
+    let b3 = b3_by_k(&mut out, b3_l, &[1, 4, 16, 64, 256]);
+    b2_ratio(&mut out, b2_sizes);
+    let th = threads(&mut out, big_l);
+    let mut cases = vec![
+        (format!("B1 L={big_l}, 50 steps"), format!("b1 {big_l} 50")),
+        (
+            "1,000,000 agents scattered in 1,000,000 x 1,000,000, B1 rules, 10 steps".to_string(),
+            "sparse 1000000 1000000 10".to_string(),
+        ),
+        (
+            "1,000,000 agents scattered in 10,000 x 10,000, B1 rules, 10 steps".to_string(),
+            "sparse 1000000 10000 10".to_string(),
+        ),
+    ];
+    if quick {
+        cases.truncate(1);
+    } else {
+        cases.insert(1, ("B1 L=3162, 50 steps".into(), "b1 3162 50".into()));
+    }
+    if std::env::var("SCALE_BIG").is_ok() {
+        cases.push((
+            "B1 L=10000, 50 steps, 2 threads".into(),
+            "b1 10000 50 2".into(),
+        ));
+    }
+    let refs: Vec<(&str, String)> = cases.iter().map(|(a, b)| (a.as_str(), b.clone())).collect();
+    memory(&mut out, &refs);
+    let plots = [
+        plot_lines(
+            &out.img.join("performance-b1-n.svg"),
+            "B1: agent-steps per second against n (one thread)",
+            ("agents n", "agent-steps per second"),
+            &[
+                (
+                    "engine",
+                    b1.iter().map(|r| (r.0 as f64, r.1)).collect(),
+                    BLUE,
+                ),
+                (
+                    "native",
+                    b1.iter().map(|r| (r.0 as f64, r.2)).collect(),
+                    RED,
+                ),
+            ],
+        ),
+        plot_lines(
+            &out.img.join("performance-b3-k.svg"),
+            &format!("B3 (L = {b3_l}): nanoseconds per agent-step against k"),
+            ("rules k", "ns per agent-step"),
+            &[
+                (
+                    "engine",
+                    b3.iter().map(|r| (r.0 as f64, r.1)).collect(),
+                    BLUE,
+                ),
+                (
+                    "native",
+                    b3.iter().map(|r| (r.0 as f64, r.2)).collect(),
+                    RED,
+                ),
+            ],
+        ),
+        plot_lines(
+            &out.img.join("performance-threads.svg"),
+            &format!("B1 (L = {big_l}): agent-steps per second against threads"),
+            ("threads", "agent-steps per second"),
+            &[(
+                "engine",
+                th.iter().map(|r| (r.0 as f64, r.1)).collect(),
+                BLUE,
+            )],
+        ),
+    ];
+    for p in plots {
+        if let Err(e) = p {
+            eprintln!("plot: {e}");
+        }
+    }
+    println!("{}", out.md);
+}
