@@ -196,7 +196,8 @@ const NO_RULE: u32 = u32::MAX;
 const OPPOSITE: [usize; 6] = [3, 2, 1, 0, 5, 4];
 const MANY: u32 = 1 << 31;
 const NO_LIST: u32 = u32::MAX;
-/// Entries of the direct-mapped cache of candidate lists.
+/// Entries of the direct-mapped cache of candidate lists at first (it grows with the
+/// number of distinct states, up to 65536).
 const CAND_CACHE: usize = 1024;
 /// In `cand_single`: the agents of this list evaluate their rules.
 const EVALUATE: u32 = u32::MAX - 1;
@@ -379,7 +380,7 @@ fn apply_state(
     }
     let new: [u8; 5] = v.to_le_bytes()[..5].try_into().expect("five bytes");
     lat.state[a] = new;
-    let (key, idx) = cache[cache_slot(v)];
+    let (key, idx) = cache[cache_slot(v, cache.len())];
     let idx = if key == v + 1 {
         Some(idx)
     } else {
@@ -392,13 +393,14 @@ fn apply_state(
 /// A state as a number (its five bytes, little-endian).
 #[inline]
 fn state_key(s: &[u8; 5]) -> u64 {
-    u64::from_le_bytes([s[0], s[1], s[2], s[3], s[4], 0, 0, 0])
+    u32::from_le_bytes([s[0], s[1], s[2], s[3]]) as u64 | (s[4] as u64) << 32
 }
 
 /// The slot of a state key in the candidate cache: one multiplication hashes it.
 #[inline]
-fn cache_slot(key: u64) -> usize {
-    (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 54) as usize % CAND_CACHE
+fn cache_slot(key: u64, len: usize) -> usize {
+    // `len` is a power of two: the top bits of the product index it.
+    (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> (64 - len.trailing_zeros())) as usize
 }
 
 /// A state pattern as (mask of the characters it sets, their values) over state keys.
@@ -649,7 +651,7 @@ impl Engine {
                 continue;
             }
             let key = state_key(st);
-            let slot = cache_slot(key);
+            let slot = cache_slot(key, self.cand_cache.len());
             if self.cand_cache[slot].0 == key + 1 {
                 self.cand_of[a] = self.cand_cache[slot].1;
                 continue;
@@ -682,6 +684,16 @@ impl Engine {
                 (lists.len() - 1) as u32
             });
             self.cand_cache[slot] = (key + 1, idx);
+            // Eight slots per known state keep collisions rare.
+            if self.candidates.len() * 8 > self.cand_cache.len() && self.cand_cache.len() < 1 << 16
+            {
+                let len = self.cand_cache.len() * 4;
+                let mut cache = vec![(0, 0); len];
+                for (&k, &i) in &self.candidates {
+                    cache[cache_slot(k, len)] = (k + 1, i);
+                }
+                self.cand_cache = cache;
+            }
             self.cand_of[a] = idx;
         }
         self.cand_dirty = false;
