@@ -22,6 +22,9 @@ fn main() {
         n,
         e.stats.steps
     );
-    eprintln!("{} moves", e.stats.moves);
+    let mut st = latticesim_benches::native::b2_setup(w as usize, w as usize);
+    let t = std::time::Instant::now();
+    std::hint::black_box(latticesim_benches::native::b2_run(&mut st));
+    eprintln!("{} moves; native {:?}", e.stats.moves, t.elapsed());
     println!("{}", latticesim_benches::b2_checksum(&e));
 }

@@ -126,6 +126,8 @@ pub struct Engine {
     states_changed: bool,
     /// Per rule: its precondition is only its state filter (or nothing).
     trivial: Vec<bool>,
+    /// Per rule: its precondition can be evaluated over a run of agents ([`batch_pre`]).
+    pre_batch: Vec<bool>,
     /// Some rule reads neighbours' priorities.
     any_prio: bool,
     /// Some rule calculates or sends.
@@ -470,6 +472,11 @@ impl Engine {
                 },
             )
             .collect();
+        let pre_batch = prog
+            .rules
+            .iter()
+            .map(|r| pre_batchable(&prog.code[r.pre.start as usize..r.pre.end as usize]))
+            .collect();
         let batchable = prog
             .rules
             .iter()
@@ -496,6 +503,7 @@ impl Engine {
             cand_dirty: true,
             states_changed: true,
             trivial,
+            pre_batch,
             any_prio: prog.rules.iter().any(|r| r.reads_priorities),
             any_computes: prog.rules.iter().any(|r| r.computes),
             prio_offsets: prog
@@ -710,19 +718,37 @@ impl Engine {
         let (lists, single, of) = (&self.cand_lists, &self.cand_single, &self.cand_of);
         let par = self.parallel(n);
         let chunk = par.map_or(n.max(1), |p| p.1);
+        let pre_batch = &self.pre_batch;
         let work = |(c, one): (usize, &mut [u32])| {
             let lo = c * chunk;
             let mut multi: Vec<(u32, Vec<u32>)> = Vec::new();
             let mut buf: Vec<u32> = Vec::new();
             let mut evaluated = false;
-            for (k, slot) in one.iter_mut().enumerate() {
+            let mut truth = [false; BATCH];
+            let mut k = 0;
+            while k < one.len() {
                 let a = lo + k;
                 let idx = of[a] as usize;
                 if single[idx] != EVALUATE {
-                    *slot = single[idx];
+                    one[k] = single[idx];
+                    k += 1;
                     continue;
                 }
                 evaluated = true;
+                // A run of agents with the same one rule to test: evaluated together.
+                if let [r] = lists[idx][..] {
+                    if pre_batch[r as usize] {
+                        let m = run_of(&of[a..lo + one.len()], idx as u32).min(BATCH);
+                        batch_pre(prog, r, lat, a, &mut truth[..m]);
+                        for (slot, &t) in one[k..k + m].iter_mut().zip(&truth[..m]) {
+                            *slot = if t { r } else { NO_RULE };
+                        }
+                        k += m;
+                        continue;
+                    }
+                }
+                let slot = &mut one[k];
+                k += 1;
                 let env = SelEnv {
                     lat,
                     a: a as u32,
@@ -2207,6 +2233,137 @@ fn set_bits(bits: &mut [u64], range: std::ops::Range<usize>) {
         bits[w] |= mask;
         i = (w << 6) + hi;
     }
+}
+
+/// Stack depth of [`batch_pre`].
+const PRE_STACK: usize = 6;
+
+/// Whether a precondition can be evaluated by [`batch_pre`]: only terms about the agent
+/// itself and its neighbours (no priorities, offsets, texts or remote counters), within
+/// its stack depth.
+fn pre_batchable(code: &[Op]) -> bool {
+    let mut depth = 0usize;
+    for op in code {
+        match op {
+            Op::True {} | Op::Nbr { .. } | Op::Att { .. } | Op::State { .. } => depth += 1,
+            Op::Cmp { a, b, .. }
+                if ![a, b]
+                    .iter()
+                    .any(|v| matches!(v, Val::Ext(_) | Val::Msg { dir: ANY_DIR, .. })) =>
+            {
+                depth += 1
+            }
+            Op::Not {} | Op::Jf { .. } => {}
+            Op::And {} => depth = depth.saturating_sub(1),
+            _ => return false,
+        }
+        if depth > PRE_STACK {
+            return false;
+        }
+    }
+    true
+}
+
+/// Evaluates rule `r`'s precondition (which [`pre_batchable`] accepted, in a program
+/// without priority terms) for agents `first..first + out.len()` at once, one instruction
+/// over all of them. Short-circuit jumps are not taken: the terms have no side effects and
+/// a false left operand makes the conjunction false either way.
+fn batch_pre(prog: &Program, r: u32, lat: &Lattice, first: usize, out: &mut [bool]) {
+    let m = out.len();
+    let info = &prog.rules[r as usize];
+    let code = &prog.code[info.pre.start as usize..info.pre.end as usize];
+    let mut stack = [[false; BATCH]; PRE_STACK];
+    let mut sp = 0;
+    let nd = lat.dim.dirs();
+    let mut x = [0i32; BATCH];
+    let mut y = [0i32; BATCH];
+    let load = |v: Val, into: &mut [i32]| match v {
+        Val::Lit(c) => into.fill(c as i32),
+        Val::Counter(c) => match lat.counter_col[c as usize] {
+            NO_COL => into.fill(0),
+            col => {
+                for (t, &s) in into
+                    .iter_mut()
+                    .zip(&lat.counters[col as usize][first..first + m])
+                {
+                    *t = s as i32;
+                }
+            }
+        },
+        Val::Msg { dir, slot } => {
+            for (j, t) in into.iter_mut().enumerate() {
+                *t = lat.inbox((first + j) as u32, dir, slot) as i32;
+            }
+        }
+        Val::Ext(_) => unreachable!("not batched"),
+    };
+    for op in code {
+        match *op {
+            Op::True {} => {
+                stack[sp][..m].fill(true);
+                sp += 1;
+            }
+            Op::Nbr { mask, want } => {
+                let top = &mut stack[sp][..m];
+                let mut nb = [NO_AGENT; 6];
+                for (j, t) in top.iter_mut().enumerate() {
+                    let a = (first + j) as u32;
+                    let mut ok = true;
+                    if lat.universe.is_none() {
+                        lat.neighbours(a, &mut nb);
+                        for (d, &b) in nb.iter().enumerate().take(nd) {
+                            if mask & (1 << d) != 0 {
+                                ok &= (b != NO_AGENT) == (want & (1 << d) != 0);
+                            }
+                        }
+                    } else {
+                        for d in (0..nd).filter(|d| mask & (1 << d) != 0) {
+                            ok &= match lat.neighbour_cell(a, d) {
+                                Cell::Blocked => false,
+                                Cell::Empty => want & (1 << d) == 0,
+                                Cell::Agent(_) => want & (1 << d) != 0,
+                            };
+                        }
+                    }
+                    *t = ok;
+                }
+                sp += 1;
+            }
+            Op::Att { mask, want } => {
+                for (t, &at) in stack[sp][..m].iter_mut().zip(&lat.attach[first..first + m]) {
+                    *t = at & mask == want & mask;
+                }
+                sp += 1;
+            }
+            Op::State { pat } => {
+                let p = &prog.pats[pat as usize];
+                for (t, st) in stack[sp][..m].iter_mut().zip(&lat.state[first..first + m]) {
+                    *t = latticesim_vm::eval::matches(p, st);
+                }
+                sp += 1;
+            }
+            Op::Cmp { op, a, b } => {
+                load(a, &mut x[..m]);
+                load(b, &mut y[..m]);
+                let top = &mut stack[sp][..m];
+                for ((t, &p), &q) in top.iter_mut().zip(&x[..m]).zip(&y[..m]) {
+                    *t = op.holds(p, q);
+                }
+                sp += 1;
+            }
+            Op::Not {} => stack[sp - 1][..m].iter_mut().for_each(|t| *t = !*t),
+            Op::And {} => {
+                sp -= 1;
+                let (low, high) = stack.split_at_mut(sp);
+                for (t, &u) in low[sp - 1][..m].iter_mut().zip(&high[0][..m]) {
+                    *t &= u;
+                }
+            }
+            Op::Jf { .. } => {}
+            _ => unreachable!("not batched"),
+        }
+    }
+    out.copy_from_slice(&stack[0][..m]);
 }
 
 /// How many of the first values of `s` equal `v` (compared in blocks, which vectorises).
