@@ -738,7 +738,7 @@ impl Engine {
                 // A run of agents with the same one rule to test: evaluated together.
                 if let [r] = lists[idx][..] {
                     if pre_batch[r as usize] {
-                        let m = run_of(&of[a..lo + one.len()], idx as u32).min(BATCH);
+                        let m = run_of(&of[a..(a + BATCH).min(lo + one.len())], idx as u32);
                         batch_pre(prog, r, lat, a, &mut truth[..m]);
                         for (slot, &t) in one[k..k + m].iter_mut().zip(&truth[..m]) {
                             *slot = if t { r } else { NO_RULE };
