@@ -117,6 +117,10 @@ pub struct Engine {
     /// Per candidate list: the one rule every agent with it executes, when the list's
     /// first rule needs nothing but the state filter and no other rule shares its priority.
     cand_single: Vec<u32>,
+    /// Per candidate list: its state as a key ([`state_key`]), and the list of the state
+    /// its one state-only rule makes of it (`NO_LIST` until needed).
+    cand_keys: Vec<u64>,
+    cand_next: Vec<u32>,
     /// Per agent: its candidate list (`NO_LIST` after its state changed).
     cand_of: Vec<u32>,
     /// Some agent's state changed since the candidate lists were looked up, and it has
@@ -499,6 +503,8 @@ impl Engine {
             cand_cache: vec![(0, 0); CAND_CACHE],
             cand_lists: Vec::new(),
             cand_single: Vec::new(),
+            cand_keys: Vec::new(),
+            cand_next: Vec::new(),
             cand_of: vec![NO_LIST; n],
             cand_dirty: true,
             states_changed: true,
@@ -646,6 +652,8 @@ impl Engine {
             self.cand_cache.fill((0, 0));
             self.cand_lists.clear();
             self.cand_single.clear();
+            self.cand_keys.clear();
+            self.cand_next.clear();
             self.cand_of.iter_mut().for_each(|c| *c = NO_LIST);
             self.cand_dirty = true;
         }
@@ -666,6 +674,7 @@ impl Engine {
             }
             let lists = &mut self.cand_lists;
             let single = &mut self.cand_single;
+            let (keys, next) = (&mut self.cand_keys, &mut self.cand_next);
             let (by_prio, trivial) = (&self.by_prio, &self.trivial);
             let idx = *self.candidates.entry(key).or_insert_with(|| {
                 let list: Vec<u32> = by_prio
@@ -689,6 +698,8 @@ impl Engine {
                     _ => EVALUATE,
                 });
                 lists.push(list);
+                keys.push(key);
+                next.push(NO_LIST);
                 (lists.len() - 1) as u32
             });
             self.cand_cache[slot] = (key + 1, idx);
@@ -1259,6 +1270,40 @@ impl Engine {
                 let Some(bits) = self.direct_bits[r as usize] else {
                     continue;
                 };
+                // An agent whose rule its state alone decides goes to the state that
+                // rule makes of it: remembered per state, so no state is looked at.
+                let idx = self.cand_of[a];
+                if keep && idx != NO_LIST && self.cand_single[idx as usize] == r {
+                    let mut to = self.cand_next[idx as usize];
+                    if to == NO_LIST {
+                        let key = self.cand_keys[idx as usize];
+                        let v = (key & !bits.0) | bits.1;
+                        if let Some(&i) = self.candidates.get(&v) {
+                            to = i;
+                            self.cand_next[idx as usize] = i;
+                        }
+                    }
+                    if to == idx {
+                        continue;
+                    }
+                    if to != NO_LIST {
+                        let next = self.cand_single[to as usize];
+                        let quiet = |q: u32| q == NO_RULE || !self.computes[q as usize];
+                        if next != EVALUATE && quiet(r) && quiet(next) {
+                            let key = self.cand_keys[to as usize].to_le_bytes();
+                            self.lat.state[a].copy_from_slice(&key[..5]);
+                            self.cand_of[a] = to;
+                            sel.one[a] = next;
+                            self.fire_counts[r as usize] -= 1;
+                            if next == NO_RULE {
+                                self.active -= 1;
+                            } else {
+                                self.fire_counts[next as usize] += 1;
+                            }
+                            continue;
+                        }
+                    }
+                }
                 let Some((_, _, known)) = apply_state(
                     &mut self.lat,
                     &mut self.cand_of,
@@ -1268,24 +1313,8 @@ impl Engine {
                 ) else {
                     continue;
                 };
-                let next = if known {
-                    self.cand_single[self.cand_of[a] as usize]
-                } else {
-                    EVALUATE
-                };
-                let quiet = |q: u32| q == NO_RULE || !self.computes[q as usize];
-                if keep && next != EVALUATE && quiet(r) && quiet(next) {
-                    sel.one[a] = next;
-                    self.fire_counts[r as usize] -= 1;
-                    if next == NO_RULE {
-                        self.active -= 1;
-                    } else {
-                        self.fire_counts[next as usize] += 1;
-                    }
-                } else {
-                    changed = true;
-                    lookups |= !known;
-                }
+                changed = true;
+                lookups |= !known;
             }
             self.cand_dirty |= lookups;
             self.states_changed |= changed;
