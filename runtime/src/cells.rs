@@ -48,24 +48,21 @@ impl Grid {
     /// for the four directions in the plane).
     #[inline]
     fn interior(&self, p: [i32; 3]) -> Option<usize> {
-        let o = [0, 1, 2].map(|k| p[k].wrapping_sub(self.lo[k]) as u32);
-        let inside = (0..3).all(|k| o[k].wrapping_sub(self.first[k]) < self.span[k]);
+        // Exact in 64 bits: a cell below the interior wraps to a large number.
+        let o = [0, 1, 2].map(|k| (p[k] as i64 - self.lo[k] as i64) as u64);
+        let inside = (0..3).all(|k| o[k].wrapping_sub(self.first[k] as u64) < self.span[k] as u64);
         inside.then(|| {
             (o[0] as usize * self.size[1] as usize + o[1] as usize) * self.size[2] as usize
                 + o[2] as usize
         })
     }
 
+    #[inline]
     fn slot(&self, p: [i32; 3]) -> Option<usize> {
-        let mut i: i64 = 0;
-        for ((&c, &lo), &size) in p.iter().zip(&self.lo).zip(&self.size) {
-            let o = c as i64 - lo as i64;
-            if o < 0 || o >= size {
-                return None;
-            }
-            i = i * size + o;
-        }
-        Some(i as usize)
+        // Offsets from the low corner, exact in 64 bits; below it wraps to large.
+        let o = [0, 1, 2].map(|k| (p[k] as i64 - self.lo[k] as i64) as u64);
+        let inside = (0..3).all(|k| o[k] < self.size[k] as u64);
+        inside.then(|| ((o[0] * self.size[1] as u64 + o[1]) * self.size[2] as u64 + o[2]) as usize)
     }
 }
 

@@ -1146,6 +1146,13 @@ impl Engine {
                 }
                 _ => {}
             }
+            if let r @ 0..MANY = sel.one[a] {
+                // One rule: nothing can conflict.
+                if pick(r) {
+                    intents.push((a as u32, self.intent_of(a as u32, r)));
+                }
+                continue;
+            }
             rs.clear();
             rs.extend(sel.of(a).iter().copied().filter(|&r| pick(r) && acts(r)));
             if rs.is_empty() {
@@ -2333,28 +2340,18 @@ fn batch_pre(prog: &Program, r: u32, lat: &Lattice, first: usize, out: &mut [boo
                 sp += 1;
             }
             Op::Nbr { mask, want } => {
+                // Only the directions the term asks about are looked at.
                 let top = &mut stack[sp][..m];
-                let mut nb = [NO_AGENT; 6];
-                for (j, t) in top.iter_mut().enumerate() {
-                    let a = (first + j) as u32;
-                    let mut ok = true;
-                    if lat.universe.is_none() {
-                        lat.neighbours(a, &mut nb);
-                        for (d, &b) in nb.iter().enumerate().take(nd) {
-                            if mask & (1 << d) != 0 {
-                                ok &= (b != NO_AGENT) == (want & (1 << d) != 0);
-                            }
-                        }
-                    } else {
-                        for d in (0..nd).filter(|d| mask & (1 << d) != 0) {
-                            ok &= match lat.neighbour_cell(a, d) {
-                                Cell::Blocked => false,
-                                Cell::Empty => want & (1 << d) == 0,
-                                Cell::Agent(_) => want & (1 << d) != 0,
-                            };
-                        }
+                top.fill(true);
+                for d in (0..nd).filter(|d| mask & (1 << d) != 0) {
+                    let filled = want & (1 << d) != 0;
+                    for (j, t) in top.iter_mut().enumerate() {
+                        *t &= match lat.neighbour_cell((first + j) as u32, d) {
+                            Cell::Blocked => false,
+                            Cell::Empty => !filled,
+                            Cell::Agent(_) => filled,
+                        };
                     }
-                    *t = ok;
                 }
                 sp += 1;
             }
