@@ -338,7 +338,7 @@ fn memory(out: &mut Out, cases: &[(&str, String)]) -> Vec<(String, u64, f64, f64
         "workload,n,peak_bytes_per_agent,held_bytes_per_agent",
         &rows
             .iter()
-            .map(|(w, n, p, h)| format!("{w},{n},{p:.1},{h:.1}"))
+            .map(|(w, n, p, h)| format!("\"{w}\",{n},{p:.1},{h:.1}"))
             .collect::<Vec<_>>(),
     );
     let _ = writeln!(
@@ -355,10 +355,40 @@ fn memory(out: &mut Out, cases: &[(&str, String)]) -> Vec<(String, u64, f64, f64
 /// A line of a plot: its name, its points, its colour.
 type Series = (&'static str, Vec<(f64, f64)>, RGBColor);
 
+/// How an axis labels its values.
+type Label = fn(&f64) -> String;
+
+/// Counts as 1e4, 1e5, ...
+fn power_of_ten(v: &f64) -> String {
+    format!("{v:.0e}")
+}
+
+/// Rates as 150 M, 2.5 G.
+fn rate(v: &f64) -> String {
+    if *v >= 1e9 {
+        format!("{:.1} G", v / 1e9)
+    } else {
+        format!("{:.0} M", v / 1e6)
+    }
+}
+
+fn nanoseconds(v: &f64) -> String {
+    if *v >= 1.0 {
+        format!("{v:.0} ns")
+    } else {
+        format!("{v:.2} ns")
+    }
+}
+
+fn plain(v: &f64) -> String {
+    format!("{v}")
+}
+
 fn plot_lines(
     path: &PathBuf,
     title: &str,
     (xd, yd): (&str, &str),
+    (xl, yl): (Label, Label),
     series: &[Series],
 ) -> Result<(), Box<dyn std::error::Error>> {
     let pts = series.iter().flat_map(|s| s.1.iter());
@@ -377,7 +407,13 @@ fn plot_lines(
             (x0 * 0.7..x1 * 1.4).log_scale(),
             (y0 * 0.5..y1 * 2.0).log_scale(),
         )?;
-    chart.configure_mesh().x_desc(xd).y_desc(yd).draw()?;
+    chart
+        .configure_mesh()
+        .x_desc(xd)
+        .y_desc(yd)
+        .x_label_formatter(&xl)
+        .y_label_formatter(&yl)
+        .draw()?;
     for (name, pts, color) in series {
         chart
             .draw_series(LineSeries::new(pts.clone(), color))?
@@ -424,78 +460,114 @@ fn main() {
     } else {
         (&[100, 316, 1000, 3162], 1000, &[316, 1000], 1000)
     };
-    let b1 = b1_by_n(&mut out, b1_sizes);
-    let b3 = b3_by_k(&mut out, b3_l, &[1, 4, 16, 64, 256]);
-    b2_ratio(&mut out, b2_sizes);
-    let th = threads(&mut out, big_l);
-    let mut cases = vec![
-        (format!("B1 L={big_l}, 50 steps"), format!("b1 {big_l} 50")),
-        (
-            "1,000,000 agents scattered in 1,000,000 x 1,000,000, B1 rules, 10 steps".to_string(),
-            "sparse 1000000 1000000 10".to_string(),
-        ),
-        (
-            "1,000,000 agents scattered in 10,000 x 10,000, B1 rules, 10 steps".to_string(),
-            "sparse 1000000 10000 10".to_string(),
-        ),
-    ];
-    if quick {
-        cases.truncate(1);
-    } else {
-        cases.insert(1, ("B1 L=3162, 50 steps".into(), "b1 3162 50".into()));
+    if std::env::var("SCALE_PLOT_ONLY").is_err() {
+        b1_by_n(&mut out, b1_sizes);
+        b3_by_k(&mut out, b3_l, &[1, 4, 16, 64, 256]);
+        b2_ratio(&mut out, b2_sizes);
+        threads(&mut out, big_l);
+        let mut cases = vec![
+            (format!("B1 L={big_l}, 50 steps"), format!("b1 {big_l} 50")),
+            (
+                "1,000,000 agents scattered in 1,000,000 x 1,000,000, B1 rules, 10 steps"
+                    .to_string(),
+                "sparse 1000000 1000000 10".to_string(),
+            ),
+            (
+                "1,000,000 agents scattered in 10,000 x 10,000, B1 rules, 10 steps".to_string(),
+                "sparse 1000000 10000 10".to_string(),
+            ),
+        ];
+        if quick {
+            cases.truncate(1);
+        } else {
+            cases.insert(1, ("B1 L=3162, 50 steps".into(), "b1 3162 50".into()));
+        }
+        if std::env::var("SCALE_BIG").is_ok() {
+            cases.push((
+                "B1 L=10000, 50 steps, 2 threads".into(),
+                "b1 10000 50 2".into(),
+            ));
+        }
+        let refs: Vec<(&str, String)> =
+            cases.iter().map(|(a, b)| (a.as_str(), b.clone())).collect();
+        memory(&mut out, &refs);
     }
-    if std::env::var("SCALE_BIG").is_ok() {
-        cases.push((
-            "B1 L=10000, 50 steps, 2 threads".into(),
-            "b1 10000 50 2".into(),
-        ));
-    }
-    let refs: Vec<(&str, String)> = cases.iter().map(|(a, b)| (a.as_str(), b.clone())).collect();
-    memory(&mut out, &refs);
+    // The plots are drawn from the CSV files (SCALE_PLOT_ONLY=1 redraws them alone).
+    let table = |name: &str| -> Vec<Vec<f64>> {
+        std::fs::read_to_string(out.data.join(name))
+            .unwrap_or_default()
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').filter_map(|v| v.parse().ok()).collect())
+            .collect()
+    };
+    let col = |t: &[Vec<f64>], x: usize, y: usize| -> Vec<(f64, f64)> {
+        t.iter()
+            .filter(|r| r.len() > x.max(y))
+            .map(|r| (r[x], r[y]))
+            .collect()
+    };
+    let (b1, b3, th) = (
+        table("performance-b1-n.csv"),
+        table("performance-b3-k.csv"),
+        table("performance-threads.csv"),
+    );
+    // Memory rows: the workload (quoted, with commas), then n, peak and held per agent.
+    let memory: Vec<(String, f64, f64)> =
+        std::fs::read_to_string(out.data.join("performance-memory.csv"))
+            .unwrap_or_default()
+            .lines()
+            .skip(1)
+            .filter_map(|l| {
+                let mut f = l.rsplitn(4, ',');
+                let (_, peak, n) = (f.next()?, f.next()?.parse().ok()?, f.next()?.parse().ok()?);
+                Some((f.next()?.trim_matches('"').to_string(), n, peak))
+            })
+            .collect();
+    let pick = |b1: bool| -> Vec<(f64, f64)> {
+        memory
+            .iter()
+            .filter(|m| m.0.starts_with("B1") == b1)
+            .map(|m| (m.1, m.2))
+            .collect()
+    };
     let plots = [
+        plot_lines(
+            &out.img.join("performance-memory.svg"),
+            "Peak memory per agent against n",
+            ("agents n", "bytes per agent"),
+            (power_of_ten, plain),
+            &[
+                ("B1 (dense square)", pick(true), BLUE),
+                ("scattered agents (hash map)", pick(false), RED),
+            ],
+        ),
         plot_lines(
             &out.img.join("performance-b1-n.svg"),
             "B1: agent-steps per second against n (one thread)",
             ("agents n", "agent-steps per second"),
+            (power_of_ten, rate),
             &[
-                (
-                    "engine",
-                    b1.iter().map(|r| (r.0 as f64, r.1)).collect(),
-                    BLUE,
-                ),
-                (
-                    "native",
-                    b1.iter().map(|r| (r.0 as f64, r.2)).collect(),
-                    RED,
-                ),
+                ("engine", col(&b1, 0, 1), BLUE),
+                ("native", col(&b1, 0, 2), RED),
             ],
         ),
         plot_lines(
             &out.img.join("performance-b3-k.svg"),
-            &format!("B3 (L = {b3_l}): nanoseconds per agent-step against k"),
-            ("rules k", "ns per agent-step"),
+            "B3 (L = 1000): cost per agent-step against k",
+            ("rules k", "time per agent-step"),
+            (plain, nanoseconds),
             &[
-                (
-                    "engine",
-                    b3.iter().map(|r| (r.0 as f64, r.1)).collect(),
-                    BLUE,
-                ),
-                (
-                    "native",
-                    b3.iter().map(|r| (r.0 as f64, r.2)).collect(),
-                    RED,
-                ),
+                ("engine", col(&b3, 0, 1), BLUE),
+                ("native", col(&b3, 0, 2), RED),
             ],
         ),
         plot_lines(
             &out.img.join("performance-threads.svg"),
-            &format!("B1 (L = {big_l}): agent-steps per second against threads"),
+            "B1 (L = 1000): agent-steps per second against threads",
             ("threads", "agent-steps per second"),
-            &[(
-                "engine",
-                th.iter().map(|r| (r.0 as f64, r.1)).collect(),
-                BLUE,
-            )],
+            (plain, rate),
+            &[("engine", col(&th, 0, 1), BLUE)],
         ),
     ];
     for p in plots {
