@@ -1,14 +1,9 @@
 //! Runs B1 through the engine, for profilers and quick measurements:
 //! `profile_b1 [L] [threads] [steps] [repeats]` prints the fastest of the repeats.
+use latticesim_benches::arg;
 use latticesim_benches::workloads::*;
 
 fn main() {
-    let arg = |i: usize, default: u64| {
-        std::env::args()
-            .nth(i)
-            .and_then(|s| s.parse().ok())
-            .unwrap_or(default)
-    };
     let (l, threads, steps, reps) = (arg(1, 300), arg(2, 1) as usize, arg(3, 10), arg(4, 1));
     let base = latticesim_benches::engine(B1_RULES, &b1_agents(l));
     let opts = latticesim_runtime::Options {

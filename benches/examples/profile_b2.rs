@@ -1,13 +1,8 @@
 //! Runs B2 to quiescence through the engine once, for profilers: `profile_b2 [W] [threads]`.
+use latticesim_benches::arg;
 use latticesim_benches::workloads::*;
 
 fn main() {
-    let arg = |i: usize, default: u64| {
-        std::env::args()
-            .nth(i)
-            .and_then(|s| s.parse().ok())
-            .unwrap_or(default)
-    };
     let (w, threads) = (arg(1, 316), arg(2, 1) as usize);
     let e = latticesim_benches::engine(B2_RULES, &b2_agents(w, w));
     let opts = latticesim_runtime::Options { threads, ..e.opts };

@@ -1,16 +1,11 @@
 //! Runs B3 through the engine for k = 1 and a larger k in turn, for profilers and quick
 //! measurements: `profile_b3 [L] [k] [steps] [repeats]` prints the fastest run of each and
 //! the ratio of their costs per agent-step.
+use latticesim_benches::arg;
 use latticesim_benches::workloads::*;
 use latticesim_benches::{b3_checksum, engine, fresh};
 
 fn main() {
-    let arg = |i: usize, default: u64| {
-        std::env::args()
-            .nth(i)
-            .and_then(|s| s.parse().ok())
-            .unwrap_or(default)
-    };
     let (l, k, steps, reps) = (arg(1, 1000), arg(2, 256), arg(3, 20), arg(4, 3));
     let bases = [1, k].map(|k| engine(&b3_rules(k), &b3_agents(l, k)));
     let mut best = [f64::MAX; 2];

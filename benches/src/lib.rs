@@ -258,6 +258,15 @@ pub fn engine(rules: &str, agents: &str) -> latticesim_runtime::Engine {
     )
 }
 
+/// The `i`-th command-line argument as a number, or `default` (for the profiling
+/// examples).
+pub fn arg(i: usize, default: u64) -> u64 {
+    std::env::args()
+        .nth(i)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(default)
+}
+
 /// The compiled program of a rules file that must check without errors.
 pub fn program(rules: &str) -> latticesim_vm::Program {
     let c = latticesim_compiler::check(

@@ -3,6 +3,7 @@
 //! at most a few cells per agent; cells outside it fall back to a hash map, so agents may
 //! go anywhere. A sparse set in a huge universe costs memory in proportion to the agents.
 
+use latticesim_vm::model::Dir;
 use rustc_hash::FxHashMap;
 
 /// In the grid and in neighbour lists: no agent.
@@ -31,16 +32,6 @@ struct Grid {
     first: [u32; 3],
     span: [u32; 3],
 }
-
-/// The unit offsets of the directions, in `Dir::ALL` order (N W E S A B).
-const DIRS: [[i32; 3]; 6] = [
-    [0, 1, 0],
-    [-1, 0, 0],
-    [1, 0, 0],
-    [0, -1, 0],
-    [0, 0, 1],
-    [0, 0, -1],
-];
 
 impl Grid {
     /// The slot of a cell whose neighbours in every direction are also in the grid (in 2D
@@ -84,7 +75,7 @@ impl CellIndex {
             let size = [0, 1, 2].map(|k| hi[k].saturating_add(margin(k)) as i64 - lo[k] as i64 + 1);
             let volume = size[0].saturating_mul(size[1]).saturating_mul(size[2]);
             if volume <= CELLS_PER_AGENT * pos.len() as i64 + 4096 {
-                let delta = DIRS.map(|d| {
+                let delta = Dir::ALL.map(|d| d.offset()).map(|d| {
                     ((d[0] as i64 * size[1] + d[1] as i64) * size[2] + d[2] as i64) as isize
                 });
                 grid = Some(Grid {

@@ -607,6 +607,14 @@ impl Engine {
         ))
     }
 
+    /// The split of `n` agents: the pool (with threads), the chunk size and the number of
+    /// chunks (one chunk of all agents without threads).
+    fn chunks(&self, n: usize) -> (Option<(&rayon::ThreadPool, usize)>, usize, usize) {
+        let par = self.parallel(n);
+        let size = par.map_or(n.max(1), |p| p.1);
+        (par, size, n.div_ceil(size))
+    }
+
     /// Runs `f` over the agents `0..n` in chunks, in parallel when the engine has threads,
     /// and returns the chunks' results in agent order.
     fn par_chunks<T: Send>(&self, n: usize, f: &(dyn Fn(usize, usize) -> T + Sync)) -> Vec<T> {
@@ -727,8 +735,7 @@ impl Engine {
         one.resize(n, NO_RULE);
         let (prog, lat, trivial) = (&self.prog, &self.lat, &self.trivial);
         let (lists, single, of) = (&self.cand_lists, &self.cand_single, &self.cand_of);
-        let par = self.parallel(n);
-        let chunk = par.map_or(n.max(1), |p| p.1);
+        let (par, chunk, _) = self.chunks(n);
         let pre_batch = &self.pre_batch;
         let work = |(c, one): (usize, &mut [u32])| {
             let lo = c * chunk;
@@ -1427,6 +1434,20 @@ impl Engine {
         it
     }
 
+    /// Counts the moves about to be made (agent, target), and traces them.
+    fn count_moves(&mut self, moves: &[(u32, [i32; 3])], rep: &mut StepReport) {
+        if self.opts.trace {
+            for &(m, to) in moves {
+                rep.trace.push(TraceEvent::Move {
+                    agent: m,
+                    from: self.lat.pos[m as usize],
+                    to,
+                });
+            }
+        }
+        self.stats.moves += moves.len() as u64;
+    }
+
     /// Steps 1 to 4 when no agent is attached and no rule attaches: every group is one
     /// agent, so only the movers are looked at (the same decisions and records as
     /// [`Engine::detach_move_attach`]).
@@ -1516,16 +1537,7 @@ impl Engine {
             }
         }
         self.scratch = scratch;
-        if self.opts.trace {
-            for &(m, to) in &live {
-                rep.trace.push(TraceEvent::Move {
-                    agent: m,
-                    from: self.lat.pos[m as usize],
-                    to,
-                });
-            }
-        }
-        self.stats.moves += live.len() as u64;
+        self.count_moves(&live, rep);
         self.lat.relocate(&live);
     }
 
@@ -1693,16 +1705,7 @@ impl Engine {
             }
         }
         moves.sort_unstable();
-        if self.opts.trace {
-            for &(m, to) in &moves {
-                rep.trace.push(TraceEvent::Move {
-                    agent: m,
-                    from: self.lat.pos[m as usize],
-                    to,
-                });
-            }
-        }
-        self.stats.moves += moves.len() as u64;
+        self.count_moves(&moves, rep);
         // Partners for `*` must be read before the moves.
         let mut keep_partner: Vec<[Option<u32>; 6]> = vec![[None; 6]; n];
         for a in 0..n {
@@ -1876,9 +1879,7 @@ impl Engine {
         let mut out_has = std::mem::take(&mut self.out_has);
         let mut out_text = std::mem::take(&mut self.out_text);
         let mut out_text_bits = std::mem::take(&mut self.out_text_bits);
-        let par = self.parallel(n);
-        let size = par.map_or(n.max(1), |p| p.1);
-        let chunks = n.div_ceil(size);
+        let (par, size, chunks) = self.chunks(n);
         let mut ctr = split_columns(&mut counters, size, chunks).into_iter();
         let mut onum = split_columns(&mut out_num, size, chunks).into_iter();
         let mut ohas = split_columns(&mut out_has, size.div_ceil(64), chunks).into_iter();
@@ -2019,9 +2020,7 @@ impl Engine {
         let mut inbox_num = std::mem::take(&mut self.lat.inbox_num);
         let mut inbox_text = std::mem::take(&mut self.lat.inbox_text);
         let mut inbox_has = std::mem::take(&mut self.lat.inbox_text_has);
-        let par = self.parallel(n);
-        let size = par.map_or(n.max(1), |p| p.1);
-        let chunks = n.div_ceil(size);
+        let (par, size, chunks) = self.chunks(n);
         let mut num = split_columns(&mut inbox_num, size, chunks).into_iter();
         let mut text = parts(&mut inbox_text, size * nd, chunks).into_iter();
         let mut has = parts(&mut inbox_has, size, chunks).into_iter();
