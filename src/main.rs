@@ -8,6 +8,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 mod gen;
+mod render;
 mod run;
 mod sweep;
 
@@ -52,6 +53,10 @@ enum Command {
     Gen(gen::GenArgs),
     /// Run rules over generated shapes of growing n and write CSV (and a plot) of the cost.
     Sweep(sweep::SweepArgs),
+    /// Draw a step of a run as PNG or SVG, or a range of steps as an animated GIF.
+    ///
+    /// Exit status: 0 written, 1 errors in the input files, 2 usage or I/O failure.
+    Render(render::RenderArgs),
     /// Check a rules file (and an agents file) and report every problem.
     ///
     /// Exit status: 0 no errors (warnings allowed), 1 errors, 2 usage or I/O failure.
@@ -215,5 +220,6 @@ fn main() -> ExitCode {
         Command::Run(args) => run::run(args),
         Command::Gen(args) => gen::gen(args),
         Command::Sweep(args) => sweep::sweep(args),
+        Command::Render(args) => render::render(args),
     }
 }

@@ -112,18 +112,18 @@ fn stats_json(e: &Engine, stop: Stop, wall: Option<Duration>) -> serde_json::Val
     v
 }
 
-pub fn run(args: RunArgs) -> ExitCode {
-    let order = match args.order {
-        OrderArg::ActionsFirst => Order::ActionsFirst,
-        OrderArg::MessagesFirst => Order::MessagesFirst,
-    };
-    let colour = colour(args.color);
-    let (rules_bytes, agents_bytes) = match (read(&args.rules), read(&args.agents)) {
-        (Ok(r), Ok(a)) => (r, a),
-        (Err(c), _) | (_, Err(c)) => return c,
-    };
-    let rules_name = args.rules.display().to_string();
-    let agents_name = args.agents.display().to_string();
+/// Reads and checks a rules and an agents file, printing the diagnostics (only errors when
+/// `quiet`): the verified program and the configuration, or the exit status (1 for errors
+/// in the files, 2 for I/O).
+pub(crate) fn load(
+    rules: &PathBuf,
+    agents: &PathBuf,
+    quiet: bool,
+    colour: bool,
+) -> Result<(latticesim_vm::Program, latticesim_vm::model::Config), ExitCode> {
+    let (rules_bytes, agents_bytes) = (read(rules)?, read(agents)?);
+    let rules_name = rules.display().to_string();
+    let agents_name = agents.display().to_string();
     let checked = check(
         Input {
             name: &rules_name,
@@ -135,23 +135,36 @@ pub fn run(args: RunArgs) -> ExitCode {
         }),
         None,
     );
-    if !checked.diags.is_empty() && (checked.errors() > 0 || !args.quiet) {
+    if !checked.diags.is_empty() && (checked.errors() > 0 || !quiet) {
         let _ =
             latticesim_compiler::render::render_stderr(&checked.diags, &checked.sources, colour);
     }
-    let (Some(program), Some(config)) = (&checked.program, &checked.config) else {
+    let (Some(program), Some(config)) = (checked.program.as_ref(), checked.config.clone()) else {
         eprintln!(
             "{rules_name}, {agents_name}: {} error{}; nothing was run",
             checked.errors(),
             if checked.errors() == 1 { "" } else { "s" }
         );
-        return ExitCode::from(1);
+        return Err(ExitCode::from(1));
     };
     let prog = lower(program);
     if let Err(e) = prog.verify() {
         eprintln!("internal error: the compiled program does not verify: {e}");
-        return ExitCode::from(2);
+        return Err(ExitCode::from(2));
     }
+    Ok((prog, config))
+}
+
+pub fn run(args: RunArgs) -> ExitCode {
+    let order = match args.order {
+        OrderArg::ActionsFirst => Order::ActionsFirst,
+        OrderArg::MessagesFirst => Order::MessagesFirst,
+    };
+    let colour = colour(args.color);
+    let (prog, config) = match load(&args.rules, &args.agents, args.quiet, colour) {
+        Ok(l) => l,
+        Err(c) => return c,
+    };
     let mut trace_out = match &args.trace {
         Some(p) => match std::fs::File::create(p) {
             Ok(f) => Some(std::io::BufWriter::new(f)),
@@ -171,7 +184,7 @@ pub fn run(args: RunArgs) -> ExitCode {
         static_first: args.static_first,
         trace: trace_out.is_some(),
     };
-    let mut engine = Engine::new(prog, Lattice::new(config), opts);
+    let mut engine = Engine::new(prog, Lattice::new(&config), opts);
 
     let interrupted = Arc::new(AtomicBool::new(false));
     {

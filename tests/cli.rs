@@ -457,3 +457,211 @@ fn sweep_writes_csv_and_plot() {
     ]);
     assert_eq!(o.status.code(), Some(1));
 }
+
+/// The documented colour of a state (docs/running.md): FNV-1a of its bytes picks the hue;
+/// saturation 65 %, lightness 55 %. Computed here from the formula, not taken from the
+/// program.
+fn documented_colour(state: &[u8]) -> [u8; 3] {
+    let mut h: u32 = 0x811c9dc5;
+    for &b in state {
+        h = (h ^ b as u32).wrapping_mul(16777619);
+    }
+    let (hue, s, l) = ((h % 360) as f64, 0.65, 0.55);
+    let c = (1.0 - (2.0 * l - 1.0f64).abs()) * s;
+    let x = c * (1.0 - ((hue / 60.0) % 2.0 - 1.0).abs());
+    let rgb = [
+        (c, x, 0.0),
+        (x, c, 0.0),
+        (0.0, c, x),
+        (0.0, x, c),
+        (x, 0.0, c),
+        (c, 0.0, x),
+    ][((hue / 60.0) as usize).min(5)];
+    let m = l - c / 2.0;
+    [rgb.0, rgb.1, rgb.2].map(|v| ((v + m) * 255.0).round() as u8)
+}
+
+#[test]
+fn render_png_shows_each_agent_in_its_state_colour() {
+    let (rules, agents) = ("examples/gravity/rules.txt", "examples/gravity/agents.txt");
+    let png_path = tmp("render.png", b"");
+    let o = run(&[
+        "render",
+        rules,
+        agents,
+        "--step",
+        "3",
+        "--out",
+        png_path.to_str().unwrap(),
+        "--cell",
+        "10",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // Where the agents stand after three steps, from `latticesim run`.
+    let o = run(&[
+        "run",
+        rules,
+        agents,
+        "--max-steps",
+        "3",
+        "--quiet",
+        "--no-timing",
+    ]);
+    assert!(o.status.success());
+    let cells: Vec<(i64, i64, String)> = String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .map(|l| {
+            let mut w = l.split_whitespace();
+            let p: Vec<i64> = w
+                .next()
+                .unwrap()
+                .split(',')
+                .map(|v| v.parse().unwrap())
+                .collect();
+            (p[0], p[1], w.next().unwrap()[1..].to_string())
+        })
+        .collect();
+    let decoder = png::Decoder::new(std::io::BufReader::new(
+        std::fs::File::open(&png_path).unwrap(),
+    ));
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    let (w, h) = (info.width as i64, info.height as i64);
+    let (x0, x1) = (
+        cells.iter().map(|c| c.0).min().unwrap(),
+        cells.iter().map(|c| c.0).max().unwrap(),
+    );
+    let (y0, y1) = (
+        cells.iter().map(|c| c.1).min().unwrap(),
+        cells.iter().map(|c| c.1).max().unwrap(),
+    );
+    // Ten pixels a cell and a margin of one cell; north is up.
+    assert_eq!((w, h), ((x1 - x0 + 3) * 10, (y1 - y0 + 3) * 10));
+    let pixel = |x: i64, y: i64| {
+        let (px, py) = ((x - x0 + 1) * 10 + 5, (y1 - y + 1) * 10 + 5);
+        let i = ((py * w + px) * 3) as usize;
+        [buf[i], buf[i + 1], buf[i + 2]]
+    };
+    for (x, y, state) in &cells {
+        assert_eq!(
+            pixel(*x, *y),
+            documented_colour(state.as_bytes()),
+            "agent at {x},{y}"
+        );
+    }
+    let taken: std::collections::HashSet<(i64, i64)> = cells.iter().map(|c| (c.0, c.1)).collect();
+    let empty = (x0..=x1)
+        .flat_map(|x| (y0..=y1).map(move |y| (x, y)))
+        .find(|c| !taken.contains(c))
+        .unwrap();
+    assert_eq!(pixel(empty.0, empty.1), [255, 255, 255]);
+}
+
+#[test]
+fn render_gif_has_a_frame_per_step_and_svg_a_legend() {
+    let (rules, agents) = (
+        "examples/spanning-tree/rules.txt",
+        "examples/spanning-tree/agents-40.txt",
+    );
+    let gif_path = tmp("render.gif", b"");
+    let o = run(&[
+        "render",
+        rules,
+        agents,
+        "--steps",
+        "2..9",
+        "--out",
+        gif_path.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut opts = gif::DecodeOptions::new();
+    opts.set_color_output(gif::ColorOutput::RGBA);
+    let mut d = opts
+        .read_info(std::fs::File::open(&gif_path).unwrap())
+        .unwrap();
+    let mut frames = 0;
+    while d.read_next_frame().unwrap().is_some() {
+        frames += 1;
+    }
+    assert_eq!(frames, 8);
+    let svg_path = tmp("render.svg", b"");
+    let o = run(&[
+        "render",
+        rules,
+        agents,
+        "--step",
+        "10",
+        "--out",
+        svg_path.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let svg = std::fs::read_to_string(&svg_path).unwrap();
+    // Two squares per agent (border and face), a legend entry per state.
+    assert_eq!(svg.matches("<polygon").count(), 2 * 40);
+    let o = run(&[
+        "run",
+        rules,
+        agents,
+        "--max-steps",
+        "10",
+        "--quiet",
+        "--no-timing",
+    ]);
+    let states: std::collections::BTreeSet<String> = String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .map(|l| l.split_whitespace().nth(1).unwrap()[1..].to_string())
+        .collect();
+    for s in &states {
+        assert!(svg.contains(&format!(">{s}</text>")), "legend lacks {s}");
+    }
+    assert!(svg.contains(">step 10</text>"));
+    // 3D: three faces per cube, the top in the state's colour.
+    let svg3 = tmp("render3.svg", b"");
+    let o = run(&[
+        "render",
+        "examples/gravity-3d/rules.txt",
+        "examples/gravity-3d/agents.txt",
+        "--step",
+        "2",
+        "--out",
+        svg3.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let svg3 = std::fs::read_to_string(&svg3).unwrap();
+    let n = std::fs::read_to_string("examples/gravity-3d/agents.txt")
+        .unwrap()
+        .lines()
+        .filter(|l| l.starts_with(|c: char| c.is_ascii_digit() || c == '-'))
+        .count();
+    assert_eq!(svg3.matches("<polygon").count(), 3 * n);
+}
+
+#[test]
+fn render_refuses_bad_requests() {
+    let (rules, agents) = ("examples/gravity/rules.txt", "examples/gravity/agents.txt");
+    let out = tmp("bad.png", b"");
+    let out = out.to_str().unwrap();
+    for (args, want) in [
+        (
+            vec!["--step", "1", "--out", "/tmp/x.bmp"],
+            "must end in .png, .svg or .gif",
+        ),
+        (vec!["--steps", "5..2", "--out", out], "expected A..B"),
+        (vec!["--steps", "0..3", "--out", out], "is written as .gif"),
+        (
+            vec!["--steps", "0..99999", "--out", "/tmp/x.gif"],
+            "at most 2000 frames",
+        ),
+    ] {
+        let mut a = vec!["render", rules, agents];
+        a.extend(args);
+        let o = run(&a);
+        assert_eq!(o.status.code(), Some(2), "{a:?}");
+        assert!(stderr(&o).contains(want), "{a:?}: {}", stderr(&o));
+    }
+    let bad = tmp("bad-rules.txt", b"r\n1\nQQ\nS*****\n");
+    let o = run(&["render", bad.to_str().unwrap(), agents, "--out", out]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("bad-rules.txt:3:"), "{}", stderr(&o));
+}

@@ -1,0 +1,536 @@
+//! `latticesim render`: a frame (PNG or SVG) or an animation (GIF) of a run, for papers
+//! and talks. Agents are squares (2D) or isometric cubes (3D) in their state's colour
+//! ([`state_colour`]), bonds are bars between attached agents, a bounded universe is
+//! outlined. The SVG carries a legend of the states.
+
+use crate::run::load;
+use crate::{colour, Color};
+use latticesim_runtime::{Engine, Lattice, Options};
+use latticesim_vm::model::{Dim, Dir};
+use std::collections::BTreeSet;
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Arguments of `latticesim render`.
+#[derive(clap::Args)]
+pub struct RenderArgs {
+    /// The rules file.
+    rules: PathBuf,
+    /// The agents file.
+    agents: PathBuf,
+    /// Draw the configuration after this many steps (0: the agents file as it is).
+    #[arg(long, conflicts_with = "steps")]
+    step: Option<u64>,
+    /// Draw every step from A to B (inclusive) as an animation, e.g. `0..40` (GIF only).
+    #[arg(long, value_name = "A..B")]
+    steps: Option<String>,
+    /// The image to write: .png or .svg for one frame, .gif for one or more.
+    #[arg(long)]
+    out: PathBuf,
+    /// Pixels per lattice cell (made smaller if the image would be wider than 8192 pixels).
+    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=256))]
+    cell: u32,
+    /// Frames per second of an animation.
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=100))]
+    fps: u32,
+    /// Colour in diagnostics.
+    #[arg(long, value_enum, default_value_t = Color::Auto)]
+    color: Color,
+}
+
+/// The most frames an animation may have.
+const MAX_FRAMES: u64 = 2000;
+/// The widest or highest image, in pixels.
+const MAX_SIDE: u64 = 8192;
+
+/// The colour of a state, the same in every picture and run: the FNV-1a hash (32 bits)
+/// of its five bytes picks the hue (hash mod 360); saturation 65 %, lightness 55 %.
+pub fn state_colour(state: &[u8; 5]) -> [u8; 3] {
+    let mut h: u32 = 0x811c_9dc5;
+    for &b in state {
+        h = (h ^ b as u32).wrapping_mul(0x0100_0193);
+    }
+    hsl((h % 360) as f64, 0.65, 0.55)
+}
+
+fn hsl(h: f64, s: f64, l: f64) -> [u8; 3] {
+    let c = (1.0 - (2.0 * l - 1.0).abs()) * s;
+    let x = c * (1.0 - ((h / 60.0) % 2.0 - 1.0).abs());
+    let (r, g, b) = match (h / 60.0) as u32 {
+        0 => (c, x, 0.0),
+        1 => (x, c, 0.0),
+        2 => (0.0, c, x),
+        3 => (0.0, x, c),
+        4 => (x, 0.0, c),
+        _ => (c, 0.0, x),
+    };
+    let m = l - c / 2.0;
+    [r, g, b].map(|v| ((v + m) * 255.0).round() as u8)
+}
+
+fn shade(c: [u8; 3], f: f64) -> [u8; 3] {
+    c.map(|v| (v as f64 * f).round() as u8)
+}
+
+const BACKGROUND: [u8; 3] = [255, 255, 255];
+const BOND: [u8; 3] = [40, 40, 40];
+const WALL: [u8; 3] = [150, 150, 150];
+
+/// What one frame shows.
+struct Frame {
+    pos: Vec<[i32; 3]>,
+    state: Vec<[u8; 5]>,
+    /// Bonds as pairs of agent indices, each once.
+    bonds: Vec<(usize, usize)>,
+}
+
+impl Frame {
+    fn of(lat: &Lattice) -> Frame {
+        let mut bonds = Vec::new();
+        for a in 0..lat.len() {
+            for d in Dir::ALL.iter().take(lat.dim.dirs()) {
+                if lat.attach[a] & (1 << d.index()) != 0 {
+                    if let Some(b) = lat.neighbour(a as u32, *d).filter(|&b| b as usize > a) {
+                        bonds.push((a, b as usize));
+                    }
+                }
+            }
+        }
+        Frame {
+            pos: lat.pos.clone(),
+            state: lat.state.clone(),
+            bonds,
+        }
+    }
+}
+
+/// A filled convex polygon, a bar or an outline, in image coordinates.
+enum Shape {
+    Poly(Vec<(f64, f64)>, [u8; 3]),
+    Line((f64, f64), (f64, f64), f64, [u8; 3]),
+}
+
+/// How cells map to the picture.
+struct View {
+    three_d: bool,
+    cell: f64,
+    /// Lattice bounds drawn: low and high corner.
+    lo: [i64; 3],
+    hi: [i64; 3],
+    /// Offset added to projected coordinates, and the image size.
+    origin: (f64, f64),
+    size: (u32, u32),
+    universe: Option<[(i64, i64); 3]>,
+}
+
+impl View {
+    /// Projects a lattice point (cell corner coordinates) to the image.
+    fn at(&self, x: f64, y: f64, z: f64) -> (f64, f64) {
+        let (u, v) = if self.three_d {
+            ((x - y) * self.cell, ((x + y) * 0.5 - z) * self.cell)
+        } else {
+            (x * self.cell, -y * self.cell)
+        };
+        (u + self.origin.0, v + self.origin.1)
+    }
+
+    fn new(frames: &[Frame], dim: Dim, universe: Option<[(i64, i64); 3]>, cell: u32) -> View {
+        let mut lo = [i64::MAX; 3];
+        let mut hi = [i64::MIN; 3];
+        for p in frames.iter().flat_map(|f| &f.pos) {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k] as i64);
+                hi[k] = hi[k].max(p[k] as i64);
+            }
+        }
+        if lo[0] == i64::MAX {
+            (lo, hi) = ([0; 3], [0; 3]);
+        }
+        // A bounded universe not much larger than the agents is drawn whole.
+        let universe = universe
+            .filter(|u| (0..dim.coords()).all(|k| u[k].1 - u[k].0 <= 4 * (hi[k] - lo[k] + 1) + 16));
+        if let Some(u) = universe {
+            for k in 0..dim.coords() {
+                lo[k] = lo[k].min(u[k].0);
+                hi[k] = hi[k].max(u[k].1);
+            }
+        }
+        let three_d = dim == Dim::Three;
+        let mut view = View {
+            three_d,
+            cell: cell as f64,
+            lo,
+            hi,
+            origin: (0.0, 0.0),
+            size: (1, 1),
+            universe,
+        };
+        // Fit the cell size to the largest image, then place the drawing with a margin.
+        let extent = |v: &View| {
+            let corners = (0..8).map(|i| {
+                let c = |k: usize| if i & (1 << k) != 0 { v.hi[k] + 1 } else { v.lo[k] } as f64;
+                v.at(c(0), c(1), c(2))
+            });
+            corners.fold((f64::MAX, f64::MAX, f64::MIN, f64::MIN), |b, (x, y)| {
+                (b.0.min(x), b.1.min(y), b.2.max(x), b.3.max(y))
+            })
+        };
+        let (x0, y0, x1, y1) = extent(&view);
+        let widest = (x1 - x0).max(y1 - y0) / view.cell + 2.0;
+        view.cell = view.cell.min(MAX_SIDE as f64 / widest).max(1.0).floor();
+        let (x0, y0, x1, y1) = extent(&view);
+        let margin = view.cell;
+        view.origin = (margin - x0, margin - y0);
+        view.size = (
+            (x1 - x0 + 2.0 * margin).ceil() as u32,
+            (y1 - y0 + 2.0 * margin).ceil() as u32,
+        );
+        view
+    }
+
+    /// The shapes of a frame, back to front.
+    fn shapes(&self, f: &Frame) -> Vec<Shape> {
+        let mut out = Vec::new();
+        if let Some(u) = self.universe {
+            let (x0, y0, x1, y1) = (
+                u[0].0 as f64,
+                u[1].0 as f64,
+                u[0].1 as f64 + 1.0,
+                u[1].1 as f64 + 1.0,
+            );
+            let z = if self.three_d { u[2].0 as f64 } else { 0.0 };
+            let ring = [(x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0)];
+            for w in ring.windows(2) {
+                let (a, b) = (self.at(w[0].0, w[0].1, z), self.at(w[1].0, w[1].1, z));
+                out.push(Shape::Line(a, b, 1.0, WALL));
+            }
+        }
+        let centre = |p: [i32; 3]| {
+            let (x, y, z) = (p[0] as f64 + 0.5, p[1] as f64 + 0.5, p[2] as f64);
+            self.at(x, y, if self.three_d { z + 1.0 } else { 0.0 })
+        };
+        let bar = (self.cell / 5.0).max(1.0);
+        if self.three_d {
+            // Painter's order: far (small x + y, low z) first.
+            let mut order: Vec<usize> = (0..f.pos.len()).collect();
+            order.sort_by_key(|&a| {
+                let p = f.pos[a];
+                (p[0] as i64 + p[1] as i64, p[2], p[0])
+            });
+            for a in order {
+                let [x, y, z] = f.pos[a].map(|c| c as f64);
+                let c = state_colour(&f.state[a]);
+                let q = |pts: [(f64, f64, f64); 4]| pts.map(|(x, y, z)| self.at(x, y, z)).to_vec();
+                out.push(Shape::Poly(
+                    q([
+                        (x + 1.0, y, z),
+                        (x + 1.0, y + 1.0, z),
+                        (x + 1.0, y + 1.0, z + 1.0),
+                        (x + 1.0, y, z + 1.0),
+                    ]),
+                    shade(c, 0.8),
+                ));
+                out.push(Shape::Poly(
+                    q([
+                        (x, y + 1.0, z),
+                        (x + 1.0, y + 1.0, z),
+                        (x + 1.0, y + 1.0, z + 1.0),
+                        (x, y + 1.0, z + 1.0),
+                    ]),
+                    shade(c, 0.65),
+                ));
+                out.push(Shape::Poly(
+                    q([
+                        (x, y, z + 1.0),
+                        (x + 1.0, y, z + 1.0),
+                        (x + 1.0, y + 1.0, z + 1.0),
+                        (x, y + 1.0, z + 1.0),
+                    ]),
+                    c,
+                ));
+            }
+        } else {
+            let inset = if self.cell >= 4.0 {
+                1.0 / self.cell
+            } else {
+                0.0
+            };
+            for (p, s) in f.pos.iter().zip(&f.state) {
+                let (x, y) = (p[0] as f64, p[1] as f64);
+                let c = state_colour(s);
+                let sq = |d: f64| {
+                    vec![
+                        self.at(x + d, y + d, 0.0),
+                        self.at(x + 1.0 - d, y + d, 0.0),
+                        self.at(x + 1.0 - d, y + 1.0 - d, 0.0),
+                        self.at(x + d, y + 1.0 - d, 0.0),
+                    ]
+                };
+                out.push(Shape::Poly(sq(0.0), shade(c, 0.7)));
+                out.push(Shape::Poly(sq(inset), c));
+            }
+        }
+        for &(a, b) in &f.bonds {
+            out.push(Shape::Line(centre(f.pos[a]), centre(f.pos[b]), bar, BOND));
+        }
+        out
+    }
+}
+
+/// Rasterises shapes into an RGB image.
+fn raster(view: &View, shapes: &[Shape]) -> Vec<u8> {
+    let (w, h) = (view.size.0 as usize, view.size.1 as usize);
+    let mut img = BACKGROUND.repeat(w * h);
+    let mut fill = |pts: &[(f64, f64)], c: [u8; 3]| {
+        // Scanline fill of a convex polygon, sampling pixel centres.
+        let ys = pts.iter().map(|p| p.1);
+        let (top, bottom) = ys.fold((f64::MAX, f64::MIN), |(a, b), y| (a.min(y), b.max(y)));
+        let (r0, r1) = (
+            (top - 0.5).ceil().max(0.0) as usize,
+            ((bottom - 0.5).floor() as i64).min(h as i64 - 1),
+        );
+        for row in r0 as i64..=r1 {
+            let yc = row as f64 + 0.5;
+            let (mut l, mut r) = (f64::MAX, f64::MIN);
+            for i in 0..pts.len() {
+                let (a, b) = (pts[i], pts[(i + 1) % pts.len()]);
+                if (a.1 <= yc && b.1 > yc) || (b.1 <= yc && a.1 > yc) {
+                    let x = a.0 + (yc - a.1) / (b.1 - a.1) * (b.0 - a.0);
+                    (l, r) = (l.min(x), r.max(x));
+                }
+            }
+            if l > r {
+                continue;
+            }
+            let (c0, c1) = (
+                (l - 0.5).ceil().max(0.0) as usize,
+                ((r - 0.5).floor() as i64).min(w as i64 - 1),
+            );
+            for col in c0 as i64..=c1 {
+                let i = (row as usize * w + col as usize) * 3;
+                img[i..i + 3].copy_from_slice(&c);
+            }
+        }
+    };
+    for s in shapes {
+        match s {
+            Shape::Poly(pts, c) => fill(pts, *c),
+            Shape::Line(a, b, width, c) => {
+                // A bar: the segment widened by `width` across its direction.
+                let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+                let len = (dx * dx + dy * dy).sqrt().max(1e-9);
+                let (nx, ny) = (-dy / len * width / 2.0, dx / len * width / 2.0);
+                let pts = [
+                    (a.0 + nx, a.1 + ny),
+                    (b.0 + nx, b.1 + ny),
+                    (b.0 - nx, b.1 - ny),
+                    (a.0 - nx, a.1 - ny),
+                ];
+                fill(&pts, *c);
+            }
+        }
+    }
+    img
+}
+
+fn hex(c: [u8; 3]) -> String {
+    format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2])
+}
+
+/// The frame as SVG, with a legend of the states on the right.
+fn svg(view: &View, shapes: &[Shape], states: &BTreeSet<[u8; 5]>, step: u64) -> String {
+    let legend_w = 140;
+    let (w, h) = (
+        view.size.0 + legend_w,
+        view.size.1.max(24 + 18 * states.len() as u32),
+    );
+    let mut s = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" viewBox=\"0 0 {w} {h}\">\n<rect width=\"{w}\" height=\"{h}\" fill=\"white\"/>\n"
+    );
+    for sh in shapes {
+        match sh {
+            Shape::Poly(pts, c) => {
+                let p: Vec<String> = pts.iter().map(|(x, y)| format!("{x:.2},{y:.2}")).collect();
+                let _ = writeln!(
+                    s,
+                    "<polygon points=\"{}\" fill=\"{}\"/>",
+                    p.join(" "),
+                    hex(*c)
+                );
+            }
+            Shape::Line(a, b, width, c) => {
+                let _ = writeln!(
+                    s,
+                    "<line x1=\"{:.2}\" y1=\"{:.2}\" x2=\"{:.2}\" y2=\"{:.2}\" stroke=\"{}\" stroke-width=\"{width:.2}\"/>",
+                    a.0, a.1, b.0, b.1, hex(*c)
+                );
+            }
+        }
+    }
+    let x = view.size.0 + 10;
+    let _ = writeln!(
+        s,
+        "<text x=\"{x}\" y=\"16\" font-family=\"sans-serif\" font-size=\"12\">step {step}</text>"
+    );
+    for (i, st) in states.iter().enumerate() {
+        let y = 24 + 18 * i as u32;
+        let name: String = String::from_utf8_lossy(st)
+            .chars()
+            .map(|c| match c {
+                '<' => '‹',
+                '>' => '›',
+                '&' => '+',
+                c => c,
+            })
+            .collect();
+        let _ = writeln!(
+            s,
+            "<rect x=\"{x}\" y=\"{y}\" width=\"14\" height=\"14\" fill=\"{}\"/><text x=\"{}\" y=\"{}\" font-family=\"monospace\" font-size=\"12\">{name}</text>",
+            hex(state_colour(st)),
+            x + 20,
+            y + 12
+        );
+    }
+    s.push_str("</svg>\n");
+    s
+}
+
+fn png(view: &View, rgb: &[u8]) -> Result<Vec<u8>, String> {
+    let mut out = Vec::new();
+    let mut enc = png::Encoder::new(&mut out, view.size.0, view.size.1);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    let mut w = enc.write_header().map_err(|e| e.to_string())?;
+    w.write_image_data(rgb).map_err(|e| e.to_string())?;
+    w.finish().map_err(|e| e.to_string())?;
+    Ok(out)
+}
+
+fn gif(view: &View, frames: &[Vec<u8>], fps: u32) -> Result<Vec<u8>, String> {
+    let (w, h) = (view.size.0, view.size.1);
+    if w > u16::MAX as u32 || h > u16::MAX as u32 {
+        return Err(format!(
+            "a GIF is at most 65535 pixels a side; this one is {w} x {h}"
+        ));
+    }
+    let mut out = Vec::new();
+    {
+        let mut enc =
+            gif::Encoder::new(&mut out, w as u16, h as u16, &[]).map_err(|e| e.to_string())?;
+        enc.set_repeat(gif::Repeat::Infinite)
+            .map_err(|e| e.to_string())?;
+        for rgb in frames {
+            let mut f = gif::Frame::from_rgb_speed(w as u16, h as u16, rgb, 10);
+            f.delay = (100 / fps).max(1) as u16;
+            enc.write_frame(&f).map_err(|e| e.to_string())?;
+        }
+    }
+    Ok(out)
+}
+
+/// Parses `A..B` (inclusive).
+fn range(s: &str) -> Option<(u64, u64)> {
+    let (a, b) = s.split_once("..")?;
+    let (a, b) = (a.trim().parse().ok()?, b.trim().parse().ok()?);
+    (a <= b).then_some((a, b))
+}
+
+pub fn render(args: RenderArgs) -> ExitCode {
+    let ext = args
+        .out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase());
+    let (first, last) = match (&args.steps, args.step) {
+        (Some(s), _) => match range(s) {
+            Some(r) if r.1 - r.0 < MAX_FRAMES => r,
+            Some(_) => {
+                eprintln!("error: --steps {s}: at most {MAX_FRAMES} frames");
+                return ExitCode::from(2);
+            }
+            None => {
+                eprintln!("error: --steps {s}: expected A..B with A <= B, e.g. 0..40");
+                return ExitCode::from(2);
+            }
+        },
+        (None, n) => (n.unwrap_or(0), n.unwrap_or(0)),
+    };
+    match (ext.as_deref(), first == last) {
+        (Some("png" | "svg"), true) | (Some("gif"), _) => {}
+        (Some("png" | "svg"), false) => {
+            eprintln!(
+                "error: an animation (--steps) is written as .gif, not `{}`",
+                args.out.display()
+            );
+            return ExitCode::from(2);
+        }
+        _ => {
+            eprintln!(
+                "error: `{}`: the image must end in .png, .svg or .gif",
+                args.out.display()
+            );
+            return ExitCode::from(2);
+        }
+    }
+    let (prog, config) = match load(&args.rules, &args.agents, true, colour(args.color)) {
+        Ok(l) => l,
+        Err(c) => return c,
+    };
+    let dim = config.dim;
+    let universe = config
+        .universe
+        .map(|b| [0, 1, 2].map(|k| (b[k].0 as i64, b[k].1 as i64)));
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let opts = Options {
+        threads,
+        ..Options::default()
+    };
+    let mut engine = Engine::new(prog, Lattice::new(&config), opts);
+    let mut frames = Vec::new();
+    let mut states = BTreeSet::new();
+    while engine.stats.steps <= last {
+        if engine.stats.steps >= first {
+            let f = Frame::of(&engine.lat);
+            states.extend(f.state.iter().copied());
+            frames.push(f);
+        }
+        if engine.stats.steps == last {
+            break;
+        }
+        engine.step();
+    }
+    let view = View::new(&frames, dim, universe, args.cell);
+    let bytes = match ext.as_deref() {
+        Some("svg") => Ok(svg(&view, &view.shapes(&frames[0]), &states, first).into_bytes()),
+        Some("png") => png(&view, &raster(&view, &view.shapes(&frames[0]))),
+        _ => {
+            let rasters: Vec<Vec<u8>> = frames
+                .iter()
+                .map(|f| raster(&view, &view.shapes(f)))
+                .collect();
+            gif(&view, &rasters, args.fps)
+        }
+    };
+    let bytes = match bytes {
+        Ok(b) => b,
+        Err(e) => {
+            eprintln!("error: cannot encode `{}`: {e}", args.out.display());
+            return ExitCode::from(2);
+        }
+    };
+    if let Err(e) = std::fs::write(&args.out, bytes) {
+        eprintln!("error: cannot write `{}`: {e}", args.out.display());
+        return ExitCode::from(2);
+    }
+    eprintln!(
+        "{}: {} frame{} ({} x {} pixels, steps {first}..{last}), {} agents",
+        args.out.display(),
+        frames.len(),
+        if frames.len() == 1 { "" } else { "s" },
+        view.size.0,
+        view.size.1,
+        engine.lat.len()
+    );
+    ExitCode::SUCCESS
+}
