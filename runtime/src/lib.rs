@@ -2,16 +2,19 @@
 //!
 //! [`Engine`] runs a compiled [`latticesim_vm::Program`] on a [`Lattice`] one [`Engine::step`]
 //! at a time; each step returns its [`Record`]s (errors and warnings) and, when tracing, its
-//! [`TraceEvent`]s, and updates the [`Stats`]. The runtime does no I/O.
+//! [`TraceEvent`]s, and updates the [`Stats`]. [`History`] keeps keyframes so that a run
+//! can go back to any earlier step exactly, in bounded memory. The runtime does no I/O.
 #![warn(missing_docs)]
 
 mod cells;
 pub mod gen;
+mod history;
 mod lattice;
 mod record;
 mod step;
 mod trace;
 
+pub use history::History;
 pub use lattice::{Lattice, LatticeBuilder};
 pub use record::{Record, RecordKind};
 pub use step::{Engine, Options, Order, Stats, StepReport};

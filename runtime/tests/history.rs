@@ -1,0 +1,109 @@
+//! Going back in a run (`History`): every step reached backwards equals the same step of a
+//! fresh run (configuration with inboxes, statistics, the step's report), and the
+//! keyframes stay within their bound.
+
+use latticesim_compiler::{check, lower, Input};
+use latticesim_runtime::{Engine, History, Lattice, Options};
+
+fn compile(rules: &str, agents: &str) -> (latticesim_vm::Program, Lattice) {
+    let c = check(
+        Input {
+            name: "rules.txt",
+            bytes: rules.as_bytes(),
+        },
+        Some(Input {
+            name: "agents.txt",
+            bytes: agents.as_bytes(),
+        }),
+        None,
+    );
+    assert_eq!(c.errors(), 0, "{:#?}", c.diags);
+    (
+        lower(c.program.as_ref().unwrap()),
+        Lattice::new(c.config.as_ref().unwrap()),
+    )
+}
+
+/// Everything a viewer shows of a configuration: agents (with counters and bonds) and
+/// every inbox slot.
+fn picture(e: &Engine) -> String {
+    let mut s = e.lat.to_agents_text();
+    for a in 0..e.lat.len() as u32 {
+        for d in 0..e.lat.dim.dirs() as u8 {
+            for k in 0..e.lat.dim.slots() as u8 {
+                s += &format!("{} ", e.lat.inbox(a, d, k));
+            }
+        }
+    }
+    s
+}
+
+fn cases() -> Vec<(String, String)> {
+    let mut flood_agents = String::new();
+    for x in 0..12 {
+        for y in 0..9 {
+            flood_agents += &format!("{x},{y} C00 {}\n", (x * 7 + y * 13) % 50);
+        }
+    }
+    let mut fall_agents = String::new();
+    for x in 0..10 {
+        for y in 0..14 {
+            if (x * 31 + y * 17) % 10 < 4 {
+                fall_agents += &format!("{x},{y} C00 {y}\n");
+            }
+        }
+    }
+    vec![
+        (
+            "flood\n1\nS*****\nC00 A C00 #N01 C00 A C00 #W01 C00 A C00 #E01 C00 A C00 #S01 #*01 + C00 0000\n".into(),
+            flood_agents,
+        ),
+        (
+            "fall\n1\nN***0 >C00 0000\nP0,-1 C00 - C00 0001\n\nturn\n1\nN***1 S0****\nS1****\n".into(),
+            fall_agents,
+        ),
+    ]
+}
+
+#[test]
+fn going_back_gives_exactly_the_earlier_step() {
+    for (rules, agents) in cases() {
+        let (prog, lat) = compile(&rules, &agents);
+        // The fresh run: the picture, statistics and report of every step.
+        let mut fresh = Engine::new(prog.clone(), lat.clone(), Options::default());
+        let mut seen = vec![(picture(&fresh), fresh.stats.clone(), None)];
+        for _ in 0..40 {
+            let rep = fresh.step();
+            seen.push((picture(&fresh), fresh.stats.clone(), Some(rep)));
+        }
+        let mut h = History::new(prog, lat, Options::default(), 4, 4);
+        h.goto(40);
+        // Keyframes end up at 0, 16 and 32: targets on them, between them, both ways.
+        for target in [37u64, 40, 32, 16, 12, 0, 1, 16, 15, 33, 2, 40, 8] {
+            h.goto(target);
+            let (pic, stats, rep) = &seen[target as usize];
+            assert_eq!(h.steps(), target);
+            assert_eq!(&picture(h.engine()), pic, "step {target}");
+            assert_eq!(&h.engine().stats, stats, "statistics at step {target}");
+            assert_eq!(h.last_report(), rep.as_ref(), "report of step {target}");
+        }
+        h.back(3);
+        assert_eq!(h.steps(), 5);
+        assert_eq!(picture(h.engine()), seen[5].0);
+        h.back(100);
+        assert_eq!(h.steps(), 0);
+    }
+}
+
+#[test]
+fn keyframes_stay_bounded() {
+    let (rules, agents) = cases().swap_remove(0);
+    let (prog, lat) = compile(&rules, &agents);
+    let mut h = History::new(prog, lat, Options::default(), 2, 5);
+    for _ in 0..500 {
+        h.step();
+        assert!(h.keyframes().0 <= 5, "{:?}", h.keyframes());
+    }
+    // The interval grew instead: 500 steps in at most 5 keyframes.
+    assert!(h.keyframes().1 >= 128, "{:?}", h.keyframes());
+}
