@@ -312,7 +312,7 @@ impl Lattice {
     }
 
     /// The agents next to agent `a` in every direction of the dimension: an id, or
-    /// [`NO_AGENT`] for an empty cell or one outside the universe.
+    /// `u32::MAX` for an empty cell or one outside the universe.
     #[inline(always)]
     pub fn neighbours(&self, a: u32, out: &mut [u32; 6]) {
         let nd = self.dim.dirs();
@@ -338,7 +338,7 @@ impl Lattice {
 
     /// For agents from `first` (at most `len`) standing on consecutive cells of a grid with
     /// no universe walls: how many do, and per direction the ids next to them
-    /// ([`NO_AGENT`] for none), read straight from the grid. `None` when the grid cannot
+    /// (`u32::MAX` for none), read straight from the grid. `None` when the grid cannot
     /// answer for a run of them at once.
     #[inline]
     pub fn neighbour_run(&self, first: usize, len: usize) -> Option<(usize, [&[u32]; 6])> {
