@@ -2,27 +2,10 @@
 //! fresh run (configuration with inboxes, statistics, the step's report), and the
 //! keyframes stay within their bound.
 
-use latticesim_compiler::{check, lower, Input};
-use latticesim_runtime::{Engine, History, Lattice, Options};
+mod common;
 
-fn compile(rules: &str, agents: &str) -> (latticesim_vm::Program, Lattice) {
-    let c = check(
-        Input {
-            name: "rules.txt",
-            bytes: rules.as_bytes(),
-        },
-        Some(Input {
-            name: "agents.txt",
-            bytes: agents.as_bytes(),
-        }),
-        None,
-    );
-    assert_eq!(c.errors(), 0, "{:#?}", c.diags);
-    (
-        lower(c.program.as_ref().unwrap()),
-        Lattice::new(c.config.as_ref().unwrap()),
-    )
-}
+use common::compile;
+use latticesim_runtime::{Engine, History, Options};
 
 /// Everything a viewer shows of a configuration: agents (with counters and bonds) and
 /// every inbox slot.

@@ -1,25 +1,13 @@
 //! SEMANTICS.md sections 3 to 5, point by point, on small hand-made configurations. Every
 //! expected outcome below was worked out by hand from the rules (see the comment on each).
 
-use latticesim_compiler::{check, lower, Input};
-use latticesim_runtime::{Engine, Lattice, Options, Order, StepReport};
+mod common;
+
+use latticesim_runtime::{Engine, Options, Order, StepReport};
 
 fn engine_with(rules: &str, agents: &str, opts: Options) -> Engine {
-    let c = check(
-        Input {
-            name: "rules.txt",
-            bytes: rules.as_bytes(),
-        },
-        Some(Input {
-            name: "agents.txt",
-            bytes: agents.as_bytes(),
-        }),
-        None,
-    );
-    assert_eq!(c.errors(), 0, "{:#?}", c.diags);
-    let prog = lower(c.program.as_ref().unwrap());
-    prog.verify().unwrap();
-    Engine::new(prog, Lattice::new(c.config.as_ref().unwrap()), opts)
+    let (prog, lat) = common::compile(rules, agents);
+    Engine::new(prog, lat, opts)
 }
 
 fn engine(rules: &str, agents: &str) -> Engine {

@@ -1,0 +1,24 @@
+//! Helpers shared by the runtime's integration tests.
+
+use latticesim_compiler::{check, lower, Input};
+use latticesim_runtime::Lattice;
+
+/// Checks a rules and an agents file that must have no errors: the verified program and
+/// the lattice.
+pub fn compile(rules: &str, agents: &str) -> (latticesim_vm::Program, Lattice) {
+    let c = check(
+        Input {
+            name: "rules.txt",
+            bytes: rules.as_bytes(),
+        },
+        Some(Input {
+            name: "agents.txt",
+            bytes: agents.as_bytes(),
+        }),
+        None,
+    );
+    assert_eq!(c.errors(), 0, "{:#?}", c.diags);
+    let prog = lower(c.program.as_ref().unwrap());
+    prog.verify().unwrap();
+    (prog, Lattice::new(c.config.as_ref().unwrap()))
+}
