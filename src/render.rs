@@ -41,6 +41,8 @@ pub struct RenderArgs {
 
 /// The most frames an animation may have.
 const MAX_FRAMES: u64 = 2000;
+/// The most agents times frames an animation may hold.
+const MAX_AGENT_FRAMES: u64 = 50_000_000;
 /// The widest or highest image, in pixels.
 const MAX_SIDE: u64 = 8192;
 
@@ -407,7 +409,9 @@ fn png(view: &View, rgb: &[u8]) -> Result<Vec<u8>, String> {
     Ok(out)
 }
 
-fn gif(view: &View, frames: &[Vec<u8>], fps: u32) -> Result<Vec<u8>, String> {
+/// The frames as an animated GIF, each rasterised only when it is encoded (one frame in
+/// memory at a time).
+fn gif(view: &View, frames: &[Frame], fps: u32) -> Result<Vec<u8>, String> {
     let (w, h) = (view.size.0, view.size.1);
     if w > u16::MAX as u32 || h > u16::MAX as u32 {
         return Err(format!(
@@ -420,8 +424,9 @@ fn gif(view: &View, frames: &[Vec<u8>], fps: u32) -> Result<Vec<u8>, String> {
             gif::Encoder::new(&mut out, w as u16, h as u16, &[]).map_err(|e| e.to_string())?;
         enc.set_repeat(gif::Repeat::Infinite)
             .map_err(|e| e.to_string())?;
-        for rgb in frames {
-            let mut f = gif::Frame::from_rgb_speed(w as u16, h as u16, rgb, 10);
+        for frame in frames {
+            let rgb = raster(view, &view.shapes(frame));
+            let mut f = gif::Frame::from_rgb_speed(w as u16, h as u16, &rgb, 10);
             f.delay = (100 / fps).max(1) as u16;
             enc.write_frame(&f).map_err(|e| e.to_string())?;
         }
@@ -487,6 +492,15 @@ pub fn render(args: RenderArgs) -> ExitCode {
         ..Options::default()
     };
     let mut engine = Engine::new(prog, Lattice::new(&config), opts);
+    let agent_frames = engine.lat.len() as u64 * (last - first + 1);
+    if agent_frames > MAX_AGENT_FRAMES {
+        eprintln!(
+            "error: {} agents in {} frames are more than {MAX_AGENT_FRAMES} agent-frames; draw fewer steps",
+            engine.lat.len(),
+            last - first + 1
+        );
+        return ExitCode::from(2);
+    }
     let mut frames = Vec::new();
     let mut states = BTreeSet::new();
     while engine.stats.steps <= last {
@@ -501,16 +515,18 @@ pub fn render(args: RenderArgs) -> ExitCode {
         engine.step();
     }
     let view = View::new(&frames, dim, universe, args.cell);
+    if view.size.0 as u64 > MAX_SIDE + 64 || view.size.1 as u64 > MAX_SIDE + 64 {
+        eprintln!(
+            "error: the agents spread over {} x {} cells, more than a picture of at most {MAX_SIDE} pixels a side can show at one pixel a cell",
+            view.hi[0] - view.lo[0] + 1,
+            view.hi[1] - view.lo[1] + 1
+        );
+        return ExitCode::from(2);
+    }
     let bytes = match ext.as_deref() {
         Some("svg") => Ok(svg(&view, &view.shapes(&frames[0]), &states, first).into_bytes()),
         Some("png") => png(&view, &raster(&view, &view.shapes(&frames[0]))),
-        _ => {
-            let rasters: Vec<Vec<u8>> = frames
-                .iter()
-                .map(|f| raster(&view, &view.shapes(f)))
-                .collect();
-            gif(&view, &rasters, args.fps)
-        }
+        _ => gif(&view, &frames, args.fps),
     };
     let bytes = match bytes {
         Ok(b) => b,

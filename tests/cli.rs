@@ -660,6 +660,11 @@ fn render_refuses_bad_requests() {
         assert_eq!(o.status.code(), Some(2), "{a:?}");
         assert!(stderr(&o).contains(want), "{a:?}: {}", stderr(&o));
     }
+    // Agents too far apart for any picture: refused, not drawn.
+    let far = tmp("far.txt", b"0,0\n0,1000000\n");
+    let o = run(&["render", rules, far.to_str().unwrap(), "--out", out]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("more than a picture"), "{}", stderr(&o));
     let bad = tmp("bad-rules.txt", b"r\n1\nQQ\nS*****\n");
     let o = run(&["render", bad.to_str().unwrap(), agents, "--out", out]);
     assert_eq!(o.status.code(), Some(1));
