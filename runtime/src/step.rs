@@ -142,10 +142,6 @@ pub struct Engine {
     prio_offsets: Option<Vec<[i32; 3]>>,
     /// Per rule: it has a move, swap, attachment or state action.
     has_actions: Vec<bool>,
-    /// Per rule: its only action is setting the state.
-    state_only: Vec<bool>,
-    /// The program's patterns as [`pat_bits`].
-    pat_bits: Vec<(u64, u64)>,
     /// Per rule whose only action sets the state: that state pattern as [`pat_bits`].
     direct_bits: Vec<Option<(u64, u64)>>,
     /// Per entry of the program's offsets: its value when it has no counter in it.
@@ -540,18 +536,7 @@ impl Engine {
                         || i.sets_state.is_some()
                 })
                 .collect(),
-            state_only: prog
-                .rules
-                .iter()
-                .map(|i| {
-                    i.sets_state.is_some()
-                        && i.moves.is_none()
-                        && i.swaps.is_none()
-                        && i.attaches.is_none()
-                })
-                .collect(),
             literal_offsets: prog.offsets.iter().map(literal).collect(),
-            pat_bits: prog.pats.iter().map(pat_bits).collect(),
             direct_bits: prog
                 .rules
                 .iter()
@@ -1124,7 +1109,6 @@ impl Engine {
     fn actions(&mut self, sel: &mut Selection, rep: &mut StepReport, pick: Option<&[bool]>) {
         let pick = |r: u32| pick.is_none_or(|p| p[r as usize]);
         let n = self.lat.len();
-        let nd = self.lat.dim.dirs();
         // Rules with nothing to do in this phase (only calculations and sends) are left out;
         // only the agents with something to do get an intent.
         if !self.has_actions.iter().any(|&h| h) {
@@ -1133,206 +1117,46 @@ impl Engine {
         let has_actions = std::mem::take(&mut self.has_actions);
         let acts = |r: u32| has_actions[r as usize];
         let mut intents: Vec<(u32, Intent)> = Vec::new();
-        // Agents whose one rule only sets the state: (agent, pattern).
-        let mut states: Vec<(u32, u16)> = Vec::new();
+        // Without tracing (which reports state changes after moves), an agent whose one
+        // rule only sets the state does so at once: no other action of the step reads
+        // states. When the selection is decided by states alone, its entry is also set at
+        // once to the rule of its new state (see `set_state_at_once`).
         let direct = !self.opts.trace;
+        let keep = self.sel_by_state && !self.any_prio && !self.opts.static_first;
+        let (mut changed, mut lookups) = (false, false);
         let mut rs: Vec<u32> = Vec::new();
         for a in 0..n {
-            match sel.one[a] {
-                NO_RULE => continue,
-                r if r & MANY == 0 && !acts(r) => continue,
-                r if r & MANY == 0 && pick(r) && self.state_only[r as usize] => {
-                    if direct {
-                        continue;
-                    }
-                    let p = self.prog.rules[r as usize]
-                        .sets_state
-                        .expect("sets the state");
-                    states.push((a as u32, p));
+            let r = sel.one[a];
+            if r == NO_RULE {
+                continue;
+            }
+            if r & MANY == 0 {
+                // One rule: nothing can conflict.
+                if !acts(r) || !pick(r) {
                     continue;
                 }
-                _ => {}
-            }
-            if let r @ 0..MANY = sel.one[a] {
-                // One rule: nothing can conflict.
-                if pick(r) {
-                    intents.push((a as u32, self.intent_of(a as u32, r)));
+                match self.direct_bits[r as usize] {
+                    Some(bits) if direct => {
+                        let (c, l) = self.set_state_at_once(a, r, bits, keep, sel);
+                        changed |= c;
+                        lookups |= l;
+                    }
+                    _ => intents.push((a as u32, self.intent_of(a as u32, r))),
                 }
                 continue;
             }
             rs.clear();
             rs.extend(sel.of(a).iter().copied().filter(|&r| pick(r) && acts(r)));
-            if rs.is_empty() {
-                continue;
-            }
-            if let [r] = rs[..] {
-                // One rule: nothing can conflict.
-                intents.push((a as u32, self.intent_of(a as u32, r)));
-                continue;
-            }
-            let mut it = Intent::default();
-            let mut moves: Vec<(u32, [i32; 3])> = Vec::new();
-            let mut swaps: Vec<(u32, Dir)> = Vec::new();
-            let mut letters: Vec<Option<(u32, AttachLetter)>> = vec![None; nd];
-            let mut conflict_dirs = 0u8;
-            let mut chars: [Option<(u32, u8)>; 5] = [None; 5];
-            let mut conflict_chars = 0u8;
-            for &r in &rs {
-                let info = &self.prog.rules[r as usize];
-                if let Some(off) = info.moves {
-                    let env = SelEnv {
-                        lat: &self.lat,
-                        a: a as u32,
-                        prio: None,
-                    };
-                    let o = latticesim_vm::eval::resolve(&self.prog.offsets[off as usize], &env);
-                    if o != [0, 0, 0] && !moves.iter().any(|m| m.1 == o) {
-                        moves.push((r, o));
-                    }
-                }
-                if let Some(d) = info.swaps {
-                    if !swaps.iter().any(|s| s.1 == d) {
-                        swaps.push((r, d));
-                    }
-                }
-                if let Some(l) = info.attaches {
-                    let ls = self.prog.letters[l as usize];
-                    for d in 0..nd {
-                        match letters[d] {
-                            None => letters[d] = Some((r, ls[d])),
-                            Some((_, prev)) if prev != ls[d] => conflict_dirs |= 1 << d,
-                            _ => {}
-                        }
-                    }
-                }
-                if let Some(p) = info.sets_state {
-                    let pat = self.prog.pats[p as usize];
-                    for (i, c) in pat.iter().enumerate() {
-                        if let Some(c) = *c {
-                            match chars[i] {
-                                None => chars[i] = Some((r, c)),
-                                Some((_, prev)) if prev != c => conflict_chars |= 1 << i,
-                                _ => {}
-                            }
-                        }
-                    }
-                }
-            }
-            let a32 = a as u32;
-            match moves.len() {
-                0 => {}
-                1 => it.mv = Some(moves[0].1),
+            match rs[..] {
+                [] => {}
+                [r] => intents.push((a as u32, self.intent_of(a as u32, r))),
                 _ => {
-                    it.mv_bad = true;
-                    let msg = format!(
-                        "agent {a} is asked for different moves by rules {}; its group does not move",
-                        moves.iter().map(|(r, o)| format!("`{}` ({},{})", self.rule_name(*r), o[0], o[1])).collect::<Vec<_>>().join(" and ")
-                    );
-                    self.record(rep, RecordKind::MoveConflict, &[a32], msg);
+                    let it = self.combined_intent(a, &rs, rep);
+                    intents.push((a as u32, it));
                 }
             }
-            match swaps.len() {
-                0 => {}
-                1 => it.swap = Some(swaps[0].1),
-                _ => {
-                    let msg = format!(
-                        "agent {a} is asked to swap in different directions by rules {}; it does not swap",
-                        swaps.iter().map(|(r, d)| format!("`{}` (X{})", self.rule_name(*r), d.letter())).collect::<Vec<_>>().join(" and ")
-                    );
-                    self.record(rep, RecordKind::SwapConflict, &[a32], msg);
-                }
-            }
-            for d in 0..nd {
-                if conflict_dirs & (1 << d) != 0 {
-                    let msg = format!(
-                        "agent {a}'s rules give different attachment letters towards {}; that direction counts as `*`",
-                        Dir::ALL[d].letter()
-                    );
-                    self.record(rep, RecordKind::AttachConflict, &[a32], msg);
-                } else if let Some((_, l)) = letters[d] {
-                    it.letters[d] = l;
-                }
-            }
-            for i in 0..5 {
-                if conflict_chars & (1 << i) != 0 {
-                    let msg = format!(
-                        "agent {a}'s rules set character {} of the state differently; it is left unchanged",
-                        i + 1
-                    );
-                    self.record(rep, RecordKind::StateConflict, &[a32], msg);
-                } else if let Some((_, c)) = chars[i] {
-                    it.state[i] = Some(c);
-                }
-            }
-            intents.push((a32, it));
         }
         self.has_actions = has_actions;
-        // Without tracing (which reports state changes after moves), the agents whose one
-        // rule only sets the state do so at once: no other action of the step reads states.
-        // When the selection is decided by states alone, such an agent's entry is set at
-        // once to the rule of its new state (if that rule, like its old one, calculates
-        // nothing, which the calculations of this step would otherwise see), so that the
-        // next step can keep the selection.
-        if direct {
-            let keep = self.sel_by_state && !self.any_prio && !self.opts.static_first;
-            let (mut changed, mut lookups) = (false, false);
-            for a in 0..n {
-                let r = sel.one[a];
-                if r & MANY != 0 || !pick(r) {
-                    continue;
-                }
-                let Some(bits) = self.direct_bits[r as usize] else {
-                    continue;
-                };
-                // An agent whose rule its state alone decides goes to the state that
-                // rule makes of it: remembered per state, so no state is looked at.
-                let idx = self.cand_of[a];
-                if keep && idx != NO_LIST && self.cand_single[idx as usize] == r {
-                    let mut to = self.cand_next[idx as usize];
-                    if to == NO_LIST {
-                        let key = self.cand_keys[idx as usize];
-                        let v = (key & !bits.0) | bits.1;
-                        if let Some(&i) = self.candidates.get(&v) {
-                            to = i;
-                            self.cand_next[idx as usize] = i;
-                        }
-                    }
-                    if to == idx {
-                        continue;
-                    }
-                    if to != NO_LIST {
-                        let next = self.cand_single[to as usize];
-                        let quiet = |q: u32| q == NO_RULE || !self.computes[q as usize];
-                        if next != EVALUATE && quiet(r) && quiet(next) {
-                            let key = self.cand_keys[to as usize].to_le_bytes();
-                            self.lat.state[a].copy_from_slice(&key[..5]);
-                            self.cand_of[a] = to;
-                            sel.one[a] = next;
-                            self.fire_counts[r as usize] -= 1;
-                            if next == NO_RULE {
-                                self.active -= 1;
-                            } else {
-                                self.fire_counts[next as usize] += 1;
-                            }
-                            continue;
-                        }
-                    }
-                }
-                let Some((_, _, known)) = apply_state(
-                    &mut self.lat,
-                    &mut self.cand_of,
-                    (&self.cand_cache, &self.candidates),
-                    a,
-                    bits,
-                ) else {
-                    continue;
-                };
-                changed = true;
-                lookups |= !known;
-            }
-            self.cand_dirty |= lookups;
-            self.states_changed |= changed;
-        }
         let any = |f: &dyn Fn(&Intent) -> bool| intents.iter().any(|(_, it)| f(it));
         let letters = any(&|it| it.letters.iter().any(|&l| l != AttachLetter::Keep));
         let moves = any(&|it| it.mv.is_some() || it.mv_bad);
@@ -1346,53 +1170,28 @@ impl Engine {
         } else if moves {
             self.move_alone(&intents, rep);
         }
-        // 5. State updates, in agent order (the two lists are each in agent order).
-        let mut from_intents = intents
-            .iter()
-            .filter(|(_, it)| it.state.iter().any(Option::is_some))
-            .map(|(a, it)| (*a, it.state))
-            .peekable();
-        let mut from_states = states
-            .iter()
-            .map(|&(a, p)| (a, self.pat_bits[p as usize]))
-            .peekable();
-        let trace = self.opts.trace;
-        let (mut changed, mut lookups) = (false, false);
-        let mut set = |a: u32, bits: (u64, u64)| {
+        // 5. State updates, in agent order.
+        for (a, it) in &intents {
+            if it.state.iter().all(Option::is_none) {
+                continue;
+            }
             let Some((old, new, known)) = apply_state(
                 &mut self.lat,
                 &mut self.cand_of,
                 (&self.cand_cache, &self.candidates),
-                a as usize,
-                bits,
+                *a as usize,
+                pat_bits(&it.state),
             ) else {
-                return;
+                continue;
             };
             changed = true;
             lookups |= !known;
-            if trace {
+            if self.opts.trace {
                 rep.trace.push(TraceEvent::State {
-                    agent: a,
+                    agent: *a,
                     from: text(&old),
                     to: text(&new),
                 });
-            }
-        };
-        loop {
-            match (from_intents.peek(), from_states.peek()) {
-                (Some(x), Some(y)) if x.0 < y.0 => {
-                    let (a, pat) = from_intents.next().expect("peeked");
-                    set(a, pat_bits(&pat));
-                }
-                (_, Some(_)) => {
-                    let (a, bits) = from_states.next().expect("peeked");
-                    set(a, bits);
-                }
-                (Some(_), None) => {
-                    let (a, pat) = from_intents.next().expect("peeked");
-                    set(a, pat_bits(&pat));
-                }
-                (None, None) => break,
             }
         }
         // Agents whose state changed and whose rules the cache did not know look them up
@@ -1401,6 +1200,169 @@ impl Engine {
         self.states_changed |= changed;
         if any(&|it| it.swap.is_some()) {
             self.swaps(&intents, rep);
+        }
+    }
+
+    /// The combined actions of agent `a` executing several rules `rs`: where they ask for
+    /// different things, a conflict is recorded and that part is left out.
+    fn combined_intent(&mut self, a: usize, rs: &[u32], rep: &mut StepReport) -> Intent {
+        let nd = self.lat.dim.dirs();
+        let mut it = Intent::default();
+        let mut moves: Vec<(u32, [i32; 3])> = Vec::new();
+        let mut swaps: Vec<(u32, Dir)> = Vec::new();
+        let mut letters: Vec<Option<(u32, AttachLetter)>> = vec![None; nd];
+        let mut conflict_dirs = 0u8;
+        let mut chars: [Option<(u32, u8)>; 5] = [None; 5];
+        let mut conflict_chars = 0u8;
+        for &r in rs {
+            let info = &self.prog.rules[r as usize];
+            if let Some(off) = info.moves {
+                let env = SelEnv {
+                    lat: &self.lat,
+                    a: a as u32,
+                    prio: None,
+                };
+                let o = latticesim_vm::eval::resolve(&self.prog.offsets[off as usize], &env);
+                if o != [0, 0, 0] && !moves.iter().any(|m| m.1 == o) {
+                    moves.push((r, o));
+                }
+            }
+            if let Some(d) = info.swaps {
+                if !swaps.iter().any(|s| s.1 == d) {
+                    swaps.push((r, d));
+                }
+            }
+            if let Some(l) = info.attaches {
+                let ls = self.prog.letters[l as usize];
+                for d in 0..nd {
+                    match letters[d] {
+                        None => letters[d] = Some((r, ls[d])),
+                        Some((_, prev)) if prev != ls[d] => conflict_dirs |= 1 << d,
+                        _ => {}
+                    }
+                }
+            }
+            if let Some(p) = info.sets_state {
+                let pat = self.prog.pats[p as usize];
+                for (i, c) in pat.iter().enumerate() {
+                    if let Some(c) = *c {
+                        match chars[i] {
+                            None => chars[i] = Some((r, c)),
+                            Some((_, prev)) if prev != c => conflict_chars |= 1 << i,
+                            _ => {}
+                        }
+                    }
+                }
+            }
+        }
+        let a32 = a as u32;
+        match moves.len() {
+            0 => {}
+            1 => it.mv = Some(moves[0].1),
+            _ => {
+                it.mv_bad = true;
+                let msg = format!(
+                    "agent {a} is asked for different moves by rules {}; its group does not move",
+                    moves
+                        .iter()
+                        .map(|(r, o)| format!("`{}` ({},{})", self.rule_name(*r), o[0], o[1]))
+                        .collect::<Vec<_>>()
+                        .join(" and ")
+                );
+                self.record(rep, RecordKind::MoveConflict, &[a32], msg);
+            }
+        }
+        match swaps.len() {
+            0 => {}
+            1 => it.swap = Some(swaps[0].1),
+            _ => {
+                let msg = format!(
+                    "agent {a} is asked to swap in different directions by rules {}; it does not swap",
+                    swaps.iter().map(|(r, d)| format!("`{}` (X{})", self.rule_name(*r), d.letter())).collect::<Vec<_>>().join(" and ")
+                );
+                self.record(rep, RecordKind::SwapConflict, &[a32], msg);
+            }
+        }
+        for d in 0..nd {
+            if conflict_dirs & (1 << d) != 0 {
+                let msg = format!(
+                    "agent {a}'s rules give different attachment letters towards {}; that direction counts as `*`",
+                    Dir::ALL[d].letter()
+                );
+                self.record(rep, RecordKind::AttachConflict, &[a32], msg);
+            } else if let Some((_, l)) = letters[d] {
+                it.letters[d] = l;
+            }
+        }
+        for i in 0..5 {
+            if conflict_chars & (1 << i) != 0 {
+                let msg = format!(
+                    "agent {a}'s rules set character {} of the state differently; it is left unchanged",
+                    i + 1
+                );
+                self.record(rep, RecordKind::StateConflict, &[a32], msg);
+            } else if let Some((_, c)) = chars[i] {
+                it.state[i] = Some(c);
+            }
+        }
+        it
+    }
+
+    /// Agent `a`, whose one rule `r` only sets the state (as [`pat_bits`] `bits`), takes its
+    /// new state now. With `keep` (the selection is decided by states alone), an agent whose
+    /// rule its state alone decides goes to the state that rule makes of it, remembered per
+    /// state, and its selection entry is set to that state's rule for the next step (when
+    /// neither rule calculates: the calculations of this step read the entry). Returns
+    /// whether the state changed without the selection following, and whether the new
+    /// state's rules must be looked up.
+    fn set_state_at_once(
+        &mut self,
+        a: usize,
+        r: u32,
+        bits: (u64, u64),
+        keep: bool,
+        sel: &mut Selection,
+    ) -> (bool, bool) {
+        let idx = self.cand_of[a];
+        if keep && idx != NO_LIST && self.cand_single[idx as usize] == r {
+            let mut to = self.cand_next[idx as usize];
+            if to == NO_LIST {
+                let key = self.cand_keys[idx as usize];
+                if let Some(&i) = self.candidates.get(&((key & !bits.0) | bits.1)) {
+                    to = i;
+                    self.cand_next[idx as usize] = i;
+                }
+            }
+            if to == idx {
+                return (false, false);
+            }
+            if to != NO_LIST {
+                let next = self.cand_single[to as usize];
+                let quiet = |q: u32| q == NO_RULE || !self.computes[q as usize];
+                if next != EVALUATE && quiet(r) && quiet(next) {
+                    let key = self.cand_keys[to as usize].to_le_bytes();
+                    self.lat.state[a].copy_from_slice(&key[..5]);
+                    self.cand_of[a] = to;
+                    sel.one[a] = next;
+                    self.fire_counts[r as usize] -= 1;
+                    if next == NO_RULE {
+                        self.active -= 1;
+                    } else {
+                        self.fire_counts[next as usize] += 1;
+                    }
+                    return (false, false);
+                }
+            }
+        }
+        match apply_state(
+            &mut self.lat,
+            &mut self.cand_of,
+            (&self.cand_cache, &self.candidates),
+            a,
+            bits,
+        ) {
+            Some((_, _, known)) => (true, !known),
+            None => (false, false),
         }
     }
 
