@@ -7,6 +7,7 @@
 
 #![allow(clippy::needless_range_loop)]
 
+mod common;
 mod reference;
 
 use latticesim_compiler::{check, lower, Input};
@@ -411,21 +412,8 @@ fn generators_reach_every_record_kind() {
         let d3 = i % 4 == 3;
         let r = rules(d3).new_tree(&mut runner).unwrap().current();
         let a = agents(d3).new_tree(&mut runner).unwrap().current();
-        let c = check(
-            Input {
-                name: "r",
-                bytes: r.as_bytes(),
-            },
-            Some(Input {
-                name: "a",
-                bytes: a.as_bytes(),
-            }),
-            None,
-        );
-        let (Some(p), Some(cfg)) = (&c.program, &c.config) else {
-            panic!("{:?}", c.diags.first())
-        };
-        let mut e = Engine::new(lower(p), Lattice::new(cfg), Options::default());
+        let (prog, lat) = common::compile(&r, &a);
+        let mut e = Engine::new(prog, lat, Options::default());
         for _ in 0..6 {
             if e.step().quiescent {
                 break;
@@ -481,20 +469,7 @@ fn threads_give_the_same_results() {
                 )
             })
             .collect();
-        let c = check(
-            Input {
-                name: "r",
-                bytes: r.as_bytes(),
-            },
-            Some(Input {
-                name: "a",
-                bytes: a.as_bytes(),
-            }),
-            None,
-        );
-        let (Some(p), Some(cfg)) = (&c.program, &c.config) else {
-            panic!("{:?}", c.diags.first())
-        };
+        let (prog, lat) = common::compile(&r, &a);
         let order = if i % 2 == 0 {
             Order::ActionsFirst
         } else {
@@ -502,8 +477,8 @@ fn threads_give_the_same_results() {
         };
         let mk = |threads| {
             Engine::new(
-                lower(p),
-                Lattice::new(cfg),
+                prog.clone(),
+                lat.clone(),
                 Options {
                     order,
                     threads,
