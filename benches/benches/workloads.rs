@@ -23,10 +23,38 @@ fn steps(mut e: Engine, s: u64) -> Engine {
     e
 }
 
-fn b1_group(c: &mut Criterion, l: u64, s: u64) {
-    let mut g = c.benchmark_group(format!("B1-L{l}-S{s}"));
+type Group<'a> = criterion::BenchmarkGroup<'a, criterion::measurement::WallTime>;
+
+/// A group of ten samples whose throughput is `agent_steps` an iteration.
+fn group<'a>(c: &'a mut Criterion, name: String, agent_steps: u64) -> Group<'a> {
+    let mut g = c.benchmark_group(name);
     g.sample_size(10);
-    g.throughput(Throughput::Elements(l * l * s));
+    g.throughput(Throughput::Elements(agent_steps));
+    g
+}
+
+/// Times `run` on a fresh copy of `base` with `opts` (the copy is not timed).
+fn bench_engine<T>(
+    g: &mut Group<'_>,
+    name: &str,
+    base: &Engine,
+    opts: latticesim_runtime::Options,
+    run: impl Fn(Engine) -> T,
+) {
+    g.bench_function(name, |b| {
+        b.iter_batched(|| fresh(base, opts), &run, BatchSize::LargeInput)
+    });
+}
+
+/// Times `run` on a fresh native setup (the setup is not timed).
+fn bench_native<S, T>(g: &mut Group<'_>, setup: impl Fn() -> S, run: impl Fn(&mut S) -> T) {
+    g.bench_function("native", |b| {
+        b.iter_batched_ref(&setup, |st| run(black_box(st)), BatchSize::LargeInput)
+    });
+}
+
+fn b1_group(c: &mut Criterion, l: u64, s: u64) {
+    let mut g = group(c, format!("B1-L{l}-S{s}"), l * l * s);
     let base = Engine::new(program(B1_RULES), b1_lattice(l), Default::default());
     let expect = native::b1(l as usize, s as usize);
     assert_eq!(
@@ -34,19 +62,13 @@ fn b1_group(c: &mut Criterion, l: u64, s: u64) {
         expect,
         "B1 engine"
     );
-    g.bench_function("native", |b| {
-        b.iter_batched_ref(
-            || native::b1_setup(l as usize),
-            |st| native::b1_run(black_box(st), s as usize),
-            BatchSize::LargeInput,
-        )
-    });
-    g.bench_function("engine", |b| {
-        b.iter_batched(
-            || fresh(&base, base.opts),
-            |e| sum_c00(&steps(e, s)),
-            BatchSize::LargeInput,
-        )
+    bench_native(
+        &mut g,
+        || native::b1_setup(l as usize),
+        |st| native::b1_run(st, s as usize),
+    );
+    bench_engine(&mut g, "engine", &base, base.opts, |e| {
+        sum_c00(&steps(e, s))
     });
     g.finish();
 }
@@ -62,9 +84,7 @@ fn b2(c: &mut Criterion) {
     assert_eq!((steps_done, sum), (238, 473921339434), "native B2 checksum");
     let base = engine(B2_RULES, &b2_agents(w, w));
     let n = base.lat.len() as u64;
-    let mut g = c.benchmark_group(format!("B2-W{w}"));
-    g.sample_size(10);
-    g.throughput(Throughput::Elements(n * steps_done));
+    let mut g = group(c, format!("B2-W{w}"), n * steps_done);
     let run = |mut e: Engine| {
         while !e.step().quiescent {}
         e
@@ -75,48 +95,32 @@ fn b2(c: &mut Criterion) {
         (steps_done, sum),
         "engine B2 checksum"
     );
-    g.bench_function("native", |b| {
-        b.iter_batched_ref(
-            || native::b2_setup(w as usize, w as usize),
-            |st| native::b2_run(black_box(st)),
-            BatchSize::LargeInput,
-        )
-    });
-    g.bench_function("engine", |b| {
-        b.iter_batched(
-            || fresh(&base, base.opts),
-            |e| run(e).stats.steps,
-            BatchSize::LargeInput,
-        )
-    });
+    bench_native(
+        &mut g,
+        || native::b2_setup(w as usize, w as usize),
+        native::b2_run,
+    );
+    bench_engine(&mut g, "engine", &base, base.opts, |e| run(e).stats.steps);
     g.finish();
 }
 
 fn b3(c: &mut Criterion) {
     let (l, s) = (1000u64, 20u64);
     for k in [1u64, 16, 256] {
-        let mut g = c.benchmark_group(format!("B3-L{l}-k{k}-S{s}"));
-        g.sample_size(10);
-        g.throughput(Throughput::Elements(l * l * s));
+        let mut g = group(c, format!("B3-L{l}-k{k}-S{s}"), l * l * s);
         let base = engine(&b3_rules(k), &b3_agents(l, k));
         assert_eq!(
             b3_checksum(&steps(fresh(&base, base.opts), s)),
             native::b3(l as usize, k as usize, s as usize),
             "B3 k={k}"
         );
-        g.bench_function("native", |b| {
-            b.iter_batched_ref(
-                || native::b3_setup(l as usize, k as usize),
-                |st| native::b3_run(black_box(st), k as usize, s as usize),
-                BatchSize::LargeInput,
-            )
-        });
-        g.bench_function("engine", |b| {
-            b.iter_batched(
-                || fresh(&base, base.opts),
-                |e| steps(e, s).stats.steps,
-                BatchSize::LargeInput,
-            )
+        bench_native(
+            &mut g,
+            || native::b3_setup(l as usize, k as usize),
+            |st| native::b3_run(st, k as usize, s as usize),
+        );
+        bench_engine(&mut g, "engine", &base, base.opts, |e| {
+            steps(e, s).stats.steps
         });
         g.finish();
     }
@@ -125,21 +129,15 @@ fn b3(c: &mut Criterion) {
 /// B1 through the engine with one and with two threads (results are identical).
 fn b1_threads(c: &mut Criterion) {
     let (l, s) = (1000u64, 50u64);
-    let mut g = c.benchmark_group(format!("B1-L{l}-S{s}-threads"));
-    g.sample_size(10);
-    g.throughput(Throughput::Elements(l * l * s));
+    let mut g = group(c, format!("B1-L{l}-S{s}-threads"), l * l * s);
     let base = Engine::new(program(B1_RULES), b1_lattice(l), Default::default());
     for threads in [1usize, 2] {
         let opts = latticesim_runtime::Options {
             threads,
             ..base.opts
         };
-        g.bench_function(format!("engine-{threads}"), |b| {
-            b.iter_batched(
-                || fresh(&base, opts),
-                |e| sum_c00(&steps(e, s)),
-                BatchSize::LargeInput,
-            )
+        bench_engine(&mut g, &format!("engine-{threads}"), &base, opts, |e| {
+            sum_c00(&steps(e, s))
         });
     }
     g.finish();
@@ -150,9 +148,7 @@ fn b1_threads(c: &mut Criterion) {
 /// priority), checked against the directly computed result.
 fn priorities(c: &mut Criterion) {
     let (l, s) = (300u64, 10u64);
-    let mut g = c.benchmark_group(format!("P-L{l}-S{s}"));
-    g.sample_size(10);
-    g.throughput(Throughput::Elements(l * l * s));
+    let mut g = group(c, format!("P-L{l}-S{s}"), l * l * s);
     let base = engine(P_RULES, &p_agents(l));
     let done = steps(fresh(&base, base.opts), s);
     assert_eq!(
@@ -160,12 +156,8 @@ fn priorities(c: &mut Criterion) {
         p_expected(l, s),
         "P checksum"
     );
-    g.bench_function("engine", |b| {
-        b.iter_batched(
-            || fresh(&base, base.opts),
-            |e| steps(e, s).stats.steps,
-            BatchSize::LargeInput,
-        )
+    bench_engine(&mut g, "engine", &base, base.opts, |e| {
+        steps(e, s).stats.steps
     });
     g.finish();
 }
