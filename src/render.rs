@@ -517,7 +517,8 @@ pub fn render(args: RenderArgs) -> ExitCode {
     let view = View::new(&frames, dim, universe, args.cell);
     if view.size.0 as u64 > MAX_SIDE + 64 || view.size.1 as u64 > MAX_SIDE + 64 {
         eprintln!(
-            "error: the agents spread over {} x {} cells, more than a picture of at most {MAX_SIDE} pixels a side can show at one pixel a cell",
+            "error: `{}`: the agents spread over {} x {} cells, more than a picture of at most {MAX_SIDE} pixels a side can show at one pixel a cell",
+            args.agents.display(),
             view.hi[0] - view.lo[0] + 1,
             view.hi[1] - view.lo[1] + 1
         );

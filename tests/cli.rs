@@ -481,34 +481,31 @@ fn documented_colour(state: &[u8]) -> [u8; 3] {
     [rgb.0, rgb.1, rgb.2].map(|v| ((v + m) * 255.0).round() as u8)
 }
 
-#[test]
-fn render_png_shows_each_agent_in_its_state_colour() {
-    let (rules, agents) = ("examples/gravity/rules.txt", "examples/gravity/agents.txt");
-    let png_path = tmp("render.png", b"");
-    let o = run(&[
-        "render",
-        rules,
-        agents,
-        "--step",
-        "3",
-        "--out",
-        png_path.to_str().unwrap(),
-        "--cell",
-        "10",
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    // Where the agents stand after three steps, from `latticesim run`.
+/// Runs `latticesim render RULES AGENTS ARGS --out <tmp file named NAME>`, which must
+/// succeed; the image's path.
+fn render_ok(rules: &str, agents: &str, args: &[&str], name: &str) -> PathBuf {
+    let out = tmp(name, b"");
+    let mut a = vec!["render", rules, agents];
+    a.extend(args);
+    a.extend(["--out", out.to_str().unwrap()]);
+    let o = run(&a);
+    assert!(o.status.success(), "{a:?}: {}", stderr(&o));
+    out
+}
+
+/// The agents after `steps` steps, from `latticesim run`: (x, y, state) of each.
+fn agents_after(rules: &str, agents: &str, steps: &str) -> Vec<(i64, i64, String)> {
     let o = run(&[
         "run",
         rules,
         agents,
         "--max-steps",
-        "3",
+        steps,
         "--quiet",
         "--no-timing",
     ]);
-    assert!(o.status.success());
-    let cells: Vec<(i64, i64, String)> = String::from_utf8_lossy(&o.stdout)
+    assert!(o.status.success(), "{}", stderr(&o));
+    String::from_utf8_lossy(&o.stdout)
         .lines()
         .map(|l| {
             let mut w = l.split_whitespace();
@@ -520,7 +517,20 @@ fn render_png_shows_each_agent_in_its_state_colour() {
                 .collect();
             (p[0], p[1], w.next().unwrap()[1..].to_string())
         })
-        .collect();
+        .collect()
+}
+
+#[test]
+fn render_png_shows_each_agent_in_its_state_colour() {
+    let (rules, agents) = ("examples/gravity/rules.txt", "examples/gravity/agents.txt");
+    let png_path = render_ok(
+        rules,
+        agents,
+        &["--step", "3", "--cell", "10"],
+        "render.png",
+    );
+    // Where the agents stand after three steps, from `latticesim run`.
+    let cells = agents_after(rules, agents, "3");
     let decoder = png::Decoder::new(std::io::BufReader::new(
         std::fs::File::open(&png_path).unwrap(),
     ));
@@ -564,17 +574,7 @@ fn render_gif_has_a_frame_per_step_and_svg_a_legend() {
         "examples/spanning-tree/rules.txt",
         "examples/spanning-tree/agents-40.txt",
     );
-    let gif_path = tmp("render.gif", b"");
-    let o = run(&[
-        "render",
-        rules,
-        agents,
-        "--steps",
-        "2..9",
-        "--out",
-        gif_path.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    let gif_path = render_ok(rules, agents, &["--steps", "2..9"], "render.gif");
     let mut opts = gif::DecodeOptions::new();
     opts.set_color_output(gif::ColorOutput::RGBA);
     let mut d = opts
@@ -585,51 +585,26 @@ fn render_gif_has_a_frame_per_step_and_svg_a_legend() {
         frames += 1;
     }
     assert_eq!(frames, 8);
-    let svg_path = tmp("render.svg", b"");
-    let o = run(&[
-        "render",
-        rules,
-        agents,
-        "--step",
-        "10",
-        "--out",
-        svg_path.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    let svg_path = render_ok(rules, agents, &["--step", "10"], "render.svg");
     let svg = std::fs::read_to_string(&svg_path).unwrap();
     // Two squares per agent (border and face), a legend entry per state.
     assert_eq!(svg.matches("<polygon").count(), 2 * 40);
-    let o = run(&[
-        "run",
-        rules,
-        agents,
-        "--max-steps",
-        "10",
-        "--quiet",
-        "--no-timing",
-    ]);
-    let states: std::collections::BTreeSet<String> = String::from_utf8_lossy(&o.stdout)
-        .lines()
-        .map(|l| l.split_whitespace().nth(1).unwrap()[1..].to_string())
+    let states: std::collections::BTreeSet<String> = agents_after(rules, agents, "10")
+        .into_iter()
+        .map(|a| a.2)
         .collect();
     for s in &states {
         assert!(svg.contains(&format!(">{s}</text>")), "legend lacks {s}");
     }
     assert!(svg.contains(">step 10</text>"));
-    // 3D: three faces per cube, the top in the state's colour.
-    let svg3 = tmp("render3.svg", b"");
-    let o = run(&[
-        "render",
+    // 3D: three faces per cube.
+    let (rules3, agents3) = (
         "examples/gravity-3d/rules.txt",
         "examples/gravity-3d/agents.txt",
-        "--step",
-        "2",
-        "--out",
-        svg3.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    );
+    let svg3 = render_ok(rules3, agents3, &["--step", "2"], "render3.svg");
     let svg3 = std::fs::read_to_string(&svg3).unwrap();
-    let n = std::fs::read_to_string("examples/gravity-3d/agents.txt")
+    let n = std::fs::read_to_string(agents3)
         .unwrap()
         .lines()
         .filter(|l| l.starts_with(|c: char| c.is_ascii_digit() || c == '-'))
@@ -664,7 +639,11 @@ fn render_refuses_bad_requests() {
     let far = tmp("far.txt", b"0,0\n0,1000000\n");
     let o = run(&["render", rules, far.to_str().unwrap(), "--out", out]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("more than a picture"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("far.txt`: the agents spread over 1 x 1000001 cells"),
+        "{}",
+        stderr(&o)
+    );
     let bad = tmp("bad-rules.txt", b"r\n1\nQQ\nS*****\n");
     let o = run(&["render", bad.to_str().unwrap(), agents, "--out", out]);
     assert_eq!(o.status.code(), Some(1));
