@@ -2215,20 +2215,25 @@ impl CalcChunk<'_> {
     }
 }
 
-/// Sets the bits `range` of a bit set.
-fn set_bits(bits: &mut [u64], range: std::ops::Range<usize>) {
-    let (mut i, end) = (range.start, range.end);
-    while i < end {
-        let w = i >> 6;
-        let lo = i & 63;
-        let hi = (end - (w << 6)).min(64);
+/// The words of a bit set that `range` touches, each with the mask of its bits in range.
+fn words(range: std::ops::Range<usize>) -> impl Iterator<Item = (usize, u64)> {
+    let (start, end) = (range.start, range.end);
+    (start >> 6..end.div_ceil(64)).map(move |w| {
+        let lo = start.max(w << 6) - (w << 6);
+        let hi = end.min((w + 1) << 6) - (w << 6);
         let mask = if hi - lo == 64 {
             u64::MAX
         } else {
             ((1u64 << (hi - lo)) - 1) << lo
         };
+        (w, mask)
+    })
+}
+
+/// Sets the bits `range` of a bit set.
+fn set_bits(bits: &mut [u64], range: std::ops::Range<usize>) {
+    for (w, mask) in words(range) {
         bits[w] |= mask;
-        i = (w << 6) + hi;
     }
 }
 
@@ -2375,22 +2380,7 @@ fn is_sequence(s: &[u32], start: u32) -> bool {
 
 /// Whether every bit of `range` is set.
 fn all_bits(bits: &[u64], range: std::ops::Range<usize>) -> bool {
-    let (mut i, end) = (range.start, range.end);
-    while i < end {
-        let w = i >> 6;
-        let lo = i & 63;
-        let hi = (end - (w << 6)).min(64);
-        let mask = if hi - lo == 64 {
-            u64::MAX
-        } else {
-            ((1u64 << (hi - lo)) - 1) << lo
-        };
-        if bits[w] & mask != mask {
-            return false;
-        }
-        i = (w << 6) + hi;
-    }
-    true
+    words(range).all(|(w, mask)| bits[w] & mask == mask)
 }
 
 /// The most frequent calculations over a run of agents, without a detour through 32-bit
@@ -2636,5 +2626,35 @@ impl CalcEnv for CalcCtx<'_, '_, '_> {
     }
     fn issue(&mut self, pc: usize, issue: CalcIssue) {
         self.issues.push((pc, issue));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{all_bits, set_bits};
+
+    #[test]
+    fn bit_ranges_across_words() {
+        for (start, end) in [
+            (0, 0),
+            (3, 3),
+            (0, 64),
+            (5, 70),
+            (63, 65),
+            (64, 192),
+            (10, 200),
+        ] {
+            let mut bits = vec![0u64; 4];
+            set_bits(&mut bits, start..end);
+            for i in 0..256 {
+                let set = bits[i >> 6] & (1 << (i & 63)) != 0;
+                assert_eq!(set, (start..end).contains(&i), "{start}..{end}: bit {i}");
+            }
+            assert!(all_bits(&bits, start..end));
+            if start > 0 {
+                assert!(!all_bits(&bits, start - 1..end));
+            }
+            assert!(!all_bits(&bits, start..end + 1));
+        }
     }
 }
