@@ -10,6 +10,7 @@ use std::process::ExitCode;
 mod gen;
 mod render;
 mod run;
+mod serve;
 mod sweep;
 
 #[derive(Parser)]
@@ -57,6 +58,11 @@ enum Command {
     ///
     /// Exit status: 0 written, 1 errors in the input files, 2 usage or I/O failure.
     Render(render::RenderArgs),
+    /// Serve the viewer and editor in the browser, on 127.0.0.1 (prints the URL).
+    ///
+    /// Exit status: 2 when the files cannot be read or the port cannot be opened; errors in
+    /// the files are shown in the editor.
+    Serve(serve::ServeArgs),
     /// Check a rules file (and an agents file) and report every problem.
     ///
     /// Exit status: 0 no errors (warnings allowed), 1 errors, 2 usage or I/O failure.
@@ -221,5 +227,6 @@ fn main() -> ExitCode {
         Command::Gen(args) => gen::gen(args),
         Command::Sweep(args) => sweep::sweep(args),
         Command::Render(args) => render::render(args),
+        Command::Serve(args) => serve::serve(args),
     }
 }

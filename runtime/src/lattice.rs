@@ -222,6 +222,21 @@ impl Lattice {
         .then(|| self.inbox_text[a * self.dim.dirs() + dir as usize])
     }
 
+    /// The counters that have a column (set by the agents file or used by the rules), in
+    /// number order; every other counter reads 0.
+    pub fn counter_numbers(&self) -> Vec<u8> {
+        (0..self.nc() as u8)
+            .filter(|&i| self.counter_col[i as usize] != NO_COL)
+            .collect()
+    }
+
+    /// The numeric message slots (0-based) that have inbox columns, in number order.
+    pub fn slot_numbers(&self) -> Vec<u8> {
+        (0..8u8)
+            .filter(|&s| self.slot_col[s as usize] != NO_COL)
+            .collect()
+    }
+
     /// Bytes held per agent by the columns (positions, states, attachments, counters and
     /// messages in use, the neighbour table) and the cell index, for reports.
     pub fn bytes(&self) -> usize {

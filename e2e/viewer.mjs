@@ -1,0 +1,176 @@
+// End-to-end test of `latticesim serve` in headless Chromium (Debian's package), driven by
+// playwright-core. Run from the repository's root after `cargo build`:
+//
+//   node e2e/viewer.mjs
+//
+// LATTICESIM names the binary (default target/debug/latticesim), CHROMIUM the browser
+// (default /usr/bin/chromium). With SCREENSHOTS=DIR it also writes the viewer's screenshots
+// shown in the README (viewer-2d.png, viewer-3d.png, viewer-editor.png) into DIR.
+import { chromium } from 'playwright-core';
+import { spawn, execFileSync } from 'node:child_process';
+import assert from 'node:assert/strict';
+import path from 'node:path';
+
+const BIN = path.resolve(process.env.LATTICESIM || 'target/debug/latticesim');
+const CHROMIUM = process.env.CHROMIUM || '/usr/bin/chromium';
+const RULES = 'examples/leader-election/rules.txt';
+const AGENTS = 'examples/leader-election/agents-30.txt';
+const FLAGS = ['--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
+  '--disable-background-networking', '--disable-component-update', '--disable-sync'];
+
+const servers = [];
+
+// Starts `latticesim serve` on a free port; resolves to its URL.
+function serve(rules, agents) {
+  return new Promise((resolve, reject) => {
+    const p = spawn(BIN, ['serve', rules, agents, '--port', '0'], { stdio: ['ignore', 'pipe', 'inherit'] });
+    servers.push(p);
+    let out = '';
+    p.stdout.on('data', (d) => {
+      out += d;
+      const m = out.match(/http:\/\/[^\s]+/);
+      if (m) resolve(m[0]);
+    });
+    p.on('exit', (code) => reject(new Error(`latticesim serve exited with ${code}: ${out}`)));
+  });
+}
+
+// The agents after `steps` steps, as `latticesim run` writes them: one line per agent, in
+// id order (a universe line, if any, first).
+function agentsAfter(steps) {
+  const out = execFileSync(BIN, ['run', RULES, AGENTS, '--max-steps', String(steps), '--quiet'], { encoding: 'utf8' });
+  return out.split('\n').filter((l) => l && !l.startsWith('U'));
+}
+
+function parseAgent(line) {
+  const words = line.split(/\s+/);
+  const a = { pos: words[0], state: null, counters: {} };
+  for (let i = 1; i < words.length; i++) {
+    if (words[i].startsWith('S')) a.state = words[i].slice(1);
+    if (/^C\d\d$/.test(words[i])) a.counters[words[i]] = Number(words[++i]);
+  }
+  return a;
+}
+
+async function stepNumber(page) {
+  return Number(await page.textContent('#step-number'));
+}
+
+async function waitStep(page, n) {
+  await page.waitForFunction((n) => document.getElementById('step-number').textContent === String(n), n);
+}
+
+async function test(browser) {
+  const url = await serve(RULES, AGENTS);
+  const page = await browser.newPage({ viewport: { width: 1280, height: 760 } });
+  const errors = [];
+  page.on('pageerror', (e) => errors.push(e.message));
+  await page.goto(url);
+  await page.waitForFunction(() => window.latticesim && window.latticesim.ready);
+  assert.equal(await stepNumber(page), 0);
+
+  // Five steps forward, two back.
+  for (let i = 1; i <= 5; i++) {
+    await page.click('#step');
+    await waitStep(page, i);
+  }
+  for (let i = 4; i >= 3; i--) {
+    await page.click('#back');
+    await waitStep(page, i);
+  }
+  assert.equal(await stepNumber(page), 3);
+
+  // An agent whose state changed since step 0, inspected by clicking it.
+  const before = agentsAfter(0).map(parseAgent);
+  const after = agentsAfter(3).map(parseAgent);
+  const id = after.findIndex((a, i) => a.state !== before[i].state);
+  assert.ok(id >= 0, 'some agent changes state in three steps');
+  const [x, y] = await page.evaluate((id) => window.latticesim.screenOf(id), id);
+  await page.mouse.click(x, y);
+  await page.waitForFunction((id) => document.getElementById('insp-id')?.textContent === String(id), id);
+  assert.equal(await page.textContent('#insp-state'), after[id].state);
+  assert.equal((await page.textContent('#insp-pos')).replace(/\s/g, ''), after[id].pos);
+  const counters = Object.entries(after[id].counters).map(([k, v]) => `${k}=${v}`).join(' ');
+  assert.equal(await page.textContent('#insp-counters'), counters);
+  console.log(`ok: step 3 after 5 forward and 2 back; agent ${id} inspected: ${after[id].state}, ${counters}`);
+
+  // A syntax error typed into the rules editor is marked on its line; fixing it clears it.
+  await page.click('#tab-edit');
+  assert.ok(await page.isHidden('#view') && await page.isVisible('#ed-rules'), 'the editor tab replaces the universe');
+  const area = '#ed-rules textarea';
+  const text = await page.inputValue(area);
+  const lines = text.split('\n');
+  const line = lines.findIndex((l) => l === 'SINIT0') + 1; // the first rule's precondition
+  assert.ok(line > 0);
+  const end = lines.slice(0, line).join('\n').length;
+  await page.focus(area);
+  await page.evaluate(([sel, end]) => document.querySelector(sel).setSelectionRange(end, end), [area, end]);
+  await page.keyboard.type(' (');
+  const mark = `#ed-rules .backdrop mark.error[data-line="${line}"]`;
+  await page.waitForSelector(mark);
+  assert.match(await page.textContent('#check-summary'), /^1 error/);
+  assert.match(await page.textContent('#ed-rules .diags li'), new RegExp(`^${line}:8: error\\[E203\\]`));
+  if (process.env.SCREENSHOTS) {
+    await page.screenshot({ path: path.join(process.env.SCREENSHOTS, 'viewer-editor.png') });
+  }
+  await page.keyboard.press('Backspace');
+  await page.keyboard.press('Backspace');
+  await page.waitForSelector('#ed-rules .backdrop mark', { state: 'detached' });
+  assert.equal(await page.inputValue(area), text);
+  assert.match(await page.textContent('#check-summary'), /^0 errors/);
+  console.log(`ok: a syntax error typed on line ${line} is marked there, and cleared when fixed`);
+
+  // Apply restarts the run from step 0 in the universe view.
+  await page.click('#apply');
+  await page.waitForSelector('#view', { state: 'visible' });
+  assert.ok(await page.isHidden('#edit'));
+  await waitStep(page, 0);
+  await page.click('#step');
+  await waitStep(page, 1);
+  console.log('ok: apply restarts from step 0');
+  assert.deepEqual(errors, [], 'no script errors in the page');
+  await page.close();
+}
+
+async function screenshot(browser, rules, agents, steps, file, setup) {
+  const url = await serve(rules, agents);
+  const page = await browser.newPage({ viewport: { width: 1100, height: 640 } });
+  await page.goto(url);
+  await page.waitForFunction(() => window.latticesim && window.latticesim.ready);
+  await page.fill('#jump', String(steps));
+  await page.click('#go');
+  await waitStep(page, steps);
+  await page.click('#fit');
+  if (setup) await setup(page);
+  await page.screenshot({ path: path.join(process.env.SCREENSHOTS, file) });
+  await page.close();
+}
+
+const browser = await chromium.launch({ executablePath: CHROMIUM, args: FLAGS });
+const guard = setTimeout(() => { console.error('e2e: timed out'); process.exit(1); }, 180_000);
+try {
+  await test(browser);
+  if (process.env.SCREENSHOTS) {
+    await screenshot(browser, 'examples/reconfigure-line/rules.txt', 'examples/reconfigure-line/agents-30.txt', 450, 'viewer-2d.png',
+      async (page) => {
+        const [x, y] = await page.evaluate(() => window.latticesim.screenOf(0));
+        await page.mouse.click(x, y);
+        await page.waitForSelector('#insp-id');
+      });
+    await screenshot(browser, 'examples/spanning-tree/rules-3d.txt', 'examples/spanning-tree/agents-3d.txt', 4, 'viewer-3d.png',
+      async (page) => {
+        await page.click('#rot-right');
+        const [x, y] = await page.evaluate(() => window.latticesim.screenOf(0));
+        await page.mouse.click(x, y);
+        await page.waitForSelector('#insp-id');
+      });
+  }
+  console.log('e2e: all passed');
+} catch (e) {
+  console.error('e2e: FAILED:', e);
+  process.exitCode = 1;
+} finally {
+  clearTimeout(guard);
+  await browser.close();
+  for (const s of servers) s.kill();
+}

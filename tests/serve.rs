@@ -1,0 +1,418 @@
+//! `latticesim serve` over real HTTP: the API against `latticesim run`, and bad requests
+//! (malformed bodies, huge bodies, unknown routes, paths outside the working folder), after
+//! each of which the server must still answer. The browser side is tested by e2e/viewer.mjs.
+
+use serde_json::{json, Value};
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::TcpStream;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+
+const ROOT: &str = env!("CARGO_MANIFEST_DIR");
+
+/// A running server in its own working folder; killed when dropped.
+struct Server {
+    child: Child,
+    addr: String,
+    dir: PathBuf,
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
+
+/// Starts a server in a fresh working folder holding copies of the example's two files.
+fn start(name: &str, rules: &str, agents: &str) -> Server {
+    let dir = std::env::temp_dir().join(format!("latticesim-serve-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    for f in [rules, agents] {
+        let to = dir.join(Path::new(f).file_name().unwrap());
+        std::fs::copy(Path::new(ROOT).join(f), to).unwrap();
+    }
+    let names = [rules, agents].map(|f| Path::new(f).file_name().unwrap().to_owned());
+    let mut child = Command::new(env!("CARGO_BIN_EXE_latticesim"))
+        .current_dir(&dir)
+        .args(["serve".as_ref(), names[0].as_os_str(), names[1].as_os_str()])
+        .args(["--port", "0"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    let addr = line
+        .split("http://")
+        .nth(1)
+        .and_then(|s| s.split('/').next())
+        .unwrap_or_else(|| panic!("no URL in {line:?}"))
+        .to_string();
+    Server { child, addr, dir }
+}
+
+impl Server {
+    /// Sends raw bytes; the status and the body of the answer.
+    fn raw(&self, request: &[u8]) -> (u16, String) {
+        let mut s = TcpStream::connect(&self.addr).unwrap();
+        // The server may answer and close before it has read everything (huge bodies).
+        let _ = s.write_all(request);
+        let mut out = Vec::new();
+        let _ = s.read_to_end(&mut out);
+        let text = String::from_utf8_lossy(&out).into_owned();
+        let status = text
+            .split(' ')
+            .nth(1)
+            .and_then(|c| c.parse().ok())
+            .unwrap_or_else(|| panic!("no status in {text:?}"));
+        let body = text.split_once("\r\n\r\n").map_or("", |b| b.1).to_string();
+        (status, body)
+    }
+
+    fn request(&self, method: &str, path: &str, body: &[u8]) -> (u16, String) {
+        let mut req = format!(
+            "{method} {path} HTTP/1.1\r\nHost: {}\r\nConnection: close\r\nContent-Length: {}\r\n\r\n",
+            self.addr,
+            body.len()
+        )
+        .into_bytes();
+        req.extend_from_slice(body);
+        self.raw(&req)
+    }
+
+    fn json(&self, method: &str, path: &str, body: &[u8]) -> (u16, Value) {
+        let (status, text) = self.request(method, path, body);
+        let v = serde_json::from_str(&text).unwrap_or_else(|e| panic!("{path}: {e}: {text}"));
+        (status, v)
+    }
+
+    fn get(&self, path: &str) -> (u16, Value) {
+        self.json("GET", path, b"")
+    }
+
+    fn post(&self, path: &str, v: Value) -> (u16, Value) {
+        self.json("POST", path, v.to_string().as_bytes())
+    }
+
+    /// The server still answers.
+    fn alive(&self) {
+        assert_eq!(self.get("/api/session").0, 200);
+    }
+}
+
+/// (position, state) of every agent after `steps` steps, from `latticesim run`.
+fn run_agents(rules: &str, agents: &str, steps: u64) -> Vec<(Vec<i64>, String)> {
+    let out = Command::new(env!("CARGO_BIN_EXE_latticesim"))
+        .current_dir(ROOT)
+        .args([
+            "run",
+            rules,
+            agents,
+            "--quiet",
+            "--max-steps",
+            &steps.to_string(),
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .filter(|l| !l.starts_with('U'))
+        .map(|l| {
+            let mut w = l.split_whitespace();
+            let pos = w
+                .next()
+                .unwrap()
+                .split(',')
+                .map(|v| v.parse().unwrap())
+                .collect();
+            let state = w.next().unwrap().strip_prefix('S').unwrap().to_string();
+            (pos, state)
+        })
+        .collect()
+}
+
+/// (position, state) of every agent in a frame.
+fn frame_agents(f: &Value) -> Vec<(Vec<i64>, String)> {
+    let dim = f["dim"].as_u64().unwrap() as usize;
+    let pos: Vec<i64> = f["pos"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_i64().unwrap())
+        .collect();
+    let names: Vec<&str> = f["states"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["name"].as_str().unwrap())
+        .collect();
+    f["state"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            (
+                pos[i * dim..(i + 1) * dim].to_vec(),
+                names[s.as_u64().unwrap() as usize].to_string(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn frames_forwards_and_back_match_run() {
+    // A 2D run with moves and bonds (the tour) and a 3D one with moves (gravity).
+    for (name, rules, agents, steps) in [
+        (
+            "tour",
+            "examples/tour/rules.txt",
+            "examples/tour/agents.txt",
+            [2, 1, 2, 0, 1],
+        ),
+        (
+            "gravity3d",
+            "examples/gravity-3d/rules.txt",
+            "examples/gravity-3d/agents.txt",
+            [5, 2, 7, 0, 3],
+        ),
+    ] {
+        let srv = start(name, rules, agents);
+        for s in steps {
+            let (status, f) = srv.get(&format!("/api/frame?step={s}"));
+            assert_eq!(status, 200, "{f}");
+            assert_eq!(f["step"], s, "{name}");
+            assert!(f["note"].is_null(), "{f}");
+            assert_eq!(
+                frame_agents(&f),
+                run_agents(rules, agents, s),
+                "{name} at step {s}"
+            );
+            let (status, a) = srv.get("/api/agent?id=0");
+            assert_eq!(status, 200);
+            assert_eq!(
+                a["state"],
+                run_agents(rules, agents, s)[0].1,
+                "{name} at step {s}"
+            );
+        }
+    } // The tour is quiescent at step 2 (no agent has a rule): asking for more stops there.
+    let srv = start(
+        "tour-end",
+        "examples/tour/rules.txt",
+        "examples/tour/agents.txt",
+    );
+    let (_, f) = srv.get("/api/frame?step=50");
+    assert_eq!((&f["step"], &f["quiescent"]), (&json!(2), &json!(true)));
+    assert!(
+        f["note"]
+            .as_str()
+            .unwrap()
+            .starts_with("quiescent at step 2"),
+        "{f}"
+    );
+    assert!(f["attach"].is_array(), "the tour's agents are attached");
+}
+
+#[test]
+fn inspector_shows_counters_messages_and_next_rules() {
+    let srv = start(
+        "inspect",
+        "examples/leader-election/rules.txt",
+        "examples/leader-election/agents-30.txt",
+    );
+    // Before the first step agent 0 (C00 26) is in INIT0: its next rule is `start`.
+    let (_, a) = srv.get("/api/agent?id=0");
+    assert_eq!(a["state"], "INIT0");
+    assert_eq!(a["next"], json!({ "rules": ["start"], "priority": 2 }));
+    assert_eq!(a["counters"][0], json!({ "name": "C00", "value": 26 }));
+    srv.get("/api/frame?step=1");
+    let (_, a) = srv.get("/api/agent?id=0");
+    // After step 1 every agent told its neighbours its id: agent 0 at (0,0) hears 25 from
+    // (0,1) in the north.
+    assert_eq!(a["state"], "LEAD0");
+    assert!(a["messages"]
+        .as_array()
+        .unwrap()
+        .contains(&json!({ "name": "#N01", "value": 25 })));
+    assert_eq!(a["next_step"], 2);
+}
+
+#[test]
+fn bad_requests_get_clear_errors_and_the_server_goes_on() {
+    let srv = start(
+        "bad",
+        "examples/leader-election/rules.txt",
+        "examples/leader-election/agents-30.txt",
+    );
+    let err = |r: (u16, Value)| (r.0, r.1["error"].as_str().unwrap_or("").to_string());
+
+    // Malformed bodies.
+    let (s, e) = err(srv.json("POST", "/api/check", b"{\"rules\": "));
+    assert_eq!(s, 400);
+    assert!(e.contains("not valid JSON"), "{e}");
+    srv.alive();
+    let (s, e) = err(srv.json("POST", "/api/check", b"[1, 2]"));
+    assert_eq!(
+        (s, e.as_str()),
+        (400, "the request body must be a JSON object")
+    );
+    let (s, e) = err(srv.post("/api/apply", json!({ "rules": 3, "agents": "" })));
+    assert_eq!(s, 400);
+    assert!(e.contains("string field `rules`"), "{e}");
+    let (s, _) = err(srv.json("POST", "/api/check", b"\xff\xfe"));
+    assert_eq!(s, 400);
+    srv.alive();
+
+    // Huge bodies are refused before they are read whole.
+    let huge = vec![b'x'; 9 << 20];
+    let (s, e) = err(srv.json("POST", "/api/check", &huge));
+    assert_eq!(s, 413);
+    assert!(e.contains("larger than"), "{e}");
+    srv.alive();
+
+    // Unknown routes, wrong methods, bad numbers, missing agents.
+    let (s, e) = err(srv.get("/etc/passwd"));
+    assert_eq!((s, e.as_str()), (404, "no such page or API: /etc/passwd"));
+    assert_eq!(err(srv.json("DELETE", "/api/frame", b"")).0, 405);
+    assert_eq!(err(srv.get("/api/file")).0, 405);
+    let (s, e) = err(srv.get("/api/frame?step=-1"));
+    assert_eq!(s, 400);
+    assert!(e.contains("`step`"), "{e}");
+    assert_eq!(err(srv.get("/api/agent")).0, 400);
+    let (s, e) = err(srv.get("/api/agent?id=30"));
+    assert_eq!(
+        (s, e.as_str()),
+        (404, "there is no agent 30: ids go from 0 to 29")
+    );
+    // Not HTTP at all.
+    let (s, _) = srv.raw(b"NONSENSE\r\n\r\n");
+    assert_eq!(s, 400);
+    srv.alive();
+
+    // Paths outside the working folder: relative, absolute, and through a symbolic link.
+    for p in [
+        "../outside.txt",
+        "/etc/passwd",
+        "/etc/new.txt",
+        "sub/../../x.txt",
+    ] {
+        let (s, e) = err(srv.post("/api/file", json!({ "path": p })));
+        assert!(s == 403 || s == 404, "{p}: {s} {e}");
+        let (s, e) = err(srv.post("/api/file", json!({ "path": p, "text": "x" })));
+        assert_eq!(s, 403, "{p}: {e}");
+        assert!(e.contains("outside the working folder"), "{e}");
+    }
+    #[cfg(unix)]
+    {
+        std::os::unix::fs::symlink("/etc", srv.dir.join("link")).unwrap();
+        let (s, _) = err(srv.post("/api/file", json!({ "path": "link/hostname" })));
+        assert!(s == 403 || s == 404);
+        let (s, _) = err(srv.post("/api/file", json!({ "path": "link/new.txt", "text": "x" })));
+        assert_eq!(s, 403);
+        assert!(!Path::new("/etc/new.txt").exists());
+    }
+    let (s, e) = err(srv.post("/api/file", json!({ "path": "" })));
+    assert_eq!((s, e.as_str()), (400, "the path is empty"));
+    srv.alive();
+
+    // Inside the working folder, files are written and read back.
+    let (s, v) = srv.post(
+        "/api/file",
+        json!({ "path": "copy.txt", "text": "0,0 SAAAAA\n" }),
+    );
+    assert_eq!((s, &v["bytes"]), (200, &json!(11)));
+    assert_eq!(
+        std::fs::read_to_string(srv.dir.join("copy.txt")).unwrap(),
+        "0,0 SAAAAA\n"
+    );
+    let (s, v) = srv.post("/api/file", json!({ "path": "copy.txt" }));
+    assert_eq!((s, &v["text"]), (200, &json!("0,0 SAAAAA\n")));
+
+    // Files with errors are not run: the run goes on as it was, and restarts from step 0
+    // when they are fixed.
+    let rules = std::fs::read_to_string(srv.dir.join("rules.txt")).unwrap();
+    let agents = std::fs::read_to_string(srv.dir.join("agents-30.txt")).unwrap();
+    assert_eq!(srv.get("/api/frame?step=4").1["step"], 4);
+    let (s, v) = srv.post("/api/apply", json!({ "rules": "x", "agents": agents }));
+    assert_eq!(s, 422);
+    assert_eq!(v["check"]["errors"], 1);
+    assert_eq!(srv.get("/api/frame").1["step"], 4);
+    let (s, v) = srv.post("/api/apply", json!({ "rules": rules, "agents": agents }));
+    assert_eq!((s, &v["frame"]["step"]), (200, &json!(0)));
+    srv.alive();
+
+    // A server started on files with errors has no run until they are applied fixed.
+    let broken = start(
+        "broken",
+        "examples/mistakes/rules.txt",
+        "examples/tour/agents.txt",
+    );
+    let (s, e) = err(broken.get("/api/frame?step=1"));
+    assert_eq!(s, 409);
+    assert!(e.starts_with("nothing is running"), "{e}");
+    let (_, session) = broken.get("/api/session");
+    assert_eq!(
+        (&session["running"], &session["check"]["errors"]),
+        (&json!(false), &json!(6))
+    );
+}
+
+#[test]
+fn check_marks_errors_in_the_editor_they_belong_to() {
+    let srv = start(
+        "check",
+        "examples/leader-election/rules.txt",
+        "examples/leader-election/agents-30.txt",
+    );
+    let (s, v) = srv.post(
+        "/api/check",
+        json!({
+            "rules": "start\n2\nSINIT0 (\nC01 + C00 0000\n",
+            "agents": "0,0 SINIT0\n0,1 SINIT0 C99 1\n",
+            "rules_path": "r.txt",
+            "agents_path": "a.txt",
+        }),
+    );
+    assert_eq!(s, 200);
+    let d = v["diagnostics"].as_array().unwrap();
+    let at = |editor: &str| {
+        d.iter()
+            .filter(|x| x["editor"] == editor)
+            .map(|x| (x["line"].as_u64().unwrap(), x["column"].as_u64().unwrap()))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(at("rules"), vec![(3, 8)], "{v}");
+    assert_eq!(at("agents").first().map(|p| p.0), Some(2), "{v}");
+}
+
+#[test]
+fn serves_the_app_and_refuses_a_busy_port() {
+    let srv = start(
+        "app",
+        "examples/leader-election/rules.txt",
+        "examples/leader-election/agents-30.txt",
+    );
+    let (s, html) = srv.request("GET", "/", b"");
+    assert_eq!(s, 200);
+    assert!(html.contains("<script src=\"/app.js\">"));
+    let (s, js) = srv.request("GET", "/app.js", b"");
+    assert_eq!(s, 200);
+    assert!(js.contains("/api/frame?step="));
+    let port = srv.addr.rsplit(':').next().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_latticesim"))
+        .current_dir(ROOT)
+        .args(["serve", "--port", port])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("cannot listen on 127.0.0.1:"), "{err}");
+}
