@@ -110,6 +110,8 @@ async function test(browser) {
   await page.waitForSelector(mark);
   assert.match(await page.textContent('#check-summary'), /^1 error/);
   assert.match(await page.textContent('#ed-rules .diags li'), new RegExp(`^${line}:8: error\\[E203\\]`));
+  // The caret stands in the marked span: its message is the current one.
+  assert.match(await page.textContent('#ed-rules .diags li.current'), /E203/);
   if (process.env.SCREENSHOTS) {
     await page.screenshot({ path: path.join(process.env.SCREENSHOTS, 'viewer-editor.png') });
   }

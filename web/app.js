@@ -603,6 +603,7 @@ for (const name of ['rules', 'agents']) {
     list: [],
   };
   ed.text.addEventListener('input', () => { paint(ed); scheduleCheck(); });
+  for (const ev of ['click', 'keyup', 'select']) ed.text.addEventListener(ev, () => showCurrent(ed));
   ed.text.addEventListener('scroll', () => {
     ed.backdrop.scrollTop = ed.text.scrollTop;
     ed.backdrop.scrollLeft = ed.text.scrollLeft;
@@ -666,6 +667,18 @@ function paint(ed) {
   ed.gutter.scrollTop = ed.text.scrollTop;
 }
 
+// Marks the messages of the diagnostics whose span holds the caret.
+function showCurrent(ed) {
+  const t = ed.text.value, at = ed.text.selectionStart;
+  ed.list.forEach((d, i) => {
+    const a = indexOf(t, d.line, d.column), b = indexOf(t, d.end_line, d.end_column);
+    const li = ed.diags.children[i];
+    const on = at >= a && at <= Math.max(a + 1, b);
+    li.classList.toggle('current', on);
+    if (on) li.scrollIntoView({ block: 'nearest' });
+  });
+}
+
 function showDiagnostics(check) {
   for (const ed of Object.values(editors)) {
     ed.list = check.diagnostics.filter((d) => d.editor === ed.name);
@@ -682,6 +695,7 @@ function showDiagnostics(check) {
       ed.diags.append(li);
     }
     paint(ed);
+    if (document.activeElement === ed.text) showCurrent(ed);
   }
   const s = $('check-summary');
   s.textContent = `${check.errors} error${check.errors === 1 ? '' : 's'}, ${check.warnings} warning${check.warnings === 1 ? '' : 's'}; ${check.rules} rules, ${check.agents} agents, ${check.dimension}`;
