@@ -5,11 +5,13 @@ use latticesim_benches::workloads::*;
 
 fn main() {
     let (l, threads, steps, reps) = (arg(1, 300), arg(2, 1) as usize, arg(3, 10), arg(4, 1));
-    let base = latticesim_benches::engine(B1_RULES, &b1_agents(l));
+    // Built without an agents file, so that a profile shows the steps rather than parsing.
     let opts = latticesim_runtime::Options {
         threads,
-        ..base.opts
+        ..Default::default()
     };
+    let base =
+        latticesim_runtime::Engine::new(latticesim_benches::program(B1_RULES), b1_lattice(l), opts);
     let mut best = std::time::Duration::MAX;
     let mut native = std::time::Duration::MAX;
     let mut sum = 0;

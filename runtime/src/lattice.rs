@@ -9,6 +9,7 @@
 //! a column reads 0, as does a slot without one.
 
 use crate::cells::CellIndex;
+use crate::step::{all_bits, set_bits};
 use latticesim_vm::eval::Cell;
 use latticesim_vm::model::{AgentInit, Bounds, Config, Dim, Dir};
 use std::fmt::Write;
@@ -45,6 +46,8 @@ pub struct Lattice {
     /// Which text messages were received: bit i = from direction i (empty when no rule
     /// uses texts).
     pub(crate) inbox_text_has: Vec<u8>,
+    /// Numeric messages of the last step not copied into `inbox_num` (see [`Pending`]).
+    pub(crate) pending: Option<Pending>,
     pub(crate) cells: CellIndex,
     /// What stands next to each agent when the cell index is a hash map: one column per
     /// direction ([`NO_AGENT`], [`BLOCKED`] or an id), valid while `nbr_valid`. Positions
@@ -52,6 +55,84 @@ pub struct Lattice {
     /// only after a move or swap. A grid answers as fast without it.
     nbr: Vec<Vec<u32>>,
     nbr_valid: bool,
+}
+
+/// The numeric messages sent in the last step, kept where the senders wrote them instead of
+/// being copied into every recipient's inbox: agent `a` reads slot `s` from direction `d`
+/// as what its neighbour in direction `d` sent in the opposite direction. The engine keeps
+/// messages this way only while no agent can move (its program has no move or swap), so
+/// the neighbours stay those of the step that sent them. While there are pending messages
+/// the inbox columns hold nothing.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub(crate) struct Pending {
+    /// Per direction sent in and slot in use (at `dir * slots + slot_col[slot]`): the value
+    /// each agent sent.
+    pub(crate) num: Vec<Vec<i16>>,
+    /// The same columns: a bit per agent that sent.
+    pub(crate) has: Vec<Vec<u64>>,
+    /// Per direction (of the recipient), who sends from there, as segments of recipients
+    /// `(first, its sender)` in which the sender of `first + i` is `sender + i`
+    /// ([`NO_AGENT`] for none): a few segments per row of a grid. `None` where that would
+    /// take more than one segment per eight agents (agents are then looked at one by one).
+    pub(crate) plan: Vec<Option<Vec<(u32, u32)>>>,
+}
+
+impl Pending {
+    /// A bit per agent that has a neighbour in direction index `d`.
+    pub(crate) fn has_sender(&self, lat: &Lattice, d: usize) -> Vec<u64> {
+        let n = lat.len();
+        let mut bits = vec![0u64; n.div_ceil(64)];
+        match &self.plan[d] {
+            Some(segs) => {
+                for (k, &(start, sender)) in segs.iter().enumerate() {
+                    if sender != NO_AGENT {
+                        let end = segs.get(k + 1).map_or(n, |s| s.0 as usize);
+                        set_bits(&mut bits, start as usize..end);
+                    }
+                }
+            }
+            None => {
+                for a in 0..n {
+                    if matches!(lat.neighbour_cell(a as u32, d), Cell::Agent(_)) {
+                        bits[a >> 6] |= 1 << (a & 63);
+                    }
+                }
+            }
+        }
+        bits
+    }
+
+    /// Empty outboxes of `cols` columns for the agents of `lat`, with the plan of who
+    /// sends to whom (positions must not change while it is used).
+    pub(crate) fn new(lat: &Lattice, cols: usize) -> Pending {
+        let n = lat.len();
+        let nd = lat.dim.dirs();
+        // One pass over the agents for every direction; a direction whose segments grow
+        // past one per eight agents is given up.
+        let mut plan: Vec<Option<Vec<(u32, u32)>>> = vec![Some(Vec::new()); nd];
+        let mut next = [NO_AGENT; 6]; // the sender each current segment predicts
+        let mut nb = [NO_AGENT; 6];
+        for a in 0..n as u32 {
+            lat.neighbours(a, &mut nb);
+            for d in 0..nd {
+                let f = nb[d];
+                if let Some(segs) = &mut plan[d] {
+                    if segs.is_empty() || f != next[d] {
+                        segs.push((a, f));
+                        if segs.len() > n / 8 + 1 {
+                            plan[d] = None;
+                        }
+                    }
+                }
+                next[d] = if f == NO_AGENT { NO_AGENT } else { f + 1 };
+            }
+        }
+        Pending {
+            num: vec![vec![0; n]; cols],
+            has: vec![vec![0; n.div_ceil(64)]; cols],
+            plan,
+        }
+    }
 }
 
 /// In the neighbour table and in [`Lattice::neighbours`]: a free cell.
@@ -81,6 +162,7 @@ impl LatticeBuilder {
                 inbox_num: Vec::new(),
                 inbox_text: Vec::new(),
                 inbox_text_has: Vec::new(),
+                pending: None,
                 cells: CellIndex::new(&[], false),
                 nbr: Vec::new(),
                 nbr_valid: false,
@@ -205,10 +287,124 @@ impl Lattice {
     /// (0-based), 0 when none.
     #[inline]
     pub fn inbox(&self, a: u32, dir: u8, slot: u8) -> i16 {
-        match self.slot_col[slot as usize] {
-            NO_COL => 0,
-            s => self.inbox_num[dir as usize * self.slots as usize + s as usize][a as usize],
+        match (self.slot_col[slot as usize], &self.pending) {
+            (NO_COL, _) => 0,
+            (s, None) => {
+                self.inbox_num[dir as usize * self.slots as usize + s as usize][a as usize]
+            }
+            (s, Some(p)) => {
+                let Cell::Agent(f) = self.neighbour_cell(a, dir as usize) else {
+                    return 0;
+                };
+                let od = Dir::ALL[dir as usize].opposite().index();
+                let col = od * self.slots as usize + s as usize;
+                let f = f as usize;
+                if p.has[col][f >> 6] & (1 << (f & 63)) != 0 {
+                    p.num[col][f]
+                } else {
+                    0
+                }
+            }
         }
+    }
+
+    /// What agents `first..first + out.len()` received from direction index `dir` in slot
+    /// `slot` (in use): a slice of the inbox column, of the senders' pending messages when
+    /// they are consecutive agents that all sent, or else `out` filled one by one. `hint`
+    /// remembers, per direction, the segment of the plan where the last call ended (calls
+    /// for increasing `first` then find theirs at once).
+    #[inline]
+    pub(crate) fn inbox_run<'a>(
+        &'a self,
+        first: usize,
+        (dir, slot): (u8, u8),
+        out: &'a mut [i16],
+        hint: &mut [usize; 6],
+    ) -> &'a [i16] {
+        let m = out.len();
+        let s = self.slot_col[slot as usize] as usize;
+        let Some(p) = &self.pending else {
+            return &self.inbox_num[dir as usize * self.slots as usize + s][first..first + m];
+        };
+        let od = Dir::ALL[dir as usize].opposite().index();
+        let col = od * self.slots as usize + s;
+        let (num, has) = (&p.num[col], &p.has[col]);
+        let Some(segs) = &p.plan[dir as usize] else {
+            for (j, v) in out.iter_mut().enumerate() {
+                *v = self.inbox((first + j) as u32, dir, slot);
+            }
+            return out;
+        };
+        // Segments of consecutive senders are copied whole when they all sent (or lent
+        // when one covers every recipient asked for).
+        let within = |k: usize| {
+            segs.get(k).is_some_and(|s| s.0 as usize <= first)
+                && segs.get(k + 1).is_none_or(|s| s.0 as usize > first)
+        };
+        let h = hint[dir as usize];
+        let mut k = if within(h) {
+            h
+        } else if within(h + 1) {
+            h + 1
+        } else {
+            segs.partition_point(|s| s.0 as usize <= first) - 1
+        };
+        let mut j = 0;
+        while j < m {
+            let (start, sender) = segs[k];
+            let end = segs.get(k + 1).map_or(self.len(), |s| s.0 as usize);
+            let a = first + j;
+            let len = (end - a).min(m - j);
+            let dst = &mut out[j..j + len];
+            if sender == NO_AGENT {
+                dst.fill(0);
+            } else {
+                let f0 = sender as usize + (a - start as usize);
+                let seg = f0..f0 + len;
+                if all_bits(has, seg.clone()) {
+                    if len == m {
+                        return &num[seg];
+                    }
+                    dst.copy_from_slice(&num[seg]);
+                } else {
+                    for (v, f) in dst.iter_mut().zip(seg) {
+                        *v = if has[f >> 6] & (1 << (f & 63)) != 0 {
+                            num[f]
+                        } else {
+                            0
+                        };
+                    }
+                }
+            }
+            j += len;
+            hint[dir as usize] = k;
+            k += 1;
+        }
+        out
+    }
+
+    /// Copies pending messages into the inbox columns (which are made again), so that the
+    /// lattice can be run by a program whose agents move.
+    pub(crate) fn settle_inbox(&mut self) {
+        if self.pending.is_none() {
+            return;
+        }
+        let (n, nd, ns) = (self.len(), self.dim.dirs(), self.slots as usize);
+        let slots: Vec<(u8, u8)> = (0..8u8)
+            .filter(|&s| self.slot_col[s as usize] != NO_COL)
+            .map(|s| (s, self.slot_col[s as usize]))
+            .collect();
+        let mut cols = vec![vec![0i16; n]; nd * ns];
+        for d in 0..nd {
+            for &(s, c) in &slots {
+                let col = &mut cols[d * ns + c as usize];
+                for (a, v) in col.iter_mut().enumerate() {
+                    *v = self.inbox(a as u32, d as u8, s);
+                }
+            }
+        }
+        self.inbox_num = cols;
+        self.pending = None;
     }
 
     /// The text message agent `a` received from direction index `dir`, if any.
@@ -250,6 +446,10 @@ impl Lattice {
                 .iter()
                 .map(|c| c.capacity() * 2)
                 .sum::<usize>()
+            + self.pending.as_ref().map_or(0, |p| {
+                p.num.iter().map(|c| c.capacity() * 2).sum::<usize>()
+                    + p.has.iter().map(|c| c.capacity() * 8).sum::<usize>()
+            })
             + self.nbr.iter().map(|c| c.capacity() * 4).sum::<usize>();
         self.pos.capacity() * 12
             + self.state.capacity() * 5

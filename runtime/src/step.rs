@@ -7,7 +7,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use crate::lattice::Lattice;
-use crate::lattice::{NO_AGENT, NO_COL};
+use crate::lattice::{Pending, NO_AGENT, NO_COL};
 use crate::record::{Record, RecordKind};
 use crate::trace::TraceEvent;
 use latticesim_vm::eval::{eval_pre, run_post, CalcEnv, CalcIssue, Cell, Env, Tri};
@@ -136,6 +136,12 @@ pub struct Engine {
     any_prio: bool,
     /// Some rule calculates or sends.
     any_computes: bool,
+    /// Messages are left where their senders wrote them (see `Pending` in lattice.rs)
+    /// instead of copied into inboxes: no rule moves or swaps, and no rule uses texts.
+    defer: bool,
+    /// With `defer`: per direction, a bit per agent that has a neighbour there (to count
+    /// the messages delivered); made at the first delivery.
+    has_nbr: Vec<Vec<u64>>,
     /// The offsets at which `L`/`Q` terms read priorities, when none depends on a counter
     /// (an agent's priority is then read only by its neighbours and by the agents at these
     /// offsets backwards); `None` when one does.
@@ -446,6 +452,7 @@ impl Engine {
         let mut by_prio: Vec<u32> = (0..prog.rules.len() as u32).collect();
         by_prio.sort_by_key(|&r| std::cmp::Reverse(prog.rules[r as usize].priority));
         let uses = prog.uses();
+        lat.settle_inbox();
         for c in 0..lat.nc() as u8 {
             if uses.counters & (1 << c) != 0 {
                 lat.ensure_counter(c);
@@ -508,6 +515,13 @@ impl Engine {
             pre_batch,
             any_prio: prog.rules.iter().any(|r| r.reads_priorities),
             any_computes: prog.rules.iter().any(|r| r.computes),
+            defer: uses.slots != 0
+                && !uses.texts
+                && prog
+                    .rules
+                    .iter()
+                    .all(|r| r.moves.is_none() && r.swaps.is_none()),
+            has_nbr: Vec::new(),
             prio_offsets: prog
                 .code
                 .iter()
@@ -1860,6 +1874,8 @@ impl Engine {
             .collect();
         let (prog, lat, trace) = (&self.prog, &self.lat, self.opts.trace);
         let batchable = &self.batchable;
+        // When every agent executes the same one rule, runs need no search.
+        let uniform = sel.many.is_empty() && self.fire_counts.contains(&(n as u64));
         let work = |mut ch: CalcChunk<'_>| {
             let mut issues: Vec<(u32, u32, CalcIssue)> = Vec::new();
             let mut events = Vec::new();
@@ -1873,7 +1889,11 @@ impl Engine {
                         continue;
                     }
                     if batchable[r as usize] && !trace {
-                        let end = k + run_of(&sel.one[ch.lo + k..ch.lo + ch.len], r);
+                        let end = if uniform {
+                            ch.len
+                        } else {
+                            k + run_of(&sel.one[ch.lo + k..ch.lo + ch.len], r)
+                        };
                         run_batch(prog, r, lat, &mut ch, k..end, &mut issues);
                         k = end;
                         continue;
@@ -1975,8 +1995,12 @@ impl Engine {
                 .map(|t| t.count_ones() as u64)
                 .sum::<u64>();
         let texts = !self.out_text_bits.is_empty();
-        if ns == 0 && !texts {
+        if std::env::var_os("NODELIVER").is_some() || ns == 0 && !texts {
             // No rule sends or reads messages: there is nothing to deliver.
+            return;
+        }
+        if self.defer {
+            self.deliver_deferred(sent);
             return;
         }
         let mut inbox_num = std::mem::take(&mut self.lat.inbox_num);
@@ -2035,27 +2059,50 @@ impl Engine {
                         None => &nb[dir][..m],
                     };
                     let od = OPPOSITE[dir];
-                    // The senders are themselves consecutive agents.
-                    let f0 = from[0] as usize;
-                    let dense = from[0] != NO_AGENT && is_sequence(from, from[0]);
-                    for sc in 0..ns {
-                        let cout = od * ns + sc;
-                        let (out, bits) = (&out_num[cout][..], &out_has[cout][..]);
-                        let inb = &mut num[dir * ns + sc][base..base + m];
-                        if dense && all_bits(bits, f0..f0 + m) {
-                            inb.copy_from_slice(&out[f0..f0 + m]);
-                            got += m as u64;
-                            continue;
+                    // Segments of senders that are themselves consecutive agents are
+                    // copied whole when they all sent (a whole batch at once, or the batch
+                    // but its first or last recipient at the edge of the agents).
+                    let whole = from[0] != NO_AGENT && is_sequence(from, from[0]);
+                    let mut j = 0;
+                    while j < m {
+                        let f0 = from[j];
+                        let k = if whole {
+                            m
+                        } else if f0 == NO_AGENT {
+                            j + 1
+                        } else {
+                            j + 1
+                                + from[j + 1..]
+                                    .iter()
+                                    .zip(1u32..)
+                                    .take_while(|&(&f, d)| f == f0.wrapping_add(d))
+                                    .count()
+                        };
+                        for sc in 0..ns {
+                            let inb = &mut num[dir * ns + sc][base + j..base + k];
+                            if f0 == NO_AGENT {
+                                inb.fill(0);
+                                continue;
+                            }
+                            let cout = od * ns + sc;
+                            let (out, bits) = (&out_num[cout][..], &out_has[cout][..]);
+                            let f0 = f0 as usize;
+                            let seg = f0..f0 + (k - j);
+                            if all_bits(bits, seg.clone()) {
+                                inb.copy_from_slice(&out[seg]);
+                                got += (k - j) as u64;
+                                continue;
+                            }
+                            for (v, f) in inb.iter_mut().zip(seg) {
+                                *v = if bits[f >> 6] & (1 << (f & 63)) != 0 {
+                                    got += 1;
+                                    out[f]
+                                } else {
+                                    0
+                                };
+                            }
                         }
-                        for (v, &f) in inb.iter_mut().zip(from) {
-                            let f = f as usize;
-                            *v = if f != NO_AGENT as usize && bits[f >> 6] & (1 << (f & 63)) != 0 {
-                                got += 1;
-                                out[f]
-                            } else {
-                                0
-                            };
-                        }
+                        j = k;
                     }
                     if texts {
                         for (j, &f) in from.iter().enumerate() {
@@ -2085,6 +2132,38 @@ impl Engine {
         self.lat.inbox_text_has = inbox_has;
         self.out_has.iter_mut().for_each(|c| c.fill(0));
         self.out_text_bits.fill(0);
+        self.stats.sent += sent;
+        self.stats.delivered += delivered;
+        self.stats.dropped += sent - delivered;
+    }
+
+    /// Delivery without copying: this step's outboxes become the lattice's pending
+    /// messages (and the last step's pending columns the next outboxes). A message is
+    /// delivered when its sender has a neighbour in the direction it was sent.
+    fn deliver_deferred(&mut self, sent: u64) {
+        let (nd, ns) = (self.lat.dim.dirs(), self.lat.slots as usize);
+        if self.lat.pending.is_none() {
+            self.lat.pending = Some(Pending::new(&self.lat, nd * ns));
+        }
+        if self.has_nbr.len() != nd {
+            let p = self.lat.pending.as_ref().expect("just made");
+            self.has_nbr = (0..nd).map(|d| p.has_sender(&self.lat, d)).collect();
+        }
+        let delivered: u64 = (0..nd * ns)
+            .map(|col| {
+                self.out_has[col]
+                    .iter()
+                    .zip(&self.has_nbr[col / ns])
+                    .map(|(h, b)| (h & b).count_ones() as u64)
+                    .sum::<u64>()
+            })
+            .sum();
+        let p = self.lat.pending.as_mut().expect("made above");
+        std::mem::swap(&mut p.num, &mut self.out_num);
+        std::mem::swap(&mut p.has, &mut self.out_has);
+        // The inbox columns are not read while messages are pending.
+        self.lat.inbox_num.iter_mut().for_each(|c| *c = Vec::new());
+        self.out_has.iter_mut().for_each(|c| c.fill(0));
         self.stats.sent += sent;
         self.stats.delivered += delivered;
         self.stats.dropped += sent - delivered;
@@ -2231,7 +2310,7 @@ fn words(range: std::ops::Range<usize>) -> impl Iterator<Item = (usize, u64)> {
 }
 
 /// Sets the bits `range` of a bit set.
-fn set_bits(bits: &mut [u64], range: std::ops::Range<usize>) {
+pub(crate) fn set_bits(bits: &mut [u64], range: std::ops::Range<usize>) {
     for (w, mask) in words(range) {
         bits[w] |= mask;
     }
@@ -2379,7 +2458,7 @@ fn is_sequence(s: &[u32], start: u32) -> bool {
 }
 
 /// Whether every bit of `range` is set.
-fn all_bits(bits: &[u64], range: std::ops::Range<usize>) -> bool {
+pub(crate) fn all_bits(bits: &[u64], range: std::ops::Range<usize>) -> bool {
     words(range).all(|(w, mask)| bits[w] & mask == mask)
 }
 
@@ -2393,10 +2472,8 @@ fn fast_calc(
     ch: &mut CalcChunk<'_>,
     ks: std::ops::Range<usize>,
     first: usize,
-    target: Target,
-    op: CalcOp,
-    a: Val,
-    b: Val,
+    (target, op, a, b): (Target, CalcOp, Val, Val),
+    buf: &mut ([i16; BATCH], [usize; 6]),
 ) -> bool {
     let len = ks.len();
     match (target, op, a, b) {
@@ -2407,9 +2484,7 @@ fn fast_calc(
                 Val::Lit(v) if max => col.iter_mut().for_each(|t| *t = (*t).max(v)),
                 Val::Lit(v) => col.iter_mut().for_each(|t| *t = (*t).min(v)),
                 Val::Msg { dir, slot } if dir != ANY_DIR => {
-                    let src = &lat.inbox_num
-                        [dir as usize * lat.slots as usize + lat.slot_col[slot as usize] as usize]
-                        [first..first + len];
+                    let src = lat.inbox_run(first, (dir, slot), &mut buf.0[..len], &mut buf.1);
                     if max {
                         col.iter_mut().zip(src).for_each(|(t, &v)| *t = (*t).max(v));
                     } else {
@@ -2458,6 +2533,7 @@ fn run_batch(
     let mut x = [0i32; BATCH];
     let mut y = [0i32; BATCH];
     let mut ok = [true; BATCH];
+    let mut buf = ([0i16; BATCH], [0usize; 6]);
     let mut start = range.start;
     while start < range.end {
         let len = (range.end - start).min(BATCH);
@@ -2475,9 +2551,9 @@ fn run_batch(
                     }
                 }
                 Op::Calc { target, op, a, b }
-                    if fast_calc(lat, ch, ks.clone(), first, target, op, a, b) => {}
+                    if fast_calc(lat, ch, ks.clone(), first, (target, op, a, b), &mut buf) => {}
                 Op::Calc { target, op, a, b } => {
-                    let load = |v: Val, into: &mut [i32], ch: &CalcChunk<'_>| match v {
+                    let mut load = |v: Val, into: &mut [i32], ch: &CalcChunk<'_>| match v {
                         Val::Lit(c) => into.fill(c as i32),
                         Val::Counter(c) => {
                             let col = &ch.counters[lat.counter_col[c as usize] as usize];
@@ -2486,9 +2562,9 @@ fn run_batch(
                             }
                         }
                         Val::Msg { dir, slot } => {
-                            let col = &lat.inbox_num[dir as usize * lat.slots as usize
-                                + lat.slot_col[slot as usize] as usize];
-                            for (t, &s) in into.iter_mut().zip(&col[first..first + len]) {
+                            let mut b = [0i16; BATCH];
+                            let src = lat.inbox_run(first, (dir, slot), &mut b[..len], &mut buf.1);
+                            for (t, &s) in into.iter_mut().zip(src) {
                                 *t = s as i32;
                             }
                         }

@@ -565,6 +565,47 @@ fn optimisations_agree_with_reference() {
             block(40, 40, |x, y, _| format!(" SR{:04}", (x * 40 + y) % 1200)),
         ),
         (chain.into(), block(12, 12, |_, _, _| String::new())),
+        // Messages left with their senders (rules without moves), sent every third step,
+        // read by preconditions and calculations: nothing stale is read.
+        (
+            "a\n1\nSA****\nC00 + C00 0003 #*01 + C00 0000 SB****\n\nb\n1\nSB****\nC01 A C01 #N01 SC****\n\nhear\n2\nSB**** >#W01 0010\nC02 + #W01 0000 SC****\n\nc\n1\nSC****\nC01 A C01 #E01 SA****\n".into(),
+            block(10, 10, |x, y, _| {
+                format!(" S{}AAAA C00 {}", ["A", "B", "C"][((x * 2 + y) % 3) as usize], (x * 7 + y * 3) % 11)
+            }),
+        ),
+        // Runs of readers (even columns) next to senders of which a third sent in each
+        // step (odd columns, period three): a run's messages are picked one by one.
+        (
+            "read\n1\nSR****\nC01 A C01 #E01 C02 + C02 #W01\n\np0\n1\nSP0***\nC00 + C00 0001 #*01 + C00 0000 SP1***\n\np1\n1\nSP1***\nSP2***\n\np2\n1\nSP2***\nSP0***\n".into(),
+            block(8, 12, |x, y, _| {
+                if x % 2 == 0 {
+                    " SRRRRR".to_string()
+                } else {
+                    format!(" SP{}AAA C00 {}", y % 3, 5 + y)
+                }
+            }),
+        ),
+        // In a bounded universe
+        // with most cells empty, and in pairs far apart (a hash-indexed lattice).
+        (
+            flood.into(),
+            "U0,29,0,29\n".to_string()
+                + &block(30, 30, |x, y, _| format!(" C00 {}", hash(x, y)))
+                    .lines()
+                    .enumerate()
+                    .filter(|(k, _)| (k * 7919) % 10 < 4)
+                    .map(|(_, l)| format!("{l}\n"))
+                    .collect::<String>(),
+        ),
+        (
+            flood.into(),
+            (0..40)
+                .map(|k| {
+                    let (x, y) = (k % 8 * 1000, k / 8 * 7);
+                    format!("{x},{y} C00 {}\n{},{y} C00 {}\n", k * 3, x + 1, 100 - k)
+                })
+                .collect(),
+        ),
         (
             mixed.into(),
             block(16, 16, |x, y, k| {

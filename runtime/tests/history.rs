@@ -37,6 +37,12 @@ fn cases() -> Vec<(String, String)> {
         }
     }
     vec![
+        // Every value comes from the south neighbour's message: the inboxes matter at
+        // every step, also right after a keyframe.
+        (
+            "shift\n1\nS*****\nC00 + #S01 0001 #*01 + C00 0000\n".into(),
+            flood_agents.clone(),
+        ),
         (
             "flood\n1\nS*****\nC00 A C00 #N01 C00 A C00 #W01 C00 A C00 #E01 C00 A C00 #S01 #*01 + C00 0000\n".into(),
             flood_agents,
