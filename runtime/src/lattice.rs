@@ -111,20 +111,50 @@ impl Pending {
         // past one per eight agents is given up.
         let mut plan: Vec<Option<Vec<(u32, u32)>>> = vec![Some(Vec::new()); nd];
         let mut next = [NO_AGENT; 6]; // the sender each current segment predicts
+        let add = |plan: &mut Vec<Option<Vec<(u32, u32)>>>,
+                   next: &mut [u32; 6],
+                   d: usize,
+                   a: u32,
+                   f: u32| {
+            if let Some(segs) = &mut plan[d] {
+                if segs.is_empty() || f != next[d] {
+                    segs.push((a, f));
+                    if segs.len() > n / 8 + 1 {
+                        plan[d] = None;
+                    }
+                }
+            }
+            next[d] = if f == NO_AGENT { NO_AGENT } else { f + 1 };
+        };
         let mut nb = [NO_AGENT; 6];
-        for a in 0..n as u32 {
-            lat.neighbours(a, &mut nb);
-            for d in 0..nd {
-                let f = nb[d];
-                if let Some(segs) = &mut plan[d] {
-                    if segs.is_empty() || f != next[d] {
-                        segs.push((a, f));
-                        if segs.len() > n / 8 + 1 {
-                            plan[d] = None;
+        let mut a = 0;
+        while a < n {
+            // Runs of agents on consecutive grid cells: a run whose neighbours go on the
+            // current segment is passed over at once.
+            if let Some((r, runs)) = lat.neighbour_run(a, n - a) {
+                for (d, from) in runs.iter().enumerate().take(nd) {
+                    let f0 = from[0];
+                    let same = f0 != NO_AGENT
+                        && from
+                            .iter()
+                            .enumerate()
+                            .fold(true, |ok, (j, &f)| ok & (f == f0.wrapping_add(j as u32)));
+                    if same {
+                        add(&mut plan, &mut next, d, a as u32, f0);
+                        next[d] = f0 + r as u32;
+                    } else {
+                        for (j, &f) in from.iter().enumerate() {
+                            add(&mut plan, &mut next, d, (a + j) as u32, f);
                         }
                     }
                 }
-                next[d] = if f == NO_AGENT { NO_AGENT } else { f + 1 };
+                a += r;
+            } else {
+                lat.neighbours(a as u32, &mut nb);
+                for (d, &f) in nb.iter().enumerate().take(nd) {
+                    add(&mut plan, &mut next, d, a as u32, f);
+                }
+                a += 1;
             }
         }
         Pending {
