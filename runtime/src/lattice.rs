@@ -9,7 +9,7 @@
 //! a column reads 0, as does a slot without one.
 
 use crate::cells::CellIndex;
-use crate::step::{all_bits, set_bits};
+use crate::step::{all_bits, no_bits, set_bits};
 use latticesim_vm::eval::Cell;
 use latticesim_vm::model::{AgentInit, Bounds, Config, Dim, Dir};
 use std::fmt::Write;
@@ -78,6 +78,20 @@ pub(crate) struct Pending {
 }
 
 impl Pending {
+    /// What sender `f` sent in direction column `col` (its own send to that direction,
+    /// else its send to all directions in column `all`, else 0).
+    #[inline]
+    fn value(&self, col: usize, all: Option<usize>, f: usize) -> i16 {
+        let bit = |c: usize| self.has[c][f >> 6] & (1 << (f & 63)) != 0;
+        if bit(col) {
+            self.num[col][f]
+        } else if let Some(a) = all.filter(|&a| bit(a)) {
+            self.num[a][f]
+        } else {
+            0
+        }
+    }
+
     /// A bit per agent that has a neighbour in direction index `d`.
     pub(crate) fn has_sender(&self, lat: &Lattice, d: usize) -> Vec<u64> {
         let n = lat.len();
@@ -328,12 +342,7 @@ impl Lattice {
                 };
                 let od = Dir::ALL[dir as usize].opposite().index();
                 let col = od * self.slots as usize + s as usize;
-                let f = f as usize;
-                if p.has[col][f >> 6] & (1 << (f & 63)) != 0 {
-                    p.num[col][f]
-                } else {
-                    0
-                }
+                p.value(col, self.all_col(p, s as usize), f as usize)
             }
         }
     }
@@ -359,6 +368,7 @@ impl Lattice {
         let od = Dir::ALL[dir as usize].opposite().index();
         let col = od * self.slots as usize + s;
         let (num, has) = (&p.num[col], &p.has[col]);
+        let all = self.all_col(p, s).map(|c| (&p.num[c], &p.has[c]));
         let Some(segs) = &p.plan[dir as usize] else {
             for (j, v) in out.iter_mut().enumerate() {
                 *v = self.inbox((first + j) as u32, dir, slot);
@@ -391,18 +401,21 @@ impl Lattice {
             } else {
                 let f0 = sender as usize + (a - start as usize);
                 let seg = f0..f0 + len;
-                if all_bits(has, seg.clone()) {
-                    if len == m {
-                        return &num[seg];
+                // All sent to every direction (and not to this one after), or all to this one.
+                let whole = match all {
+                    Some((an, ah)) if all_bits(ah, seg.clone()) && no_bits(has, seg.clone()) => {
+                        Some(an)
                     }
-                    dst.copy_from_slice(&num[seg]);
-                } else {
-                    for (v, f) in dst.iter_mut().zip(seg) {
-                        *v = if has[f >> 6] & (1 << (f & 63)) != 0 {
-                            num[f]
-                        } else {
-                            0
-                        };
+                    _ => all_bits(has, seg.clone()).then_some(num),
+                };
+                match whole {
+                    Some(src) if len == m => return &src[seg],
+                    Some(src) => dst.copy_from_slice(&src[seg]),
+                    None => {
+                        let all_col = self.all_col(p, s);
+                        for (v, f) in dst.iter_mut().zip(seg) {
+                            *v = p.value(col, all_col, f);
+                        }
                     }
                 }
             }
@@ -411,6 +424,13 @@ impl Lattice {
             k += 1;
         }
         out
+    }
+
+    /// The column of pending sends to all directions in slot column `s`, if there is one.
+    #[inline]
+    fn all_col(&self, p: &Pending, s: usize) -> Option<usize> {
+        let cols = self.dim.dirs() * self.slots as usize;
+        (p.num.len() > cols).then_some(cols + s)
     }
 
     /// Copies pending messages into the inbox columns (which are made again), so that the

@@ -138,6 +138,7 @@ pub struct Engine {
     any_computes: bool,
     /// Messages are left where their senders wrote them (see `Pending` in lattice.rs)
     /// instead of copied into inboxes: no rule moves or swaps, and no rule uses texts.
+    /// The outboxes then have one more column per slot, for sends to all directions.
     defer: bool,
     /// With `defer`: per direction, a bit per agent that has a neighbour there (to count
     /// the messages delivered); made at the first delivery.
@@ -467,7 +468,14 @@ impl Engine {
             lat.ensure_text();
         }
         let n = lat.len();
-        let cols = lat.inbox_num.len();
+        let defer = uses.slots != 0
+            && !uses.texts
+            && prog
+                .rules
+                .iter()
+                .all(|r| r.moves.is_none() && r.swaps.is_none());
+        // With `defer`, a send to all directions writes one more column per slot.
+        let cols = lat.inbox_num.len() + if defer { lat.slots as usize } else { 0 };
         let trivial = prog
             .rules
             .iter()
@@ -515,12 +523,7 @@ impl Engine {
             pre_batch,
             any_prio: prog.rules.iter().any(|r| r.reads_priorities),
             any_computes: prog.rules.iter().any(|r| r.computes),
-            defer: uses.slots != 0
-                && !uses.texts
-                && prog
-                    .rules
-                    .iter()
-                    .all(|r| r.moves.is_none() && r.swaps.is_none()),
+            defer,
             has_nbr: Vec::new(),
             prio_offsets: prog
                 .code
@@ -1995,12 +1998,12 @@ impl Engine {
                 .map(|t| t.count_ones() as u64)
                 .sum::<u64>();
         let texts = !self.out_text_bits.is_empty();
-        if std::env::var_os("NODELIVER").is_some() || ns == 0 && !texts {
+        if ns == 0 && !texts {
             // No rule sends or reads messages: there is nothing to deliver.
             return;
         }
         if self.defer {
-            self.deliver_deferred(sent);
+            self.deliver_deferred();
             return;
         }
         let mut inbox_num = std::mem::take(&mut self.lat.inbox_num);
@@ -2140,24 +2143,29 @@ impl Engine {
     /// Delivery without copying: this step's outboxes become the lattice's pending
     /// messages (and the last step's pending columns the next outboxes). A message is
     /// delivered when its sender has a neighbour in the direction it was sent.
-    fn deliver_deferred(&mut self, sent: u64) {
+    fn deliver_deferred(&mut self) {
         let (nd, ns) = (self.lat.dim.dirs(), self.lat.slots as usize);
         if self.lat.pending.is_none() {
-            self.lat.pending = Some(Pending::new(&self.lat, nd * ns));
+            self.lat.pending = Some(Pending::new(&self.lat, self.out_num.len()));
         }
         if self.has_nbr.len() != nd {
             let p = self.lat.pending.as_ref().expect("just made");
             self.has_nbr = (0..nd).map(|d| p.has_sender(&self.lat, d)).collect();
         }
-        let delivered: u64 = (0..nd * ns)
-            .map(|col| {
-                self.out_has[col]
-                    .iter()
-                    .zip(&self.has_nbr[col / ns])
-                    .map(|(h, b)| (h & b).count_ones() as u64)
-                    .sum::<u64>()
-            })
-            .sum();
+        // A send to all directions is one message per direction (one sent later towards
+        // one direction replaces that one).
+        let (mut sent, mut delivered) = (0u64, 0u64);
+        for col in 0..nd * ns {
+            let all = &self.out_has[nd * ns + col % ns];
+            for ((h, a), b) in self.out_has[col]
+                .iter()
+                .zip(all)
+                .zip(&self.has_nbr[col / ns])
+            {
+                sent += (h & !a).count_ones() as u64 + a.count_ones() as u64;
+                delivered += ((h | a) & b).count_ones() as u64;
+            }
+        }
         let p = self.lat.pending.as_mut().expect("made above");
         std::mem::swap(&mut p.num, &mut self.out_num);
         std::mem::swap(&mut p.has, &mut self.out_has);
@@ -2173,7 +2181,12 @@ impl Engine {
     fn trace_messages(&self, rep: &mut StepReport) {
         let d = self.lat.dim;
         let (nd, ns) = (d.dirs(), d.slots());
-        let has = |col: usize, a: usize| self.out_has[col][a >> 6] & (1 << (a & 63)) != 0;
+        let bit = |col: usize, a: usize| self.out_has[col][a >> 6] & (1 << (a & 63)) != 0;
+        // With a column for sends to all directions (see `defer`), its bit counts too.
+        let cols = nd * self.lat.slots as usize;
+        let all =
+            |col: usize| (self.out_has.len() > cols).then(|| cols + col % self.lat.slots as usize);
+        let has = |col: usize, a: usize| bit(col, a) || all(col).is_some_and(|c| bit(c, a));
         for a in 0..self.lat.len() {
             for dir in 0..nd {
                 let slots: Vec<usize> = (0..ns)
@@ -2269,19 +2282,39 @@ impl CalcChunk<'_> {
         }
     }
 
-    /// The outbox columns of a send towards `dir` (or all directions) in `slot`.
-    fn send_cols(lat: &Lattice, dir: u8, slot: u8) -> impl Iterator<Item = usize> {
+    /// The outbox columns a send towards `dir` (or all directions) in `slot` writes, and
+    /// those whose bits it clears: where the outboxes have a column for sends to all
+    /// directions (see `Engine::defer`), such a send writes that one and clears the
+    /// direction columns (a value there would be taken before it).
+    fn send_cols(&self, lat: &Lattice, dir: u8, slot: u8) -> SendCols {
         let (nd, ns, sc) = (
             lat.dim.dirs(),
             lat.slots as usize,
             lat.slot_col[slot as usize] as usize,
         );
-        let dirs = if dir == ANY_DIR {
-            0..nd
-        } else {
-            dir as usize..dir as usize + 1
+        let mut c = SendCols {
+            write: [0; 6],
+            nw: 0,
+            clear: [0; 6],
+            nc: 0,
         };
-        dirs.map(move |d| d * ns + sc)
+        if dir != ANY_DIR {
+            c.write[0] = dir as usize * ns + sc;
+            c.nw = 1;
+        } else if self.out_num.len() > nd * ns {
+            c.write[0] = nd * ns + sc;
+            c.nw = 1;
+            for d in 0..nd {
+                c.clear[d] = d * ns + sc;
+            }
+            c.nc = nd;
+        } else {
+            for d in 0..nd {
+                c.write[d] = d * ns + sc;
+            }
+            c.nw = nd;
+        }
+        c
     }
 
     /// The text outbox directions of a send towards `dir` (or all directions).
@@ -2291,6 +2324,23 @@ impl CalcChunk<'_> {
         } else {
             dir as usize..dir as usize + 1
         }
+    }
+}
+
+/// The outbox columns of a send: see [`CalcChunk::send_cols`].
+struct SendCols {
+    write: [usize; 6],
+    nw: usize,
+    clear: [usize; 6],
+    nc: usize,
+}
+
+impl SendCols {
+    fn write(&self) -> &[usize] {
+        &self.write[..self.nw]
+    }
+    fn clear(&self) -> &[usize] {
+        &self.clear[..self.nc]
     }
 }
 
@@ -2307,6 +2357,13 @@ fn words(range: std::ops::Range<usize>) -> impl Iterator<Item = (usize, u64)> {
         };
         (w, mask)
     })
+}
+
+/// Clears the bits `range` of a bit set.
+fn clear_bits(bits: &mut [u64], range: std::ops::Range<usize>) {
+    for (w, mask) in words(range) {
+        bits[w] &= !mask;
+    }
 }
 
 /// Sets the bits `range` of a bit set.
@@ -2457,6 +2514,11 @@ fn is_sequence(s: &[u32], start: u32) -> bool {
         .fold(true, |ok, (j, &x)| ok & (x == start.wrapping_add(j as u32)))
 }
 
+/// Whether no bit of `range` is set.
+pub(crate) fn no_bits(bits: &[u64], range: std::ops::Range<usize>) -> bool {
+    words(range).all(|(w, mask)| bits[w] & mask == 0)
+}
+
 /// Whether every bit of `range` is set.
 pub(crate) fn all_bits(bits: &[u64], range: std::ops::Range<usize>) -> bool {
     words(range).all(|(w, mask)| bits[w] & mask == mask)
@@ -2497,13 +2559,17 @@ fn fast_calc(
         }
         (Target::Msg { dir, slot }, CalcOp::Add | CalcOp::Sub, Val::Counter(c), Val::Lit(0)) => {
             let src = lat.counter_col[c as usize] as usize;
-            for col in CalcChunk::send_cols(lat, dir, slot) {
+            let cols = ch.send_cols(lat, dir, slot);
+            for &col in cols.write() {
                 let (counters, out) = (
                     &ch.counters[src][ks.clone()],
                     &mut ch.out_num[col][ks.clone()],
                 );
                 out.copy_from_slice(counters);
                 set_bits(ch.out_has[col], ks.clone());
+            }
+            for &col in cols.clear() {
+                clear_bits(ch.out_has[col], ks.clone());
             }
             true
         }
@@ -2623,7 +2689,18 @@ fn run_batch(
                             }
                         }
                         Target::Msg { dir, slot } => {
-                            for c in CalcChunk::send_cols(lat, dir, slot) {
+                            let cols = ch.send_cols(lat, dir, slot);
+                            for &c in cols.clear() {
+                                let bits = &mut *ch.out_has[c];
+                                if all_ok {
+                                    clear_bits(bits, ks.clone());
+                                } else {
+                                    for k in ks.clone().filter(|&k| keep(k - start)) {
+                                        bits[k >> 6] &= !(1 << (k & 63));
+                                    }
+                                }
+                            }
+                            for &c in cols.write() {
                                 let col = &mut ch.out_num[c][ks.clone()];
                                 let bits = &mut *ch.out_has[c];
                                 if all_ok {
@@ -2688,7 +2765,11 @@ impl CalcEnv for CalcCtx<'_, '_, '_> {
     }
     fn send_num(&mut self, dir: u8, slot: u8, v: i16) {
         let k = self.k;
-        for c in CalcChunk::send_cols(self.lat, dir, slot) {
+        let cols = self.ch.send_cols(self.lat, dir, slot);
+        for &c in cols.clear() {
+            self.ch.out_has[c][k >> 6] &= !(1 << (k & 63));
+        }
+        for &c in cols.write() {
             self.ch.out_num[c][k] = v;
             self.ch.out_has[c][k >> 6] |= 1 << (k & 63);
         }

@@ -565,11 +565,13 @@ fn optimisations_agree_with_reference() {
             block(40, 40, |x, y, _| format!(" SR{:04}", (x * 40 + y) % 1200)),
         ),
         (chain.into(), block(12, 12, |_, _, _| String::new())),
+        // (Columns of 30 or more agents, so that the plan of senders is kept: a plan
+        // of more than one segment per eight agents is given up for single reads.)
         // Messages left with their senders (rules without moves), sent every third step,
         // read by preconditions and calculations: nothing stale is read.
         (
             "a\n1\nSA****\nC00 + C00 0003 #*01 + C00 0000 SB****\n\nb\n1\nSB****\nC01 A C01 #N01 SC****\n\nhear\n2\nSB**** >#W01 0010\nC02 + #W01 0000 SC****\n\nc\n1\nSC****\nC01 A C01 #E01 SA****\n".into(),
-            block(10, 10, |x, y, _| {
+            block(6, 30, |x, y, _| {
                 format!(" S{}AAAA C00 {}", ["A", "B", "C"][((x * 2 + y) % 3) as usize], (x * 7 + y * 3) % 11)
             }),
         ),
@@ -577,12 +579,38 @@ fn optimisations_agree_with_reference() {
         // step (odd columns, period three): a run's messages are picked one by one.
         (
             "read\n1\nSR****\nC01 A C01 #E01 C02 + C02 #W01\n\np0\n1\nSP0***\nC00 + C00 0001 #*01 + C00 0000 SP1***\n\np1\n1\nSP1***\nSP2***\n\np2\n1\nSP2***\nSP0***\n".into(),
-            block(8, 12, |x, y, _| {
+            block(8, 30, |x, y, _| {
                 if x % 2 == 0 {
                     " SRRRRR".to_string()
                 } else {
                     format!(" SP{}AAA C00 {}", y % 3, 5 + y)
                 }
+            }),
+        ),
+        // Sends to all directions and to one, in both orders, some not made (division by
+        // zero), by whole columns and by single agents.
+        (
+            "first\n1\nSA****\n#S01 + C01 0000 #*01 + C00 0000 #N01 + C01 0000 C00 + C00 0001 SB****\n\nsecond\n1\nSB****\n#E01 + C00 0000 #*01 / C01 C02 C01 A C01 #S01 C03 + #S01 0000 C02 + C02 #N01 SA****\n".into(),
+            block(6, 40, |x, y, _| {
+                format!(
+                    " S{}AAAA C00 {} C01 {} C02 {}",
+                    ["A", "B"][(x % 2) as usize],
+                    (x * 5 + y) % 9,
+                    (x + y * 3) % 13 + 1,
+                    (x * y) % 3
+                )
+            }),
+        ),
+        (
+            "first\n1\nSA****\n#S01 + C01 0000 #*01 + C00 0000 #N01 + C01 0000 C00 + C00 0001 SB****\n\nsecond\n1\nSB****\n#E01 + C00 0000 #*01 / C01 C02 C01 A C01 #S01 C03 + #S01 0000 C02 + C02 #N01 SA****\n".into(),
+            block(6, 40, |x, y, _| {
+                format!(
+                    " S{}AAAA C00 {} C01 {} C02 {}",
+                    ["A", "B"][((x + y) % 2) as usize],
+                    (x * 5 + y) % 9,
+                    (x + y * 3) % 13 + 1,
+                    (x * y) % 3
+                )
             }),
         ),
         // In a bounded universe
