@@ -143,6 +143,9 @@ pub struct Engine {
     /// With `defer`: per direction, a bit per agent that has a neighbour there (to count
     /// the messages delivered); made at the first delivery.
     has_nbr: Vec<Vec<u64>>,
+    /// With `defer`: messages sent and delivered in this step, counted by the
+    /// calculations.
+    counted: Option<(u64, u64)>,
     /// The offsets at which `L`/`Q` terms read priorities, when none depends on a counter
     /// (an agent's priority is then read only by its neighbours and by the agents at these
     /// offsets backwards); `None` when one does.
@@ -525,6 +528,7 @@ impl Engine {
             any_computes: prog.rules.iter().any(|r| r.computes),
             defer,
             has_nbr: Vec::new(),
+            counted: None,
             prio_offsets: prog
                 .code
                 .iter()
@@ -1879,7 +1883,15 @@ impl Engine {
         let batchable = &self.batchable;
         // When every agent executes the same one rule, runs need no search.
         let uniform = sel.many.is_empty() && self.fire_counts.contains(&(n as u64));
+        // The neighbour bits are made at the first delivery; until then it counts.
+        let (defer, has_nbr) = (self.defer, &self.has_nbr);
+        let count = defer && has_nbr.len() == nd;
         let work = |mut ch: CalcChunk<'_>| {
+            // With messages left with their senders, the outboxes come back from the
+            // lattice holding the step before last's bits.
+            if defer {
+                ch.out_has.iter_mut().for_each(|c| c.fill(0));
+            }
             let mut issues: Vec<(u32, u32, CalcIssue)> = Vec::new();
             let mut events = Vec::new();
             let mut k = 0;
@@ -1936,7 +1948,12 @@ impl Engine {
                 }
                 k += 1;
             }
-            (issues, events)
+            let counted = if count {
+                count_deferred(&ch, has_nbr, nd)
+            } else {
+                (0, 0)
+            };
+            (issues, events, counted)
         };
         let results: Vec<_> = match par {
             Some((pool, _)) => {
@@ -1950,7 +1967,14 @@ impl Engine {
         self.out_has = out_has;
         self.out_text = out_text;
         self.out_text_bits = out_text_bits;
-        for (issues, events) in results {
+        if count {
+            self.counted = Some(
+                results
+                    .iter()
+                    .fold((0, 0), |t, r| (t.0 + r.2 .0, t.1 + r.2 .1)),
+            );
+        }
+        for (issues, events, _) in results {
             for (a, r, issue) in issues {
                 let name = self.rule_name(r).to_string();
                 let (kind, msg) = match issue {
@@ -1986,17 +2010,6 @@ impl Engine {
         if self.opts.trace {
             self.trace_messages(rep);
         }
-        let sent: u64 = self
-            .out_has
-            .iter()
-            .flatten()
-            .map(|w| w.count_ones() as u64)
-            .sum::<u64>()
-            + self
-                .out_text_bits
-                .iter()
-                .map(|t| t.count_ones() as u64)
-                .sum::<u64>();
         let texts = !self.out_text_bits.is_empty();
         if ns == 0 && !texts {
             // No rule sends or reads messages: there is nothing to deliver.
@@ -2006,6 +2019,12 @@ impl Engine {
             self.deliver_deferred();
             return;
         }
+        let sent: u64 = self.out_has.iter().flatten().map(|&w| ones(w)).sum::<u64>()
+            + self
+                .out_text_bits
+                .iter()
+                .map(|t| t.count_ones() as u64)
+                .sum::<u64>();
         let mut inbox_num = std::mem::take(&mut self.lat.inbox_num);
         let mut inbox_text = std::mem::take(&mut self.lat.inbox_text);
         let mut inbox_has = std::mem::take(&mut self.lat.inbox_text_has);
@@ -2144,37 +2163,49 @@ impl Engine {
     /// messages (and the last step's pending columns the next outboxes). A message is
     /// delivered when its sender has a neighbour in the direction it was sent.
     fn deliver_deferred(&mut self) {
-        let (nd, ns) = (self.lat.dim.dirs(), self.lat.slots as usize);
+        // Counted by the calculations (see `count_deferred`), but for the first time.
+        let (sent, delivered) = match self.counted.take() {
+            Some(c) => c,
+            None => {
+                self.prepare_deferred();
+                let (nd, ns) = (self.lat.dim.dirs(), self.lat.slots as usize);
+                let (mut sent, mut delivered) = (0u64, 0u64);
+                for col in 0..nd * ns {
+                    let all = &self.out_has[nd * ns + col % ns];
+                    let nbr = &self.has_nbr[col / ns];
+                    for ((h, a), b) in self.out_has[col].iter().zip(all).zip(nbr) {
+                        sent += ones(h & !a) + ones(*a);
+                        delivered += ones((h | a) & b);
+                    }
+                }
+                (sent, delivered)
+            }
+        };
+        let p = self
+            .lat
+            .pending
+            .as_mut()
+            .expect("made at the first delivery");
+        std::mem::swap(&mut p.num, &mut self.out_num);
+        std::mem::swap(&mut p.has, &mut self.out_has);
+        // The inbox columns are not read while messages are pending. The outboxes' bits
+        // are cleared by the next calculations.
+        self.lat.inbox_num.iter_mut().for_each(|c| *c = Vec::new());
+        self.stats.sent += sent;
+        self.stats.delivered += delivered;
+        self.stats.dropped += sent - delivered;
+    }
+
+    /// With `defer`: the pending columns (and plan) and the neighbour bits, made once.
+    fn prepare_deferred(&mut self) {
         if self.lat.pending.is_none() {
             self.lat.pending = Some(Pending::new(&self.lat, self.out_num.len()));
         }
+        let nd = self.lat.dim.dirs();
         if self.has_nbr.len() != nd {
             let p = self.lat.pending.as_ref().expect("just made");
             self.has_nbr = (0..nd).map(|d| p.has_sender(&self.lat, d)).collect();
         }
-        // A send to all directions is one message per direction (one sent later towards
-        // one direction replaces that one).
-        let (mut sent, mut delivered) = (0u64, 0u64);
-        for col in 0..nd * ns {
-            let all = &self.out_has[nd * ns + col % ns];
-            for ((h, a), b) in self.out_has[col]
-                .iter()
-                .zip(all)
-                .zip(&self.has_nbr[col / ns])
-            {
-                sent += (h & !a).count_ones() as u64 + a.count_ones() as u64;
-                delivered += ((h | a) & b).count_ones() as u64;
-            }
-        }
-        let p = self.lat.pending.as_mut().expect("made above");
-        std::mem::swap(&mut p.num, &mut self.out_num);
-        std::mem::swap(&mut p.has, &mut self.out_has);
-        // The inbox columns are not read while messages are pending.
-        self.lat.inbox_num.iter_mut().for_each(|c| *c = Vec::new());
-        self.out_has.iter_mut().for_each(|c| c.fill(0));
-        self.stats.sent += sent;
-        self.stats.delivered += delivered;
-        self.stats.dropped += sent - delivered;
     }
 
     /// One trace event per message of this step's outboxes, senders in id order.
@@ -2357,6 +2388,35 @@ fn words(range: std::ops::Range<usize>) -> impl Iterator<Item = (usize, u64)> {
         };
         (w, mask)
     })
+}
+
+/// With messages left with their senders: the messages a chunk's agents sent in this step
+/// and how many of them have a recipient. A send to all directions is one message per
+/// direction (one sent later towards one direction replaces that one).
+fn count_deferred(ch: &CalcChunk<'_>, has_nbr: &[Vec<u64>], nd: usize) -> (u64, u64) {
+    let ns = ch.out_has.len() / (nd + 1);
+    let w0 = ch.lo / 64;
+    let (mut sent, mut delivered) = (0u64, 0u64);
+    for col in 0..nd * ns {
+        let all = &ch.out_has[nd * ns + col % ns];
+        let nbr = &has_nbr[col / ns][w0..w0 + all.len()];
+        for ((h, a), b) in ch.out_has[col].iter().zip(all.iter()).zip(nbr) {
+            sent += ones(h & !a) + ones(*a);
+            delivered += ones((h | a) & b);
+        }
+    }
+    (sent, delivered)
+}
+
+/// The bits set in a word; quick for the full and empty words of dense configurations
+/// (a machine without a population-count instruction counts the others in a dozen steps).
+#[inline(always)]
+fn ones(w: u64) -> u64 {
+    match w {
+        0 => 0,
+        u64::MAX => 64,
+        w => w.count_ones() as u64,
+    }
 }
 
 /// Clears the bits `range` of a bit set.
