@@ -116,9 +116,10 @@ impl Pending {
         bits
     }
 
-    /// Empty outboxes of `cols` columns for the agents of `lat`, with the plan of who
-    /// sends to whom (positions must not change while it is used).
-    pub(crate) fn new(lat: &Lattice, cols: usize) -> Pending {
+    /// Empty outboxes shaped as `like` (a column only where it has one) for the agents of
+    /// `lat`, with the plan of who sends to whom (positions must not change while it is
+    /// used).
+    pub(crate) fn new(lat: &Lattice, like: &[Vec<i16>]) -> Pending {
         let n = lat.len();
         let nd = lat.dim.dirs();
         // One pass over the agents for every direction; a direction whose segments grow
@@ -172,8 +173,8 @@ impl Pending {
             }
         }
         Pending {
-            num: vec![vec![0; n]; cols],
-            has: vec![vec![0; n.div_ceil(64)]; cols],
+            num: like.iter().map(|c| vec![0; c.len()]).collect(),
+            has: vec![vec![0; n.div_ceil(64)]; like.len()],
             plan,
         }
     }

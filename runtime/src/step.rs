@@ -479,6 +479,26 @@ impl Engine {
                 .all(|r| r.moves.is_none() && r.swaps.is_none());
         // With `defer`, a send to all directions writes one more column per slot.
         let cols = lat.inbox_num.len() + if defer { lat.slots as usize } else { 0 };
+        // With `defer`, only the columns some send writes hold values (the others are
+        // read only where their bits are set, which they never are).
+        let mut written = vec![!defer; cols];
+        for op in &prog.code {
+            if let Op::Calc {
+                target: Target::Msg { dir, slot },
+                ..
+            } = *op
+            {
+                let (ns, sc) = (lat.slots as usize, lat.slot_col[slot as usize] as usize);
+                let d = if dir == ANY_DIR {
+                    lat.dim.dirs()
+                } else {
+                    dir as usize
+                };
+                if let Some(w) = written.get_mut(d * ns + sc) {
+                    *w = true;
+                }
+            }
+        }
         let trivial = prog
             .rules
             .iter()
@@ -573,7 +593,10 @@ impl Engine {
             active: 0,
             computes: prog.rules.iter().map(|r| r.computes).collect(),
             scratch: MoveScratch::default(),
-            out_num: vec![vec![0; n]; cols],
+            out_num: written
+                .iter()
+                .map(|&w| if w { vec![0; n] } else { Vec::new() })
+                .collect(),
             out_has: vec![vec![0; n.div_ceil(64)]; cols],
             out_text: if uses.texts {
                 vec![[0; 5]; n * lat.dim.dirs()]
@@ -2199,7 +2222,7 @@ impl Engine {
     /// With `defer`: the pending columns (and plan) and the neighbour bits, made once.
     fn prepare_deferred(&mut self) {
         if self.lat.pending.is_none() {
-            self.lat.pending = Some(Pending::new(&self.lat, self.out_num.len()));
+            self.lat.pending = Some(Pending::new(&self.lat, &self.out_num));
         }
         let nd = self.lat.dim.dirs();
         if self.has_nbr.len() != nd {
@@ -2242,7 +2265,10 @@ impl Engine {
                         to,
                         dir: letter,
                         slot: Some(s as u8 + 1),
-                        value: Some(self.out_num[col][a]),
+                        value: Some(match all(col) {
+                            Some(c) if !bit(col, a) => self.out_num[c][a],
+                            _ => self.out_num[col][a],
+                        }),
                         text: None,
                     });
                 }

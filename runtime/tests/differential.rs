@@ -11,7 +11,7 @@ mod common;
 mod reference;
 
 use latticesim_compiler::{check, lower, Input};
-use latticesim_runtime::{Engine, Lattice, Options, Order};
+use latticesim_runtime::{Engine, Lattice, Options, Order, TraceEvent};
 use proptest::prelude::*;
 use reference::{Rec, World};
 
@@ -654,5 +654,37 @@ fn optimisations_agree_with_reference() {
                 }
             }
         }
+    }
+}
+
+/// The trace's messages carry the values sent, also where a send to all directions is kept
+/// in one column and one direction is overridden: the sender's C00 (sent to all) and C01
+/// (sent north after).
+#[test]
+fn traced_messages_carry_the_values_sent() {
+    let rules = "s\n1\nS*****\nC00 + C00 0001 #*01 + C00 0000 #N01 + C01 0000\n";
+    let agents = block(4, 40, |x, y, _| {
+        format!(" C00 {} C01 {}", x * 40 + y, 900 + y)
+    });
+    let (prog, lat) = common::compile(rules, &agents);
+    let opts = Options {
+        trace: true,
+        ..Options::default()
+    };
+    let mut e = Engine::new(prog, lat, opts);
+    for _ in 0..3 {
+        let rep = e.step();
+        let mut seen = 0;
+        for ev in &rep.trace {
+            if let TraceEvent::Message {
+                from, dir, value, ..
+            } = ev
+            {
+                let c = if *dir == 'N' { 1 } else { 0 };
+                assert_eq!(*value, Some(e.lat.counter(*from, c)), "{ev:?}");
+                seen += 1;
+            }
+        }
+        assert_eq!(seen, 4 * 40 * 4);
     }
 }
