@@ -589,8 +589,11 @@ $('tab-edit').onclick = () => showTab('edit');
 // ---------------------------------------------------------------- editor
 
 const editors = {};
-for (const name of ['rules', 'agents']) {
-  const root = $('ed-' + name);
+for (const name of ['agents', 'rules']) {
+  const root = $('editor-template').content.firstElementChild.cloneNode(true);
+  root.id = 'ed-' + name;
+  root.querySelector('.which').textContent = name;
+  document.querySelector('.editors').append(root);
   const ed = {
     name,
     root,
