@@ -144,7 +144,7 @@ pub struct Engine {
     /// the messages delivered); made at the first delivery.
     has_nbr: Vec<Vec<u64>>,
     /// With `defer`: messages sent and delivered in this step, counted by the
-    /// calculations.
+    /// calculations (see `count_messages`).
     counted: Option<(u64, u64)>,
     /// The offsets at which `L`/`Q` terms read priorities, when none depends on a counter
     /// (an agent's priority is then read only by its neighbours and by the agents at these
@@ -1972,7 +1972,7 @@ impl Engine {
                 k += 1;
             }
             let counted = if count {
-                count_deferred(&ch, has_nbr, nd)
+                count_messages(&ch.out_has, has_nbr, ch.lo / 64, nd)
             } else {
                 (0, 0)
             };
@@ -2186,22 +2186,12 @@ impl Engine {
     /// messages (and the last step's pending columns the next outboxes). A message is
     /// delivered when its sender has a neighbour in the direction it was sent.
     fn deliver_deferred(&mut self) {
-        // Counted by the calculations (see `count_deferred`), but for the first time.
+        // Counted by the calculations (see `count_messages`), but for the first time.
         let (sent, delivered) = match self.counted.take() {
             Some(c) => c,
             None => {
                 self.prepare_deferred();
-                let (nd, ns) = (self.lat.dim.dirs(), self.lat.slots as usize);
-                let (mut sent, mut delivered) = (0u64, 0u64);
-                for col in 0..nd * ns {
-                    let all = &self.out_has[nd * ns + col % ns];
-                    let nbr = &self.has_nbr[col / ns];
-                    for ((h, a), b) in self.out_has[col].iter().zip(all).zip(nbr) {
-                        sent += ones(h & !a) + ones(*a);
-                        delivered += ones((h | a) & b);
-                    }
-                }
-                (sent, delivered)
+                count_messages(&self.out_has, &self.has_nbr, 0, self.lat.dim.dirs())
             }
         };
         let p = self
@@ -2416,17 +2406,22 @@ fn words(range: std::ops::Range<usize>) -> impl Iterator<Item = (usize, u64)> {
     })
 }
 
-/// With messages left with their senders: the messages a chunk's agents sent in this step
+/// With messages left with their senders: how many messages the outbox bits `cols` (the
+/// words from `w0` of every column, the columns for sends to all directions last) hold,
 /// and how many of them have a recipient. A send to all directions is one message per
 /// direction (one sent later towards one direction replaces that one).
-fn count_deferred(ch: &CalcChunk<'_>, has_nbr: &[Vec<u64>], nd: usize) -> (u64, u64) {
-    let ns = ch.out_has.len() / (nd + 1);
-    let w0 = ch.lo / 64;
+fn count_messages<C: AsRef<[u64]>>(
+    cols: &[C],
+    has_nbr: &[Vec<u64>],
+    w0: usize,
+    nd: usize,
+) -> (u64, u64) {
+    let ns = cols.len() / (nd + 1);
     let (mut sent, mut delivered) = (0u64, 0u64);
     for col in 0..nd * ns {
-        let all = &ch.out_has[nd * ns + col % ns];
+        let all = cols[nd * ns + col % ns].as_ref();
         let nbr = &has_nbr[col / ns][w0..w0 + all.len()];
-        for ((h, a), b) in ch.out_has[col].iter().zip(all.iter()).zip(nbr) {
+        for ((h, a), b) in cols[col].as_ref().iter().zip(all).zip(nbr) {
             sent += ones(h & !a) + ones(*a);
             delivered += ones((h | a) & b);
         }
