@@ -2104,50 +2104,27 @@ impl Engine {
                         None => &nb[dir][..m],
                     };
                     let od = OPPOSITE[dir];
-                    // Segments of senders that are themselves consecutive agents are
-                    // copied whole when they all sent (a whole batch at once, or the batch
-                    // but its first or last recipient at the edge of the agents).
-                    let whole = from[0] != NO_AGENT && is_sequence(from, from[0]);
-                    let mut j = 0;
-                    while j < m {
-                        let f0 = from[j];
-                        let k = if whole {
-                            m
-                        } else if f0 == NO_AGENT {
-                            j + 1
-                        } else {
-                            j + 1
-                                + from[j + 1..]
-                                    .iter()
-                                    .zip(1u32..)
-                                    .take_while(|&(&f, d)| f == f0.wrapping_add(d))
-                                    .count()
-                        };
-                        for sc in 0..ns {
-                            let inb = &mut num[dir * ns + sc][base + j..base + k];
-                            if f0 == NO_AGENT {
-                                inb.fill(0);
-                                continue;
-                            }
-                            let cout = od * ns + sc;
-                            let (out, bits) = (&out_num[cout][..], &out_has[cout][..]);
-                            let f0 = f0 as usize;
-                            let seg = f0..f0 + (k - j);
-                            if all_bits(bits, seg.clone()) {
-                                inb.copy_from_slice(&out[seg]);
-                                got += (k - j) as u64;
-                                continue;
-                            }
-                            for (v, f) in inb.iter_mut().zip(seg) {
-                                *v = if bits[f >> 6] & (1 << (f & 63)) != 0 {
-                                    got += 1;
-                                    out[f]
-                                } else {
-                                    0
-                                };
-                            }
+                    // The senders are themselves consecutive agents.
+                    let f0 = from[0] as usize;
+                    let dense = from[0] != NO_AGENT && is_sequence(from, from[0]);
+                    for sc in 0..ns {
+                        let cout = od * ns + sc;
+                        let (out, bits) = (&out_num[cout][..], &out_has[cout][..]);
+                        let inb = &mut num[dir * ns + sc][base..base + m];
+                        if dense && all_bits(bits, f0..f0 + m) {
+                            inb.copy_from_slice(&out[f0..f0 + m]);
+                            got += m as u64;
+                            continue;
                         }
-                        j = k;
+                        for (v, &f) in inb.iter_mut().zip(from) {
+                            let f = f as usize;
+                            *v = if f != NO_AGENT as usize && bits[f >> 6] & (1 << (f & 63)) != 0 {
+                                got += 1;
+                                out[f]
+                            } else {
+                                0
+                            };
+                        }
                     }
                     if texts {
                         for (j, &f) in from.iter().enumerate() {
@@ -2709,8 +2686,8 @@ fn run_batch(
                             }
                         }
                         Val::Msg { dir, slot } => {
-                            let mut b = [0i16; BATCH];
-                            let src = lat.inbox_run(first, (dir, slot), &mut b[..len], &mut buf.1);
+                            let src =
+                                lat.inbox_run(first, (dir, slot), &mut buf.0[..len], &mut buf.1);
                             for (t, &s) in into.iter_mut().zip(src) {
                                 *t = s as i32;
                             }
