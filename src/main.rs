@@ -94,6 +94,22 @@ pub(crate) fn read(path: &PathBuf) -> Result<Vec<u8>, ExitCode> {
     })
 }
 
+/// Checks a rules file and, when given, an agents file, each as (name, bytes).
+pub(crate) fn check_pair(
+    rules: (&str, &[u8]),
+    agents: Option<(&str, &[u8])>,
+    dim: Option<Dim>,
+) -> Checked {
+    check(
+        Input {
+            name: rules.0,
+            bytes: rules.1,
+        },
+        agents.map(|(name, bytes)| Input { name, bytes }),
+        dim,
+    )
+}
+
 fn summary(c: &Checked, agents: bool) -> String {
     let rules = c.sources.name(latticesim_grammar::FileId(0));
     let mut s = format!(
@@ -139,15 +155,9 @@ fn run_check(
     let dim = dim.map(|d| if d == "3" { Dim::Three } else { Dim::Two });
     let rules_name = rules.display().to_string();
     let agents_name = agents.as_ref().map(|p| p.display().to_string());
-    let checked = check(
-        Input {
-            name: &rules_name,
-            bytes: &rules_bytes,
-        },
-        agents_name
-            .as_deref()
-            .zip(agents_bytes.as_deref())
-            .map(|(name, bytes)| Input { name, bytes }),
+    let checked = check_pair(
+        (&rules_name, &rules_bytes),
+        agents_name.as_deref().zip(agents_bytes.as_deref()),
         dim,
     );
     match format {

@@ -1,8 +1,8 @@
 //! `latticesim run`: check, compile, step until quiescence, write the results.
 
-use crate::{colour, read, write_file, Color, RECORDS_SHOWN_PER_KIND};
+use crate::{check_pair, colour, read, write_file, Color, RECORDS_SHOWN_PER_KIND};
 use clap::ValueEnum;
-use latticesim_compiler::{check, lower, Input};
+use latticesim_compiler::lower;
 use latticesim_runtime::{Engine, Lattice, Options, Order, RecordKind, Stats};
 use serde_json::json;
 use std::collections::BTreeMap;
@@ -124,15 +124,9 @@ pub(crate) fn load(
     let (rules_bytes, agents_bytes) = (read(rules)?, read(agents)?);
     let rules_name = rules.display().to_string();
     let agents_name = agents.display().to_string();
-    let checked = check(
-        Input {
-            name: &rules_name,
-            bytes: &rules_bytes,
-        },
-        Some(Input {
-            name: &agents_name,
-            bytes: &agents_bytes,
-        }),
+    let checked = check_pair(
+        (&rules_name, &rules_bytes),
+        Some((&agents_name, &agents_bytes)),
         None,
     );
     if !checked.diags.is_empty() && (checked.errors() > 0 || !quiet) {

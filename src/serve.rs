@@ -7,7 +7,7 @@
 //! answered with 500 and ends the run (the files stay), so the server keeps serving.
 
 use crate::render::state_colour;
-use latticesim_compiler::{check, lower, Checked, Input};
+use latticesim_compiler::{lower, Checked};
 use latticesim_runtime::{Engine, History, Lattice, Options, Order, TraceEvent};
 use serde::Serialize;
 use serde_json::{json, Value};
@@ -144,15 +144,9 @@ fn text_field<'v>(v: &'v Value, name: &str) -> Result<&'v str, Reply> {
 }
 
 fn check_texts(rules_name: &str, rules: &str, agents_name: &str, agents: &str) -> Checked {
-    check(
-        Input {
-            name: rules_name,
-            bytes: rules.as_bytes(),
-        },
-        Some(Input {
-            name: agents_name,
-            bytes: agents.as_bytes(),
-        }),
+    crate::check_pair(
+        (rules_name, rules.as_bytes()),
+        Some((agents_name, agents.as_bytes())),
         None,
     )
 }
@@ -451,6 +445,7 @@ impl Session {
     }
 
     fn handle(&mut self, req: &Req) -> Reply {
+        // Every route and its method (for the answer to another method).
         let routes: [(&str, &str); 10] = [
             ("GET", "/"),
             ("GET", "/index.html"),
@@ -473,10 +468,13 @@ impl Session {
             ("GET", "/api/frame") => self.api_frame(req),
             ("GET", "/api/agent") => self.api_agent(req),
             ("POST", "/api/file") => self.api_file(req),
-            (m, p) if routes.iter().any(|r| r.1 == p) => {
-                Err(error(405, format!("{m} is not allowed on {p}")))
-            }
-            (_, p) => Err(error(404, format!("no such page or API: {p}"))),
+            (m, p) => match routes.iter().find(|r| r.1 == p) {
+                Some((takes, _)) => Err(error(
+                    405,
+                    format!("{m} is not allowed on {p}; it takes {takes}"),
+                )),
+                None => Err(error(404, format!("no such page or API: {p}"))),
+            },
         };
         result.unwrap_or_else(|r| r)
     }

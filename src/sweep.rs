@@ -5,7 +5,7 @@
 use crate::gen::AgentOptions;
 use crate::write_file;
 use clap::ValueEnum;
-use latticesim_compiler::{check, lower, Input};
+use latticesim_compiler::lower;
 use latticesim_runtime::gen::{agents_text, Shape};
 use latticesim_runtime::{Engine, Lattice, Options};
 use plotters::prelude::*;
@@ -110,15 +110,9 @@ fn run_one(rules: &[u8], a: &SweepArgs, n: u32, seed: u64) -> Result<Row, String
         }
     };
     let agents = agents_text(&shape, &a.agents.gen_options(seed)?)?;
-    let c = check(
-        Input {
-            name: &a.rules.display().to_string(),
-            bytes: rules,
-        },
-        Some(Input {
-            name: "generated agents",
-            bytes: agents.as_bytes(),
-        }),
+    let c = crate::check_pair(
+        (&a.rules.display().to_string(), rules),
+        Some(("generated agents", agents.as_bytes())),
         None,
     );
     let (Some(p), Some(cfg)) = (&c.program, &c.config) else {

@@ -282,7 +282,11 @@ fn bad_requests_get_clear_errors_and_the_server_goes_on() {
     let (s, e) = err(srv.get("/etc/passwd"));
     assert_eq!((s, e.as_str()), (404, "no such page or API: /etc/passwd"));
     assert_eq!(err(srv.json("DELETE", "/api/frame", b"")).0, 405);
-    assert_eq!(err(srv.get("/api/file")).0, 405);
+    let (s, e) = err(srv.get("/api/file"));
+    assert_eq!(
+        (s, e.as_str()),
+        (405, "GET is not allowed on /api/file; it takes POST")
+    );
     let (s, e) = err(srv.get("/api/frame?step=-1"));
     assert_eq!(s, 400);
     assert!(e.contains("`step`"), "{e}");
