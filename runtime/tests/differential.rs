@@ -10,7 +10,7 @@
 mod common;
 mod reference;
 
-use latticesim_compiler::{check, lower, Input};
+use latticesim_compiler::lower;
 use latticesim_runtime::{Engine, Lattice, Options, Order, TraceEvent};
 use proptest::prelude::*;
 use reference::{Rec, World};
@@ -276,17 +276,7 @@ fn differential(
     order: Order,
     static_first: bool,
 ) -> Result<(), TestCaseError> {
-    let c = check(
-        Input {
-            name: "rules.txt",
-            bytes: rules.as_bytes(),
-        },
-        Some(Input {
-            name: "agents.txt",
-            bytes: agents.as_bytes(),
-        }),
-        None,
-    );
+    let c = common::checked(rules, agents);
     prop_assert_eq!(
         c.errors(),
         0,

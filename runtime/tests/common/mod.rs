@@ -1,12 +1,11 @@
 //! Helpers shared by the runtime's integration tests.
 
-use latticesim_compiler::{check, lower, Input};
+use latticesim_compiler::{check, lower, Checked, Input};
 use latticesim_runtime::Lattice;
 
-/// Checks a rules and an agents file that must have no errors: the verified program and
-/// the lattice.
-pub fn compile(rules: &str, agents: &str) -> (latticesim_vm::Program, Lattice) {
-    let c = check(
+/// Checks a rules and an agents file (named rules.txt and agents.txt).
+pub fn checked(rules: &str, agents: &str) -> Checked {
+    check(
         Input {
             name: "rules.txt",
             bytes: rules.as_bytes(),
@@ -16,7 +15,13 @@ pub fn compile(rules: &str, agents: &str) -> (latticesim_vm::Program, Lattice) {
             bytes: agents.as_bytes(),
         }),
         None,
-    );
+    )
+}
+
+/// Checks a rules and an agents file that must have no errors: the verified program and
+/// the lattice.
+pub fn compile(rules: &str, agents: &str) -> (latticesim_vm::Program, Lattice) {
+    let c = checked(rules, agents);
     assert_eq!(c.errors(), 0, "{:#?}", c.diags);
     let prog = lower(c.program.as_ref().unwrap());
     prog.verify().unwrap();
