@@ -3,8 +3,7 @@
 // steps in headless Chromium as the Run button does, and prints per-step times (request,
 // JSON, drawing) and the drawing time at other zooms and while panning. docs/viewer.md
 // reports its figures. LATTICESIM names the binary (default target/release/latticesim).
-import { chromium } from 'playwright-core';
-import { spawn } from 'node:child_process';
+import { launch, serve } from './common.mjs';
 import path from 'node:path';
 
 const [rules, agents, stepsArg] = process.argv.slice(2);
@@ -14,20 +13,9 @@ if (!rules || !agents) {
 }
 const steps = Number(stepsArg || 20);
 const BIN = path.resolve(process.env.LATTICESIM || 'target/release/latticesim');
-const server = spawn(BIN, ['serve', rules, agents, '--port', '0'], { stdio: ['ignore', 'pipe', 'inherit'] });
-const url = await new Promise((resolve) => {
-  let out = '';
-  server.stdout.on('data', (d) => {
-    out += d;
-    const m = out.match(/http:\/\/[^\s]+/);
-    if (m) resolve(m[0]);
-  });
-});
-const browser = await chromium.launch({
-  executablePath: process.env.CHROMIUM || '/usr/bin/chromium',
-  args: ['--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
-    '--disable-background-networking', '--disable-component-update', '--disable-sync'],
-});
+const { process: server, url: served } = serve(BIN, rules, agents);
+const url = await served;
+const browser = await launch();
 try {
   const page = await browser.newPage({ viewport: { width: 1280, height: 800 } });
   await page.goto(url);

@@ -6,33 +6,21 @@
 // LATTICESIM names the binary (default target/debug/latticesim), CHROMIUM the browser
 // (default /usr/bin/chromium). With SCREENSHOTS=DIR it also writes the viewer's screenshots
 // shown in the README (viewer-2d.png, viewer-3d.png, viewer-editor.png) into DIR.
-import { chromium } from 'playwright-core';
-import { spawn, execFileSync } from 'node:child_process';
+import { execFileSync } from 'node:child_process';
+import { launch, serve as start } from './common.mjs';
 import assert from 'node:assert/strict';
 import path from 'node:path';
 
 const BIN = path.resolve(process.env.LATTICESIM || 'target/debug/latticesim');
-const CHROMIUM = process.env.CHROMIUM || '/usr/bin/chromium';
 const RULES = 'examples/leader-election/rules.txt';
 const AGENTS = 'examples/leader-election/agents-30.txt';
-const FLAGS = ['--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
-  '--disable-background-networking', '--disable-component-update', '--disable-sync'];
-
 const servers = [];
 
 // Starts `latticesim serve` on a free port; resolves to its URL.
 function serve(rules, agents) {
-  return new Promise((resolve, reject) => {
-    const p = spawn(BIN, ['serve', rules, agents, '--port', '0'], { stdio: ['ignore', 'pipe', 'inherit'] });
-    servers.push(p);
-    let out = '';
-    p.stdout.on('data', (d) => {
-      out += d;
-      const m = out.match(/http:\/\/[^\s]+/);
-      if (m) resolve(m[0]);
-    });
-    p.on('exit', (code) => reject(new Error(`latticesim serve exited with ${code}: ${out}`)));
-  });
+  const s = start(BIN, rules, agents);
+  servers.push(s.process);
+  return s.url;
 }
 
 // The agents after `steps` steps, as `latticesim run` writes them: one line per agent, in
@@ -148,7 +136,7 @@ async function screenshot(browser, rules, agents, steps, file, setup) {
   await page.close();
 }
 
-const browser = await chromium.launch({ executablePath: CHROMIUM, args: FLAGS });
+const browser = await launch();
 const guard = setTimeout(() => { console.error('e2e: timed out'); process.exit(1); }, 180_000);
 try {
   await test(browser);
