@@ -9,7 +9,7 @@
 //! a column reads 0, as does a slot without one.
 
 use crate::cells::CellIndex;
-use crate::step::{all_bits, no_bits, set_bits};
+use crate::step::{all_bits, is_sequence, no_bits, set_bits};
 use latticesim_vm::eval::Cell;
 use latticesim_vm::model::{AgentInit, Bounds, Config, Dim, Dir};
 use std::fmt::Write;
@@ -149,11 +149,7 @@ impl Pending {
             if let Some((r, runs)) = lat.neighbour_run(a, n - a) {
                 for (d, from) in runs.iter().enumerate().take(nd) {
                     let f0 = from[0];
-                    let same = f0 != NO_AGENT
-                        && from
-                            .iter()
-                            .enumerate()
-                            .fold(true, |ok, (j, &f)| ok & (f == f0.wrapping_add(j as u32)));
+                    let same = f0 != NO_AGENT && is_sequence(from, f0);
                     if same {
                         add(&mut plan, &mut next, d, a as u32, f0);
                         next[d] = f0 + r as u32;

@@ -2566,7 +2566,7 @@ fn run_of(s: &[u32], v: u32) -> usize {
 }
 
 /// Whether `s` is `start, start + 1, ...` (compared without early exit, which vectorises).
-fn is_sequence(s: &[u32], start: u32) -> bool {
+pub(crate) fn is_sequence(s: &[u32], start: u32) -> bool {
     s.iter()
         .enumerate()
         .fold(true, |ok, (j, &x)| ok & (x == start.wrapping_add(j as u32)))
