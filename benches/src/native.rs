@@ -86,35 +86,40 @@ pub fn b2_setup(w: usize, h: usize) -> B2 {
 /// visited bottom up, so the agent just below may already have left its cell: that cell
 /// still counts as occupied).
 pub fn b2_run(s: &mut B2) -> (u64, u64) {
-    let h = s.h;
-    let mut steps = 0;
-    loop {
+    let mut steps = 1;
+    while b2_step(s) {
         steps += 1;
-        let mut moved = false;
-        // The cell the previous agent left this step.
-        let mut left = usize::MAX;
-        for a in s.agents.iter_mut() {
-            let cell = a.0 as usize * h + a.1 as usize;
-            if a.1 > 0 && !s.occ[cell - 1] && left != cell - 1 {
-                s.occ[cell] = false;
-                s.occ[cell - 1] = true;
-                a.1 -= 1;
-                moved = true;
-                left = cell;
-            } else {
-                left = usize::MAX;
-            }
-        }
-        if !moved {
-            break;
+    }
+    (steps, b2_sum(s))
+}
+
+/// One step of B2: whether an agent moved.
+pub fn b2_step(s: &mut B2) -> bool {
+    let h = s.h;
+    let mut moved = false;
+    // The cell the previous agent left this step.
+    let mut left = usize::MAX;
+    for a in s.agents.iter_mut() {
+        let cell = a.0 as usize * h + a.1 as usize;
+        if a.1 > 0 && !s.occ[cell - 1] && left != cell - 1 {
+            s.occ[cell] = false;
+            s.occ[cell - 1] = true;
+            a.1 -= 1;
+            moved = true;
+            left = cell;
+        } else {
+            left = usize::MAX;
         }
     }
-    let sum = s
-        .agents
+    moved
+}
+
+/// B2's checksum of the agents' current positions.
+pub fn b2_sum(s: &B2) -> u64 {
+    s.agents
         .iter()
         .map(|&(x, y)| x as u64 * 100003 + y as u64)
-        .sum();
-    (steps, sum)
+        .sum()
 }
 
 /// B2 gravity on a W x H box until a step without a move: (steps, checksum).

@@ -195,6 +195,20 @@ impl CellIndex {
     }
 
     /// The number of grid slots (0 without a grid).
+    /// The agent in grid slot `s`, or [`EMPTY`].
+    #[inline]
+    pub fn at_slot(&self, s: usize) -> u32 {
+        self.grid.as_ref().map_or(EMPTY, |g| g.cells[s])
+    }
+
+    /// Puts agent `a` into grid slot `s`.
+    #[inline]
+    pub fn set_slot(&mut self, s: usize, a: u32) {
+        if let Some(g) = &mut self.grid {
+            g.cells[s] = a;
+        }
+    }
+
     pub fn slots(&self) -> usize {
         self.grid.as_ref().map_or(0, |g| g.cells.len())
     }

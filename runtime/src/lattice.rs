@@ -663,6 +663,20 @@ impl Lattice {
         }
     }
 
+    /// Moves agents to the grid slots of their targets (as [`CellIndex::slot`]), which no
+    /// two share and which are empty or left by movers: the same as [`Lattice::relocate`].
+    pub fn relocate_to_slots(&mut self, moves: &[(u32, [i32; 3])], slots: &[usize]) {
+        if !moves.is_empty() {
+            self.nbr_valid = false;
+        }
+        // One pass: a mover's old cell is emptied only while it still holds the mover.
+        for (&(a, p), &s) in moves.iter().zip(slots) {
+            let old = std::mem::replace(&mut self.pos[a as usize], p);
+            self.cells.remove(old, a);
+            self.cells.set_slot(s, a);
+        }
+    }
+
     /// The configuration in agents.txt syntax: the universe line if there is one, then the
     /// agents in id order with state, attachments (when any) and non-zero counters. It loads
     /// again to the same lattice.

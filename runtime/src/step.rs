@@ -175,6 +175,8 @@ pub struct Engine {
     computes: Vec<bool>,
     /// Per-cell and per-agent marks for the moves (allocated at the first move).
     scratch: MoveScratch,
+    /// The actions of the step being made (kept for their allocations).
+    todo: Actions,
     /// Numeric outboxes: a column per direction and slot in use (as the inboxes), and a
     /// bit set per column of which agents wrote it.
     out_num: Vec<Vec<i16>>,
@@ -185,13 +187,108 @@ pub struct Engine {
     out_text_bits: Vec<u8>,
 }
 
-/// Marks for deciding moves: per grid cell (stamp, movers targeting it), per agent the
-/// stamp of the round it was last seen moving in.
+/// An agent's attachment letters and swap, for the agents whose rules have either.
+type Link = (u32, [AttachLetter; 6], Option<Dir>);
+
+/// The actions of a step, each list in agent order.
+#[derive(Default)]
+struct Actions {
+    /// Agents asked to move, by these offsets (never zero).
+    moves: Vec<(u32, [i32; 3])>,
+    /// Agents whose rules asked for different moves: they do not move, nor their group.
+    blocked: Vec<u32>,
+    /// State patterns (as [`pat_bits`]) to apply.
+    states: Vec<(u32, (u64, u64))>,
+    links: Vec<Link>,
+}
+
+impl Actions {
+    fn clear(&mut self) {
+        self.moves.clear();
+        self.blocked.clear();
+        self.states.clear();
+        self.links.clear();
+    }
+
+    /// Adds the combined actions `it` of agent `a`.
+    fn add(&mut self, a: u32, it: &Intent) {
+        if it.mv_bad {
+            self.blocked.push(a);
+        } else if let Some(o) = it.mv {
+            self.moves.push((a, o));
+        }
+        if it.state.iter().any(Option::is_some) {
+            self.states.push((a, pat_bits(&it.state)));
+        }
+        if it.swap.is_some() || it.letters.iter().any(|&l| l != AttachLetter::Keep) {
+            self.links.push((a, it.letters, it.swap));
+        }
+    }
+
+    /// The moves and letters as one intent per agent.
+    fn dense(&self, n: usize) -> Vec<Intent> {
+        let mut dense = vec![Intent::default(); n];
+        for &(a, o) in &self.moves {
+            dense[a as usize].mv = Some(o);
+        }
+        for &a in &self.blocked {
+            dense[a as usize].mv_bad = true;
+        }
+        for &(a, letters, _) in &self.links {
+            dense[a as usize].letters = letters;
+        }
+        dense
+    }
+}
+
+/// The common case of [`Engine::move_alone`] without tracing: every target in the grid, none
+/// targeted twice or held by an agent that stays. Then the moves are made and true is
+/// returned; otherwise nothing changes.
+fn move_free(lat: &mut Lattice, live: &[(u32, [i32; 3])], sc: &mut MoveScratch) -> bool {
+    let mut slots = std::mem::take(&mut sc.slots);
+    slots.clear();
+    slots.extend(live.iter().map_while(|&(_, t)| lat.cells.slot(t)));
+    let mut free = slots.len() == live.len();
+    if free {
+        let bit = |i: usize| (i / 64, 1u64 << (i % 64));
+        for (&(a, _), &s) in live.iter().zip(&slots) {
+            let (w, b) = bit(a as usize);
+            sc.moving[w] |= b;
+            let (w, b) = bit(s);
+            sc.twice[w] |= sc.once[w] & b;
+            sc.once[w] |= b;
+        }
+        for &s in &slots {
+            let (w, b) = bit(s);
+            let at = lat.cells.at_slot(s);
+            let stays = at != crate::cells::EMPTY && {
+                let (v, c) = bit(at as usize);
+                sc.moving[v] & c == 0
+            };
+            free &= sc.twice[w] & b == 0 && !stays;
+        }
+        for (&(a, _), &s) in live.iter().zip(&slots) {
+            sc.moving[a as usize / 64] = 0;
+            sc.once[s / 64] = 0;
+            sc.twice[s / 64] = 0;
+        }
+        if free {
+            lat.relocate_to_slots(live, &slots);
+        }
+    }
+    sc.slots = slots;
+    free
+}
+
+/// Marks for deciding moves, all clear between rounds: per grid cell, a bit when a mover
+/// targets it and one when more than one does; per agent, a bit when it is moving.
 #[derive(Default)]
 struct MoveScratch {
-    claims: Vec<(u32, u32)>,
-    moving: Vec<u32>,
-    stamp: u32,
+    once: Vec<u64>,
+    twice: Vec<u64>,
+    moving: Vec<u64>,
+    /// The movers' target slots.
+    slots: Vec<usize>,
 }
 
 /// The rules each agent executes in a step: one entry per agent, either [`NO_RULE`], a
@@ -593,6 +690,7 @@ impl Engine {
             active: 0,
             computes: prog.rules.iter().map(|r| r.computes).collect(),
             scratch: MoveScratch::default(),
+            todo: Actions::default(),
             out_num: written
                 .iter()
                 .map(|&w| if w { vec![0; n] } else { Vec::new() })
@@ -1160,7 +1258,8 @@ impl Engine {
         }
         let has_actions = std::mem::take(&mut self.has_actions);
         let acts = |r: u32| has_actions[r as usize];
-        let mut intents: Vec<(u32, Intent)> = Vec::new();
+        let mut todo = std::mem::take(&mut self.todo);
+        todo.clear();
         // Without tracing (which reports state changes after moves), an agent whose one
         // rule only sets the state does so at once: no other action of the step reads
         // states. When the selection is decided by states alone, its entry is also set at
@@ -1185,7 +1284,7 @@ impl Engine {
                         changed |= c;
                         lookups |= l;
                     }
-                    _ => intents.push((a as u32, self.intent_of(a as u32, r))),
+                    _ => self.add_rule_actions(&mut todo, a as u32, r),
                 }
                 continue;
             }
@@ -1193,38 +1292,34 @@ impl Engine {
             rs.extend(sel.of(a).iter().copied().filter(|&r| pick(r) && acts(r)));
             match rs[..] {
                 [] => {}
-                [r] => intents.push((a as u32, self.intent_of(a as u32, r))),
+                [r] => self.add_rule_actions(&mut todo, a as u32, r),
                 _ => {
                     let it = self.combined_intent(a, &rs, rep);
-                    intents.push((a as u32, it));
+                    todo.add(a as u32, &it);
                 }
             }
         }
         self.has_actions = has_actions;
-        let any = |f: &dyn Fn(&Intent) -> bool| intents.iter().any(|(_, it)| f(it));
-        let letters = any(&|it| it.letters.iter().any(|&l| l != AttachLetter::Keep));
-        let moves = any(&|it| it.mv.is_some() || it.mv_bad);
+        let letters = todo
+            .links
+            .iter()
+            .any(|l| l.1.iter().any(|&l| l != AttachLetter::Keep));
+        let moves = !todo.moves.is_empty() || !todo.blocked.is_empty();
         // Bonds change only with attachment letters, or when attached agents move.
         if letters || (moves && self.lat.attach.iter().any(|&b| b != 0)) {
-            let mut dense = vec![Intent::default(); n];
-            for (a, it) in &intents {
-                dense[*a as usize] = *it;
-            }
+            let dense = todo.dense(n);
             self.detach_move_attach(&dense, rep);
         } else if moves {
-            self.move_alone(&intents, rep);
+            self.move_alone(&todo.moves, rep);
         }
         // 5. State updates, in agent order.
-        for (a, it) in &intents {
-            if it.state.iter().all(Option::is_none) {
-                continue;
-            }
+        for &(a, bits) in &todo.states {
             let Some((old, new, known)) = apply_state(
                 &mut self.lat,
                 &mut self.cand_of,
                 (&self.cand_cache, &self.candidates),
-                *a as usize,
-                pat_bits(&it.state),
+                a as usize,
+                bits,
             ) else {
                 continue;
             };
@@ -1232,7 +1327,7 @@ impl Engine {
             lookups |= !known;
             if self.opts.trace {
                 rep.trace.push(TraceEvent::State {
-                    agent: *a,
+                    agent: a,
                     from: text(&old),
                     to: text(&new),
                 });
@@ -1242,9 +1337,10 @@ impl Engine {
         // again; any change of state ends the reuse of the selection.
         self.cand_dirty |= lookups;
         self.states_changed |= changed;
-        if any(&|it| it.swap.is_some()) {
-            self.swaps(&intents, rep);
+        if todo.links.iter().any(|l| l.2.is_some()) {
+            self.swaps(&todo.links, rep);
         }
+        self.todo = todo;
     }
 
     /// The combined actions of agent `a` executing several rules `rs`: where they ask for
@@ -1410,10 +1506,9 @@ impl Engine {
         }
     }
 
-    /// The actions of agent `a` executing rule `r` alone.
-    fn intent_of(&self, a: u32, r: u32) -> Intent {
+    /// Adds the actions of agent `a` executing rule `r` alone to `todo`.
+    fn add_rule_actions(&self, todo: &mut Actions, a: u32, r: u32) {
         let info = &self.prog.rules[r as usize];
-        let mut it = Intent::default();
         if let Some(off) = info.moves {
             let o = match self.literal_offsets[off as usize] {
                 Some(o) => o,
@@ -1427,17 +1522,18 @@ impl Engine {
                 }
             };
             if o != [0, 0, 0] {
-                it.mv = Some(o);
+                todo.moves.push((a, o));
             }
         }
-        it.swap = info.swaps;
-        if let Some(l) = info.attaches {
-            it.letters = self.prog.letters[l as usize];
+        if info.attaches.is_some() || info.swaps.is_some() {
+            let letters = info
+                .attaches
+                .map_or([AttachLetter::Keep; 6], |l| self.prog.letters[l as usize]);
+            todo.links.push((a, letters, info.swaps));
         }
         if let Some(p) = info.sets_state {
-            it.state = self.prog.pats[p as usize];
+            todo.states.push((a, pat_bits(&self.prog.pats[p as usize])));
         }
-        it
     }
 
     /// Counts the moves about to be made (agent, target), and traces them.
@@ -1457,13 +1553,10 @@ impl Engine {
     /// Steps 1 to 4 when no agent is attached and no rule attaches: every group is one
     /// agent, so only the movers are looked at (the same decisions and records as
     /// [`Engine::detach_move_attach`]).
-    fn move_alone(&mut self, intents: &[(u32, Intent)], rep: &mut StepReport) {
+    fn move_alone(&mut self, moves: &[(u32, [i32; 3])], rep: &mut StepReport) {
         // Movers in agent order, with their targets.
-        let mut live: Vec<(u32, [i32; 3])> = Vec::new();
-        for &(a, ref it) in intents {
-            let (Some(o), false) = (it.mv, it.mv_bad) else {
-                continue;
-            };
+        let mut live: Vec<(u32, [i32; 3])> = Vec::with_capacity(moves.len());
+        for &(a, o) in moves {
             let p = self.lat.pos[a as usize];
             let t = [
                 p[0] as i64 + o[0] as i64,
@@ -1478,45 +1571,68 @@ impl Engine {
             }
         }
         // Collisions: cancel every move involved, until none is left. Targets are counted
-        // in per-cell marks where the grid covers them (stamped, so never cleared), in a
-        // hash map elsewhere; movers are marked per agent the same way.
+        // in bits per grid cell (claimed once, claimed more than once) where the grid covers
+        // them, in a hash map elsewhere; movers are marked in bits per agent. Each round
+        // clears the bits it set.
         let cells = self.lat.cells.slots();
-        let mut scratch = std::mem::take(&mut self.scratch);
-        if scratch.claims.len() != cells || scratch.moving.len() != self.lat.len() {
-            scratch.claims = vec![(0, 0); cells];
-            scratch.moving = vec![0; self.lat.len()];
-            scratch.stamp = 0;
+        let mut sc = std::mem::take(&mut self.scratch);
+        let words = |bits: usize| bits.div_ceil(64);
+        if sc.once.len() != words(cells) || sc.moving.len() != words(self.lat.len()) {
+            sc.once = vec![0; words(cells)];
+            sc.twice = vec![0; words(cells)];
+            sc.moving = vec![0; words(self.lat.len())];
         }
+        if !self.opts.trace && move_free(&mut self.lat, &live, &mut sc) {
+            self.scratch = sc;
+            self.stats.moves += live.len() as u64;
+            return;
+        }
+        let bit = |i: usize| (i / 64, 1u64 << (i % 64));
         loop {
-            scratch.stamp = scratch.stamp.wrapping_add(1);
-            if scratch.stamp == 0 {
-                scratch.claims.fill((0, 0));
-                scratch.moving.fill(0);
-                scratch.stamp = 1;
-            }
-            let stamp = scratch.stamp;
             let mut count: FxHashMap<[i32; 3], u32> = FxHashMap::default();
             for &(a, t) in &live {
-                scratch.moving[a as usize] = stamp;
+                let (w, b) = bit(a as usize);
+                sc.moving[w] |= b;
                 match self.lat.cells.slot(t) {
-                    Some(s) if scratch.claims[s].0 == stamp => scratch.claims[s].1 += 1,
-                    Some(s) => scratch.claims[s] = (stamp, 1),
+                    Some(s) => {
+                        let (w, b) = bit(s);
+                        sc.twice[w] |= sc.once[w] & b;
+                        sc.once[w] |= b;
+                    }
                     None => *count.entry(t).or_insert(0) += 1,
                 }
             }
-            let moving = |s: u32| scratch.moving[s as usize] == stamp;
-            let claimed = |t: [i32; 3]| match self.lat.cells.slot(t) {
-                Some(s) => scratch.claims[s].1,
-                None => count[&t],
+            let moving = |s: u32| {
+                let (w, b) = bit(s as usize);
+                sc.moving[w] & b != 0
+            };
+            let claimed_again = |t: [i32; 3]| match self.lat.cells.slot(t) {
+                Some(s) => {
+                    let (w, b) = bit(s);
+                    sc.twice[w] & b != 0
+                }
+                None => count[&t] > 1,
             };
             let mut bad: BTreeMap<[i32; 3], Vec<u32>> = BTreeMap::new();
             for (a, t) in &live {
                 let stay = self.lat.agent_at(*t).filter(|&s| !moving(s));
-                if claimed(*t) > 1 || stay.is_some() {
+                if claimed_again(*t) || stay.is_some() {
                     bad.entry(*t).or_default().push(*a);
                 }
             }
+            let clear = |sc: &mut MoveScratch,
+                         live: &[(u32, [i32; 3])],
+                         cells: &crate::cells::CellIndex| {
+                for &(a, t) in live {
+                    sc.moving[a as usize / 64] = 0;
+                    if let Some(s) = cells.slot(t) {
+                        sc.once[s / 64] = 0;
+                        sc.twice[s / 64] = 0;
+                    }
+                }
+            };
             if bad.is_empty() {
+                clear(&mut sc, &live, &self.lat.cells);
                 break;
             }
             let mut cancel: Vec<(u32, [i32; 3], Vec<u32>)> = Vec::new();
@@ -1528,6 +1644,7 @@ impl Engine {
                 }
             }
             cancel.sort_by_key(|c| c.0);
+            clear(&mut sc, &live, &self.lat.cells);
             for (a, cell, involved) in cancel {
                 let i = live.binary_search_by_key(&a, |m| m.0).expect("a mover");
                 live.remove(i);
@@ -1542,7 +1659,7 @@ impl Engine {
                 self.record(rep, RecordKind::MoveCollision, &[a], msg);
             }
         }
-        self.scratch = scratch;
+        self.scratch = sc;
         self.count_moves(&live, rep);
         self.lat.relocate(&live);
     }
@@ -1793,10 +1910,10 @@ impl Engine {
     }
 
     /// Step 6: swaps.
-    fn swaps(&mut self, intents: &[(u32, Intent)], rep: &mut StepReport) {
+    fn swaps(&mut self, links: &[Link], rep: &mut StepReport) {
         let mut pairs: Vec<(u32, u32, Dir)> = Vec::new();
-        for &(a, ref it) in intents {
-            let Some(d) = it.swap else { continue };
+        for &(a, _, swap) in links {
+            let Some(d) = swap else { continue };
             match self.lat.cell_at(self.lat.pos[a as usize], d.offset()) {
                 Cell::Agent(b) => {
                     // Two agents asking to swap with each other make one swap.

@@ -523,6 +523,29 @@ fn optimisations_agree_with_reference() {
     let chain = "even\n2\nP**<*\nC00 + C00 0001\n\nodd\n1\nS*****\nC01 + C01 0001\n";
     let mixed = "grow\n2\nSA****\nC00 I C00 #N01 C01 * C00 C00 C02 / C01 C03 #*01 + C00 0000 SB****\n\nshrink\n1\nSB****\nC00 I C00 #S01 C02 M C00 C03 #E02 + C02 0000 SA****\n";
     let hash = |x: i32, y: i32| ((x * 31 + y * 17) % 23) as i64;
+    let crowd = "east\n1\nSE****\nP1,0\n\nwest\n1\nSW****\nP-1,0\n\nnorth\n1\nSN****\nP0,1\n\njump\n1\nSJ****\nPC00,0 C00 * C00 -0001\n\nbehind\n1\nN*1**\nC01 + C01 0001\n";
+    // Agents in rows of letters (`.` leaves a cell empty), each row repeated with gaps.
+    let rows = |rows: &[&str]| -> String {
+        let mut s = String::new();
+        for (y, row) in rows.iter().cycle().take(12).enumerate() {
+            for (x, c) in row.chars().enumerate().filter(|c| c.1 != '.') {
+                s += &format!("{},{} S{c}AAAA\n", x + (y % 3) * 2, y * 2);
+            }
+        }
+        s
+    };
+    let crowd_agents = |kinds: usize| -> String {
+        block(14, 14, |x, y, _| {
+            let h = hash(x, y);
+            let s = ["E", "W", "N", "S", "E", "W", "J"][h as usize % kinds];
+            format!(" S{s}AAAA C00 {}", 25 + h)
+        })
+        .lines()
+        .enumerate()
+        .filter(|(k, _)| (k * 7919) % 10 < 6)
+        .map(|(_, l)| format!("{l}\n"))
+        .collect()
+    };
     let cases: Vec<(String, String)> = vec![
         (
             flood.into(),
@@ -624,6 +647,16 @@ fn optimisations_agree_with_reference() {
                 })
                 .collect(),
         ),
+        // Single agents moving every step: into the same cell, into cells of agents that
+        // stay or that leave, in trains; then also out of the grid into the hash map and
+        // back.
+        (crowd.into(), crowd_agents(6)),
+        (crowd.into(), crowd_agents(7)),
+        // Only trains and free movers; only two movers targeting one cell (the rest move
+        // freely); only movers into cells of agents that stay.
+        (crowd.into(), rows(&["EEE", "N.EE", "W..WW", "NNE"])),
+        (crowd.into(), rows(&["E.W", "EEE", "N..W", ".WW"])),
+        (crowd.into(), rows(&["ES", "EEES", "SW..E", "N"])),
         (
             mixed.into(),
             block(16, 16, |x, y, k| {
