@@ -8,6 +8,11 @@ use rustc_hash::FxHashMap;
 
 /// In the grid and in neighbour lists: no agent.
 pub const EMPTY: u32 = u32::MAX;
+/// A slot code ([`CellIndex::code`]) of a position outside the grid.
+pub const NO_SLOT: u32 = u32::MAX;
+/// The flag of a slot code for a cell on the grid's rim (some of its neighbours are
+/// outside the grid).
+pub const RIM: u32 = 1 << 31;
 /// Grid cells allowed per agent before the index is a hash map.
 const CELLS_PER_AGENT: i64 = 4;
 /// Cells added around the agents' bounding box.
@@ -25,6 +30,9 @@ struct Grid {
     lo: [i32; 3],
     size: [i64; 3],
     cells: Vec<u32>,
+    /// A bit per cell: it holds an agent (the same as `cells`, in a 32nd of the memory,
+    /// for questions that need no id).
+    occ: Vec<u64>,
     /// Per direction (`Dir::ALL` order): the step in `cells` to the neighbouring cell.
     delta: [isize; 6],
     /// Per axis: the interior starts `first` cells in and is `span` cells long (the grid
@@ -34,6 +42,23 @@ struct Grid {
 }
 
 impl Grid {
+    /// Puts `a` (an agent or [`EMPTY`]) into cell `i`.
+    #[inline]
+    fn put(&mut self, i: usize, a: u32) {
+        self.cells[i] = a;
+        let b = 1u64 << (i % 64);
+        if a == EMPTY {
+            self.occ[i / 64] &= !b;
+        } else {
+            self.occ[i / 64] |= b;
+        }
+    }
+
+    #[inline]
+    fn filled(&self, i: usize) -> bool {
+        self.occ[i / 64] >> (i % 64) & 1 != 0
+    }
+
     /// The slot of a cell whose neighbours in every direction are also in the grid (in 2D
     /// the grid is one cell thick in z: only its one layer counts, and the caller asks only
     /// for the four directions in the plane).
@@ -82,6 +107,7 @@ impl CellIndex {
                     lo,
                     size,
                     cells: vec![EMPTY; volume as usize],
+                    occ: vec![0; (volume as usize).div_ceil(64)],
                     delta,
                     first: size.map(|s| (s > 1) as u32),
                     span: size.map(|s| if s > 1 { s as u32 - 2 } else { 1 }),
@@ -124,18 +150,6 @@ impl CellIndex {
 
     /// The agents next to `p` in the first `nd` directions ([`EMPTY`] = none), when `p`
     /// lies inside the grid with a cell of margin; `false` when the grid cannot answer.
-    #[inline]
-    pub fn neighbours_in_grid(&self, p: [i32; 3], nd: usize, out: &mut [u32; 6]) -> bool {
-        let Some(g) = &self.grid else { return false };
-        let Some(i) = g.interior(p) else {
-            return false;
-        };
-        for (o, &delta) in out.iter_mut().zip(&g.delta).take(nd) {
-            *o = g.cells[(i as isize + delta) as usize];
-        }
-        true
-    }
-
     /// For agents `first, first + 1, ...` (at most `max`), the first standing at `p`: how
     /// many stand on consecutive cells along the grid's innermost axis (y in 2D, z in 3D)
     /// away from the grid's rim, and per direction the grid cells next to them (agent ids
@@ -201,11 +215,51 @@ impl CellIndex {
         self.grid.as_ref().map_or(EMPTY, |g| g.cells[s])
     }
 
+    /// Position `p`'s grid slot as a code: the slot for a cell whose neighbours are all in
+    /// the grid, the slot `| RIM` for one on the grid's rim, [`NO_SLOT`] outside the grid
+    /// (or for a grid of more than 2^31 cells).
+    #[inline]
+    pub fn code(&self, p: [i32; 3]) -> u32 {
+        let Some(g) = &self.grid else { return NO_SLOT };
+        if g.cells.len() >= RIM as usize {
+            return NO_SLOT;
+        }
+        match (g.slot(p), g.interior(p)) {
+            (Some(s), Some(_)) => s as u32,
+            (Some(s), None) => s as u32 | RIM,
+            _ => NO_SLOT,
+        }
+    }
+
+    /// The agent next to interior slot `s` (a [`CellIndex::code`] below [`RIM`]) in
+    /// direction index `d`, or [`EMPTY`].
+    #[inline]
+    pub fn next_to(&self, s: u32, d: usize) -> u32 {
+        match &self.grid {
+            Some(g) => g.cells[(s as isize + g.delta[d]) as usize],
+            None => EMPTY,
+        }
+    }
+
+    /// Whether the cell next to interior slot `s` in direction index `d` holds an agent.
+    #[inline]
+    pub fn filled_next_to(&self, s: u32, d: usize) -> bool {
+        self.grid
+            .as_ref()
+            .is_some_and(|g| g.filled((s as isize + g.delta[d]) as usize))
+    }
+
+    /// Whether grid slot `s` holds an agent.
+    #[inline]
+    pub fn filled_slot(&self, s: usize) -> bool {
+        self.grid.as_ref().is_some_and(|g| g.filled(s))
+    }
+
     /// Puts agent `a` into grid slot `s`.
     #[inline]
     pub fn set_slot(&mut self, s: usize, a: u32) {
         if let Some(g) = &mut self.grid {
-            g.cells[s] = a;
+            g.put(s, a);
         }
     }
 
@@ -217,7 +271,7 @@ impl CellIndex {
     pub fn insert(&mut self, p: [i32; 3], a: u32) {
         if let Some(g) = &mut self.grid {
             if let Some(i) = g.slot(p) {
-                g.cells[i] = a;
+                g.put(i, a);
                 return;
             }
         }
@@ -229,7 +283,7 @@ impl CellIndex {
         if let Some(g) = &mut self.grid {
             if let Some(i) = g.slot(p) {
                 if g.cells[i] == a {
-                    g.cells[i] = EMPTY;
+                    g.put(i, EMPTY);
                 }
                 return;
             }
@@ -246,7 +300,10 @@ impl CellIndex {
 
     /// Bytes held (the hash map counted at its capacity, with its control bytes).
     pub fn bytes(&self) -> usize {
-        let grid = self.grid.as_ref().map_or(0, |g| g.cells.capacity() * 4);
+        let grid = self
+            .grid
+            .as_ref()
+            .map_or(0, |g| g.cells.capacity() * 4 + g.occ.capacity() * 8);
         grid + self.map.capacity() * (std::mem::size_of::<([i32; 3], u32)>() + 1)
     }
 }

@@ -8,7 +8,7 @@
 //! [`Lattice::ensure_text`]; the engine asks for what its program uses). A counter without
 //! a column reads 0, as does a slot without one.
 
-use crate::cells::CellIndex;
+use crate::cells::{CellIndex, EMPTY, NO_SLOT, RIM};
 use crate::step::{all_bits, is_sequence, no_bits, set_bits};
 use latticesim_vm::eval::Cell;
 use latticesim_vm::model::{AgentInit, Bounds, Config, Dim, Dir};
@@ -49,6 +49,9 @@ pub struct Lattice {
     /// Numeric messages of the last step not copied into `inbox_num` (see [`Pending`]).
     pub(crate) pending: Option<Pending>,
     pub(crate) cells: CellIndex,
+    /// Per agent, its cell's slot code in the grid ([`CellIndex::code`]): an agent away
+    /// from the grid's rim finds its neighbours without reading its position.
+    code: Vec<u32>,
     /// What stands next to each agent when the cell index is a hash map: one column per
     /// direction ([`NO_AGENT`], [`BLOCKED`] or an id), valid while `nbr_valid`. Positions
     /// change only in the actions phase, so the table is rebuilt at most once a step, and
@@ -205,6 +208,7 @@ impl LatticeBuilder {
                 inbox_text_has: Vec::new(),
                 pending: None,
                 cells: CellIndex::new(&[], false),
+                code: Vec::new(),
                 nbr: Vec::new(),
                 nbr_valid: false,
             },
@@ -235,7 +239,9 @@ impl LatticeBuilder {
             col.resize(n, 0);
             col.shrink_to_fit();
         }
-        self.lat.cells = CellIndex::new(&self.lat.pos, self.lat.dim == Dim::Three);
+        let lat = &mut self.lat;
+        lat.cells = CellIndex::new(&lat.pos, lat.dim == Dim::Three);
+        lat.code = lat.pos.iter().map(|&p| lat.cells.code(p)).collect();
         self.lat
     }
 }
@@ -563,14 +569,30 @@ impl Lattice {
                 b => Cell::Agent(b),
             };
         }
-        let p = self.pos[a as usize];
         // In a grid, away from its rim and from the universe's walls, one load answers.
-        if self.universe.is_none() {
-            if let Some(c) = self.cells.neighbour_in_grid(p, d) {
-                return c.map_or(Cell::Empty, Cell::Agent);
-            }
+        let s = self.code[a as usize];
+        if s < RIM && self.universe.is_none() {
+            return match self.cells.next_to(s, d) {
+                EMPTY => Cell::Empty,
+                b => Cell::Agent(b),
+            };
         }
-        self.neighbour_cell_slow(p, d)
+        self.neighbour_cell_slow(self.pos[a as usize], d)
+    }
+
+    /// Whether the cell next to agent `a` in direction index `d` holds an agent (`None`:
+    /// it is outside the universe). Cheaper than [`Lattice::neighbour_cell`] in a grid.
+    #[inline(always)]
+    pub fn neighbour_filled(&self, a: u32, d: usize) -> Option<bool> {
+        let s = self.code[a as usize];
+        if !self.nbr_valid && s < RIM && self.universe.is_none() {
+            return Some(self.cells.filled_next_to(s, d));
+        }
+        match self.neighbour_cell(a, d) {
+            Cell::Blocked => None,
+            Cell::Empty => Some(false),
+            Cell::Agent(_) => Some(true),
+        }
     }
 
     /// The agents next to agent `a` in every direction of the dimension: an id, or
@@ -587,7 +609,11 @@ impl Lattice {
             }
             return;
         }
-        if self.universe.is_none() && self.cells.neighbours_in_grid(self.pos[a as usize], nd, out) {
+        let s = self.code[a as usize];
+        if s < RIM && self.universe.is_none() {
+            for (d, o) in out.iter_mut().enumerate().take(nd) {
+                *o = self.cells.next_to(s, d);
+            }
             return;
         }
         for (d, o) in out.iter_mut().enumerate().take(nd) {
@@ -660,20 +686,32 @@ impl Lattice {
         for &(a, p) in moves {
             self.pos[a as usize] = p;
             self.cells.insert(p, a);
+            self.code[a as usize] = self.cells.code(p);
         }
     }
 
-    /// Moves agents to the grid slots of their targets (as [`CellIndex::slot`]), which no
-    /// two share and which are empty or left by movers: the same as [`Lattice::relocate`].
-    pub fn relocate_to_slots(&mut self, moves: &[(u32, [i32; 3])], slots: &[usize]) {
+    /// Moves agents to their targets in the grid, given as slot codes
+    /// ([`CellIndex::code`], none [`NO_SLOT`]), which no two share and which are empty or
+    /// left by movers: the same as [`Lattice::relocate`]. `targeted` tells whether a slot
+    /// is one of the targets: a mover's old cell is emptied only when it is not, without
+    /// reading the grid.
+    pub(crate) fn relocate_to_slots(
+        &mut self,
+        moves: &[(u32, [i32; 3])],
+        codes: &[u32],
+        targeted: impl Fn(usize) -> bool,
+    ) {
         if !moves.is_empty() {
             self.nbr_valid = false;
         }
-        // One pass: a mover's old cell is emptied only while it still holds the mover.
-        for (&(a, p), &s) in moves.iter().zip(slots) {
+        for (&(a, p), &c) in moves.iter().zip(codes) {
             let old = std::mem::replace(&mut self.pos[a as usize], p);
-            self.cells.remove(old, a);
-            self.cells.set_slot(s, a);
+            match std::mem::replace(&mut self.code[a as usize], c) {
+                NO_SLOT => self.cells.remove(old, a),
+                o if targeted((o & !RIM) as usize) => {}
+                o => self.cells.set_slot((o & !RIM) as usize, EMPTY),
+            }
+            self.cells.set_slot((c & !RIM) as usize, a);
         }
     }
 

@@ -6,6 +6,7 @@
 // that more plainly than zipped iterators over five columns.
 #![allow(clippy::needless_range_loop)]
 
+use crate::cells::{NO_SLOT, RIM};
 use crate::lattice::Lattice;
 use crate::lattice::{Pending, NO_AGENT, NO_COL};
 use crate::record::{Record, RecordKind};
@@ -245,38 +246,43 @@ impl Actions {
 /// targeted twice or held by an agent that stays. Then the moves are made and true is
 /// returned; otherwise nothing changes.
 fn move_free(lat: &mut Lattice, live: &[(u32, [i32; 3])], sc: &mut MoveScratch) -> bool {
-    let mut slots = std::mem::take(&mut sc.slots);
-    slots.clear();
-    slots.extend(live.iter().map_while(|&(_, t)| lat.cells.slot(t)));
-    let mut free = slots.len() == live.len();
+    let mut codes = std::mem::take(&mut sc.codes);
+    codes.clear();
+    let in_grid = |&(_, t): &(u32, [i32; 3])| Some(lat.cells.code(t)).filter(|&c| c != NO_SLOT);
+    codes.extend(live.iter().map_while(in_grid));
+    let mut free = codes.len() == live.len();
     if free {
         let bit = |i: usize| (i / 64, 1u64 << (i % 64));
-        for (&(a, _), &s) in live.iter().zip(&slots) {
+        let slots = || codes.iter().map(|&c| (c & !RIM) as usize);
+        for (&(a, _), s) in live.iter().zip(slots()) {
             let (w, b) = bit(a as usize);
             sc.moving[w] |= b;
             let (w, b) = bit(s);
             sc.twice[w] |= sc.once[w] & b;
             sc.once[w] |= b;
         }
-        for &s in &slots {
+        for s in slots() {
             let (w, b) = bit(s);
-            let at = lat.cells.at_slot(s);
-            let stays = at != crate::cells::EMPTY && {
-                let (v, c) = bit(at as usize);
+            let stays = lat.cells.filled_slot(s) && {
+                let (v, c) = bit(lat.cells.at_slot(s) as usize);
                 sc.moving[v] & c == 0
             };
             free &= sc.twice[w] & b == 0 && !stays;
         }
-        for (&(a, _), &s) in live.iter().zip(&slots) {
+        if free {
+            let once = &sc.once;
+            lat.relocate_to_slots(live, &codes, |s| {
+                let (w, b) = bit(s);
+                once[w] & b != 0
+            });
+        }
+        for (&(a, _), s) in live.iter().zip(slots()) {
             sc.moving[a as usize / 64] = 0;
             sc.once[s / 64] = 0;
             sc.twice[s / 64] = 0;
         }
-        if free {
-            lat.relocate_to_slots(live, &slots);
-        }
     }
-    sc.slots = slots;
+    sc.codes = codes;
     free
 }
 
@@ -287,8 +293,8 @@ struct MoveScratch {
     once: Vec<u64>,
     twice: Vec<u64>,
     moving: Vec<u64>,
-    /// The movers' target slots.
-    slots: Vec<usize>,
+    /// The movers' targets as slot codes.
+    codes: Vec<u32>,
 }
 
 /// The rules each agent executes in a step: one entry per agent, either [`NO_RULE`], a
@@ -1310,7 +1316,7 @@ impl Engine {
             let dense = todo.dense(n);
             self.detach_move_attach(&dense, rep);
         } else if moves {
-            self.move_alone(&todo.moves, rep);
+            self.move_alone(&mut todo.moves, rep);
         }
         // 5. State updates, in agent order.
         for &(a, bits) in &todo.states {
@@ -1507,6 +1513,7 @@ impl Engine {
     }
 
     /// Adds the actions of agent `a` executing rule `r` alone to `todo`.
+    #[inline(always)]
     fn add_rule_actions(&self, todo: &mut Actions, a: u32, r: u32) {
         let info = &self.prog.rules[r as usize];
         if let Some(off) = info.moves {
@@ -1553,22 +1560,23 @@ impl Engine {
     /// Steps 1 to 4 when no agent is attached and no rule attaches: every group is one
     /// agent, so only the movers are looked at (the same decisions and records as
     /// [`Engine::detach_move_attach`]).
-    fn move_alone(&mut self, moves: &[(u32, [i32; 3])], rep: &mut StepReport) {
-        // Movers in agent order, with their targets.
-        let mut live: Vec<(u32, [i32; 3])> = Vec::with_capacity(moves.len());
-        for &(a, o) in moves {
-            let p = self.lat.pos[a as usize];
-            let t = [
-                p[0] as i64 + o[0] as i64,
-                p[1] as i64 + o[1] as i64,
-                p[2] as i64 + o[2] as i64,
-            ];
+    fn move_alone(&mut self, live: &mut Vec<(u32, [i32; 3])>, rep: &mut StepReport) {
+        // Movers in agent order, with their targets (in place of their offsets).
+        let mut blocked = Vec::new();
+        live.retain_mut(|(a, o)| {
+            let p = self.lat.pos[*a as usize];
+            let t = [0, 1, 2].map(|k| p[k] as i64 + o[k] as i64);
             if self.lat.inside(t) {
-                live.push((a, [t[0] as i32, t[1] as i32, t[2] as i32]));
+                *o = t.map(|c| c as i32);
+                true
             } else {
-                let msg = format!("agent {a} cannot move by ({},{},{}): the target cell is blocked; its group does not move", o[0], o[1], o[2]);
-                self.record(rep, RecordKind::MoveBlocked, &[a], msg);
+                blocked.push((*a, *o));
+                false
             }
+        });
+        for (a, o) in blocked {
+            let msg = format!("agent {a} cannot move by ({},{},{}): the target cell is blocked; its group does not move", o[0], o[1], o[2]);
+            self.record(rep, RecordKind::MoveBlocked, &[a], msg);
         }
         // Collisions: cancel every move involved, until none is left. Targets are counted
         // in bits per grid cell (claimed once, claimed more than once) where the grid covers
@@ -1582,7 +1590,7 @@ impl Engine {
             sc.twice = vec![0; words(cells)];
             sc.moving = vec![0; words(self.lat.len())];
         }
-        if !self.opts.trace && move_free(&mut self.lat, &live, &mut sc) {
+        if !self.opts.trace && move_free(&mut self.lat, live, &mut sc) {
             self.scratch = sc;
             self.stats.moves += live.len() as u64;
             return;
@@ -1590,7 +1598,7 @@ impl Engine {
         let bit = |i: usize| (i / 64, 1u64 << (i % 64));
         loop {
             let mut count: FxHashMap<[i32; 3], u32> = FxHashMap::default();
-            for &(a, t) in &live {
+            for &(a, t) in live.iter() {
                 let (w, b) = bit(a as usize);
                 sc.moving[w] |= b;
                 match self.lat.cells.slot(t) {
@@ -1614,7 +1622,7 @@ impl Engine {
                 None => count[&t] > 1,
             };
             let mut bad: BTreeMap<[i32; 3], Vec<u32>> = BTreeMap::new();
-            for (a, t) in &live {
+            for (a, t) in live.iter() {
                 let stay = self.lat.agent_at(*t).filter(|&s| !moving(s));
                 if claimed_again(*t) || stay.is_some() {
                     bad.entry(*t).or_default().push(*a);
@@ -1632,7 +1640,7 @@ impl Engine {
                 }
             };
             if bad.is_empty() {
-                clear(&mut sc, &live, &self.lat.cells);
+                clear(&mut sc, live, &self.lat.cells);
                 break;
             }
             let mut cancel: Vec<(u32, [i32; 3], Vec<u32>)> = Vec::new();
@@ -1644,7 +1652,7 @@ impl Engine {
                 }
             }
             cancel.sort_by_key(|c| c.0);
-            clear(&mut sc, &live, &self.lat.cells);
+            clear(&mut sc, live, &self.lat.cells);
             for (a, cell, involved) in cancel {
                 let i = live.binary_search_by_key(&a, |m| m.0).expect("a mover");
                 live.remove(i);
@@ -1660,8 +1668,8 @@ impl Engine {
             }
         }
         self.scratch = sc;
-        self.count_moves(&live, rep);
-        self.lat.relocate(&live);
+        self.count_moves(live, rep);
+        self.lat.relocate(live);
     }
 
     /// Steps 1 to 4: detach, decide, move rigid groups, attach.
@@ -2623,11 +2631,7 @@ fn batch_pre(prog: &Program, r: u32, lat: &Lattice, first: usize, out: &mut [boo
                 for d in (0..nd).filter(|d| mask & (1 << d) != 0) {
                     let filled = want & (1 << d) != 0;
                     for (j, t) in top.iter_mut().enumerate() {
-                        *t &= match lat.neighbour_cell((first + j) as u32, d) {
-                            Cell::Blocked => false,
-                            Cell::Empty => !filled,
-                            Cell::Agent(_) => filled,
-                        };
+                        *t &= lat.neighbour_filled((first + j) as u32, d) == Some(filled);
                     }
                 }
                 sp += 1;
