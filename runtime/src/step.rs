@@ -242,15 +242,12 @@ impl Actions {
     }
 }
 
-/// The common case of [`Engine::move_alone`] without tracing: every target in the grid, none
-/// targeted twice or held by an agent that stays. Then the moves are made and true is
-/// returned; otherwise nothing changes.
+/// The common case of [`Engine::move_alone`] without tracing: every target in the grid (the
+/// targets' slot codes are in `sc.codes`), none targeted twice or held by an agent that
+/// stays. Then the moves are made and true is returned; otherwise nothing changes.
 fn move_free(lat: &mut Lattice, live: &[(u32, [i32; 3])], sc: &mut MoveScratch) -> bool {
-    let mut codes = std::mem::take(&mut sc.codes);
-    codes.clear();
-    let in_grid = |&(_, t): &(u32, [i32; 3])| Some(lat.cells.code(t)).filter(|&c| c != NO_SLOT);
-    codes.extend(live.iter().map_while(in_grid));
-    let mut free = codes.len() == live.len();
+    let codes = std::mem::take(&mut sc.codes);
+    let mut free = !codes.contains(&NO_SLOT);
     if free {
         let bit = |i: usize| (i / 64, 1u64 << (i % 64));
         let slots = || codes.iter().map(|&c| (c & !RIM) as usize);
@@ -1561,13 +1558,17 @@ impl Engine {
     /// agent, so only the movers are looked at (the same decisions and records as
     /// [`Engine::detach_move_attach`]).
     fn move_alone(&mut self, live: &mut Vec<(u32, [i32; 3])>, rep: &mut StepReport) {
-        // Movers in agent order, with their targets (in place of their offsets).
+        // Movers in agent order, with their targets (in place of their offsets) and the
+        // targets' slot codes.
+        let mut sc = std::mem::take(&mut self.scratch);
+        sc.codes.clear();
         let mut blocked = Vec::new();
         live.retain_mut(|(a, o)| {
             let p = self.lat.pos[*a as usize];
             let t = [0, 1, 2].map(|k| p[k] as i64 + o[k] as i64);
             if self.lat.inside(t) {
                 *o = t.map(|c| c as i32);
+                sc.codes.push(self.lat.cells.code(*o));
                 true
             } else {
                 blocked.push((*a, *o));
@@ -1583,7 +1584,6 @@ impl Engine {
         // them, in a hash map elsewhere; movers are marked in bits per agent. Each round
         // clears the bits it set.
         let cells = self.lat.cells.slots();
-        let mut sc = std::mem::take(&mut self.scratch);
         let words = |bits: usize| bits.div_ceil(64);
         if sc.once.len() != words(cells) || sc.moving.len() != words(self.lat.len()) {
             sc.once = vec![0; words(cells)];
