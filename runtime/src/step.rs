@@ -1563,18 +1563,21 @@ impl Engine {
         let mut sc = std::mem::take(&mut self.scratch);
         sc.codes.clear();
         let mut blocked = Vec::new();
-        live.retain_mut(|(a, o)| {
-            let p = self.lat.pos[*a as usize];
+        let mut kept = 0;
+        for i in 0..live.len() {
+            let (a, o) = live[i];
+            let p = self.lat.pos[a as usize];
             let t = [0, 1, 2].map(|k| p[k] as i64 + o[k] as i64);
             if self.lat.inside(t) {
-                *o = t.map(|c| c as i32);
-                sc.codes.push(self.lat.cells.code(*o));
-                true
+                let t = t.map(|c| c as i32);
+                live[kept] = (a, t);
+                sc.codes.push(self.lat.cells.code(t));
+                kept += 1;
             } else {
-                blocked.push((*a, *o));
-                false
+                blocked.push((a, o));
             }
-        });
+        }
+        live.truncate(kept);
         for (a, o) in blocked {
             let msg = format!("agent {a} cannot move by ({},{},{}): the target cell is blocked; its group does not move", o[0], o[1], o[2]);
             self.record(rep, RecordKind::MoveBlocked, &[a], msg);
