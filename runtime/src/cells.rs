@@ -249,6 +249,13 @@ impl CellIndex {
             .is_some_and(|g| g.filled((s as isize + g.delta[d]) as usize))
     }
 
+    /// The grid's occupancy bits (a bit per slot) and the slot offset of direction index
+    /// `d`, for tight loops over slot codes.
+    #[inline]
+    pub fn occupancy(&self, d: usize) -> Option<(&[u64], isize)> {
+        self.grid.as_ref().map(|g| (&g.occ[..], g.delta[d]))
+    }
+
     /// Whether grid slot `s` holds an agent.
     #[inline]
     pub fn filled_slot(&self, s: usize) -> bool {

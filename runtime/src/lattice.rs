@@ -505,6 +505,7 @@ impl Lattice {
             })
             + self.nbr.iter().map(|c| c.capacity() * 4).sum::<usize>();
         self.pos.capacity() * 12
+            + self.code.capacity() * 4
             + self.state.capacity() * 5
             + self.attach.capacity()
             + cols
@@ -592,6 +593,32 @@ impl Lattice {
             Cell::Blocked => None,
             Cell::Empty => Some(false),
             Cell::Agent(_) => Some(true),
+        }
+    }
+
+    /// For agents `first..first + out.len()`: clears `out[j]` unless the cell next to agent
+    /// `first + j` in direction index `d` is filled (`want`) or empty (not `want`) and
+    /// inside the universe. The same as [`Lattice::neighbour_filled`] agent by agent, in
+    /// one tight loop over the agents' slot codes where the grid answers.
+    pub fn keep_if_filled(&self, first: usize, d: usize, want: bool, out: &mut [bool]) {
+        let codes = &self.code[first..first + out.len()];
+        let grid = self.cells.occupancy(d);
+        match grid {
+            Some((occ, delta)) if !self.nbr_valid && self.universe.is_none() => {
+                for (j, (t, &s)) in out.iter_mut().zip(codes).enumerate() {
+                    *t &= if s < RIM {
+                        let i = (s as isize + delta) as usize;
+                        (occ[i / 64] >> (i % 64) & 1 != 0) == want
+                    } else {
+                        self.neighbour_filled((first + j) as u32, d) == Some(want)
+                    };
+                }
+            }
+            _ => {
+                for (j, t) in out.iter_mut().enumerate() {
+                    *t &= self.neighbour_filled((first + j) as u32, d) == Some(want);
+                }
+            }
         }
     }
 

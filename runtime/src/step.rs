@@ -12,7 +12,7 @@ use crate::lattice::{Pending, NO_AGENT, NO_COL};
 use crate::record::{Record, RecordKind};
 use crate::trace::TraceEvent;
 use latticesim_vm::eval::{eval_pre, run_post, CalcEnv, CalcIssue, Cell, Env, Tri};
-use latticesim_vm::model::{AttachLetter, CalcOp, Coord, Dir, TextPat};
+use latticesim_vm::model::{AttachLetter, CalcOp, CmpOp, Coord, Dir, TextPat};
 use latticesim_vm::op::{Op, Target, Val, ANY_DIR};
 use latticesim_vm::Program;
 use rustc_hash::FxHashMap;
@@ -1595,7 +1595,7 @@ impl Engine {
         }
         if !self.opts.trace && move_free(&mut self.lat, live, &mut sc) {
             self.scratch = sc;
-            self.stats.moves += live.len() as u64;
+            self.count_moves(live, rep);
             return;
         }
         let bit = |i: usize| (i / 64, 1u64 << (i % 64));
@@ -2633,9 +2633,7 @@ fn batch_pre(prog: &Program, r: u32, lat: &Lattice, first: usize, out: &mut [boo
                 top.fill(true);
                 for d in (0..nd).filter(|d| mask & (1 << d) != 0) {
                     let filled = want & (1 << d) != 0;
-                    for (j, t) in top.iter_mut().enumerate() {
-                        *t &= lat.neighbour_filled((first + j) as u32, d) == Some(filled);
-                    }
+                    lat.keep_if_filled(first, d, filled, top);
                 }
                 sp += 1;
             }
@@ -2655,9 +2653,12 @@ fn batch_pre(prog: &Program, r: u32, lat: &Lattice, first: usize, out: &mut [boo
             Op::Cmp { op, a, b } => {
                 load(a, &mut x[..m]);
                 load(b, &mut y[..m]);
-                let top = &mut stack[sp][..m];
-                for ((t, &p), &q) in top.iter_mut().zip(&x[..m]).zip(&y[..m]) {
-                    *t = op.holds(p, q);
+                let top = stack[sp][..m].iter_mut().zip(&x[..m]).zip(&y[..m]);
+                // One loop per operator, so that each is a vector compare.
+                match op {
+                    CmpOp::Lt => top.for_each(|((t, &p), &q)| *t = p < q),
+                    CmpOp::Gt => top.for_each(|((t, &p), &q)| *t = p > q),
+                    CmpOp::Eq => top.for_each(|((t, &p), &q)| *t = p == q),
                 }
                 sp += 1;
             }
