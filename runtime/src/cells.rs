@@ -220,13 +220,16 @@ impl CellIndex {
     /// (or for a grid of more than 2^31 cells).
     #[inline]
     pub fn code(&self, p: [i32; 3]) -> u32 {
-        let Some(g) = &self.grid else { return NO_SLOT };
-        if g.cells.len() >= RIM as usize {
-            return NO_SLOT;
-        }
-        match (g.slot(p), g.interior(p)) {
-            (Some(s), Some(_)) => s as u32,
-            (Some(s), None) => s as u32 | RIM,
+        match &self.grid {
+            Some(g) if g.cells.len() < RIM as usize => {
+                let o = [0, 1, 2].map(|k| (p[k] as i64 - g.lo[k] as i64) as u64);
+                if (0..3).any(|k| o[k] >= g.size[k] as u64) {
+                    return NO_SLOT;
+                }
+                let s = ((o[0] * g.size[1] as u64 + o[1]) * g.size[2] as u64 + o[2]) as u32;
+                let rim = (0..3).any(|k| o[k].wrapping_sub(g.first[k] as u64) >= g.span[k] as u64);
+                s | if rim { RIM } else { 0 }
+            }
             _ => NO_SLOT,
         }
     }
