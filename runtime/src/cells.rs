@@ -259,18 +259,18 @@ impl CellIndex {
         self.grid.as_ref().map(|g| (&g.occ[..], g.delta[d]))
     }
 
+    /// The grid's cells and occupancy bits, to change both at once in tight loops.
+    #[inline]
+    pub fn grid_mut(&mut self) -> Option<(&mut [u32], &mut [u64])> {
+        self.grid
+            .as_mut()
+            .map(|g| (&mut g.cells[..], &mut g.occ[..]))
+    }
+
     /// Whether grid slot `s` holds an agent.
     #[inline]
     pub fn filled_slot(&self, s: usize) -> bool {
         self.grid.as_ref().is_some_and(|g| g.filled(s))
-    }
-
-    /// Puts agent `a` into grid slot `s`.
-    #[inline]
-    pub fn set_slot(&mut self, s: usize, a: u32) {
-        if let Some(g) = &mut self.grid {
-            g.put(s, a);
-        }
     }
 
     pub fn slots(&self) -> usize {

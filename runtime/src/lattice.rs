@@ -731,14 +731,27 @@ impl Lattice {
         if !moves.is_empty() {
             self.nbr_valid = false;
         }
-        for (&(a, p), &c) in moves.iter().zip(codes) {
-            let old = std::mem::replace(&mut self.pos[a as usize], p);
-            match std::mem::replace(&mut self.code[a as usize], c) {
-                NO_SLOT => self.cells.remove(old, a),
-                o if targeted((o & !RIM) as usize) => {}
-                o => self.cells.set_slot((o & !RIM) as usize, EMPTY),
+        // Movers that come from outside the grid leave the hash map after the loop.
+        let mut outside = Vec::new();
+        let (pos, code) = (&mut self.pos, &mut self.code);
+        if let Some((cells, occ)) = self.cells.grid_mut() {
+            for (&(a, p), &c) in moves.iter().zip(codes) {
+                let old = std::mem::replace(&mut pos[a as usize], p);
+                let was = std::mem::replace(&mut code[a as usize], c);
+                let o = (was & !RIM) as usize;
+                if was == NO_SLOT {
+                    outside.push((old, a));
+                } else if !targeted(o) {
+                    cells[o] = EMPTY;
+                    occ[o / 64] &= !(1 << (o % 64));
+                }
+                let s = (c & !RIM) as usize;
+                cells[s] = a;
+                occ[s / 64] |= 1 << (s % 64);
             }
-            self.cells.set_slot((c & !RIM) as usize, a);
+        }
+        for (old, a) in outside {
+            self.cells.remove(old, a);
         }
     }
 

@@ -157,6 +157,9 @@ pub struct Engine {
     direct_bits: Vec<Option<(u64, u64)>>,
     /// Per entry of the program's offsets: its value when it has no counter in it.
     literal_offsets: Vec<Option<[i32; 3]>>,
+    /// Per rule whose only action is a move by an offset without counters (not zero):
+    /// that offset.
+    plain_moves: Vec<Option<[i32; 3]>>,
     /// Per rule: its calculations can run on a range of agents at once (no external
     /// counters).
     batchable: Vec<bool>,
@@ -678,6 +681,16 @@ impl Engine {
                 })
                 .collect(),
             literal_offsets: prog.offsets.iter().map(literal).collect(),
+            plain_moves: prog
+                .rules
+                .iter()
+                .map(|i| match (i.moves, i.sets_state, i.swaps, i.attaches) {
+                    (Some(o), None, None, None) => {
+                        literal(&prog.offsets[o as usize]).filter(|&o| o != [0, 0, 0])
+                    }
+                    _ => None,
+                })
+                .collect(),
             direct_bits: prog
                 .rules
                 .iter()
@@ -1278,6 +1291,10 @@ impl Engine {
             }
             if r & MANY == 0 {
                 // One rule: nothing can conflict.
+                if let (Some(o), true) = (self.plain_moves[r as usize], pick(r)) {
+                    todo.moves.push((a as u32, o));
+                    continue;
+                }
                 if !acts(r) || !pick(r) {
                     continue;
                 }
