@@ -248,9 +248,27 @@ impl Actions {
 /// The common case of [`Engine::move_alone`] without tracing: every target in the grid (the
 /// targets' slot codes are in `sc.codes`), none targeted twice or held by an agent that
 /// stays. Then the moves are made and true is returned; otherwise nothing changes.
-fn move_free(lat: &mut Lattice, live: &[(u32, [i32; 3])], sc: &mut MoveScratch) -> bool {
+/// `one_offset`: every mover moves by the same offset.
+fn move_free(
+    lat: &mut Lattice,
+    live: &[(u32, [i32; 3])],
+    sc: &mut MoveScratch,
+    one_offset: bool,
+) -> bool {
     let codes = std::mem::take(&mut sc.codes);
     let mut free = !codes.contains(&NO_SLOT);
+    // Movers by one offset have distinct targets; when every target is empty, none is
+    // held by an agent that stays and none is a mover's old cell: no marks are needed.
+    if free
+        && one_offset
+        && codes
+            .iter()
+            .all(|&c| !lat.cells.filled_slot((c & !RIM) as usize))
+    {
+        lat.relocate_to_slots(live, &codes, |_| false);
+        sc.codes = codes;
+        return true;
+    }
     if free {
         let bit = |i: usize| (i / 64, 1u64 << (i % 64));
         let slots = || codes.iter().map(|&c| (c & !RIM) as usize);
@@ -1581,6 +1599,7 @@ impl Engine {
         sc.codes.clear();
         let mut blocked = Vec::new();
         let mut kept = 0;
+        let one_offset = live.iter().all(|m| m.1 == live[0].1);
         for i in 0..live.len() {
             let (a, o) = live[i];
             let p = self.lat.pos[a as usize];
@@ -1610,7 +1629,7 @@ impl Engine {
             sc.twice = vec![0; words(cells)];
             sc.moving = vec![0; words(self.lat.len())];
         }
-        if !self.opts.trace && move_free(&mut self.lat, live, &mut sc) {
+        if !self.opts.trace && move_free(&mut self.lat, live, &mut sc, one_offset) {
             self.scratch = sc;
             self.count_moves(live, rep);
             return;

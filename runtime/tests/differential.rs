@@ -657,6 +657,12 @@ fn optimisations_agree_with_reference() {
         (crowd.into(), rows(&["EEE", "N.EE", "W..WW", "NNE"])),
         (crowd.into(), rows(&["E.W", "EEE", "N..W", ".WW"])),
         (crowd.into(), rows(&["ES", "EEES", "SW..E", "N"])),
+        // Only empty targets, two of them claimed twice by movers of different offsets.
+        (crowd.into(), rows(&["E.W", "N", "E..W"])),
+        // Movers all by one offset: into empty cells only; and in trains and into agents
+        // that stay.
+        (crowd.into(), rows(&["E.E", ".E", "E..E.S"])),
+        (crowd.into(), rows(&["EEE", "E.ES", "..E"])),
         (
             mixed.into(),
             block(16, 16, |x, y, k| {
