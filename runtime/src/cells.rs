@@ -148,8 +148,6 @@ impl CellIndex {
         Some((a != EMPTY).then_some(a))
     }
 
-    /// The agents next to `p` in the first `nd` directions ([`EMPTY`] = none), when `p`
-    /// lies inside the grid with a cell of margin; `false` when the grid cannot answer.
     /// For agents `first, first + 1, ...` (at most `max`), the first standing at `p`: how
     /// many stand on consecutive cells along the grid's innermost axis (y in 2D, z in 3D)
     /// away from the grid's rim, and per direction the grid cells next to them (agent ids
@@ -208,7 +206,6 @@ impl CellIndex {
         self.grid.as_ref()?.slot(p)
     }
 
-    /// The number of grid slots (0 without a grid).
     /// The agent in grid slot `s`, or [`EMPTY`].
     #[inline]
     pub fn at_slot(&self, s: usize) -> u32 {
@@ -273,6 +270,7 @@ impl CellIndex {
         self.grid.as_ref().is_some_and(|g| g.filled(s))
     }
 
+    /// The number of grid slots (0 without a grid).
     pub fn slots(&self) -> usize {
         self.grid.as_ref().map_or(0, |g| g.cells.len())
     }

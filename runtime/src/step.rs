@@ -2084,6 +2084,11 @@ impl Engine {
             let mut k = 0;
             while k < ch.len {
                 let a = ch.lo + k;
+                if sel.one[a] == NO_RULE {
+                    // A run of agents executing nothing.
+                    k += run_of(&sel.one[a..ch.lo + ch.len], NO_RULE);
+                    continue;
+                }
                 let rs = sel.of(a);
                 if let [r] = *rs {
                     if !prog.rules[r as usize].computes {
