@@ -270,34 +270,19 @@ fn move_free(
         return true;
     }
     if free {
-        let bit = |i: usize| (i / 64, 1u64 << (i % 64));
         let slots = || codes.iter().map(|&c| (c & !RIM) as usize);
         for (&(a, _), s) in live.iter().zip(slots()) {
-            let (w, b) = bit(a as usize);
-            sc.moving[w] |= b;
-            let (w, b) = bit(s);
-            sc.twice[w] |= sc.once[w] & b;
-            sc.once[w] |= b;
+            sc.claim(a, Some(s));
         }
         for s in slots() {
-            let (w, b) = bit(s);
-            let stays = lat.cells.filled_slot(s) && {
-                let (v, c) = bit(lat.cells.at_slot(s) as usize);
-                sc.moving[v] & c == 0
-            };
-            free &= sc.twice[w] & b == 0 && !stays;
+            let stays = lat.cells.filled_slot(s) && !sc.moving(lat.cells.at_slot(s));
+            free &= !sc.claimed_twice(s) && !stays;
         }
         if free {
-            let once = &sc.once;
-            lat.relocate_to_slots(live, &codes, |s| {
-                let (w, b) = bit(s);
-                once[w] & b != 0
-            });
+            lat.relocate_to_slots(live, &codes, |s| sc.claimed(s));
         }
         for (&(a, _), s) in live.iter().zip(slots()) {
-            sc.moving[a as usize / 64] = 0;
-            sc.once[s / 64] = 0;
-            sc.twice[s / 64] = 0;
+            sc.unclaim(a, Some(s));
         }
     }
     sc.codes = codes;
@@ -313,6 +298,54 @@ struct MoveScratch {
     moving: Vec<u64>,
     /// The movers' targets as slot codes.
     codes: Vec<u32>,
+}
+
+/// The word and the bit of index `i` in a bit set.
+#[inline]
+fn bit(i: usize) -> (usize, u64) {
+    (i / 64, 1 << (i % 64))
+}
+
+impl MoveScratch {
+    /// Marks agent `a` as moving, and its target's grid slot `s` (if any) as claimed.
+    #[inline]
+    fn claim(&mut self, a: u32, s: Option<usize>) {
+        let (w, b) = bit(a as usize);
+        self.moving[w] |= b;
+        if let Some(s) = s {
+            let (w, b) = bit(s);
+            self.twice[w] |= self.once[w] & b;
+            self.once[w] |= b;
+        }
+    }
+
+    #[inline]
+    fn moving(&self, a: u32) -> bool {
+        let (w, b) = bit(a as usize);
+        self.moving[w] & b != 0
+    }
+
+    #[inline]
+    fn claimed(&self, s: usize) -> bool {
+        let (w, b) = bit(s);
+        self.once[w] & b != 0
+    }
+
+    #[inline]
+    fn claimed_twice(&self, s: usize) -> bool {
+        let (w, b) = bit(s);
+        self.twice[w] & b != 0
+    }
+
+    /// Clears what [`MoveScratch::claim`] marked (whole words: nothing else is marked).
+    #[inline]
+    fn unclaim(&mut self, a: u32, s: Option<usize>) {
+        self.moving[a as usize / 64] = 0;
+        if let Some(s) = s {
+            self.once[s / 64] = 0;
+            self.twice[s / 64] = 0;
+        }
+    }
 }
 
 /// The rules each agent executes in a step: one entry per agent, either [`NO_RULE`], a
@@ -1634,30 +1667,18 @@ impl Engine {
             self.count_moves(live, rep);
             return;
         }
-        let bit = |i: usize| (i / 64, 1u64 << (i % 64));
         loop {
             let mut count: FxHashMap<[i32; 3], u32> = FxHashMap::default();
             for &(a, t) in live.iter() {
-                let (w, b) = bit(a as usize);
-                sc.moving[w] |= b;
-                match self.lat.cells.slot(t) {
-                    Some(s) => {
-                        let (w, b) = bit(s);
-                        sc.twice[w] |= sc.once[w] & b;
-                        sc.once[w] |= b;
-                    }
-                    None => *count.entry(t).or_insert(0) += 1,
+                let s = self.lat.cells.slot(t);
+                sc.claim(a, s);
+                if s.is_none() {
+                    *count.entry(t).or_insert(0) += 1;
                 }
             }
-            let moving = |s: u32| {
-                let (w, b) = bit(s as usize);
-                sc.moving[w] & b != 0
-            };
+            let moving = |s: u32| sc.moving(s);
             let claimed_again = |t: [i32; 3]| match self.lat.cells.slot(t) {
-                Some(s) => {
-                    let (w, b) = bit(s);
-                    sc.twice[w] & b != 0
-                }
+                Some(s) => sc.claimed_twice(s),
                 None => count[&t] > 1,
             };
             let mut bad: BTreeMap<[i32; 3], Vec<u32>> = BTreeMap::new();
@@ -1671,11 +1692,7 @@ impl Engine {
                          live: &[(u32, [i32; 3])],
                          cells: &crate::cells::CellIndex| {
                 for &(a, t) in live {
-                    sc.moving[a as usize / 64] = 0;
-                    if let Some(s) = cells.slot(t) {
-                        sc.once[s / 64] = 0;
-                        sc.twice[s / 64] = 0;
-                    }
+                    sc.unclaim(a, cells.slot(t));
                 }
             };
             if bad.is_empty() {
