@@ -1248,7 +1248,17 @@ impl Engine {
             counts.fill(0);
             self.active = 0;
             let mut run = (NO_RULE, 0u64);
-            for &v in sel.one.iter().chain([&NO_RULE]) {
+            // With few rules and no agent executing several, one vectorised count per rule
+            // (agents alternating between a rule and none would make runs of one).
+            let few = sel.many.is_empty() && counts.len() <= 4;
+            let rest = if few { &[][..] } else { &sel.one[..] };
+            if few {
+                for (r, c) in counts.iter_mut().enumerate() {
+                    *c = sel.one.iter().map(|&v| (v == r as u32) as u64).sum();
+                    self.active += *c;
+                }
+            }
+            for &v in rest.iter().chain([&NO_RULE]) {
                 if v != run.0 {
                     if run.0 != NO_RULE {
                         self.active += run.1;
