@@ -25,8 +25,10 @@ pub struct CellIndex {
     map: FxHashMap<[i32; 3], u32>,
 }
 
+/// The dense part of the index: a box of cells, each an agent id or [`EMPTY`], with an
+/// occupancy bit per cell kept with it by [`Grid::put`].
 #[derive(Debug, Clone, PartialEq)]
-struct Grid {
+pub(crate) struct Grid {
     lo: [i32; 3],
     size: [i64; 3],
     cells: Vec<u32>,
@@ -44,19 +46,52 @@ struct Grid {
 impl Grid {
     /// Puts `a` (an agent or [`EMPTY`]) into cell `i`.
     #[inline]
-    fn put(&mut self, i: usize, a: u32) {
-        self.cells[i] = a;
-        let b = 1u64 << (i % 64);
+    pub(crate) fn put(&mut self, i: usize, a: u32) {
         if a == EMPTY {
-            self.occ[i / 64] &= !b;
+            self.vacate(i);
         } else {
-            self.occ[i / 64] |= b;
+            self.occupy(i, a);
         }
     }
 
+    /// Puts agent `a` into cell `i`.
     #[inline]
-    fn filled(&self, i: usize) -> bool {
+    pub(crate) fn occupy(&mut self, i: usize, a: u32) {
+        self.cells[i] = a;
+        self.occ[i / 64] |= 1 << (i % 64);
+    }
+
+    /// Empties cell `i`.
+    #[inline]
+    pub(crate) fn vacate(&mut self, i: usize) {
+        self.cells[i] = EMPTY;
+        self.occ[i / 64] &= !(1 << (i % 64));
+    }
+
+    /// Whether cell `i` holds an agent.
+    #[inline]
+    pub(crate) fn filled(&self, i: usize) -> bool {
         self.occ[i / 64] >> (i % 64) & 1 != 0
+    }
+
+    /// The cell next to interior slot `s` (a [`CellIndex::code`] below [`RIM`]) in
+    /// direction index `d`.
+    #[inline]
+    pub(crate) fn next(&self, s: u32, d: usize) -> usize {
+        Self::along(s, self.delta[d])
+    }
+
+    /// The step between neighbouring cells in direction index `d`, for loops that go
+    /// [`Grid::along`] it.
+    #[inline]
+    pub(crate) fn step(&self, d: usize) -> isize {
+        self.delta[d]
+    }
+
+    /// The cell a `step` away from interior slot `s`.
+    #[inline]
+    pub(crate) fn along(s: u32, step: isize) -> usize {
+        (s as isize + step) as usize
     }
 
     /// The slot of a cell whose neighbours in every direction are also in the grid (in 2D
@@ -236,7 +271,7 @@ impl CellIndex {
     #[inline]
     pub fn next_to(&self, s: u32, d: usize) -> u32 {
         match &self.grid {
-            Some(g) => g.cells[(s as isize + g.delta[d]) as usize],
+            Some(g) => g.cells[g.next(s, d)],
             None => EMPTY,
         }
     }
@@ -244,24 +279,19 @@ impl CellIndex {
     /// Whether the cell next to interior slot `s` in direction index `d` holds an agent.
     #[inline]
     pub fn filled_next_to(&self, s: u32, d: usize) -> bool {
-        self.grid
-            .as_ref()
-            .is_some_and(|g| g.filled((s as isize + g.delta[d]) as usize))
+        self.grid.as_ref().is_some_and(|g| g.filled(g.next(s, d)))
     }
 
-    /// The grid's occupancy bits (a bit per slot) and the slot offset of direction index
-    /// `d`, for tight loops over slot codes.
+    /// The grid, for tight loops over slot codes.
     #[inline]
-    pub fn occupancy(&self, d: usize) -> Option<(&[u64], isize)> {
-        self.grid.as_ref().map(|g| (&g.occ[..], g.delta[d]))
+    pub(crate) fn grid(&self) -> Option<&Grid> {
+        self.grid.as_ref()
     }
 
-    /// The grid's cells and occupancy bits, to change both at once in tight loops.
+    /// The grid, for tight loops that move agents.
     #[inline]
-    pub fn grid_mut(&mut self) -> Option<(&mut [u32], &mut [u64])> {
-        self.grid
-            .as_mut()
-            .map(|g| (&mut g.cells[..], &mut g.occ[..]))
+    pub(crate) fn grid_mut(&mut self) -> Option<&mut Grid> {
+        self.grid.as_mut()
     }
 
     /// Whether grid slot `s` holds an agent.

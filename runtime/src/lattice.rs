@@ -8,7 +8,7 @@
 //! [`Lattice::ensure_text`]; the engine asks for what its program uses). A counter without
 //! a column reads 0, as does a slot without one.
 
-use crate::cells::{CellIndex, EMPTY, NO_SLOT, RIM};
+use crate::cells::{CellIndex, Grid, EMPTY, NO_SLOT, RIM};
 use crate::step::{all_bits, is_sequence, no_bits, set_bits};
 use latticesim_vm::eval::Cell;
 use latticesim_vm::model::{AgentInit, Bounds, Config, Dim, Dir};
@@ -602,13 +602,12 @@ impl Lattice {
     /// one tight loop over the agents' slot codes where the grid answers.
     pub fn keep_if_filled(&self, first: usize, d: usize, want: bool, out: &mut [bool]) {
         let codes = &self.code[first..first + out.len()];
-        let grid = self.cells.occupancy(d);
-        match grid {
-            Some((occ, delta)) if !self.nbr_valid && self.universe.is_none() => {
+        match self.cells.grid() {
+            Some(g) if !self.nbr_valid && self.universe.is_none() => {
+                let step = g.step(d);
                 for (j, (t, &s)) in out.iter_mut().zip(codes).enumerate() {
                     *t &= if s < RIM {
-                        let i = (s as isize + delta) as usize;
-                        (occ[i / 64] >> (i % 64) & 1 != 0) == want
+                        g.filled(Grid::along(s, step)) == want
                     } else {
                         self.neighbour_filled((first + j) as u32, d) == Some(want)
                     };
@@ -734,7 +733,7 @@ impl Lattice {
         // Movers that come from outside the grid leave the hash map after the loop.
         let mut outside = Vec::new();
         let (pos, code) = (&mut self.pos, &mut self.code);
-        if let Some((cells, occ)) = self.cells.grid_mut() {
+        if let Some(g) = self.cells.grid_mut() {
             for (&(a, p), &c) in moves.iter().zip(codes) {
                 let old = std::mem::replace(&mut pos[a as usize], p);
                 let was = std::mem::replace(&mut code[a as usize], c);
@@ -742,12 +741,9 @@ impl Lattice {
                 if was == NO_SLOT {
                     outside.push((old, a));
                 } else if !targeted(o) {
-                    cells[o] = EMPTY;
-                    occ[o / 64] &= !(1 << (o % 64));
+                    g.vacate(o);
                 }
-                let s = (c & !RIM) as usize;
-                cells[s] = a;
-                occ[s / 64] |= 1 << (s % 64);
+                g.occupy((c & !RIM) as usize, a);
             }
         }
         for (old, a) in outside {

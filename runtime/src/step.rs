@@ -1247,28 +1247,16 @@ impl Engine {
             let counts = &mut self.fire_counts;
             counts.fill(0);
             self.active = 0;
-            let mut run = (NO_RULE, 0u64);
             // With few rules and no agent executing several, one vectorised count per rule
-            // (agents alternating between a rule and none would make runs of one).
-            let few = sel.many.is_empty() && counts.len() <= 4;
-            let rest = if few { &[][..] } else { &sel.one[..] };
-            if few {
+            // (agents alternating between a rule and none would make runs of one);
+            // otherwise runs of agents with the same entry are counted at once.
+            if sel.many.is_empty() && counts.len() <= 4 {
                 for (r, c) in counts.iter_mut().enumerate() {
                     *c = sel.one.iter().map(|&v| (v == r as u32) as u64).sum();
                     self.active += *c;
                 }
-            }
-            for &v in rest.iter().chain([&NO_RULE]) {
-                if v != run.0 {
-                    if run.0 != NO_RULE {
-                        self.active += run.1;
-                    }
-                    if run.0 & MANY == 0 {
-                        counts[run.0 as usize] += run.1;
-                    }
-                    run = (v, 0);
-                }
-                run.1 += 1;
+            } else {
+                self.active = count_runs(&sel.one, counts);
             }
             for &r in &sel.many {
                 counts[r as usize] += 1;
@@ -1352,11 +1340,14 @@ impl Engine {
             }
             if r & MANY == 0 {
                 // One rule: nothing can conflict.
-                if let (Some(o), true) = (self.plain_moves[r as usize], pick(r)) {
+                if !pick(r) {
+                    continue;
+                }
+                if let Some(o) = self.plain_moves[r as usize] {
                     todo.moves.push((a as u32, o));
                     continue;
                 }
-                if !acts(r) || !pick(r) {
+                if !acts(r) {
                     continue;
                 }
                 match self.direct_bits[r as usize] {
@@ -2743,6 +2734,26 @@ fn batch_pre(prog: &Program, r: u32, lat: &Lattice, first: usize, out: &mut [boo
         }
     }
     out.copy_from_slice(&stack[0][..m]);
+}
+
+/// Adds to `counts` how many agents of the selection `one` execute each single rule,
+/// counting runs of equal entries at once, and returns how many execute any rule.
+fn count_runs(one: &[u32], counts: &mut [u64]) -> u64 {
+    let mut active = 0;
+    let mut run = (NO_RULE, 0u64);
+    for &v in one.iter().chain([&NO_RULE]) {
+        if v != run.0 {
+            if run.0 != NO_RULE {
+                active += run.1;
+            }
+            if run.0 & MANY == 0 {
+                counts[run.0 as usize] += run.1;
+            }
+            run = (v, 0);
+        }
+        run.1 += 1;
+    }
+    active
 }
 
 /// How many of the first values of `s` equal `v` (compared in blocks, which vectorises).
