@@ -1314,6 +1314,7 @@ impl Engine {
 
     /// Paper step 2 for the selected rules that `pick` accepts (all without one).
     fn actions(&mut self, sel: &mut Selection, rep: &mut StepReport, pick: Option<&[bool]>) {
+        let every = pick.is_none();
         let pick = |r: u32| pick.is_none_or(|p| p[r as usize]);
         let n = self.lat.len();
         // Rules with nothing to do in this phase (only calculations and sends) are left out;
@@ -1333,7 +1334,25 @@ impl Engine {
         let keep = self.sel_by_state && !self.any_prio && !self.opts.static_first;
         let (mut changed, mut lookups) = (false, false);
         let mut rs: Vec<u32> = Vec::new();
-        for a in 0..n {
+        // When every rule's actions are a plain move (or none) and no agent executes several
+        // rules, the step's actions are the list of moves, collected in one tight loop.
+        let only_plain = every
+            && sel.many.is_empty()
+            && (self.plain_moves.iter())
+                .zip(&has_actions)
+                .all(|(m, &h)| m.is_some() || !h);
+        let plain = &self.plain_moves;
+        let agents = if only_plain {
+            for (a, &r) in sel.one.iter().enumerate() {
+                if let Some(&Some(o)) = plain.get(r as usize) {
+                    todo.moves.push((a as u32, o));
+                }
+            }
+            0
+        } else {
+            n
+        };
+        for a in 0..agents {
             let r = sel.one[a];
             if r == NO_RULE {
                 continue;
@@ -2817,6 +2836,23 @@ fn fast_calc(
                 }
                 _ => return false,
             }
+            true
+        }
+        // `Cxx = Cxx + v` or `Cxx = Cxx - v` in place, when no result saturates.
+        (Target::Counter(c), CalcOp::Add | CalcOp::Sub, Val::Counter(ca), Val::Lit(v))
+            if ca == c =>
+        {
+            let col = &mut ch.counters[lat.counter_col[c as usize] as usize][ks];
+            let v = if op == CalcOp::Add {
+                v as i32
+            } else {
+                -(v as i32)
+            };
+            let fits = |t: i16| (-32767..=32767).contains(&(t as i32 + v));
+            if !col.iter().fold(true, |ok, &t| ok & fits(t)) {
+                return false;
+            }
+            col.iter_mut().for_each(|t| *t = (*t as i32 + v) as i16);
             true
         }
         (Target::Msg { dir, slot }, CalcOp::Add | CalcOp::Sub, Val::Counter(c), Val::Lit(0)) => {

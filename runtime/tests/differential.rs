@@ -523,7 +523,9 @@ fn optimisations_agree_with_reference() {
     let chain = "even\n2\nP**<*\nC00 + C00 0001\n\nodd\n1\nS*****\nC01 + C01 0001\n";
     let mixed = "grow\n2\nSA****\nC00 I C00 #N01 C01 * C00 C00 C02 / C01 C03 #*01 + C00 0000 SB****\n\nshrink\n1\nSB****\nC00 I C00 #S01 C02 M C00 C03 #E02 + C02 0000 SA****\n";
     let hash = |x: i32, y: i32| ((x * 31 + y * 17) % 23) as i64;
-    let crowd = "east\n1\nSE****\nP1,0\n\nwest\n1\nSW****\nP-1,0\n\nnorth\n1\nSN****\nP0,1\n\njump\n1\nSJ****\nPC00,0 C00 * C00 -0001\n\nbehind\n1\nN*1**\nC01 + C01 0001\n";
+    let plain = "east\n1\nSE****\nP1,0\n\nwest\n1\nSW****\nP-1,0\n\nnorth\n1\nSN****\nP0,1\n\nbehind\n1\nN*1**\nC01 + C01 0001\n";
+    let crowd = format!("{plain}\njump\n1\nSJ****\nPC00,0 C00 * C00 -0001\n");
+    let crowd = crowd.as_str();
     // Agents in rows of letters (`.` leaves a cell empty), each row repeated with gaps.
     let rows = |rows: &[&str]| -> String {
         let mut s = String::new();
@@ -663,6 +665,19 @@ fn optimisations_agree_with_reference() {
         // that stay.
         (crowd.into(), rows(&["E.E", ".E", "E..E.S"])),
         (crowd.into(), rows(&["EEE", "E.ES", "..E"])),
+        // Programs whose only actions are moves by literal offsets (collected in one loop).
+        (plain.into(), rows(&["EEE", "N.EE", "W..WW", "NNE"])),
+        (plain.into(), rows(&["E.E", ".E", "E..E.S"])),
+        // Counters stepped in place over runs, some runs saturating (left to the
+        // general path, which records them).
+        (
+            "up\n1\nS*****\nC00 + C00 0900 C01 - C01 0700\n".into(),
+            block(10, 30, |x, y, _| {
+                let c0 = if x % 3 == 0 { 30000 - y * 10 } else { y };
+                let c1 = if x % 4 == 1 { -31000 } else { x };
+                format!(" C00 {c0} C01 {c1}")
+            }),
+        ),
         (
             mixed.into(),
             block(16, 16, |x, y, k| {
