@@ -520,13 +520,27 @@ impl Lattice {
         let in_i32 = p
             .iter()
             .all(|&c| c >= i32::MIN as i64 && c <= i32::MAX as i64);
-        in_i32
-            && match self.universe {
-                None => true,
-                Some(b) => {
-                    (0..self.dim.coords()).all(|i| p[i] >= b[i].0 as i64 && p[i] <= b[i].1 as i64)
-                }
-            }
+        in_i32 && self.within(p.map(|c| c as i32))
+    }
+
+    /// The position `off` away from `p`, when it lies inside the universe.
+    #[inline]
+    pub fn moved(&self, p: [i32; 3], off: [i32; 3]) -> Option<[i32; 3]> {
+        let t = [
+            p[0].checked_add(off[0])?,
+            p[1].checked_add(off[1])?,
+            p[2].checked_add(off[2])?,
+        ];
+        self.within(t).then_some(t)
+    }
+
+    /// Whether a position (in the range of coordinates) lies inside the universe's bounds.
+    #[inline]
+    fn within(&self, p: [i32; 3]) -> bool {
+        match self.universe {
+            None => true,
+            Some(b) => (0..self.dim.coords()).all(|i| p[i] >= b[i].0 && p[i] <= b[i].1),
+        }
     }
 
     /// What is at `from + off`.

@@ -1655,10 +1655,7 @@ impl Engine {
         let one_offset = live.iter().all(|m| m.1 == live[0].1);
         for i in 0..live.len() {
             let (a, o) = live[i];
-            let p = self.lat.pos[a as usize];
-            let t = [0, 1, 2].map(|k| p[k] as i64 + o[k] as i64);
-            if self.lat.inside(t) {
-                let t = t.map(|c| c as i32);
+            if let Some(t) = self.lat.moved(self.lat.pos[a as usize], o) {
                 live[kept] = (a, t);
                 sc.codes.push(self.lat.cells.code(t));
                 kept += 1;
@@ -2725,6 +2722,21 @@ fn batch_pre(prog: &Program, r: u32, lat: &Lattice, first: usize, out: &mut [boo
                 let p = &prog.pats[pat as usize];
                 for (t, st) in stack[sp][..m].iter_mut().zip(&lat.state[first..first + m]) {
                     *t = latticesim_vm::eval::matches(p, st);
+                }
+                sp += 1;
+            }
+            // A counter against a literal: compared straight from its column.
+            Op::Cmp {
+                op,
+                a: Val::Counter(c),
+                b: Val::Lit(v),
+            } if lat.counter_col[c as usize] != NO_COL => {
+                let col = &lat.counters[lat.counter_col[c as usize] as usize][first..first + m];
+                let top = stack[sp][..m].iter_mut().zip(col);
+                match op {
+                    CmpOp::Lt => top.for_each(|(t, &p)| *t = p < v),
+                    CmpOp::Gt => top.for_each(|(t, &p)| *t = p > v),
+                    CmpOp::Eq => top.for_each(|(t, &p)| *t = p == v),
                 }
                 sp += 1;
             }

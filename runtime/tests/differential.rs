@@ -668,6 +668,14 @@ fn optimisations_agree_with_reference() {
         // Programs whose only actions are moves by literal offsets (collected in one loop).
         (plain.into(), rows(&["EEE", "N.EE", "W..WW", "NNE"])),
         (plain.into(), rows(&["E.E", ".E", "E..E.S"])),
+        // Counters compared with literals over runs (one rule per state).
+        (
+            "low\n1\nSL**** <C00 0005\nC00 + C00 0002\n\nsame\n1\nSQ**** =C01 0003\nC01 + C01 0001\n\nhigh\n1\nSH**** >C00 0004\nC00 - C00 0001\n".into(),
+            block(9, 30, |x, y, _| {
+                let s = ["L", "Q", "H"][(x % 3) as usize];
+                format!(" S{s}AAAA C00 {} C01 {}", y % 7, (x + y) % 5)
+            }),
+        ),
         // Counters stepped in place over runs, some runs saturating (left to the
         // general path, which records them).
         (
