@@ -57,15 +57,23 @@ impl Grid {
     /// Puts agent `a` into cell `i`.
     #[inline]
     pub(crate) fn occupy(&mut self, i: usize, a: u32) {
-        self.cells[i] = a;
-        self.occ[i / 64] |= 1 << (i % 64);
+        self.cells_mut().occupy(i, a);
     }
 
     /// Empties cell `i`.
     #[inline]
     pub(crate) fn vacate(&mut self, i: usize) {
-        self.cells[i] = EMPTY;
-        self.occ[i / 64] &= !(1 << (i % 64));
+        self.cells_mut().vacate(i);
+    }
+
+    /// The cells and their occupancy bits as slices, for loops that write many cells
+    /// (held in locals, they need not be reloaded after every write).
+    #[inline]
+    pub(crate) fn cells_mut(&mut self) -> CellsMut<'_> {
+        CellsMut {
+            cells: &mut self.cells,
+            occ: &mut self.occ,
+        }
     }
 
     /// Whether cell `i` holds an agent.
@@ -114,6 +122,28 @@ impl Grid {
         let o = [0, 1, 2].map(|k| (p[k] as i64 - self.lo[k] as i64) as u64);
         let inside = (0..3).all(|k| o[k] < self.size[k] as u64);
         inside.then(|| ((o[0] * self.size[1] as u64 + o[1]) * self.size[2] as u64 + o[2]) as usize)
+    }
+}
+
+/// The grid's cells and occupancy bits, borrowed for writing ([`Grid::cells_mut`]).
+pub(crate) struct CellsMut<'a> {
+    cells: &'a mut [u32],
+    occ: &'a mut [u64],
+}
+
+impl CellsMut<'_> {
+    /// Puts agent `a` into cell `i`.
+    #[inline]
+    pub(crate) fn occupy(&mut self, i: usize, a: u32) {
+        self.cells[i] = a;
+        self.occ[i / 64] |= 1 << (i % 64);
+    }
+
+    /// Empties cell `i`.
+    #[inline]
+    pub(crate) fn vacate(&mut self, i: usize) {
+        self.cells[i] = EMPTY;
+        self.occ[i / 64] &= !(1 << (i % 64));
     }
 }
 

@@ -755,6 +755,7 @@ impl Lattice {
         let mut outside = Vec::new();
         let (pos, code) = (&mut self.pos, &mut self.code);
         if let Some(g) = self.cells.grid_mut() {
+            let mut g = g.cells_mut();
             for (&(a, p), &c) in moves.iter().zip(codes) {
                 let old = std::mem::replace(&mut pos[a as usize], p);
                 let was = std::mem::replace(&mut code[a as usize], c);

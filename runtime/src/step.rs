@@ -1397,7 +1397,9 @@ impl Engine {
             .any(|l| l.1.iter().any(|&l| l != AttachLetter::Keep));
         let moves = !todo.moves.is_empty() || !todo.blocked.is_empty();
         // Bonds change only with attachment letters, or when attached agents move.
-        if letters || (moves && self.lat.attach.iter().any(|&b| b != 0)) {
+        // (A fold rather than `any`: it runs over whole vectors of bonds.)
+        let attached = || self.lat.attach.iter().fold(0, |acc, &b| acc | b) != 0;
+        if letters || (moves && attached()) {
             let dense = todo.dense(n);
             self.detach_move_attach(&dense, rep);
         } else if moves {
@@ -1657,13 +1659,14 @@ impl Engine {
             let (a, o) = live[i];
             if let Some(t) = self.lat.moved(self.lat.pos[a as usize], o) {
                 live[kept] = (a, t);
-                sc.codes.push(self.lat.cells.code(t));
                 kept += 1;
             } else {
                 blocked.push((a, o));
             }
         }
         live.truncate(kept);
+        let cells = &self.lat.cells;
+        sc.codes.extend(live.iter().map(|&(_, t)| cells.code(t)));
         for (a, o) in blocked {
             let msg = format!("agent {a} cannot move by ({},{},{}): the target cell is blocked; its group does not move", o[0], o[1], o[2]);
             self.record(rep, RecordKind::MoveBlocked, &[a], msg);
