@@ -121,13 +121,45 @@ impl Pending {
 
     /// Empty outboxes shaped as `like` (a column only where it has one) for the agents of
     /// `lat`, with the plan of who sends to whom (positions must not change while it is
-    /// used).
-    pub(crate) fn new(lat: &Lattice, like: &[Vec<i16>]) -> Pending {
+    /// used), made from the [`Pending::plan_part`]s of consecutive ranges of agents that
+    /// cover them all, in order.
+    pub(crate) fn new(lat: &Lattice, like: &[Vec<i16>], parts: Vec<PlanPart>) -> Pending {
         let n = lat.len();
         let nd = lat.dim.dirs();
-        // One pass over the agents for every direction; a direction whose segments grow
-        // past one per eight agents is given up.
         let mut plan: Vec<Option<Vec<(u32, u32)>>> = vec![Some(Vec::new()); nd];
+        let mut next = [NO_AGENT; 6];
+        for part in parts {
+            for (d, segs) in part.segs.into_iter().enumerate().take(nd) {
+                let (Some(all), Some(segs)) = (&mut plan[d], segs) else {
+                    plan[d] = None;
+                    continue;
+                };
+                // A part's first segment goes on from the last part's when its sender
+                // is the one predicted.
+                let skip = segs
+                    .first()
+                    .is_some_and(|s| !all.is_empty() && s.1 == next[d]);
+                all.extend(&segs[skip as usize..]);
+                if all.len() > n / 8 + 1 {
+                    plan[d] = None;
+                }
+            }
+            next = part.next;
+        }
+        Pending {
+            num: like.iter().map(|c| vec![0; c.len()]).collect(),
+            has: vec![vec![0; n.div_ceil(64)]; like.len()],
+            plan,
+        }
+    }
+
+    /// The plan of senders for agents `lo..hi` alone: one pass over them for every
+    /// direction; a direction whose segments grow past one per eight agents (of all) is
+    /// given up.
+    pub(crate) fn plan_part(lat: &Lattice, lo: usize, hi: usize) -> PlanPart {
+        let n = lat.len();
+        let nd = lat.dim.dirs();
+        let mut plan: Vec<Option<Vec<(u32, u32)>>> = vec![Some(Vec::new()); 6];
         let mut next = [NO_AGENT; 6]; // the sender each current segment predicts
         let add = |plan: &mut Vec<Option<Vec<(u32, u32)>>>,
                    next: &mut [u32; 6],
@@ -145,11 +177,11 @@ impl Pending {
             next[d] = if f == NO_AGENT { NO_AGENT } else { f + 1 };
         };
         let mut nb = [NO_AGENT; 6];
-        let mut a = 0;
-        while a < n {
+        let mut a = lo;
+        while a < hi {
             // Runs of agents on consecutive grid cells: a run whose neighbours go on the
             // current segment is passed over at once.
-            if let Some((r, runs)) = lat.neighbour_run(a, n - a) {
+            if let Some((r, runs)) = lat.neighbour_run(a, hi - a) {
                 for (d, from) in runs.iter().enumerate().take(nd) {
                     let f0 = from[0];
                     let same = f0 != NO_AGENT && is_sequence(from, f0);
@@ -171,12 +203,16 @@ impl Pending {
                 a += 1;
             }
         }
-        Pending {
-            num: like.iter().map(|c| vec![0; c.len()]).collect(),
-            has: vec![vec![0; n.div_ceil(64)]; like.len()],
-            plan,
-        }
+        PlanPart { segs: plan, next }
     }
+}
+
+/// The plan of senders of a range of agents ([`Pending::plan_part`]): per direction its
+/// segments (`None`: given up), and the sender its last segment predicts for the agent
+/// after the range.
+pub(crate) struct PlanPart {
+    segs: Vec<Option<Vec<(u32, u32)>>>,
+    next: [u32; 6],
 }
 
 /// In the neighbour table and in [`Lattice::neighbours`]: a free cell.
@@ -813,5 +849,38 @@ impl Lattice {
             s.push('\n');
         }
         s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The plan of senders is the same whatever ranges of agents it is made from: agents
+    /// in columns with gaps, some far away (one by one), cut into parts of every size.
+    #[test]
+    fn plan_does_not_depend_on_the_parts() {
+        let mut b = LatticeBuilder::new(Dim::Two, None, 0);
+        for x in 0..9 {
+            for y in 0..40 {
+                if (x * 7 + y * 3) % 37 != 0 && !(x == 4 && y > 30) {
+                    b.push([x, y, 0], *b"AAAAA", 0, &[]);
+                }
+            }
+        }
+        for k in 0..6 {
+            b.push([1000 + k % 2, 500 + k / 2, 0], *b"AAAAA", 0, &[]);
+        }
+        let lat = b.finish();
+        let n = lat.len();
+        let whole = Pending::new(&lat, &[], vec![Pending::plan_part(&lat, 0, n)]);
+        assert!(whole.plan.iter().all(|p| p.is_some()));
+        for size in [1, 2, 3, 7, 40, 64, 100, n - 1] {
+            let parts = (0..n.div_ceil(size))
+                .map(|c| Pending::plan_part(&lat, c * size, ((c + 1) * size).min(n)))
+                .collect();
+            let cut = Pending::new(&lat, &[], parts);
+            assert_eq!(cut.plan, whole.plan, "parts of {size}");
+        }
     }
 }

@@ -863,61 +863,123 @@ impl Engine {
             return;
         }
         self.cand_of.resize(n, NO_LIST);
-        let prog = &self.prog;
-        for (a, st) in self.lat.state.iter().enumerate() {
-            if self.cand_of[a] != NO_LIST {
-                continue;
+        // The first agents one by one (so that a cold cache learns the common states),
+        // then the rest in chunks (in parallel with threads): the agents whose state the
+        // cache knows get their list; of the others, the first agent of each state (in
+        // agent order) makes its state's list, then the rest find theirs in a second pass.
+        // Lists are made in the order of their states' first agents, whatever the chunks.
+        for a in 0..n.min(1024) {
+            if self.cand_of[a] == NO_LIST {
+                self.list_state_of(a);
             }
-            let key = state_key(st);
-            let slot = cache_slot(key, self.cand_cache.len());
-            if self.cand_cache[slot].0 == key + 1 {
-                self.cand_of[a] = self.cand_cache[slot].1;
-                continue;
+        }
+        let firsts = self.known_states(false);
+        if !firsts.is_empty() {
+            for &a in firsts.iter().flatten() {
+                self.list_state_of(a as usize);
             }
-            let lists = &mut self.cand_lists;
-            let single = &mut self.cand_single;
-            let (keys, next) = (&mut self.cand_keys, &mut self.cand_next);
-            let (by_prio, trivial) = (&self.by_prio, &self.trivial);
-            let idx = *self.candidates.entry(key).or_insert_with(|| {
-                let list: Vec<u32> = by_prio
-                    .iter()
-                    .copied()
-                    .filter(|&r| {
-                        prog.rules[r as usize].state_filter.is_none_or(|p| {
-                            latticesim_vm::eval::matches(&prog.pats[p as usize], st)
-                        })
-                    })
-                    .collect();
-                let prio = |r: u32| prog.rules[r as usize].priority;
-                single.push(match list[..] {
-                    [] => NO_RULE,
-                    [r, ..]
-                        if trivial[r as usize]
-                            && list.get(1).is_none_or(|&q| prio(q) < prio(r)) =>
-                    {
-                        r
-                    }
-                    _ => EVALUATE,
-                });
-                lists.push(list);
-                keys.push(key);
-                next.push(NO_LIST);
-                (lists.len() - 1) as u32
-            });
-            self.cand_cache[slot] = (key + 1, idx);
-            // Eight slots per known state keep collisions rare.
-            if self.candidates.len() * 8 > self.cand_cache.len() && self.cand_cache.len() < 1 << 16
-            {
-                let len = self.cand_cache.len() * 4;
-                let mut cache = vec![(0, 0); len];
-                for (&k, &i) in &self.candidates {
-                    cache[cache_slot(k, len)] = (k + 1, i);
-                }
-                self.cand_cache = cache;
-            }
-            self.cand_of[a] = idx;
+            self.known_states(true);
         }
         self.cand_dirty = false;
+    }
+
+    /// Gives agent `a` the candidate list of its state, made if its state is new.
+    fn list_state_of(&mut self, a: usize) {
+        let prog = &self.prog;
+        let st = &self.lat.state[a];
+        let key = state_key(st);
+        let slot = cache_slot(key, self.cand_cache.len());
+        if self.cand_cache[slot].0 == key + 1 {
+            self.cand_of[a] = self.cand_cache[slot].1;
+            return;
+        }
+        let lists = &mut self.cand_lists;
+        let single = &mut self.cand_single;
+        let (keys, next) = (&mut self.cand_keys, &mut self.cand_next);
+        let (by_prio, trivial) = (&self.by_prio, &self.trivial);
+        let idx = *self.candidates.entry(key).or_insert_with(|| {
+            let list: Vec<u32> = by_prio
+                .iter()
+                .copied()
+                .filter(|&r| {
+                    prog.rules[r as usize]
+                        .state_filter
+                        .is_none_or(|p| latticesim_vm::eval::matches(&prog.pats[p as usize], st))
+                })
+                .collect();
+            let prio = |r: u32| prog.rules[r as usize].priority;
+            single.push(match list[..] {
+                [] => NO_RULE,
+                [r, ..]
+                    if trivial[r as usize] && list.get(1).is_none_or(|&q| prio(q) < prio(r)) =>
+                {
+                    r
+                }
+                _ => EVALUATE,
+            });
+            lists.push(list);
+            keys.push(key);
+            next.push(NO_LIST);
+            (lists.len() - 1) as u32
+        });
+        self.cand_cache[slot] = (key + 1, idx);
+        // Eight slots per known state keep collisions rare.
+        if self.candidates.len() * 8 > self.cand_cache.len() && self.cand_cache.len() < 1 << 16 {
+            let len = self.cand_cache.len() * 4;
+            let mut cache = vec![(0, 0); len];
+            for (&k, &i) in &self.candidates {
+                cache[cache_slot(k, len)] = (k + 1, i);
+            }
+            self.cand_cache = cache;
+        }
+        self.cand_of[a] = idx;
+    }
+
+    /// Gives each agent without a candidate list ([`NO_LIST`]) the list of its state when
+    /// the cache knows it, or (with `all`) when it is known at all. Without `all`, returns
+    /// per chunk the agents whose state is not in the cache, at least the first of each
+    /// such state (in agent order); empty when there is none.
+    fn known_states(&mut self, all: bool) -> Vec<Vec<u32>> {
+        let n = self.lat.len();
+        let mut of = std::mem::take(&mut self.cand_of);
+        let (par, size, _) = self.chunks(n);
+        let (cache, states, known) = (&self.cand_cache, &self.lat.state, &self.candidates);
+        let pass = |(c, of): (usize, &mut [u32])| {
+            let mut firsts = Vec::new();
+            // The states already listed by this chunk (a few may be listed twice).
+            let mut listed = [0u64; 256];
+            for (j, (o, st)) in of.iter_mut().zip(&states[c * size..]).enumerate() {
+                if *o != NO_LIST {
+                    continue;
+                }
+                let key = state_key(st);
+                match cache[cache_slot(key, cache.len())] {
+                    (k, idx) if k == key + 1 => *o = idx,
+                    _ if all => *o = known.get(&key).copied().unwrap_or(NO_LIST),
+                    _ => {
+                        let slot = &mut listed[cache_slot(key, 256)];
+                        if *slot != key + 1 {
+                            *slot = key + 1;
+                            firsts.push((c * size + j) as u32);
+                        }
+                    }
+                }
+            }
+            firsts
+        };
+        let firsts: Vec<Vec<u32>> = match par {
+            Some((pool, _)) => {
+                use rayon::prelude::*;
+                pool.install(|| of.par_chunks_mut(size).enumerate().map(pass).collect())
+            }
+            None => of.chunks_mut(size).enumerate().map(pass).collect(),
+        };
+        self.cand_of = of;
+        if firsts.iter().all(|f| f.is_empty()) {
+            Vec::new()
+        } else {
+            firsts
+        }
     }
 
     /// Selection when no rule reads priorities: each agent executes its true rules of the
@@ -926,7 +988,11 @@ impl Engine {
     fn select_plain(&mut self) {
         let n = self.lat.len();
         let mut one = std::mem::take(&mut self.sel.one);
-        one.resize(n, NO_RULE);
+        // Every entry is written below (a new column is zeroed lazily by the system, and
+        // its pages are touched by the chunks, in parallel).
+        if one.len() != n {
+            one = vec![0; n];
+        }
         let (prog, lat, trivial) = (&self.prog, &self.lat, &self.trivial);
         let (lists, single, of) = (&self.cand_lists, &self.cand_single, &self.cand_of);
         let (par, chunk, _) = self.chunks(n);
@@ -2395,7 +2461,9 @@ impl Engine {
     /// With `defer`: the pending columns (and plan) and the neighbour bits, made once.
     fn prepare_deferred(&mut self) {
         if self.lat.pending.is_none() {
-            self.lat.pending = Some(Pending::new(&self.lat, &self.out_num));
+            let lat = &self.lat;
+            let parts = self.par_chunks(lat.len(), &|lo, hi| Pending::plan_part(lat, lo, hi));
+            self.lat.pending = Some(Pending::new(&self.lat, &self.out_num, parts));
         }
         let nd = self.lat.dim.dirs();
         if self.has_nbr.len() != nd {
