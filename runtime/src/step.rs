@@ -118,10 +118,13 @@ pub struct Engine {
     /// Per candidate list: the one rule every agent with it executes, when the list's
     /// first rule needs nothing but the state filter and no other rule shares its priority.
     cand_single: Vec<u32>,
-    /// Per candidate list: its state as a key ([`state_key`]), and the list of the state
-    /// its one state-only rule makes of it (`NO_LIST` until needed).
+    /// Per candidate list: its state as a key ([`state_key`]), and where its one
+    /// state-only rule takes an agent (found when first needed).
     cand_keys: Vec<u64>,
-    cand_next: Vec<u32>,
+    cand_hop: Vec<Hop>,
+    /// Per candidate list: how many agents took its hop in this step's actions (their
+    /// firing counts are moved after the actions).
+    cand_hopped: Vec<u64>,
     /// Per agent: its candidate list (`NO_LIST` after its state changed).
     cand_of: Vec<u32>,
     /// Some agent's state changed since the candidate lists were looked up, and it has
@@ -346,6 +349,26 @@ impl MoveScratch {
             self.twice[s / 64] = 0;
         }
     }
+}
+
+/// Where the one state-only rule of a candidate list takes an agent: the list of its new
+/// state (`to`, [`NO_LIST`] while unknown), that state's one rule when the agent's
+/// selection can follow at once (`next`: a rule or [`NO_RULE`]; [`EVALUATE`] when it
+/// cannot: the new state's rules need evaluating, or one of the rules calculates), and
+/// the new state.
+#[derive(Clone, Copy, Debug)]
+struct Hop {
+    to: u32,
+    next: u32,
+    state: [u8; 5],
+}
+
+impl Hop {
+    const UNKNOWN: Hop = Hop {
+        to: NO_LIST,
+        next: EVALUATE,
+        state: [0; 5],
+    };
 }
 
 /// The rules each agent executes in a step: one entry per agent, either [`NO_RULE`], a
@@ -692,7 +715,8 @@ impl Engine {
             cand_lists: Vec::new(),
             cand_single: Vec::new(),
             cand_keys: Vec::new(),
-            cand_next: Vec::new(),
+            cand_hop: Vec::new(),
+            cand_hopped: Vec::new(),
             cand_of: vec![NO_LIST; n],
             cand_dirty: true,
             states_changed: true,
@@ -855,7 +879,8 @@ impl Engine {
             self.cand_lists.clear();
             self.cand_single.clear();
             self.cand_keys.clear();
-            self.cand_next.clear();
+            self.cand_hop.clear();
+            self.cand_hopped.clear();
             self.cand_of.iter_mut().for_each(|c| *c = NO_LIST);
             self.cand_dirty = true;
         }
@@ -895,7 +920,8 @@ impl Engine {
         }
         let lists = &mut self.cand_lists;
         let single = &mut self.cand_single;
-        let (keys, next) = (&mut self.cand_keys, &mut self.cand_next);
+        let (keys, hops) = (&mut self.cand_keys, &mut self.cand_hop);
+        let hopped = &mut self.cand_hopped;
         let (by_prio, trivial) = (&self.by_prio, &self.trivial);
         let idx = *self.candidates.entry(key).or_insert_with(|| {
             let list: Vec<u32> = by_prio
@@ -919,7 +945,8 @@ impl Engine {
             });
             lists.push(list);
             keys.push(key);
-            next.push(NO_LIST);
+            hops.push(Hop::UNKNOWN);
+            hopped.push(0);
             (lists.len() - 1) as u32
         });
         self.cand_cache[slot] = (key + 1, idx);
@@ -1457,6 +1484,7 @@ impl Engine {
             }
         }
         self.has_actions = has_actions;
+        self.count_hops();
         let letters = todo
             .links
             .iter()
@@ -1624,33 +1652,22 @@ impl Engine {
     ) -> (bool, bool) {
         let idx = self.cand_of[a];
         if keep && idx != NO_LIST && self.cand_single[idx as usize] == r {
-            let mut to = self.cand_next[idx as usize];
+            let mut to = self.cand_hop[idx as usize].to;
             if to == NO_LIST {
-                let key = self.cand_keys[idx as usize];
-                if let Some(&i) = self.candidates.get(&((key & !bits.0) | bits.1)) {
-                    to = i;
-                    self.cand_next[idx as usize] = i;
-                }
+                let hop = self.hop(idx, r, bits);
+                self.cand_hop[idx as usize] = hop;
+                to = hop.to;
             }
             if to == idx {
                 return (false, false);
             }
-            if to != NO_LIST {
-                let next = self.cand_single[to as usize];
-                let quiet = |q: u32| q == NO_RULE || !self.computes[q as usize];
-                if next != EVALUATE && quiet(r) && quiet(next) {
-                    let key = self.cand_keys[to as usize].to_le_bytes();
-                    self.lat.state[a].copy_from_slice(&key[..5]);
-                    self.cand_of[a] = to;
-                    sel.one[a] = next;
-                    self.fire_counts[r as usize] -= 1;
-                    if next == NO_RULE {
-                        self.active -= 1;
-                    } else {
-                        self.fire_counts[next as usize] += 1;
-                    }
-                    return (false, false);
-                }
+            let hop = self.cand_hop[idx as usize];
+            if to != NO_LIST && hop.next != EVALUATE {
+                self.lat.state[a] = hop.state;
+                self.cand_of[a] = hop.to;
+                sel.one[a] = hop.next;
+                self.cand_hopped[idx as usize] += 1;
+                return (false, false);
             }
         }
         match apply_state(
@@ -1662,6 +1679,43 @@ impl Engine {
         ) {
             Some((_, _, known)) => (true, !known),
             None => (false, false),
+        }
+    }
+
+    /// Moves the firing counts of the agents that took a hop in this step (see
+    /// [`Engine::set_state_at_once`]) from their old state's rule to their new one's.
+    fn count_hops(&mut self) {
+        for (idx, m) in self.cand_hopped.iter_mut().enumerate() {
+            if *m == 0 {
+                continue;
+            }
+            self.fire_counts[self.cand_single[idx] as usize] -= *m;
+            match self.cand_hop[idx].next {
+                NO_RULE => self.active -= *m,
+                next => self.fire_counts[next as usize] += *m,
+            }
+            *m = 0;
+        }
+    }
+
+    /// Where rule `r`, the one rule of candidate list `idx`, which only sets the state (as
+    /// [`pat_bits`] `bits`), takes an agent: [`Hop::UNKNOWN`] while the new state has no
+    /// list yet.
+    fn hop(&self, idx: u32, r: u32, bits: (u64, u64)) -> Hop {
+        let key = (self.cand_keys[idx as usize] & !bits.0) | bits.1;
+        let Some(&to) = self.candidates.get(&key) else {
+            return Hop::UNKNOWN;
+        };
+        let next = self.cand_single[to as usize];
+        let quiet = |q: u32| q == NO_RULE || !self.computes[q as usize];
+        Hop {
+            to,
+            next: if next != EVALUATE && quiet(r) && quiet(next) {
+                next
+            } else {
+                EVALUATE
+            },
+            state: key.to_le_bytes()[..5].try_into().expect("five bytes"),
         }
     }
 

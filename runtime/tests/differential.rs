@@ -668,6 +668,22 @@ fn optimisations_agree_with_reference() {
         // Programs whose only actions are moves by literal offsets (collected in one loop).
         (plain.into(), rows(&["EEE", "N.EE", "W..WW", "NNE"])),
         (plain.into(), rows(&["E.E", ".E", "E..E.S"])),
+        // States changed at once along chains of state-only rules: into a state without
+        // rules, into one whose rule calculates, into one whose rule tests a neighbour (the
+        // selection is then evaluated again).
+        (
+            "a\n1\nSA****\nSB****\n\nb\n1\nSB****\nSE****\n\ne\n1\nSE****\nSF****\n\ng\n1\nSG****\nSH****\n\nh\n1\nSH****\nC00 + C00 0001 SG****\n\nc\n2\nSC**** N1***\nSA****\n".into(),
+            block(8, 8, |x, y, _| {
+                let s = ["A", "B", "E", "F", "G", "H", "A", "C"][hash(x, y) as usize % 8];
+                format!(" S{s}AAAA")
+            }),
+        ),
+        (
+            "a\n1\nSA****\nSB****\n\nb\n1\nSB****\nSE****\n\ne\n1\nSE****\nSF****\n".into(),
+            block(6, 6, |x, y, _| {
+                format!(" S{}AAAA", ["A", "B", "E", "F"][hash(x, y) as usize % 4])
+            }),
+        ),
         // Counters compared with literals over runs (one rule per state).
         (
             "low\n1\nSL**** <C00 0005\nC00 + C00 0002\n\nsame\n1\nSQ**** =C01 0003\nC01 + C01 0001\n\nhigh\n1\nSH**** >C00 0004\nC00 - C00 0001\n".into(),
