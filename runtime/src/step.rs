@@ -2934,12 +2934,33 @@ pub(crate) fn is_sequence(s: &[u32], start: u32) -> bool {
 
 /// Whether no bit of `range` is set.
 pub(crate) fn no_bits(bits: &[u64], range: std::ops::Range<usize>) -> bool {
-    words(range).all(|(w, mask)| bits[w] & mask == 0)
+    bits_are(bits, range, 0)
 }
 
 /// Whether every bit of `range` is set.
 pub(crate) fn all_bits(bits: &[u64], range: std::ops::Range<usize>) -> bool {
-    words(range).all(|(w, mask)| bits[w] & mask == mask)
+    bits_are(bits, range, u64::MAX)
+}
+
+/// Whether every bit of `range` is as in `word` (all zeros or all ones): the words at both
+/// ends under a mask, the ones between whole (without early exit, which vectorises).
+#[inline]
+fn bits_are(bits: &[u64], range: std::ops::Range<usize>, word: u64) -> bool {
+    if range.is_empty() {
+        return true;
+    }
+    let (first, last) = (range.start >> 6, (range.end - 1) >> 6);
+    let head = u64::MAX << (range.start & 63);
+    let tail = u64::MAX >> (63 - ((range.end - 1) & 63));
+    if first == last {
+        let mask = head & tail;
+        return bits[first] & mask == word & mask;
+    }
+    bits[first] & head == word & head
+        && bits[last] & tail == word & tail
+        && bits[first + 1..last]
+            .iter()
+            .fold(true, |ok, &w| ok & (w == word))
 }
 
 /// The most frequent calculations over a run of agents, without a detour through 32-bit
@@ -3223,7 +3244,32 @@ impl CalcEnv for CalcCtx<'_, '_, '_> {
 
 #[cfg(test)]
 mod tests {
-    use super::{all_bits, set_bits};
+    use super::{all_bits, no_bits, set_bits};
+
+    /// `all_bits` and `no_bits` against a bit-by-bit reading, on every range of a
+    /// pattern of ones and zeros across four words.
+    #[test]
+    fn bit_tests_agree_with_single_bits() {
+        let mut bits = vec![0u64; 4];
+        set_bits(&mut bits, 5..70);
+        set_bits(&mut bits, 128..192);
+        set_bits(&mut bits, 200..201);
+        let bit = |i: usize| bits[i >> 6] & (1 << (i & 63)) != 0;
+        for start in 0..256 {
+            for end in start..=256 {
+                assert_eq!(
+                    all_bits(&bits, start..end),
+                    (start..end).all(bit),
+                    "{start}..{end}"
+                );
+                assert_eq!(
+                    no_bits(&bits, start..end),
+                    !(start..end).any(bit),
+                    "{start}..{end}"
+                );
+            }
+        }
+    }
 
     #[test]
     fn bit_ranges_across_words() {
