@@ -2696,19 +2696,33 @@ impl SendCols {
     }
 }
 
-/// The words of a bit set that `range` touches, each with the mask of its bits in range.
-fn words(range: std::ops::Range<usize>) -> impl Iterator<Item = (usize, u64)> {
-    let (start, end) = (range.start, range.end);
-    (start >> 6..end.div_ceil(64)).map(move |w| {
-        let lo = start.max(w << 6) - (w << 6);
-        let hi = end.min((w + 1) << 6) - (w << 6);
-        let mask = if hi - lo == 64 {
-            u64::MAX
-        } else {
-            ((1u64 << (hi - lo)) - 1) << lo
-        };
-        (w, mask)
-    })
+/// The words a range of bits touches, `first..=last`, and the masks of the range in the
+/// first word and in the last; `None` for an empty range.
+#[inline]
+fn edges(range: std::ops::Range<usize>) -> Option<(usize, usize, u64, u64)> {
+    if range.is_empty() {
+        return None;
+    }
+    let (first, last) = (range.start >> 6, (range.end - 1) >> 6);
+    let head = u64::MAX << (range.start & 63);
+    let tail = u64::MAX >> (63 - ((range.end - 1) & 63));
+    Some((first, last, head, tail))
+}
+
+/// Sets every bit of `range` as in `word` (all zeros or all ones).
+#[inline]
+fn put_bits(bits: &mut [u64], range: std::ops::Range<usize>, word: u64) {
+    let Some((first, last, head, tail)) = edges(range) else {
+        return;
+    };
+    let put = |w: &mut u64, mask: u64| *w = (*w & !mask) | (word & mask);
+    if first == last {
+        put(&mut bits[first], head & tail);
+    } else {
+        put(&mut bits[first], head);
+        put(&mut bits[last], tail);
+        bits[first + 1..last].fill(word);
+    }
 }
 
 /// With messages left with their senders: how many messages the outbox bits `cols` (the
@@ -2747,16 +2761,12 @@ fn ones(w: u64) -> u64 {
 
 /// Clears the bits `range` of a bit set.
 fn clear_bits(bits: &mut [u64], range: std::ops::Range<usize>) {
-    for (w, mask) in words(range) {
-        bits[w] &= !mask;
-    }
+    put_bits(bits, range, 0);
 }
 
 /// Sets the bits `range` of a bit set.
 pub(crate) fn set_bits(bits: &mut [u64], range: std::ops::Range<usize>) {
-    for (w, mask) in words(range) {
-        bits[w] |= mask;
-    }
+    put_bits(bits, range, u64::MAX);
 }
 
 /// Stack depth of [`batch_pre`].
@@ -2946,12 +2956,9 @@ pub(crate) fn all_bits(bits: &[u64], range: std::ops::Range<usize>) -> bool {
 /// ends under a mask, the ones between whole (without early exit, which vectorises).
 #[inline]
 fn bits_are(bits: &[u64], range: std::ops::Range<usize>, word: u64) -> bool {
-    if range.is_empty() {
+    let Some((first, last, head, tail)) = edges(range) else {
         return true;
-    }
-    let (first, last) = (range.start >> 6, (range.end - 1) >> 6);
-    let head = u64::MAX << (range.start & 63);
-    let tail = u64::MAX >> (63 - ((range.end - 1) & 63));
+    };
     if first == last {
         let mask = head & tail;
         return bits[first] & mask == word & mask;
@@ -3244,7 +3251,35 @@ impl CalcEnv for CalcCtx<'_, '_, '_> {
 
 #[cfg(test)]
 mod tests {
-    use super::{all_bits, no_bits, set_bits};
+    use super::{all_bits, clear_bits, no_bits, set_bits};
+
+    /// Setting and clearing ranges of bits against single bits, on every range across
+    /// four words.
+    #[test]
+    fn bit_writes_agree_with_single_bits() {
+        for start in 0..256 {
+            for end in start..=256 {
+                let mut bits = [0x5555_5555_5555_5555u64; 4];
+                set_bits(&mut bits, start..end);
+                let mut cleared = bits;
+                clear_bits(&mut cleared, start..end);
+                for i in 0..256 {
+                    let (w, b) = (i >> 6, 1u64 << (i & 63));
+                    let inside = (start..end).contains(&i);
+                    assert_eq!(
+                        bits[w] & b != 0,
+                        inside || i % 2 == 0,
+                        "set {start}..{end}: {i}"
+                    );
+                    assert_eq!(
+                        cleared[w] & b != 0,
+                        !inside && i % 2 == 0,
+                        "clear {start}..{end}: {i}"
+                    );
+                }
+            }
+        }
+    }
 
     /// `all_bits` and `no_bits` against a bit-by-bit reading, on every range of a
     /// pattern of ones and zeros across four words.
