@@ -78,6 +78,9 @@ pub(crate) struct Pending {
     /// ([`NO_AGENT`] for none): a few segments per row of a grid. `None` where that would
     /// take more than one segment per eight agents (agents are then looked at one by one).
     pub(crate) plan: Vec<Option<Vec<(u32, u32)>>>,
+    /// Per column, when known: every agent's bit is set (`full`), or none is (`empty`).
+    pub(crate) full: Vec<bool>,
+    pub(crate) empty: Vec<bool>,
 }
 
 impl Pending {
@@ -150,6 +153,8 @@ impl Pending {
             num: like.iter().map(|c| vec![0; c.len()]).collect(),
             has: vec![vec![0; n.div_ceil(64)]; like.len()],
             plan,
+            full: Vec::new(),
+            empty: Vec::new(),
         }
     }
 
@@ -407,7 +412,7 @@ impl Lattice {
         let od = Dir::ALL[dir as usize].opposite().index();
         let col = od * self.slots as usize + s;
         let (num, has) = (&p.num[col], &p.has[col]);
-        let all = self.all_col(p, s).map(|c| (&p.num[c], &p.has[c]));
+        let all = self.all_col(p, s).map(|c| (c, &p.num[c], &p.has[c]));
         let Some(segs) = &p.plan[dir as usize] else {
             for (j, v) in out.iter_mut().enumerate() {
                 *v = self.inbox((first + j) as u32, dir, slot);
@@ -440,12 +445,17 @@ impl Lattice {
             } else {
                 let f0 = sender as usize + (a - start as usize);
                 let seg = f0..f0 + len;
-                // All sent to every direction (and not to this one after), or all to this one.
+                // All sent to every direction (and not to this one after), or all to this one
+                // (known for whole columns, else tested on the senders' bits).
+                let full = |c: usize, bits: &[u64]| {
+                    p.full.get(c).is_some_and(|&f| f) || all_bits(bits, seg.clone())
+                };
+                let empty = |c: usize, bits: &[u64]| {
+                    p.empty.get(c).is_some_and(|&e| e) || no_bits(bits, seg.clone())
+                };
                 let whole = match all {
-                    Some((an, ah)) if all_bits(ah, seg.clone()) && no_bits(has, seg.clone()) => {
-                        Some(an)
-                    }
-                    _ => all_bits(has, seg.clone()).then_some(num),
+                    Some((ac, an, ah)) if full(ac, ah) && empty(col, has) => Some(an),
+                    _ => full(col, has).then_some(num),
                 };
                 match whole {
                     Some(src) if len == m => return &src[seg],

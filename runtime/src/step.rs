@@ -147,9 +147,9 @@ pub struct Engine {
     /// With `defer`: per direction, a bit per agent that has a neighbour there (to count
     /// the messages delivered); made at the first delivery.
     has_nbr: Vec<Vec<u64>>,
-    /// With `defer`: messages sent and delivered in this step, counted by the
-    /// calculations (see `count_messages`).
-    counted: Option<(u64, u64)>,
+    /// With `defer`: this step's outboxes as counted by the calculations (see
+    /// [`Tally`]).
+    counted: Option<Tally>,
     /// The offsets at which `L`/`Q` terms read priorities, when none depends on a counter
     /// (an agent's priority is then read only by its neighbours and by the agents at these
     /// offsets backwards); `None` when one does.
@@ -2298,9 +2298,9 @@ impl Engine {
                 k += 1;
             }
             let counted = if count {
-                count_messages(&ch.out_has, has_nbr, ch.lo / 64, nd)
+                Tally::of(&ch.out_has, has_nbr, ch.lo / 64, nd, ch.len)
             } else {
-                (0, 0)
+                Tally::default()
             };
             (issues, events, counted)
         };
@@ -2317,11 +2317,9 @@ impl Engine {
         self.out_text = out_text;
         self.out_text_bits = out_text_bits;
         if count {
-            self.counted = Some(
-                results
-                    .iter()
-                    .fold((0, 0), |t, r| (t.0 + r.2 .0, t.1 + r.2 .1)),
-            );
+            let mut tallies = results.iter().map(|r| &r.2);
+            let first = tallies.next().cloned().unwrap_or_default();
+            self.counted = Some(tallies.fold(first, |t, u| t.and(u)));
         }
         for (issues, events, _) in results {
             for (a, r, issue) in issues {
@@ -2490,13 +2488,15 @@ impl Engine {
     /// delivered when its sender has a neighbour in the direction it was sent.
     fn deliver_deferred(&mut self) {
         // Counted by the calculations (see `count_messages`), but for the first time.
-        let (sent, delivered) = match self.counted.take() {
+        let tally = match self.counted.take() {
             Some(c) => c,
             None => {
                 self.prepare_deferred();
-                count_messages(&self.out_has, &self.has_nbr, 0, self.lat.dim.dirs())
+                let (n, nd) = (self.lat.len(), self.lat.dim.dirs());
+                Tally::of(&self.out_has, &self.has_nbr, 0, nd, n)
             }
         };
+        let (sent, delivered) = (tally.sent, tally.delivered);
         let p = self
             .lat
             .pending
@@ -2504,6 +2504,7 @@ impl Engine {
             .expect("made at the first delivery");
         std::mem::swap(&mut p.num, &mut self.out_num);
         std::mem::swap(&mut p.has, &mut self.out_has);
+        (p.full, p.empty) = (tally.full, tally.empty);
         // The inbox columns are not read while messages are pending. The outboxes' bits
         // are cleared by the next calculations.
         self.lat.inbox_num.iter_mut().for_each(|c| *c = Vec::new());
@@ -2748,6 +2749,63 @@ fn count_messages<C: AsRef<[u64]>>(
     (sent, delivered)
 }
 
+/// With messages left with their senders, what a step's outboxes (or a chunk of agents'
+/// part of them) hold: the messages sent and delivered ([`count_messages`]), and per
+/// outbox column whether every agent's bit is set (`full`) and whether none is (`empty`),
+/// so that the post office need not test ranges of bits in such columns.
+#[derive(Clone, Debug, Default)]
+struct Tally {
+    sent: u64,
+    delivered: u64,
+    full: Vec<bool>,
+    empty: Vec<bool>,
+}
+
+impl Tally {
+    /// The tally of the outbox bits `cols` of `len` agents (from word `w0` of the
+    /// neighbour bits).
+    fn of<C: AsRef<[u64]>>(
+        cols: &[C],
+        has_nbr: &[Vec<u64>],
+        w0: usize,
+        nd: usize,
+        len: usize,
+    ) -> Tally {
+        let (sent, delivered) = count_messages(cols, has_nbr, w0, nd);
+        let whole = len / 64;
+        let rest = (len % 64 != 0).then(|| u64::MAX >> (64 - len % 64));
+        let full = cols
+            .iter()
+            .map(|c| {
+                let c = c.as_ref();
+                c[..whole].iter().fold(true, |ok, &w| ok & (w == u64::MAX))
+                    && rest.is_none_or(|m| c[whole] & m == m)
+            })
+            .collect();
+        let empty = cols
+            .iter()
+            .map(|c| c.as_ref().iter().fold(true, |ok, &w| ok & (w == 0)))
+            .collect();
+        Tally {
+            sent,
+            delivered,
+            full,
+            empty,
+        }
+    }
+
+    /// The tally of two chunks together.
+    fn and(self, other: &Tally) -> Tally {
+        let both = |a: Vec<bool>, b: &[bool]| a.iter().zip(b).map(|(&x, &y)| x && y).collect();
+        Tally {
+            sent: self.sent + other.sent,
+            delivered: self.delivered + other.delivered,
+            full: both(self.full, &other.full),
+            empty: both(self.empty, &other.empty),
+        }
+    }
+}
+
 /// The bits set in a word; quick for the full and empty words of dense configurations
 /// (a machine without a population-count instruction counts the others in a dozen steps).
 #[inline(always)]
@@ -2954,7 +3012,7 @@ pub(crate) fn all_bits(bits: &[u64], range: std::ops::Range<usize>) -> bool {
 
 /// Whether every bit of `range` is as in `word` (all zeros or all ones): the words at both
 /// ends under a mask, the ones between whole (without early exit, which vectorises).
-#[inline]
+#[inline(always)]
 fn bits_are(bits: &[u64], range: std::ops::Range<usize>, word: u64) -> bool {
     let Some((first, last, head, tail)) = edges(range) else {
         return true;

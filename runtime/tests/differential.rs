@@ -602,6 +602,14 @@ fn optimisations_agree_with_reference() {
                 }
             }),
         ),
+        // Runs of readers whose senders all sent but the last few agents (in the last,
+        // partial word of the outbox bits), which sent in other steps.
+        (
+            "a\n1\nSA****\n#*01 + C00 0000 C00 + C00 0001 SB****\n\nb\n1\nSB****\nC01 + C01 #N01 C02 + C02 #S01 SC****\n\nc\n1\nSC****\nC01 + C01 #E01 SA****\n".into(),
+            block(6, 40, |_, _, k| {
+                format!(" S{}AAAA C00 {}", if k >= 235 { "C" } else { "A" }, k + 1)
+            }),
+        ),
         // Sends to all directions and to one, in both orders, some not made (division by
         // zero), by whole columns and by single agents.
         (
