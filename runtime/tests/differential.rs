@@ -692,6 +692,14 @@ fn optimisations_agree_with_reference() {
                 format!(" S{}AAAA", ["A", "B", "E", "F"][hash(x, y) as usize % 4])
             }),
         ),
+        // A division by zero for some agents of a run, then a product that saturates for
+        // the same agents: the second is saturated (and recorded) all the same.
+        (
+            "r\n1\nS*****\nC00 / C00 C01 C02 * C02 C03\n".into(),
+            block(4, 40, |x, y, _| {
+                format!(" C00 {} C01 {} C02 300 C03 {}", 7 + y, (x + y) % 3, 200 + x)
+            }),
+        ),
         // Counters compared with literals over runs (one rule per state).
         (
             "low\n1\nSL**** <C00 0005\nC00 + C00 0002\n\nsame\n1\nSQ**** =C01 0003\nC01 + C01 0001\n\nhigh\n1\nSH**** >C00 0004\nC00 - C00 0001\n".into(),
