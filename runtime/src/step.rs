@@ -905,6 +905,10 @@ impl Engine {
             }
             self.known_states(true);
         }
+        debug_assert!(
+            self.cand_of.iter().all(|&c| c != NO_LIST),
+            "every agent has its candidate list"
+        );
         self.cand_dirty = false;
     }
 
