@@ -1438,11 +1438,43 @@ impl Engine {
             && (self.plain_moves.iter())
                 .zip(&has_actions)
                 .all(|(m, &h)| m.is_some() || !h);
+        // When the selection is kept (decided by states alone) and every rule's actions
+        // only set the state, each agent takes its candidate list's hop, known per list,
+        // in one tight loop; the others (whose list has no hop yet) go the general way.
+        let only_states = every
+            && keep
+            && direct
+            && sel.many.is_empty()
+            && (self.direct_bits.iter())
+                .zip(&has_actions)
+                .all(|(d, &h)| d.is_some() || !h);
         let plain = &self.plain_moves;
         let agents = if only_plain {
             for (a, &r) in sel.one.iter().enumerate() {
                 if let Some(&Some(o)) = plain.get(r as usize) {
                     todo.moves.push((a as u32, o));
+                }
+            }
+            0
+        } else if only_states {
+            for a in 0..n {
+                let idx = self.cand_of[a] as usize;
+                let hop = self.cand_hop[idx];
+                if hop.to == idx as u32 {
+                    continue;
+                }
+                if hop.to != NO_LIST && hop.next != EVALUATE {
+                    self.take_hop(a, idx, &hop, sel);
+                    continue;
+                }
+                let r = sel.one[a];
+                if r == NO_RULE || !acts(r) {
+                    continue;
+                }
+                if let Some(bits) = self.direct_bits[r as usize] {
+                    let (c, l) = self.set_state_at_once(a, r, bits, keep, sel);
+                    changed |= c;
+                    lookups |= l;
                 }
             }
             0
@@ -1667,10 +1699,7 @@ impl Engine {
             }
             let hop = self.cand_hop[idx as usize];
             if to != NO_LIST && hop.next != EVALUATE {
-                self.lat.state[a] = hop.state;
-                self.cand_of[a] = hop.to;
-                sel.one[a] = hop.next;
-                self.cand_hopped[idx as usize] += 1;
+                self.take_hop(a, idx as usize, &hop, sel);
                 return (false, false);
             }
         }
@@ -1684,6 +1713,16 @@ impl Engine {
             Some((_, _, known)) => (true, !known),
             None => (false, false),
         }
+    }
+
+    /// Agent `a`, of candidate list `idx`, takes that list's `hop`: its new state, list and
+    /// selection entry (its firings are moved by [`Engine::count_hops`]).
+    #[inline(always)]
+    fn take_hop(&mut self, a: usize, idx: usize, hop: &Hop, sel: &mut Selection) {
+        self.lat.state[a] = hop.state;
+        self.cand_of[a] = hop.to;
+        sel.one[a] = hop.next;
+        self.cand_hopped[idx] += 1;
     }
 
     /// Moves the firing counts of the agents that took a hop in this step (see
