@@ -168,6 +168,10 @@ pub struct Engine {
     batchable: Vec<bool>,
     /// Worker threads, when more than one was asked for.
     pool: Option<rayon::ThreadPool>,
+    /// Whether the selection, the calculations and the post office run on the pool.
+    tuner: Tuner,
+    /// The phase running now is to stay on this thread (see [`Tuner`]).
+    serial: bool,
     sel: Selection,
     /// The last selection was decided by the agents' states alone (no agent evaluated a
     /// precondition): while no state changes, it holds for the next step too.
@@ -369,6 +373,52 @@ impl Hop {
         next: EVALUATE,
         state: [0; 5],
     };
+}
+
+/// The phases that run in chunks of agents, on the pool when there is one.
+#[derive(Clone, Copy)]
+enum Phase {
+    Select,
+    Calculate,
+    Deliver,
+}
+
+/// Chooses, per phase, whether it runs on the pool or on the stepping thread alone: every
+/// 64 runs of a phase, it runs once on one thread and then once on the pool (on
+/// consecutive steps, which do about the same work), and keeps the faster way until the
+/// next trial. The results are the same either way (chunks are joined in agent order).
+/// One thread wins where a phase is too light to pay for waking the pool and for the
+/// data it leaves in the other core's cache (B2's selection between two serial actions
+/// phases), or where the other core is busy.
+#[derive(Clone, Copy, Debug, Default)]
+struct Tuner {
+    /// Per phase: how often it ran, how long its last run on one thread took, and
+    /// whether one thread was faster at the last trial.
+    phases: [(u64, std::time::Duration, bool); 3],
+}
+
+impl Tuner {
+    /// Whether the next run of `phase` is on the pool (it is counted).
+    fn pooled(&mut self, phase: Phase) -> bool {
+        let p = &mut self.phases[phase as usize];
+        p.0 += 1;
+        // The first run (the first step, with its one-time work) is not a trial.
+        match p.0 % 64 {
+            2 => false,
+            3 => true,
+            _ => !p.2,
+        }
+    }
+
+    /// The run of `phase` just counted took `d`.
+    fn took(&mut self, phase: Phase, d: std::time::Duration) {
+        let p = &mut self.phases[phase as usize];
+        match p.0 % 64 {
+            2 => p.1 = d,
+            3 => p.2 = p.1 < d,
+            _ => {}
+        }
+    }
 }
 
 /// The rules each agent executes in a step: one entry per agent, either [`NO_RULE`], a
@@ -745,6 +795,8 @@ impl Engine {
                         .ok()
                 })
                 .flatten(),
+            tuner: Tuner::default(),
+            serial: false,
             has_actions: prog
                 .rules
                 .iter()
@@ -817,7 +869,7 @@ impl Engine {
     /// Chunks are whole multiples of 64 agents, so that they split bit sets by words.
     fn parallel(&self, n: usize) -> Option<(&rayon::ThreadPool, usize)> {
         const MIN_AGENTS: usize = 1024;
-        let pool = self.pool.as_ref().filter(|_| n >= MIN_AGENTS)?;
+        let pool = (self.pool.as_ref()).filter(|_| n >= MIN_AGENTS && !self.serial)?;
         Some((
             pool,
             n.div_ceil(pool.current_num_threads() * 4)
@@ -1116,11 +1168,27 @@ impl Engine {
         if self.sel_reused {
             return;
         }
-        if self.any_prio {
-            self.select_with_priorities(rep);
-        } else {
-            self.select_plain();
+        self.tuned(Phase::Select, |e| {
+            if e.any_prio {
+                e.select_with_priorities(rep);
+            } else {
+                e.select_plain();
+            }
+        });
+    }
+
+    /// Runs phase `f` on the pool or on this thread, as the tuner chooses, and tells the
+    /// tuner how long it took.
+    fn tuned(&mut self, phase: Phase, f: impl FnOnce(&mut Engine)) {
+        if self.pool.is_none() {
+            return f(self);
         }
+        let pooled = self.tuner.pooled(phase);
+        self.serial = !pooled;
+        let t = std::time::Instant::now();
+        f(self);
+        self.tuner.took(phase, t.elapsed());
+        self.serial = false;
     }
 
     /// Selection when rules read neighbours' priorities: a first pass with priorities
@@ -1378,12 +1446,12 @@ impl Engine {
         match self.opts.order {
             Order::ActionsFirst => {
                 self.all_actions(&mut sel, &mut rep);
-                self.calculations(&sel, &mut rep);
-                self.deliver(&mut rep);
+                self.tuned(Phase::Calculate, |e| e.calculations(&sel, &mut rep));
+                self.tuned(Phase::Deliver, |e| e.deliver(&mut rep));
             }
             Order::MessagesFirst => {
-                self.calculations(&sel, &mut rep);
-                self.deliver(&mut rep);
+                self.tuned(Phase::Calculate, |e| e.calculations(&sel, &mut rep));
+                self.tuned(Phase::Deliver, |e| e.deliver(&mut rep));
                 self.all_actions(&mut sel, &mut rep);
             }
         }
@@ -3352,7 +3420,37 @@ impl CalcEnv for CalcCtx<'_, '_, '_> {
 
 #[cfg(test)]
 mod tests {
-    use super::{all_bits, clear_bits, no_bits, set_bits};
+    use super::{all_bits, clear_bits, no_bits, set_bits, Phase, Tuner};
+    use std::time::Duration;
+
+    /// The tuner tries one thread on a phase's second run and the pool on its third, keeps
+    /// the faster until the next trial 64 runs later, and keeps phases apart.
+    #[test]
+    fn tuner_keeps_the_faster_way() {
+        let mut t = Tuner::default();
+        let run = |t: &mut Tuner, phase, ms: u64| {
+            let pooled = t.pooled(phase);
+            t.took(phase, Duration::from_millis(ms));
+            pooled
+        };
+        // One thread 5 ms, the pool 9 ms: one thread until the next trial.
+        let ways: Vec<bool> = [7, 5, 9, 1, 1]
+            .iter()
+            .map(|&ms| run(&mut t, Phase::Select, ms))
+            .collect();
+        assert_eq!(ways, [true, false, true, false, false]);
+        assert!(
+            run(&mut t, Phase::Calculate, 1),
+            "another phase starts on the pool"
+        );
+        for _ in 6..66 {
+            run(&mut t, Phase::Select, 1);
+        }
+        // Runs 66 and 67 are the next trial: the pool is faster this time.
+        assert!(!run(&mut t, Phase::Select, 8));
+        assert!(run(&mut t, Phase::Select, 3));
+        assert!(run(&mut t, Phase::Select, 3));
+    }
 
     /// Setting and clearing ranges of bits against single bits, on every range across
     /// four words.
