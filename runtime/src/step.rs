@@ -156,6 +156,8 @@ pub struct Engine {
     prio_offsets: Option<Vec<[i32; 3]>>,
     /// Per rule: it has a move, swap, attachment or state action.
     has_actions: Vec<bool>,
+    /// What the rules' actions are, taken together.
+    acting: Acting,
     /// Per rule whose only action sets the state: that state pattern as [`pat_bits`].
     direct_bits: Vec<Option<(u64, u64)>>,
     /// Per entry of the program's offsets: its value when it has no counter in it.
@@ -351,6 +353,31 @@ impl MoveScratch {
         if let Some(s) = s {
             self.once[s / 64] = 0;
             self.twice[s / 64] = 0;
+        }
+    }
+}
+
+/// What a program's actions are, taken together: none, only moves by literal offsets
+/// ([`Engine::plain_moves`]), only state changes ([`Engine::direct_bits`]), or others.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Acting {
+    Nothing,
+    PlainMoves,
+    States,
+    Mixed,
+}
+
+impl Acting {
+    fn of(acts: &[bool], plain: &[Option<[i32; 3]>], direct: &[Option<(u64, u64)>]) -> Acting {
+        let acting = |kind: &dyn Fn(usize) -> bool| (0..acts.len()).all(|r| !acts[r] || kind(r));
+        if !acts.contains(&true) {
+            Acting::Nothing
+        } else if acting(&|r| plain[r].is_some()) {
+            Acting::PlainMoves
+        } else if acting(&|r| direct[r].is_some()) {
+            Acting::States
+        } else {
+            Acting::Mixed
         }
     }
 }
@@ -754,6 +781,28 @@ impl Engine {
                     })
             })
             .collect();
+        let has_actions: Vec<bool> = (prog.rules.iter())
+            .map(|i| {
+                i.moves.is_some()
+                    || i.swaps.is_some()
+                    || i.attaches.is_some()
+                    || i.sets_state.is_some()
+            })
+            .collect();
+        let plain_moves: Vec<Option<[i32; 3]>> = (prog.rules.iter())
+            .map(|i| match (i.moves, i.sets_state, i.swaps, i.attaches) {
+                (Some(o), None, None, None) => {
+                    literal(&prog.offsets[o as usize]).filter(|&o| o != [0, 0, 0])
+                }
+                _ => None,
+            })
+            .collect();
+        let direct_bits: Vec<Option<(u64, u64)>> = (prog.rules.iter())
+            .map(|i| match (i.sets_state, i.moves, i.swaps, i.attaches) {
+                (Some(p), None, None, None) => Some(pat_bits(&prog.pats[p as usize])),
+                _ => None,
+            })
+            .collect();
         Engine {
             stats: Stats {
                 firings: vec![0; prog.rules.len()],
@@ -797,35 +846,11 @@ impl Engine {
                 .flatten(),
             tuner: Tuner::default(),
             serial: false,
-            has_actions: prog
-                .rules
-                .iter()
-                .map(|i| {
-                    i.moves.is_some()
-                        || i.swaps.is_some()
-                        || i.attaches.is_some()
-                        || i.sets_state.is_some()
-                })
-                .collect(),
+            acting: Acting::of(&has_actions, &plain_moves, &direct_bits),
+            has_actions,
             literal_offsets: prog.offsets.iter().map(literal).collect(),
-            plain_moves: prog
-                .rules
-                .iter()
-                .map(|i| match (i.moves, i.sets_state, i.swaps, i.attaches) {
-                    (Some(o), None, None, None) => {
-                        literal(&prog.offsets[o as usize]).filter(|&o| o != [0, 0, 0])
-                    }
-                    _ => None,
-                })
-                .collect(),
-            direct_bits: prog
-                .rules
-                .iter()
-                .map(|i| match (i.sets_state, i.moves, i.swaps, i.attaches) {
-                    (Some(p), None, None, None) => Some(pat_bits(&prog.pats[p as usize])),
-                    _ => None,
-                })
-                .collect(),
+            plain_moves,
+            direct_bits,
             sel: Selection::default(),
             sel_by_state: false,
             sel_reused: false,
@@ -951,7 +976,7 @@ impl Engine {
             }
         }
         let firsts = self.known_states(false);
-        if !firsts.is_empty() {
+        if firsts.iter().any(|f| !f.is_empty()) {
             for &a in firsts.iter().flatten() {
                 self.list_state_of(a as usize);
             }
@@ -1021,7 +1046,7 @@ impl Engine {
     /// Gives each agent without a candidate list ([`NO_LIST`]) the list of its state when
     /// the cache knows it, or (with `all`) when it is known at all. Without `all`, returns
     /// per chunk the agents whose state is not in the cache, at least the first of each
-    /// such state (in agent order); empty when there is none.
+    /// such state (in agent order).
     fn known_states(&mut self, all: bool) -> Vec<Vec<u32>> {
         let n = self.lat.len();
         let mut of = std::mem::take(&mut self.cand_of);
@@ -1058,11 +1083,7 @@ impl Engine {
             None => of.chunks_mut(size).enumerate().map(pass).collect(),
         };
         self.cand_of = of;
-        if firsts.iter().all(|f| f.is_empty()) {
-            Vec::new()
-        } else {
-            firsts
-        }
+        firsts
     }
 
     /// Selection when no rule reads priorities: each agent executes its true rules of the
@@ -1484,11 +1505,9 @@ impl Engine {
         let n = self.lat.len();
         // Rules with nothing to do in this phase (only calculations and sends) are left out;
         // only the agents with something to do get an intent.
-        if !self.has_actions.iter().any(|&h| h) {
+        if self.acting == Acting::Nothing {
             return;
         }
-        let has_actions = std::mem::take(&mut self.has_actions);
-        let acts = |r: u32| has_actions[r as usize];
         let mut todo = std::mem::take(&mut self.todo);
         todo.clear();
         // Without tracing (which reports state changes after moves), an agent whose one
@@ -1499,32 +1518,24 @@ impl Engine {
         let keep = self.sel_by_state && !self.any_prio && !self.opts.static_first;
         let (mut changed, mut lookups) = (false, false);
         let mut rs: Vec<u32> = Vec::new();
+        let simple = every && sel.many.is_empty();
         // When every rule's actions are a plain move (or none) and no agent executes several
         // rules, the step's actions are the list of moves, collected in one tight loop.
-        let only_plain = every
-            && sel.many.is_empty()
-            && (self.plain_moves.iter())
-                .zip(&has_actions)
-                .all(|(m, &h)| m.is_some() || !h);
-        // When the selection is kept (decided by states alone) and every rule's actions
-        // only set the state, each agent takes its candidate list's hop, known per list,
-        // in one tight loop; the others (whose list has no hop yet) go the general way.
-        let only_states = every
-            && keep
-            && direct
-            && sel.many.is_empty()
-            && (self.direct_bits.iter())
-                .zip(&has_actions)
-                .all(|(d, &h)| d.is_some() || !h);
         let plain = &self.plain_moves;
-        let agents = if only_plain {
+        let agents = if simple && self.acting == Acting::PlainMoves {
             for (a, &r) in sel.one.iter().enumerate() {
                 if let Some(&Some(o)) = plain.get(r as usize) {
                     todo.moves.push((a as u32, o));
                 }
             }
             0
-        } else if only_states {
+        } else {
+            n
+        };
+        // When the selection is kept (decided by states alone) and every rule's actions
+        // only set the state, each agent takes its candidate list's hop, known per list,
+        // in one tight loop; the others (whose list has no hop yet) go the general way.
+        let agents = if agents > 0 && simple && keep && direct && self.acting == Acting::States {
             for a in 0..n {
                 let idx = self.cand_of[a] as usize;
                 let hop = self.cand_hop[idx];
@@ -1535,19 +1546,18 @@ impl Engine {
                     self.take_hop(a, idx, &hop, sel);
                     continue;
                 }
-                let r = sel.one[a];
-                if r == NO_RULE || !acts(r) {
-                    continue;
-                }
-                if let Some(bits) = self.direct_bits[r as usize] {
-                    let (c, l) = self.set_state_at_once(a, r, bits, keep, sel);
-                    changed |= c;
-                    lookups |= l;
+                match sel.one[a] {
+                    NO_RULE => {}
+                    r => {
+                        let (c, l) = self.one_rule(&mut todo, a, r, (direct, keep), sel);
+                        changed |= c;
+                        lookups |= l;
+                    }
                 }
             }
             0
         } else {
-            n
+            agents
         };
         for a in 0..agents {
             let r = sel.one[a];
@@ -1556,28 +1566,16 @@ impl Engine {
             }
             if r & MANY == 0 {
                 // One rule: nothing can conflict.
-                if !pick(r) {
-                    continue;
-                }
-                if let Some(o) = self.plain_moves[r as usize] {
-                    todo.moves.push((a as u32, o));
-                    continue;
-                }
-                if !acts(r) {
-                    continue;
-                }
-                match self.direct_bits[r as usize] {
-                    Some(bits) if direct => {
-                        let (c, l) = self.set_state_at_once(a, r, bits, keep, sel);
-                        changed |= c;
-                        lookups |= l;
-                    }
-                    _ => self.add_rule_actions(&mut todo, a as u32, r),
+                if pick(r) {
+                    let (c, l) = self.one_rule(&mut todo, a, r, (direct, keep), sel);
+                    changed |= c;
+                    lookups |= l;
                 }
                 continue;
             }
+            let acts = &self.has_actions;
             rs.clear();
-            rs.extend(sel.of(a).iter().copied().filter(|&r| pick(r) && acts(r)));
+            rs.extend((sel.of(a).iter().copied()).filter(|&r| pick(r) && acts[r as usize]));
             match rs[..] {
                 [] => {}
                 [r] => self.add_rule_actions(&mut todo, a as u32, r),
@@ -1587,7 +1585,6 @@ impl Engine {
                 }
             }
         }
-        self.has_actions = has_actions;
         self.count_hops();
         let letters = todo
             .links
@@ -1781,6 +1778,29 @@ impl Engine {
             Some((_, _, known)) => (true, !known),
             None => (false, false),
         }
+    }
+
+    /// The actions of agent `a` executing rule `r` alone: a plain move listed, a state set
+    /// at once (with `direct`; `keep` as for [`Engine::set_state_at_once`], whose answer
+    /// is returned), or the rule's actions added to `todo`.
+    #[inline(always)]
+    fn one_rule(
+        &mut self,
+        todo: &mut Actions,
+        a: usize,
+        r: u32,
+        (direct, keep): (bool, bool),
+        sel: &mut Selection,
+    ) -> (bool, bool) {
+        if let Some(o) = self.plain_moves[r as usize] {
+            todo.moves.push((a as u32, o));
+        } else if self.has_actions[r as usize] {
+            match self.direct_bits[r as usize] {
+                Some(bits) if direct => return self.set_state_at_once(a, r, bits, keep, sel),
+                _ => self.add_rule_actions(todo, a as u32, r),
+            }
+        }
+        (false, false)
     }
 
     /// Agent `a`, of candidate list `idx`, takes that list's `hop`: its new state, list and
