@@ -2618,7 +2618,7 @@ impl Engine {
     /// messages (and the last step's pending columns the next outboxes). A message is
     /// delivered when its sender has a neighbour in the direction it was sent.
     fn deliver_deferred(&mut self) {
-        // Counted by the calculations (see `count_messages`), but for the first time.
+        // Counted by the calculations (see [`Tally`]), but for the first time.
         let tally = match self.counted.take() {
             Some(c) => c,
             None => {
@@ -3160,8 +3160,9 @@ fn bits_are(bits: &[u64], range: std::ops::Range<usize>, word: u64) -> bool {
 }
 
 /// The most frequent calculations over a run of agents, without a detour through 32-bit
-/// temporaries: `Cxx = Cxx max/min (message or literal)` in place (cannot saturate), and
-/// sending a counter as it is (`x + 0`, `x - 0`). Returns false for anything else.
+/// temporaries: `Cxx = Cxx max/min (message or literal)` in place (cannot saturate),
+/// `Cxx = Cxx +/- literal` in place when no result saturates, and sending a counter as it
+/// is (`x + 0`, `x - 0`). Returns false for anything else.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn fast_calc(
