@@ -402,6 +402,36 @@ impl Hop {
     };
 }
 
+/// From agent `from` on, each agent takes its candidate list's hop (see
+/// [`Engine::take_hop`]) until one whose list's hop is not known or needs its rules
+/// evaluated, whose index is returned (the number of agents when there is none).
+#[inline(never)]
+fn hop_run(
+    from: usize,
+    (cand_of, state, one): (&mut [u32], &mut [[u8; 5]], &mut [u32]),
+    hops: &[Hop],
+    hopped: &mut [u64],
+) -> usize {
+    let n = cand_of.len();
+    let hopped = &mut hopped[..hops.len()];
+    let agents = cand_of[from..].iter_mut().zip(&mut state[from..]);
+    for (a, ((list, state), one)) in agents.zip(&mut one[from..]).enumerate() {
+        let idx = *list as usize;
+        let hop = hops[idx];
+        if hop.to == *list {
+            continue;
+        }
+        if hop.to == NO_LIST || hop.next == EVALUATE {
+            return from + a;
+        }
+        *state = hop.state;
+        *list = hop.to;
+        *one = hop.next;
+        hopped[idx] += 1;
+    }
+    n
+}
+
 /// The phases that run in chunks of agents, on the pool when there is one.
 #[derive(Clone, Copy)]
 enum Phase {
@@ -1534,26 +1564,27 @@ impl Engine {
         };
         // When the selection is kept (decided by states alone) and every rule's actions
         // only set the state, each agent takes its candidate list's hop, known per list,
-        // in one tight loop; the others (whose list has no hop yet) go the general way.
+        // in one tight loop (`hop_run`); the loop stops at each agent whose list has no hop
+        // yet (or whose new state's rules need evaluating), which goes the general way.
         let agents = if agents > 0 && simple && keep && direct && self.acting == Acting::States {
-            for a in 0..n {
-                let idx = self.cand_of[a] as usize;
-                let hop = self.cand_hop[idx];
-                if hop.to == idx as u32 {
-                    continue;
+            let mut a = 0;
+            loop {
+                a = hop_run(
+                    a,
+                    (&mut self.cand_of, &mut self.lat.state, &mut sel.one),
+                    &self.cand_hop,
+                    &mut self.cand_hopped,
+                );
+                if a >= n {
+                    break;
                 }
-                if hop.to != NO_LIST && hop.next != EVALUATE {
-                    self.take_hop(a, idx, &hop, sel);
-                    continue;
+                let r = sel.one[a];
+                if r != NO_RULE {
+                    let (c, l) = self.one_rule(&mut todo, a, r, (direct, keep), sel);
+                    changed |= c;
+                    lookups |= l;
                 }
-                match sel.one[a] {
-                    NO_RULE => {}
-                    r => {
-                        let (c, l) = self.one_rule(&mut todo, a, r, (direct, keep), sel);
-                        changed |= c;
-                        lookups |= l;
-                    }
-                }
+                a += 1;
             }
             0
         } else {
