@@ -2891,21 +2891,37 @@ fn put_bits(bits: &mut [u64], range: std::ops::Range<usize>, word: u64) {
 /// With messages left with their senders: how many messages the outbox bits `cols` (the
 /// words from `w0` of every column, the columns for sends to all directions last) hold,
 /// and how many of them have a recipient. A send to all directions is one message per
-/// direction (one sent later towards one direction replaces that one).
+/// direction (one sent later towards one direction replaces that one). `empty` tells the
+/// columns without a bit set, which are not read.
 fn count_messages<C: AsRef<[u64]>>(
     cols: &[C],
     has_nbr: &[Vec<u64>],
-    w0: usize,
-    nd: usize,
+    (w0, nd): (usize, usize),
+    empty: &[bool],
 ) -> (u64, u64) {
     let ns = cols.len() / (nd + 1);
     let (mut sent, mut delivered) = (0u64, 0u64);
-    for col in 0..nd * ns {
-        let all = cols[nd * ns + col % ns].as_ref();
-        let nbr = &has_nbr[col / ns][w0..w0 + all.len()];
-        for ((h, a), b) in cols[col].as_ref().iter().zip(all).zip(nbr) {
-            sent += ones(h & !a) + ones(*a);
-            delivered += ones((h | a) & b);
+    for s in 0..ns {
+        let all = cols[nd * ns + s].as_ref();
+        let none_to_all = empty[nd * ns + s];
+        if !none_to_all {
+            sent += nd as u64 * all.iter().map(|&a| ones(a)).sum::<u64>();
+        }
+        for (d, nbr) in has_nbr.iter().enumerate().take(nd) {
+            let col = d * ns + s;
+            let (one, nbr) = (cols[col].as_ref(), &nbr[w0..w0 + all.len()]);
+            match (empty[col], none_to_all) {
+                (true, true) => {}
+                (true, false) => {
+                    delivered += all.iter().zip(nbr).map(|(a, b)| ones(a & b)).sum::<u64>();
+                }
+                (false, _) => {
+                    for ((h, a), b) in one.iter().zip(all).zip(nbr) {
+                        sent += ones(h & !a);
+                        delivered += ones((h | a) & b);
+                    }
+                }
+            }
         }
     }
     (sent, delivered)
@@ -2933,21 +2949,21 @@ impl Tally {
         nd: usize,
         len: usize,
     ) -> Tally {
-        let (sent, delivered) = count_messages(cols, has_nbr, w0, nd);
         let whole = len / 64;
         let rest = (len % 64 != 0).then(|| u64::MAX >> (64 - len % 64));
         let full = cols
             .iter()
             .map(|c| {
                 let c = c.as_ref();
-                c[..whole].iter().fold(true, |ok, &w| ok & (w == u64::MAX))
+                c[..whole].iter().fold(u64::MAX, |acc, &w| acc & w) == u64::MAX
                     && rest.is_none_or(|m| c[whole] & m == m)
             })
             .collect();
-        let empty = cols
+        let empty: Vec<bool> = cols
             .iter()
-            .map(|c| c.as_ref().iter().fold(true, |ok, &w| ok & (w == 0)))
+            .map(|c| c.as_ref().iter().fold(0, |acc, &w| acc | w) == 0)
             .collect();
+        let (sent, delivered) = count_messages(cols, has_nbr, (w0, nd), &empty);
         Tally {
             sent,
             delivered,
