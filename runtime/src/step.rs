@@ -1137,6 +1137,7 @@ impl Engine {
             let mut buf: Vec<u32> = Vec::new();
             let mut evaluated = false;
             let mut truth = [false; BATCH];
+            let mut bufs = PreBufs::new();
             let mut k = 0;
             while k < one.len() {
                 let a = lo + k;
@@ -1151,7 +1152,7 @@ impl Engine {
                 if let [r] = lists[idx][..] {
                     if pre_batch[r as usize] {
                         let m = run_of(&of[a..(a + BATCH).min(lo + one.len())], idx as u32);
-                        batch_pre(prog, r, lat, a, &mut truth[..m]);
+                        batch_pre(prog, (r, a), lat, &mut bufs, &mut truth[..m]);
                         for (slot, &t) in one[k..k + m].iter_mut().zip(&truth[..m]) {
                             *slot = if t { r } else { NO_RULE };
                         }
@@ -2400,6 +2401,7 @@ impl Engine {
             }
             let mut issues: Vec<(u32, u32, CalcIssue)> = Vec::new();
             let mut events = Vec::new();
+            let mut bufs = CalcBufs::new();
             let mut k = 0;
             while k < ch.len {
                 let a = ch.lo + k;
@@ -2420,7 +2422,7 @@ impl Engine {
                         } else {
                             k + run_of(&sel.one[ch.lo + k..ch.lo + ch.len], r)
                         };
-                        run_batch(prog, r, lat, &mut ch, k..end, &mut issues);
+                        run_batch(prog, r, lat, (&mut ch, &mut bufs), k..end, &mut issues);
                         k = end;
                         continue;
                     }
@@ -3008,6 +3010,25 @@ pub(crate) fn set_bits(bits: &mut [u64], range: std::ops::Range<usize>) {
 /// Stack depth of [`batch_pre`].
 const PRE_STACK: usize = 6;
 
+/// The working space of [`batch_pre`], made once for a chunk of agents rather than at
+/// each call (a call may evaluate a run of a few agents): its stack of truth values and
+/// its two operands.
+struct PreBufs {
+    stack: [[bool; BATCH]; PRE_STACK],
+    x: [i32; BATCH],
+    y: [i32; BATCH],
+}
+
+impl PreBufs {
+    fn new() -> Box<PreBufs> {
+        Box::new(PreBufs {
+            stack: [[false; BATCH]; PRE_STACK],
+            x: [0; BATCH],
+            y: [0; BATCH],
+        })
+    }
+}
+
 /// Whether a precondition can be evaluated by [`batch_pre`]: only terms about the agent
 /// itself and its neighbours (no priorities, offsets, texts or remote counters), within
 /// its stack depth.
@@ -3038,15 +3059,19 @@ fn pre_batchable(code: &[Op]) -> bool {
 /// without priority terms) for agents `first..first + out.len()` at once, one instruction
 /// over all of them. Short-circuit jumps are not taken: the terms have no side effects and
 /// a false left operand makes the conjunction false either way.
-fn batch_pre(prog: &Program, r: u32, lat: &Lattice, first: usize, out: &mut [bool]) {
+fn batch_pre(
+    prog: &Program,
+    (r, first): (u32, usize),
+    lat: &Lattice,
+    bufs: &mut PreBufs,
+    out: &mut [bool],
+) {
     let m = out.len();
     let info = &prog.rules[r as usize];
     let code = &prog.code[info.pre.start as usize..info.pre.end as usize];
-    let mut stack = [[false; BATCH]; PRE_STACK];
+    let PreBufs { stack, x, y } = bufs;
     let mut sp = 0;
     let nd = lat.dim.dirs();
-    let mut x = [0i32; BATCH];
-    let mut y = [0i32; BATCH];
     let load = |v: Val, into: &mut [i32]| match v {
         Val::Lit(c) => into.fill(c as i32),
         Val::Counter(c) => match lat.counter_col[c as usize] {
@@ -3277,8 +3302,30 @@ fn fast_calc(
     }
 }
 
-/// Agents per inner batch of [`run_batch`] and of the post office.
-const BATCH: usize = 256;
+/// Agents per inner batch of [`run_batch`], [`batch_pre`] and the post office.
+const BATCH: usize = 1024;
+
+/// The working space of [`run_batch`], made once for a chunk of agents rather than at each
+/// call (a call may run a few agents): the two operands, whether each agent's result
+/// stands (all true between instructions), and the messages read with the post office's
+/// hints (see [`Lattice::inbox_run`]).
+struct CalcBufs {
+    x: [i32; BATCH],
+    y: [i32; BATCH],
+    ok: [bool; BATCH],
+    msgs: ([i16; BATCH], [usize; 6]),
+}
+
+impl CalcBufs {
+    fn new() -> Box<CalcBufs> {
+        Box::new(CalcBufs {
+            x: [0; BATCH],
+            y: [0; BATCH],
+            ok: [true; BATCH],
+            msgs: ([0; BATCH], [0; 6]),
+        })
+    }
+}
 
 /// Runs rule `r`'s calculations and sends for the chunk's agents `range` (all of which
 /// execute `r` alone), one instruction at a time over up to [`BATCH`] agents. The results,
@@ -3288,7 +3335,7 @@ fn run_batch(
     prog: &Program,
     r: u32,
     lat: &Lattice,
-    ch: &mut CalcChunk<'_>,
+    (ch, bufs): (&mut CalcChunk<'_>, &mut CalcBufs),
     range: std::ops::Range<usize>,
     issues: &mut Vec<(u32, u32, CalcIssue)>,
 ) {
@@ -3296,10 +3343,12 @@ fn run_batch(
     let code = &prog.code[info.post.start as usize..info.post.end as usize];
     let nd = lat.dim.dirs();
     let mut found: Vec<(u32, CalcIssue)> = Vec::new();
-    let mut x = [0i32; BATCH];
-    let mut y = [0i32; BATCH];
-    let mut ok = [true; BATCH];
-    let mut buf = ([0i16; BATCH], [0usize; 6]);
+    let CalcBufs {
+        x,
+        y,
+        ok,
+        msgs: buf,
+    } = bufs;
     let mut start = range.start;
     while start < range.end {
         let len = (range.end - start).min(BATCH);
@@ -3317,7 +3366,7 @@ fn run_batch(
                     }
                 }
                 Op::Calc { target, op, a, b }
-                    if fast_calc(lat, ch, ks.clone(), first, (target, op, a, b), &mut buf) => {}
+                    if fast_calc(lat, ch, ks.clone(), first, (target, op, a, b), buf) => {}
                 Op::Calc { target, op, a, b } => {
                     let mut load = |v: Val, into: &mut [i32], ch: &CalcChunk<'_>| match v {
                         Val::Lit(c) => into.fill(c as i32),

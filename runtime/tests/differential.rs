@@ -729,6 +729,32 @@ fn optimisations_agree_with_reference() {
                 )
             }),
         ),
+        // Runs longer than one of the engine's batches (1024 agents): the calculations,
+        // the post office and the preconditions go on to the next batch within one run
+        // (with their working space as the last batch left it).
+        (
+            flood.into(),
+            block(34, 34, |x, y, _| format!(" C00 {}", hash(x, y) * 100 + x as i64))
+                .lines()
+                .filter(|l| !l.starts_with("31,"))
+                .map(|l| format!("{l}\n"))
+                .collect(),
+        ),
+        (
+            "r\n1\nS*****\nC00 / C00 C01 C02 * C02 C03 #*01 + C02 0000\n".into(),
+            block(34, 34, |x, y, _| {
+                format!(" C00 {} C01 {} C02 300 C03 {}", 7 + y, (x + y) % 3, 100 + x)
+            }),
+        ),
+        (
+            fall.into(),
+            block(36, 36, |x, y, _| format!(" C00 {}", (y + x) % 5))
+                .lines()
+                .enumerate()
+                .filter(|(k, _)| (k * 7919) % 10 < 8)
+                .map(|(_, l)| format!("{l}\n"))
+                .collect(),
+        ),
     ];
     for (i, (rules, agents)) in cases.iter().enumerate() {
         for order in [Order::ActionsFirst, Order::MessagesFirst] {
