@@ -9,7 +9,7 @@
 //! a column reads 0, as does a slot without one.
 
 use crate::cells::{CellIndex, Grid, EMPTY, NO_SLOT, RIM};
-use crate::step::{all_bits, is_sequence, no_bits, set_bits};
+use crate::step::{all_bits, no_bits, run_of, sequence_len, set_bits};
 use latticesim_vm::eval::Cell;
 use latticesim_vm::model::{AgentInit, Bounds, Config, Dim, Dir};
 use std::fmt::Write;
@@ -188,15 +188,21 @@ impl Pending {
             // current segment is passed over at once.
             if let Some((r, runs)) = lat.neighbour_run(a, hi - a) {
                 for (d, from) in runs.iter().enumerate().take(nd) {
-                    let f0 = from[0];
-                    let same = f0 != NO_AGENT && is_sequence(from, f0);
-                    if same {
-                        add(&mut plan, &mut next, d, a as u32, f0);
-                        next[d] = f0 + r as u32;
-                    } else {
-                        for (j, &f) in from.iter().enumerate() {
-                            add(&mut plan, &mut next, d, (a + j) as u32, f);
+                    // Per stretch of consecutive senders (or of none, as at the grid's
+                    // edge): what one agent at a time would find.
+                    let mut j = 0;
+                    while j < from.len() {
+                        let f = from[j];
+                        let m = if f == NO_AGENT {
+                            run_of(&from[j..], NO_AGENT)
+                        } else {
+                            sequence_len(&from[j..], f)
+                        };
+                        add(&mut plan, &mut next, d, (a + j) as u32, f);
+                        if f != NO_AGENT {
+                            next[d] = f.wrapping_add(m as u32);
                         }
+                        j += m;
                     }
                 }
                 a += r;

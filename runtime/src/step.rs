@@ -3184,13 +3184,31 @@ fn count_runs(one: &[u32], counts: &mut [u64]) -> u64 {
 }
 
 /// How many of the first values of `s` equal `v` (compared in blocks, which vectorises).
-fn run_of(s: &[u32], v: u32) -> usize {
+pub(crate) fn run_of(s: &[u32], v: u32) -> usize {
     let mut n = 0;
     for block in s.chunks(32) {
         if block.iter().fold(true, |ok, &x| ok & (x == v)) {
             n += block.len();
         } else {
             return n + block.iter().take_while(|&&x| x == v).count();
+        }
+    }
+    n
+}
+
+/// How many of the first values of `s` are `start, start + 1, ...` (compared in blocks,
+/// as [`run_of`]).
+pub(crate) fn sequence_len(s: &[u32], start: u32) -> usize {
+    let mut n = 0;
+    for block in s.chunks(32) {
+        let first = start.wrapping_add(n as u32);
+        if is_sequence(block, first) {
+            n += block.len();
+        } else {
+            return n
+                + (block.iter().zip(0u32..))
+                    .take_while(|&(&x, j)| x == first.wrapping_add(j))
+                    .count();
         }
     }
     n
@@ -3537,7 +3555,7 @@ impl CalcEnv for CalcCtx<'_, '_, '_> {
 
 #[cfg(test)]
 mod tests {
-    use super::{all_bits, clear_bits, no_bits, set_bits, Phase, Tuner};
+    use super::{all_bits, clear_bits, no_bits, run_of, sequence_len, set_bits, Phase, Tuner};
     use std::time::Duration;
 
     /// The tuner tries one thread on a phase's second run and the pool on its third, keeps
@@ -3617,6 +3635,27 @@ mod tests {
                     no_bits(&bits, start..end),
                     !(start..end).any(bit),
                     "{start}..{end}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn runs_and_sequences_across_blocks() {
+        for len in [0usize, 1, 31, 32, 33, 64, 100] {
+            for cut in [0usize, 1, 5, 31, 32, 33, 63, 70, 99] {
+                // `len` values, the run (or sequence) broken at `cut` when inside.
+                let same: Vec<u32> = (0..len).map(|j| if j == cut { 5 } else { 9 }).collect();
+                // (Counting up through u32::MAX and 0; a break is one more than due.)
+                let seq: Vec<u32> = (0..len as u32)
+                    .map(|j| (u32::MAX - 40).wrapping_add(j + (j as usize == cut) as u32))
+                    .collect();
+                let want = cut.min(len);
+                assert_eq!(run_of(&same, 9), want, "run_of, len {len}, cut {cut}");
+                assert_eq!(
+                    sequence_len(&seq, u32::MAX - 40),
+                    want,
+                    "sequence_len, len {len}, cut {cut}"
                 );
             }
         }
