@@ -3320,6 +3320,103 @@ fn fast_calc(
     }
 }
 
+/// How many instructions at the start of `code` (none, or two to six) are a chain of
+/// `Cxx = Cxx max #Dss` on one counter (or of `min`, not mixed), each with a message
+/// from one direction, which [`chain_in_place`] runs in one pass.
+fn max_chain(code: &[Op]) -> usize {
+    let link = |op: &Op| match *op {
+        Op::Calc {
+            target: Target::Counter(c),
+            op: op @ (CalcOp::Max | CalcOp::Min),
+            a: Val::Counter(ca),
+            b: Val::Msg { dir, .. },
+        } if ca == c && dir != ANY_DIR => Some((c, op)),
+        _ => None,
+    };
+    let Some(first) = code.first().and_then(link) else {
+        return 0;
+    };
+    let n = code
+        .iter()
+        .take(6)
+        .take_while(|op| link(op) == Some(first))
+        .count();
+    if n >= 2 {
+        n
+    } else {
+        0
+    }
+}
+
+/// Runs a chain of in-place max/min with messages ([`max_chain`]) over agents `ks` of the
+/// chunk: the messages of each link are read first (the first into `buf`, the others into
+/// `more`), then the counter is read and written once. Max and min of values within
+/// +-32767 cannot saturate, so nothing is recorded.
+fn chain_in_place(
+    lat: &Lattice,
+    (ch, more): (&mut CalcChunk<'_>, &mut [[i16; BATCH]; 5]),
+    (chain, ks): (&[Op], std::ops::Range<usize>),
+    (first_buf, hint): &mut ([i16; BATCH], [usize; 6]),
+) {
+    let (len, first) = (ks.len(), ch.lo + ks.start);
+    let mut bufs = std::iter::once(first_buf).chain(more.iter_mut());
+    let mut srcs: [&[i16]; 6] = [&[]; 6];
+    let (mut c, mut max) = (0, true);
+    for (k, op) in chain.iter().enumerate() {
+        let Op::Calc {
+            target: Target::Counter(t),
+            op,
+            b: Val::Msg { dir, slot },
+            ..
+        } = *op
+        else {
+            unreachable!("a chain holds only max/min of a counter with a message");
+        };
+        (c, max) = (t, op == CalcOp::Max);
+        let out = &mut bufs.next().expect("six buffers for at most six links")[..len];
+        srcs[k] = lat.inbox_run(first, (dir, slot), out, hint);
+    }
+    let col = &mut ch.counters[lat.counter_col[c as usize] as usize][ks];
+    if max {
+        fold_in_place(col, &srcs[..chain.len()], i16::max);
+    } else {
+        fold_in_place(col, &srcs[..chain.len()], i16::min);
+    }
+}
+
+/// `col[j] = f(...f(f(col[j], srcs[0][j]), srcs[1][j])...)` in passes of up to four
+/// sources each (vectorised).
+#[inline(always)]
+fn fold_in_place(col: &mut [i16], srcs: &[&[i16]], f: impl Fn(i16, i16) -> i16 + Copy) {
+    let n = col.len();
+    match *srcs {
+        [] => {}
+        [a] => col
+            .iter_mut()
+            .zip(&a[..n])
+            .for_each(|(t, &x)| *t = f(*t, x)),
+        [a, b] => {
+            let ab = a[..n].iter().zip(&b[..n]);
+            col.iter_mut()
+                .zip(ab)
+                .for_each(|(t, (&x, &y))| *t = f(f(*t, x), y));
+        }
+        [a, b, c] => {
+            let abc = a[..n].iter().zip(&b[..n]).zip(&c[..n]);
+            col.iter_mut()
+                .zip(abc)
+                .for_each(|(t, ((&x, &y), &z))| *t = f(f(f(*t, x), y), z));
+        }
+        [a, b, c, d, ref rest @ ..] => {
+            let abcd = a[..n].iter().zip(&b[..n]).zip(&c[..n]).zip(&d[..n]);
+            col.iter_mut()
+                .zip(abcd)
+                .for_each(|(t, (((&x, &y), &z), &w))| *t = f(f(f(f(*t, x), y), z), w));
+            fold_in_place(col, rest, f);
+        }
+    }
+}
+
 /// Agents per inner batch of [`run_batch`], [`batch_pre`] and the post office.
 const BATCH: usize = 1024;
 
@@ -3332,6 +3429,8 @@ struct CalcBufs {
     y: [i32; BATCH],
     ok: [bool; BATCH],
     msgs: ([i16; BATCH], [usize; 6]),
+    /// The messages of a chain of in-place max/min beyond the first (see [`max_chain`]).
+    more: [[i16; BATCH]; 5],
 }
 
 impl CalcBufs {
@@ -3341,6 +3440,7 @@ impl CalcBufs {
             y: [0; BATCH],
             ok: [true; BATCH],
             msgs: ([0; BATCH], [0; 6]),
+            more: [[0; BATCH]; 5],
         })
     }
 }
@@ -3366,14 +3466,29 @@ fn run_batch(
         y,
         ok,
         msgs: buf,
+        more,
     } = bufs;
     let mut start = range.start;
     while start < range.end {
         let len = (range.end - start).min(BATCH);
         let ks = start..start + len;
         let first = ch.lo + start;
-        for op in code {
-            match *op {
+        let mut i = 0;
+        while i < code.len() {
+            // A chain of in-place max (or min) with messages: one pass over the counter.
+            let chain = max_chain(&code[i..]);
+            if chain >= 2 {
+                chain_in_place(
+                    lat,
+                    (ch, &mut *more),
+                    (&code[i..i + chain], ks.clone()),
+                    buf,
+                );
+                i += chain;
+                continue;
+            }
+            i += 1;
+            match code[i - 1] {
                 Op::Send { dir, text } => {
                     let t = prog.texts[text as usize];
                     for d in CalcChunk::text_dirs(lat, dir) {

@@ -746,6 +746,28 @@ fn optimisations_agree_with_reference() {
                 format!(" C00 {} C01 {} C02 300 C03 {}", 7 + y, (x + y) % 3, 100 + x)
             }),
         ),
+        // Chains of in-place min and max with messages, run in one pass: of three (min),
+        // of two (max, on another counter), a max and a min that do not chain, and sends
+        // to single directions besides one to all (holes break the runs).
+        (
+            "r\n1\nS*****\nC01 I C01 #N01 C01 I C01 #E01 C01 I C01 #S02 C00 A C00 #W01 C00 A C00 #N02 C02 A C02 #W01 C02 I C02 #E01 #*01 + C00 0000 #N01 + C01 0000 #S02 + C02 0000\n".into(),
+            block(34, 34, |x, y, _| {
+                format!(" C00 {} C01 {} C02 {}", hash(x, y) * 10, 300 - hash(y, x), x - y)
+            })
+            .lines()
+            .filter(|l| !l.starts_with("12,") && !l.ends_with("C02 0"))
+            .map(|l| format!("{l}\n"))
+            .collect(),
+        ),
+        // A chain of six (3D), then links that do not chain (another counter as the left
+        // operand).
+        (
+            "r\n1\nS*****\nC00 A C00 #N01 C00 A C00 #W01 C00 A C00 #E01 C00 A C00 #S01 C00 A C00 #A01 C00 A C00 #B01 C01 I C01 #A01 C01 I C00 #B01 C01 I C01 #N01 #*01 + C00 0000\n".into(),
+            (0..11)
+                .flat_map(|x| (0..11).flat_map(move |y| (0..11).map(move |z| (x, y, z))))
+                .map(|(x, y, z)| format!("{x},{y},{z} C00 {} C01 {}\n", hash(x + z, y) * 3, 50 + x))
+                .collect(),
+        ),
         (
             fall.into(),
             block(36, 36, |x, y, _| format!(" C00 {}", (y + x) % 5))
