@@ -441,9 +441,13 @@ enum Phase {
 }
 
 /// Chooses, per phase, whether it runs on the pool or on the stepping thread alone: every
-/// 64 runs of a phase, it runs once on one thread and then once on the pool (on
-/// consecutive steps, which do about the same work), and keeps the faster way until the
-/// next trial. The results are the same either way (chunks are joined in agent order).
+/// 64 runs of a phase, it runs once on one thread and then twice on the pool (on
+/// consecutive steps, which do about the same work), and keeps one thread until the next
+/// trial only when it beat both runs on the pool (the first run on the pool after one on
+/// one thread may have to wake the pool's threads). The first trial is at a phase's
+/// fourth to sixth runs: the first two steps do one-time work (the first touches of new
+/// columns, the plan of senders) which would count against whichever way ran then. The
+/// results are the same either way (chunks are joined in agent order).
 /// One thread wins where a phase is too light to pay for waking the pool and for the
 /// data it leaves in the other core's cache (B2's selection between two serial actions
 /// phases), or where the other core is busy.
@@ -459,10 +463,10 @@ impl Tuner {
     fn pooled(&mut self, phase: Phase) -> bool {
         let p = &mut self.phases[phase as usize];
         p.0 += 1;
-        // The first run (the first step, with its one-time work) is not a trial.
+        // The first runs (the first steps, with their one-time work) are not trials.
         match p.0 % 64 {
-            2 => false,
-            3 => true,
+            4 => false,
+            5 | 6 => true,
             _ => !p.2,
         }
     }
@@ -471,8 +475,9 @@ impl Tuner {
     fn took(&mut self, phase: Phase, d: std::time::Duration) {
         let p = &mut self.phases[phase as usize];
         match p.0 % 64 {
-            2 => p.1 = d,
-            3 => p.2 = p.1 < d,
+            4 => p.1 = d,
+            5 => p.2 = p.1 < d,
+            6 => p.2 &= p.1 < d,
             _ => {}
         }
     }
@@ -1140,13 +1145,24 @@ impl Engine {
             let mut bufs = PreBufs::new();
             let mut k = 0;
             while k < one.len() {
+                // The agents whose candidate list decides alone, in a tight loop up to
+                // the next agent to evaluate.
+                let hi = lo + one.len();
+                let decided = (one[k..].iter_mut().zip(&of[lo + k..hi])).position(
+                    |(slot, &idx)| match single[idx as usize] {
+                        EVALUATE => true,
+                        r => {
+                            *slot = r;
+                            false
+                        }
+                    },
+                );
+                let Some(skip) = decided else {
+                    break;
+                };
+                k += skip;
                 let a = lo + k;
                 let idx = of[a] as usize;
-                if single[idx] != EVALUATE {
-                    one[k] = single[idx];
-                    k += 1;
-                    continue;
-                }
                 evaluated = true;
                 // A run of agents with the same one rule to test: evaluated together.
                 if let [r] = lists[idx][..] {
@@ -3323,6 +3339,7 @@ fn fast_calc(
 /// How many instructions at the start of `code` (none, or two to six) are a chain of
 /// `Cxx = Cxx max #Dss` on one counter (or of `min`, not mixed), each with a message
 /// from one direction, which [`chain_in_place`] runs in one pass.
+#[inline]
 fn max_chain(code: &[Op]) -> usize {
     let link = |op: &Op| match *op {
         Op::Calc {
@@ -3354,11 +3371,14 @@ fn max_chain(code: &[Op]) -> usize {
 /// +-32767 cannot saturate, so nothing is recorded.
 fn chain_in_place(
     lat: &Lattice,
-    (ch, more): (&mut CalcChunk<'_>, &mut [[i16; BATCH]; 5]),
+    (ch, more): (&mut CalcChunk<'_>, &mut Vec<[i16; BATCH]>),
     (chain, ks): (&[Op], std::ops::Range<usize>),
     (first_buf, hint): &mut ([i16; BATCH], [usize; 6]),
 ) {
     let (len, first) = (ks.len(), ch.lo + ks.start);
+    if more.len() < chain.len() - 1 {
+        more.resize(chain.len() - 1, [0; BATCH]);
+    }
     let mut bufs = std::iter::once(first_buf).chain(more.iter_mut());
     let mut srcs: [&[i16]; 6] = [&[]; 6];
     let (mut c, mut max) = (0, true);
@@ -3373,7 +3393,7 @@ fn chain_in_place(
             unreachable!("a chain holds only max/min of a counter with a message");
         };
         (c, max) = (t, op == CalcOp::Max);
-        let out = &mut bufs.next().expect("six buffers for at most six links")[..len];
+        let out = &mut bufs.next().expect("a buffer for each link")[..len];
         srcs[k] = lat.inbox_run(first, (dir, slot), out, hint);
     }
     let col = &mut ch.counters[lat.counter_col[c as usize] as usize][ks];
@@ -3429,8 +3449,9 @@ struct CalcBufs {
     y: [i32; BATCH],
     ok: [bool; BATCH],
     msgs: ([i16; BATCH], [usize; 6]),
-    /// The messages of a chain of in-place max/min beyond the first (see [`max_chain`]).
-    more: [[i16; BATCH]; 5],
+    /// The messages of a chain of in-place max/min beyond the first (see [`max_chain`]),
+    /// made at the first chain.
+    more: Vec<[i16; BATCH]>,
 }
 
 impl CalcBufs {
@@ -3440,7 +3461,7 @@ impl CalcBufs {
             y: [0; BATCH],
             ok: [true; BATCH],
             msgs: ([0; BATCH], [0; 6]),
-            more: [[0; BATCH]; 5],
+            more: Vec::new(),
         })
     }
 }
@@ -3673,8 +3694,9 @@ mod tests {
     use super::{all_bits, clear_bits, no_bits, run_of, sequence_len, set_bits, Phase, Tuner};
     use std::time::Duration;
 
-    /// The tuner tries one thread on a phase's second run and the pool on its third, keeps
-    /// the faster until the next trial 64 runs later, and keeps phases apart.
+    /// The tuner tries one thread on a phase's fourth run and the pool on its fifth and
+    /// sixth, keeps one thread until the next trial 64 runs later only when it beat both,
+    /// and keeps phases apart.
     #[test]
     fn tuner_keeps_the_faster_way() {
         let mut t = Tuner::default();
@@ -3683,21 +3705,24 @@ mod tests {
             t.took(phase, Duration::from_millis(ms));
             pooled
         };
-        // One thread 5 ms, the pool 9 ms: one thread until the next trial.
-        let ways: Vec<bool> = [7, 5, 9, 1, 1]
+        // The first three runs on the pool; one thread 5 ms, the pool 9 and 12 ms: one
+        // thread until the next trial.
+        let ways: Vec<bool> = [7, 30, 2, 5, 9, 12, 1, 1]
             .iter()
             .map(|&ms| run(&mut t, Phase::Select, ms))
             .collect();
-        assert_eq!(ways, [true, false, true, false, false]);
+        assert_eq!(ways, [true, true, true, false, true, true, false, false]);
         assert!(
             run(&mut t, Phase::Calculate, 1),
             "another phase starts on the pool"
         );
-        for _ in 6..66 {
+        for _ in 9..68 {
             run(&mut t, Phase::Select, 1);
         }
-        // Runs 66 and 67 are the next trial: the pool is faster this time.
+        // Runs 68 to 70 are the next trial: one thread 8 ms, the pool 9 ms once and 3 ms
+        // once, so the pool is kept.
         assert!(!run(&mut t, Phase::Select, 8));
+        assert!(run(&mut t, Phase::Select, 9));
         assert!(run(&mut t, Phase::Select, 3));
         assert!(run(&mut t, Phase::Select, 3));
     }
