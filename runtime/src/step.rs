@@ -169,7 +169,7 @@ pub struct Engine {
     /// counters).
     batchable: Vec<bool>,
     /// Worker threads, when more than one was asked for.
-    pool: Option<rayon::ThreadPool>,
+    pool: Option<Workers>,
     /// Whether the selection, the calculations and the post office run on the pool.
     tuner: Tuner,
     /// The phase running now is to stay on this thread (see [`Tuner`]).
@@ -430,6 +430,64 @@ fn hop_run(
         hopped[idx] += 1;
     }
     n
+}
+
+/// The threads that run chunks of agents: `threads - 1` workers and the thread that
+/// steps, which takes chunks too (so that a step wakes one worker fewer, and the workers
+/// are placed beside a running thread rather than beside a sleeping one: on a machine
+/// of two cores, a pool of two workers woken by the stepping thread often shared one
+/// core for many steps).
+struct Workers {
+    pool: rayon::ThreadPool,
+    threads: usize,
+}
+
+impl Workers {
+    /// `threads` threads in all (at least two), or `None` when the system cannot start
+    /// them.
+    fn new(threads: usize) -> Option<Workers> {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads - 1)
+            .build()
+            .ok()?;
+        Some(Workers { pool, threads })
+    }
+
+    /// `f` of each item, the items taken in turn by the workers and this thread; the
+    /// results in the items' order.
+    fn map<I: Send, T: Send>(&self, items: Vec<I>, f: impl Fn(I) -> T + Sync) -> Vec<T> {
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        use std::sync::Mutex;
+        fn take<X>(m: &Mutex<Option<X>>) -> Option<X> {
+            m.lock()
+                .unwrap_or_else(|poisoned| poisoned.into_inner())
+                .take()
+        }
+        let n = items.len();
+        let todo: Vec<Mutex<Option<I>>> = items.into_iter().map(|i| Mutex::new(Some(i))).collect();
+        let done: Vec<Mutex<Option<T>>> = (0..n).map(|_| Mutex::new(None)).collect();
+        let next = AtomicUsize::new(0);
+        let work = || loop {
+            let k = next.fetch_add(1, Ordering::Relaxed);
+            let Some(item) = todo.get(k) else {
+                break;
+            };
+            let r = f(take(item).expect("each item is taken once"));
+            *done[k]
+                .lock()
+                .unwrap_or_else(|poisoned| poisoned.into_inner()) = Some(r);
+        };
+        let work = &work;
+        self.pool.in_place_scope(|s| {
+            for _ in 1..self.threads.min(n) {
+                s.spawn(move |_| work());
+            }
+            work();
+        });
+        done.iter()
+            .map(|m| take(m).expect("every item ran"))
+            .collect()
+    }
 }
 
 /// The phases that run in chunks of agents, on the pool when there is one.
@@ -872,12 +930,7 @@ impl Engine {
                 .collect(),
             batchable,
             pool: (opts.threads > 1)
-                .then(|| {
-                    rayon::ThreadPoolBuilder::new()
-                        .num_threads(opts.threads)
-                        .build()
-                        .ok()
-                })
+                .then(|| Workers::new(opts.threads))
                 .flatten(),
             tuner: Tuner::default(),
             serial: false,
@@ -927,19 +980,15 @@ impl Engine {
     /// How per-agent work on `n` agents is split: the thread pool and the chunk size when
     /// there are threads and enough agents (the one place that decides), else `None`.
     /// Chunks are whole multiples of 64 agents, so that they split bit sets by words.
-    fn parallel(&self, n: usize) -> Option<(&rayon::ThreadPool, usize)> {
+    fn parallel(&self, n: usize) -> Option<(&Workers, usize)> {
         const MIN_AGENTS: usize = 1024;
         let pool = (self.pool.as_ref()).filter(|_| n >= MIN_AGENTS && !self.serial)?;
-        Some((
-            pool,
-            n.div_ceil(pool.current_num_threads() * 4)
-                .next_multiple_of(64),
-        ))
+        Some((pool, n.div_ceil(pool.threads * 4).next_multiple_of(64)))
     }
 
     /// The split of `n` agents: the pool (with threads), the chunk size and the number of
     /// chunks (one chunk of all agents without threads).
-    fn chunks(&self, n: usize) -> (Option<(&rayon::ThreadPool, usize)>, usize, usize) {
+    fn chunks(&self, n: usize) -> (Option<(&Workers, usize)>, usize, usize) {
         let par = self.parallel(n);
         let size = par.map_or(n.max(1), |p| p.1);
         (par, size, n.div_ceil(size))
@@ -949,15 +998,9 @@ impl Engine {
     /// and returns the chunks' results in agent order.
     fn par_chunks<T: Send>(&self, n: usize, f: &(dyn Fn(usize, usize) -> T + Sync)) -> Vec<T> {
         match self.parallel(n) {
-            Some((pool, size)) => {
-                use rayon::prelude::*;
-                pool.install(|| {
-                    (0..n.div_ceil(size))
-                        .into_par_iter()
-                        .map(|c| f(c * size, ((c + 1) * size).min(n)))
-                        .collect()
-                })
-            }
+            Some((pool, size)) => pool.map((0..n.div_ceil(size)).collect(), |c| {
+                f(c * size, ((c + 1) * size).min(n))
+            }),
             _ => vec![f(0, n)],
         }
     }
@@ -1111,10 +1154,7 @@ impl Engine {
             firsts
         };
         let firsts: Vec<Vec<u32>> = match par {
-            Some((pool, _)) => {
-                use rayon::prelude::*;
-                pool.install(|| of.par_chunks_mut(size).enumerate().map(pass).collect())
-            }
+            Some((pool, _)) => pool.map(of.chunks_mut(size).enumerate().collect(), pass),
             None => of.chunks_mut(size).enumerate().map(pass).collect(),
         };
         self.cand_of = of;
@@ -1208,10 +1248,7 @@ impl Engine {
             (multi, evaluated)
         };
         let parts: Vec<_> = match par {
-            Some((pool, _)) => {
-                use rayon::prelude::*;
-                pool.install(|| one.par_chunks_mut(chunk).enumerate().map(work).collect())
-            }
+            Some((pool, _)) => pool.map(one.chunks_mut(chunk).enumerate().collect(), work),
             None => one.chunks_mut(chunk).enumerate().map(work).collect(),
         };
         self.sel.one = one;
@@ -2485,10 +2522,7 @@ impl Engine {
             (issues, events, counted)
         };
         let results: Vec<_> = match par {
-            Some((pool, _)) => {
-                use rayon::prelude::*;
-                pool.install(|| items.into_par_iter().map(work).collect())
-            }
+            Some((pool, _)) => pool.map(items, work),
             _ => items.into_iter().map(work).collect(),
         };
         self.lat.counters = counters;
@@ -2647,10 +2681,7 @@ impl Engine {
             got
         };
         let delivered: u64 = match par {
-            Some((pool, _)) => {
-                use rayon::prelude::*;
-                pool.install(|| items.into_par_iter().map(pull).sum())
-            }
+            Some((pool, _)) => pool.map(items, pull).into_iter().sum(),
             None => items.into_iter().map(pull).sum(),
         };
         self.lat.inbox_num = inbox_num;
