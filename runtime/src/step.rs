@@ -168,7 +168,8 @@ pub struct Engine {
     /// Per rule: its calculations can run on a range of agents at once (no external
     /// counters).
     batchable: Vec<bool>,
-    /// Worker threads, when more than one was asked for.
+    /// The threads that share chunks of agents (see [`Workers`]), when more than one was
+    /// asked for.
     pool: Option<Workers>,
     /// Whether the selection, the calculations and the post office run on the pool.
     tuner: Tuner,
@@ -1183,11 +1184,11 @@ impl Engine {
             let mut evaluated = false;
             let mut truth = [false; BATCH];
             let mut bufs = PreBufs::new();
+            let hi = lo + one.len();
             let mut k = 0;
             while k < one.len() {
                 // The agents whose candidate list decides alone, in a tight loop up to
                 // the next agent to evaluate.
-                let hi = lo + one.len();
                 let decided = (one[k..].iter_mut().zip(&of[lo + k..hi])).position(
                     |(slot, &idx)| match single[idx as usize] {
                         EVALUATE => true,
@@ -1207,7 +1208,7 @@ impl Engine {
                 // A run of agents with the same one rule to test: evaluated together.
                 if let [r] = lists[idx][..] {
                     if pre_batch[r as usize] {
-                        let m = run_of(&of[a..(a + BATCH).min(lo + one.len())], idx as u32);
+                        let m = run_of(&of[a..(a + BATCH).min(hi)], idx as u32);
                         batch_pre(prog, (r, a), lat, &mut bufs, &mut truth[..m]);
                         for (slot, &t) in one[k..k + m].iter_mut().zip(&truth[..m]) {
                             *slot = if t { r } else { NO_RULE };
