@@ -166,11 +166,11 @@ impl Pending {
         let nd = lat.dim.dirs();
         let mut plan: Vec<Option<Vec<(u32, u32)>>> = vec![Some(Vec::new()); 6];
         let mut next = [NO_AGENT; 6]; // the sender each current segment predicts
+                                      // Agents `a..a + m` whose senders in direction `d` are `f..f + m` (or none).
         let add = |plan: &mut Vec<Option<Vec<(u32, u32)>>>,
                    next: &mut [u32; 6],
-                   d: usize,
-                   a: u32,
-                   f: u32| {
+                   (d, a): (usize, u32),
+                   (f, m): (u32, usize)| {
             if let Some(segs) = &mut plan[d] {
                 if segs.is_empty() || f != next[d] {
                     segs.push((a, f));
@@ -179,7 +179,11 @@ impl Pending {
                     }
                 }
             }
-            next[d] = if f == NO_AGENT { NO_AGENT } else { f + 1 };
+            next[d] = if f == NO_AGENT {
+                NO_AGENT
+            } else {
+                f.wrapping_add(m as u32)
+            };
         };
         let mut nb = [NO_AGENT; 6];
         let mut a = lo;
@@ -198,10 +202,7 @@ impl Pending {
                         } else {
                             sequence_len(&from[j..], f)
                         };
-                        add(&mut plan, &mut next, d, (a + j) as u32, f);
-                        if f != NO_AGENT {
-                            next[d] = f.wrapping_add(m as u32);
-                        }
+                        add(&mut plan, &mut next, (d, (a + j) as u32), (f, m));
                         j += m;
                     }
                 }
@@ -209,7 +210,7 @@ impl Pending {
             } else {
                 lat.neighbours(a as u32, &mut nb);
                 for (d, &f) in nb.iter().enumerate().take(nd) {
-                    add(&mut plan, &mut next, d, a as u32, f);
+                    add(&mut plan, &mut next, (d, a as u32), (f, 1));
                 }
                 a += 1;
             }

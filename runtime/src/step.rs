@@ -401,11 +401,22 @@ impl Hop {
         next: EVALUATE,
         state: [0; 5],
     };
+
+    /// An agent takes this hop: its new state, candidate list and selection entry, and
+    /// the count of its old list's agents that took the hop (their firings are moved by
+    /// [`Engine::count_hops`]).
+    #[inline(always)]
+    fn take(&self, (list, state, one): (&mut u32, &mut [u8; 5], &mut u32), hopped: &mut u64) {
+        *state = self.state;
+        *list = self.to;
+        *one = self.next;
+        *hopped += 1;
+    }
 }
 
-/// From agent `from` on, each agent takes its candidate list's hop (see
-/// [`Engine::take_hop`]) until one whose list's hop is not known or needs its rules
-/// evaluated, whose index is returned (the number of agents when there is none).
+/// From agent `from` on, each agent takes its candidate list's hop ([`Hop::take`]) until
+/// one whose list's hop is not known or needs its rules evaluated, whose index is
+/// returned (the number of agents when there is none).
 #[inline(never)]
 fn hop_run(
     from: usize,
@@ -425,10 +436,7 @@ fn hop_run(
         if hop.to == NO_LIST || hop.next == EVALUATE {
             return from + a;
         }
-        *state = hop.state;
-        *list = hop.to;
-        *one = hop.next;
-        hopped[idx] += 1;
+        hop.take((list, state, one), &mut hopped[idx]);
     }
     n
 }
@@ -458,11 +466,10 @@ impl Workers {
     /// results in the items' order.
     fn map<I: Send, T: Send>(&self, items: Vec<I>, f: impl Fn(I) -> T + Sync) -> Vec<T> {
         use std::sync::atomic::{AtomicUsize, Ordering};
-        use std::sync::Mutex;
-        fn take<X>(m: &Mutex<Option<X>>) -> Option<X> {
-            m.lock()
-                .unwrap_or_else(|poisoned| poisoned.into_inner())
-                .take()
+        use std::sync::{Mutex, MutexGuard};
+        // (A panic in `f` reaches the caller when the scope ends; the slots stay usable.)
+        fn lock<X>(m: &Mutex<X>) -> MutexGuard<'_, X> {
+            m.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
         }
         let n = items.len();
         let todo: Vec<Mutex<Option<I>>> = items.into_iter().map(|i| Mutex::new(Some(i))).collect();
@@ -473,10 +480,8 @@ impl Workers {
             let Some(item) = todo.get(k) else {
                 break;
             };
-            let r = f(take(item).expect("each item is taken once"));
-            *done[k]
-                .lock()
-                .unwrap_or_else(|poisoned| poisoned.into_inner()) = Some(r);
+            let r = f(lock(item).take().expect("each item is taken once"));
+            *lock(&done[k]) = Some(r);
         };
         let work = &work;
         self.pool.in_place_scope(|s| {
@@ -485,8 +490,8 @@ impl Workers {
             }
             work();
         });
-        done.iter()
-            .map(|m| take(m).expect("every item ran"))
+        (done.iter())
+            .map(|m| lock(m).take().expect("every item ran"))
             .collect()
     }
 }
@@ -740,12 +745,7 @@ fn apply_state(
     }
     let new: [u8; 5] = v.to_le_bytes()[..5].try_into().expect("five bytes");
     lat.state[a] = new;
-    let (key, idx) = cache[cache_slot(v, cache.len())];
-    let idx = if key == v + 1 {
-        Some(idx)
-    } else {
-        known_states.get(&v).copied()
-    };
+    let idx = cached(cache, v).or_else(|| known_states.get(&v).copied());
     cand_of[a] = idx.unwrap_or(NO_LIST);
     Some((old, new, idx.is_some()))
 }
@@ -761,6 +761,15 @@ fn state_key(s: &[u8; 5]) -> u64 {
 fn cache_slot(key: u64, len: usize) -> usize {
     // `len` is a power of two: the top bits of the product index it.
     (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> (64 - len.trailing_zeros())) as usize
+}
+
+/// The candidate list of a state key, when the candidate cache holds it.
+#[inline]
+fn cached(cache: &[(u64, u32)], key: u64) -> Option<u32> {
+    match cache[cache_slot(key, cache.len())] {
+        (k, idx) if k == key + 1 => Some(idx),
+        _ => None,
+    }
 }
 
 /// A state pattern as (mask of the characters it sets, their values) over state keys.
@@ -1073,9 +1082,8 @@ impl Engine {
         let prog = &self.prog;
         let st = &self.lat.state[a];
         let key = state_key(st);
-        let slot = cache_slot(key, self.cand_cache.len());
-        if self.cand_cache[slot].0 == key + 1 {
-            self.cand_of[a] = self.cand_cache[slot].1;
+        if let Some(idx) = cached(&self.cand_cache, key) {
+            self.cand_of[a] = idx;
             return;
         }
         let lists = &mut self.cand_lists;
@@ -1109,6 +1117,7 @@ impl Engine {
             hopped.push(0);
             (lists.len() - 1) as u32
         });
+        let slot = cache_slot(key, self.cand_cache.len());
         self.cand_cache[slot] = (key + 1, idx);
         // Eight slots per known state keep collisions rare.
         if self.candidates.len() * 8 > self.cand_cache.len() && self.cand_cache.len() < 1 << 16 {
@@ -1140,10 +1149,10 @@ impl Engine {
                     continue;
                 }
                 let key = state_key(st);
-                match cache[cache_slot(key, cache.len())] {
-                    (k, idx) if k == key + 1 => *o = idx,
-                    _ if all => *o = known.get(&key).copied().unwrap_or(NO_LIST),
-                    _ => {
+                match cached(cache, key) {
+                    Some(idx) => *o = idx,
+                    None if all => *o = known.get(&key).copied().unwrap_or(NO_LIST),
+                    None => {
                         let slot = &mut listed[cache_slot(key, 256)];
                         if *slot != key + 1 {
                             *slot = key + 1;
@@ -1606,22 +1615,20 @@ impl Engine {
         let simple = every && sel.many.is_empty();
         // When every rule's actions are a plain move (or none) and no agent executes several
         // rules, the step's actions are the list of moves, collected in one tight loop.
-        let plain = &self.plain_moves;
-        let agents = if simple && self.acting == Acting::PlainMoves {
+        let plain_moves = simple && self.acting == Acting::PlainMoves;
+        // When the selection is kept (decided by states alone) and every rule's actions
+        // only set the state, each agent takes its candidate list's hop, known per list,
+        // in one tight loop (`hop_run`); the loop stops at each agent whose list has no hop
+        // yet (or whose new state's rules need evaluating), which goes the general way.
+        let hops = simple && keep && direct && self.acting == Acting::States;
+        if plain_moves {
+            let plain = &self.plain_moves;
             for (a, &r) in sel.one.iter().enumerate() {
                 if let Some(&Some(o)) = plain.get(r as usize) {
                     todo.moves.push((a as u32, o));
                 }
             }
-            0
-        } else {
-            n
-        };
-        // When the selection is kept (decided by states alone) and every rule's actions
-        // only set the state, each agent takes its candidate list's hop, known per list,
-        // in one tight loop (`hop_run`); the loop stops at each agent whose list has no hop
-        // yet (or whose new state's rules need evaluating), which goes the general way.
-        let agents = if agents > 0 && simple && keep && direct && self.acting == Acting::States {
+        } else if hops {
             let mut a = 0;
             loop {
                 a = hop_run(
@@ -1641,10 +1648,9 @@ impl Engine {
                 }
                 a += 1;
             }
-            0
-        } else {
-            agents
-        };
+        }
+        // Otherwise, every agent in turn.
+        let agents = if plain_moves || hops { 0 } else { n };
         for a in 0..agents {
             let r = sel.one[a];
             if r == NO_RULE {
@@ -1839,18 +1845,21 @@ impl Engine {
     ) -> (bool, bool) {
         let idx = self.cand_of[a];
         if keep && idx != NO_LIST && self.cand_single[idx as usize] == r {
-            let mut to = self.cand_hop[idx as usize].to;
-            if to == NO_LIST {
-                let hop = self.hop(idx, r, bits);
-                self.cand_hop[idx as usize] = hop;
-                to = hop.to;
+            let i = idx as usize;
+            if self.cand_hop[i].to == NO_LIST {
+                self.cand_hop[i] = self.hop(idx, r, bits);
             }
-            if to == idx {
+            let hop = self.cand_hop[i];
+            if hop.to == idx {
                 return (false, false);
             }
-            let hop = self.cand_hop[idx as usize];
-            if to != NO_LIST && hop.next != EVALUATE {
-                self.take_hop(a, idx as usize, &hop, sel);
+            if hop.to != NO_LIST && hop.next != EVALUATE {
+                let agent = (
+                    &mut self.cand_of[a],
+                    &mut self.lat.state[a],
+                    &mut sel.one[a],
+                );
+                hop.take(agent, &mut self.cand_hopped[i]);
                 return (false, false);
             }
         }
@@ -1887,16 +1896,6 @@ impl Engine {
             }
         }
         (false, false)
-    }
-
-    /// Agent `a`, of candidate list `idx`, takes that list's `hop`: its new state, list and
-    /// selection entry (its firings are moved by [`Engine::count_hops`]).
-    #[inline(always)]
-    fn take_hop(&mut self, a: usize, idx: usize, hop: &Hop, sel: &mut Selection) {
-        self.lat.state[a] = hop.state;
-        self.cand_of[a] = hop.to;
-        sel.one[a] = hop.next;
-        self.cand_hopped[idx] += 1;
     }
 
     /// Moves the firing counts of the agents that took a hop in this step (see
@@ -2999,20 +2998,8 @@ impl Tally {
         nd: usize,
         len: usize,
     ) -> Tally {
-        let whole = len / 64;
-        let rest = (len % 64 != 0).then(|| u64::MAX >> (64 - len % 64));
-        let full = cols
-            .iter()
-            .map(|c| {
-                let c = c.as_ref();
-                c[..whole].iter().fold(u64::MAX, |acc, &w| acc & w) == u64::MAX
-                    && rest.is_none_or(|m| c[whole] & m == m)
-            })
-            .collect();
-        let empty: Vec<bool> = cols
-            .iter()
-            .map(|c| c.as_ref().iter().fold(0, |acc, &w| acc | w) == 0)
-            .collect();
+        let full = cols.iter().map(|c| all_bits(c.as_ref(), 0..len)).collect();
+        let empty: Vec<bool> = cols.iter().map(|c| no_bits(c.as_ref(), 0..len)).collect();
         let (sent, delivered) = count_messages(cols, has_nbr, (w0, nd), &empty);
         Tally {
             sent,
@@ -3280,7 +3267,8 @@ pub(crate) fn all_bits(bits: &[u64], range: std::ops::Range<usize>) -> bool {
 }
 
 /// Whether every bit of `range` is as in `word` (all zeros or all ones): the words at both
-/// ends under a mask, the ones between whole (without early exit, which vectorises).
+/// ends under a mask, the ones between whole (or-ed, or and-ed, without early exit, which
+/// vectorises).
 #[inline(always)]
 fn bits_are(bits: &[u64], range: std::ops::Range<usize>, word: u64) -> bool {
     let Some((first, last, head, tail)) = edges(range) else {
@@ -3290,11 +3278,14 @@ fn bits_are(bits: &[u64], range: std::ops::Range<usize>, word: u64) -> bool {
         let mask = head & tail;
         return bits[first] & mask == word & mask;
     }
+    let between = &bits[first + 1..last];
     bits[first] & head == word & head
         && bits[last] & tail == word & tail
-        && bits[first + 1..last]
-            .iter()
-            .fold(true, |ok, &w| ok & (w == word))
+        && if word == 0 {
+            between.iter().fold(0, |acc, &w| acc | w) == 0
+        } else {
+            between.iter().fold(u64::MAX, |acc, &w| acc & w) == u64::MAX
+        }
 }
 
 /// The most frequent calculations over a run of agents, without a detour through 32-bit
