@@ -1,6 +1,7 @@
 //! `latticesim gen`: agents files for lines, blocks, random connected shapes and clouds.
 
-use crate::write_file;
+use crate::output::say;
+use crate::output::{self, open_output, write_output};
 use clap::ValueEnum;
 use latticesim_runtime::gen::{agents_text, GenOptions, Shape};
 use std::path::PathBuf;
@@ -98,6 +99,10 @@ pub struct GenArgs {
 }
 
 pub fn gen(a: GenArgs) -> ExitCode {
+    let out_file = match a.out.as_deref().map(open_output).transpose() {
+        Ok(f) => f,
+        Err(c) => return c,
+    };
     let need = |v: Option<u32>, name: &str| v.ok_or_else(|| format!("this shape needs --{name}"));
     let shape = match a.shape {
         ShapeArg::Line => need(a.n, "n").map(|n| Shape::Line { n }),
@@ -118,24 +123,24 @@ pub fn gen(a: GenArgs) -> ExitCode {
     let opts = match a.agents.gen_options(a.seed) {
         Ok(o) => o,
         Err(e) => {
-            eprintln!("error: {e}");
+            say!("error: {e}");
             return ExitCode::from(2);
         }
     };
     let text = match shape.and_then(|s| agents_text(&s, &opts)) {
         Ok(t) => t,
         Err(e) => {
-            eprintln!("error: {e}");
+            say!("error: {e}");
             return ExitCode::from(2);
         }
     };
-    match &a.out {
-        Some(p) => match write_file(p, &text) {
+    match out_file {
+        Some(f) => match write_output(f, text.as_bytes()) {
             Ok(()) => ExitCode::SUCCESS,
             Err(c) => c,
         },
         None => {
-            print!("{text}");
+            output::stdout(text.as_bytes());
             ExitCode::SUCCESS
         }
     }

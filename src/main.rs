@@ -3,11 +3,13 @@
 
 use clap::{Parser, Subcommand, ValueEnum};
 use latticesim_compiler::{check, Checked, Dim, Input};
+use output::say;
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 mod gen;
+mod output;
 mod render;
 mod run;
 mod serve;
@@ -89,7 +91,7 @@ enum Command {
 
 pub(crate) fn read(path: &PathBuf) -> Result<Vec<u8>, ExitCode> {
     std::fs::read(path).map_err(|e| {
-        eprintln!("error: cannot read `{}`: {e}", path.display());
+        say!("error: cannot read `{}`: {e}", path.display());
         ExitCode::from(2)
     })
 }
@@ -108,6 +110,20 @@ pub(crate) fn check_pair(
         agents.map(|(name, bytes)| Input { name, bytes }),
         dim,
     )
+}
+
+/// The diagnostics found but not listed, per file, for JSON documents.
+pub(crate) fn not_shown_json(c: &Checked) -> serde_json::Value {
+    c.not_shown
+        .iter()
+        .map(|n| {
+            serde_json::json!({
+                "file": c.sources.name(n.file),
+                "errors": n.errors,
+                "warnings": n.warnings,
+            })
+        })
+        .collect()
 }
 
 fn summary(c: &Checked, agents: bool) -> String {
@@ -169,13 +185,10 @@ fn run_check(
                     std::io::stderr().is_terminal() && std::env::var_os("NO_COLOR").is_none()
                 }
             };
-            if let Err(e) =
-                latticesim_compiler::render::render_stderr(&checked.diags, &checked.sources, colour)
-            {
-                eprintln!("error: cannot write diagnostics: {e}");
-                return ExitCode::from(2);
-            }
-            eprintln!("{}", summary(&checked, agents.is_some()));
+            let mut text = checked.render(colour);
+            text += &summary(&checked, agents.is_some());
+            text.push('\n');
+            output::stderr(&text);
         }
         Format::Json => {
             let doc = serde_json::json!({
@@ -186,11 +199,11 @@ fn run_check(
                 "errors": checked.errors(),
                 "warnings": checked.warnings(),
                 "diagnostics": latticesim_compiler::render::to_json(&checked.diags, &checked.sources),
+                "not_shown": not_shown_json(&checked),
             });
-            println!(
-                "{}",
-                serde_json::to_string_pretty(&doc).expect("JSON of plain data")
-            );
+            let mut text = serde_json::to_string_pretty(&doc).expect("JSON of plain data");
+            text.push('\n');
+            output::stdout(text.as_bytes());
         }
     }
     if checked.errors() > 0 {
@@ -198,7 +211,7 @@ fn run_check(
     }
     if dump_bytecode {
         if let Some(p) = &checked.program {
-            print!("{}", latticesim_compiler::lower(p).disassemble());
+            output::stdout(latticesim_compiler::lower(p).disassemble().as_bytes());
         }
     }
     ExitCode::SUCCESS
@@ -212,19 +225,45 @@ pub(crate) fn colour(color: Color) -> bool {
     }
 }
 
-pub(crate) fn write_file(path: &PathBuf, text: &str) -> Result<(), ExitCode> {
-    std::fs::write(path, text).map_err(|e| {
-        eprintln!("error: cannot write `{}`: {e}", path.display());
-        ExitCode::from(2)
-    })
+/// The threads to use when `requested` (default: every core) are asked for work that can
+/// keep at most `most` busy (`why_most` says why, for the note): never more than the
+/// machine's cores nor than `most`; a note says so when fewer than asked are used.
+pub(crate) fn threads(requested: Option<usize>, most: usize, why_most: &str) -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let used = requested.unwrap_or(cores).clamp(1, cores.min(most.max(1)));
+    if let Some(r) = requested.filter(|&r| r > used) {
+        let why = if used == cores && cores <= most {
+            format!(
+                "this machine has {cores} core{}",
+                if cores == 1 { "" } else { "s" }
+            )
+        } else {
+            why_most.to_string()
+        };
+        say!("note: --threads {r}: using {used}, because {why}");
+    }
+    used
+}
+
+/// The threads of an engine on `agents` agents (see [`threads`]).
+pub(crate) fn engine_threads(requested: Option<usize>, agents: usize) -> usize {
+    let per = latticesim_runtime::AGENTS_PER_THREAD;
+    let most = agents.div_ceil(per);
+    let why = format!(
+        "{agents} agent{} keep at most {} busy (one per {per} agents)",
+        if agents == 1 { "" } else { "s" },
+        most.max(1)
+    );
+    threads(requested, most, &why)
 }
 
 /// How many records of one kind are printed before the rest are only counted.
 pub(crate) const RECORDS_SHOWN_PER_KIND: u64 = 5;
 
 fn main() -> ExitCode {
+    output::on_interrupt();
     let cli = Cli::parse();
-    match cli.command {
+    let code = match cli.command {
         Command::Check {
             rules,
             agents,
@@ -238,5 +277,6 @@ fn main() -> ExitCode {
         Command::Sweep(args) => sweep::sweep(args),
         Command::Render(args) => render::render(args),
         Command::Serve(args) => serve::serve(args),
-    }
+    };
+    output::finish(code)
 }

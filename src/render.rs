@@ -3,6 +3,7 @@
 //! ([`state_colour`]), bonds are bars between attached agents, a bounded universe is
 //! outlined. The SVG carries a legend of the states.
 
+use crate::output::{open_output, say, write_output};
 use crate::run::load;
 use crate::{colour, Color};
 use latticesim_runtime::{Engine, Lattice, Options};
@@ -451,11 +452,11 @@ pub fn render(args: RenderArgs) -> ExitCode {
         (Some(s), _) => match range(s) {
             Some(r) if r.1 - r.0 < MAX_FRAMES => r,
             Some(_) => {
-                eprintln!("error: --steps {s}: at most {MAX_FRAMES} frames");
+                say!("error: --steps {s}: at most {MAX_FRAMES} frames");
                 return ExitCode::from(2);
             }
             None => {
-                eprintln!("error: --steps {s}: expected A..B with A <= B, e.g. 0..40");
+                say!("error: --steps {s}: expected A..B with A <= B, e.g. 0..40");
                 return ExitCode::from(2);
             }
         },
@@ -464,20 +465,24 @@ pub fn render(args: RenderArgs) -> ExitCode {
     match (ext.as_deref(), first == last) {
         (Some("png" | "svg"), true) | (Some("gif"), _) => {}
         (Some("png" | "svg"), false) => {
-            eprintln!(
+            say!(
                 "error: an animation (--steps) is written as .gif, not `{}`",
                 args.out.display()
             );
             return ExitCode::from(2);
         }
         _ => {
-            eprintln!(
+            say!(
                 "error: `{}`: the image must end in .png, .svg or .gif",
                 args.out.display()
             );
             return ExitCode::from(2);
         }
     }
+    let out_file = match open_output(&args.out) {
+        Ok(f) => f,
+        Err(c) => return c,
+    };
     let (prog, config) = match load(&args.rules, &args.agents, true, colour(args.color)) {
         Ok(l) => l,
         Err(c) => return c,
@@ -486,15 +491,14 @@ pub fn render(args: RenderArgs) -> ExitCode {
     let universe = config
         .universe
         .map(|b| [0, 1, 2].map(|k| (b[k].0 as i64, b[k].1 as i64)));
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let opts = Options {
-        threads,
+        threads: crate::engine_threads(None, config.agents.len()),
         ..Options::default()
     };
     let mut engine = Engine::new(prog, Lattice::new(&config), opts);
     let agent_frames = engine.lat.len() as u64 * (last - first + 1);
     if agent_frames > MAX_AGENT_FRAMES {
-        eprintln!(
+        say!(
             "error: {} agents in {} frames are more than {MAX_AGENT_FRAMES} agent-frames; draw fewer steps",
             engine.lat.len(),
             last - first + 1
@@ -503,20 +507,48 @@ pub fn render(args: RenderArgs) -> ExitCode {
     }
     let mut frames = Vec::new();
     let mut states = BTreeSet::new();
+    // The run is drawn up to `last`, or up to where it became quiescent (nothing changes
+    // after that), whichever comes first.
     while engine.stats.steps <= last {
         if engine.stats.steps >= first {
             let f = Frame::of(&engine.lat);
             states.extend(f.state.iter().copied());
             frames.push(f);
         }
-        if engine.stats.steps == last {
+        if engine.stats.steps == last || engine.stats.quiescent {
             break;
         }
         engine.step();
     }
+    let reached = engine.stats.steps;
+    if frames.is_empty() {
+        // Quiescent before `first`: the configuration it stopped in is the one asked for.
+        let f = Frame::of(&engine.lat);
+        states.extend(f.state.iter().copied());
+        frames.push(f);
+    }
+    if reached < last {
+        let shown = if first == last {
+            format!("step {last} is the configuration it stopped in")
+        } else {
+            format!(
+                "the animation ends there, at frame {} (steps {}..{reached})",
+                frames.len(),
+                first.min(reached)
+            )
+        };
+        say!("note: the run is quiescent after step {reached} (no agent has a rule left to execute); {shown}");
+    }
+    // A single picture is labelled with the step asked for; an animation covers the steps
+    // that were run.
+    let (first, last) = if first == last {
+        (first, last)
+    } else {
+        (first.min(reached), last.min(reached))
+    };
     let view = View::new(&frames, dim, universe, args.cell);
     if view.size.0 as u64 > MAX_SIDE + 64 || view.size.1 as u64 > MAX_SIDE + 64 {
-        eprintln!(
+        say!(
             "error: `{}`: the agents spread over {} x {} cells, more than a picture of at most {MAX_SIDE} pixels a side can show at one pixel a cell",
             args.agents.display(),
             view.hi[0] - view.lo[0] + 1,
@@ -532,15 +564,14 @@ pub fn render(args: RenderArgs) -> ExitCode {
     let bytes = match bytes {
         Ok(b) => b,
         Err(e) => {
-            eprintln!("error: cannot encode `{}`: {e}", args.out.display());
+            say!("error: cannot encode `{}`: {e}", args.out.display());
             return ExitCode::from(2);
         }
     };
-    if let Err(e) = std::fs::write(&args.out, bytes) {
-        eprintln!("error: cannot write `{}`: {e}", args.out.display());
-        return ExitCode::from(2);
+    if let Err(c) = write_output(out_file, &bytes) {
+        return c;
     }
-    eprintln!(
+    say!(
         "{}: {} frame{} ({} x {} pixels, steps {first}..{last}), {} agents",
         args.out.display(),
         frames.len(),

@@ -1,6 +1,8 @@
 //! `latticesim run`: check, compile, step until quiescence, write the results.
 
-use crate::{check_pair, colour, read, write_file, Color, RECORDS_SHOWN_PER_KIND};
+use crate::output::say;
+use crate::output::{self, open_output, write_output};
+use crate::{check_pair, colour, read, Color, RECORDS_SHOWN_PER_KIND};
 use clap::ValueEnum;
 use latticesim_compiler::lower;
 use latticesim_runtime::{Engine, Lattice, Options, Order, RecordKind, Stats};
@@ -9,8 +11,6 @@ use std::collections::BTreeMap;
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// The arguments of `latticesim run`.
@@ -130,11 +130,10 @@ pub(crate) fn load(
         None,
     );
     if !checked.diags.is_empty() && (checked.errors() > 0 || !quiet) {
-        let _ =
-            latticesim_compiler::render::render_stderr(&checked.diags, &checked.sources, colour);
+        output::stderr(&checked.render(colour));
     }
     let (Some(program), Some(config)) = (checked.program.as_ref(), checked.config.clone()) else {
-        eprintln!(
+        say!(
             "{rules_name}, {agents_name}: {} error{}; nothing was run",
             checked.errors(),
             if checked.errors() == 1 { "" } else { "s" }
@@ -143,7 +142,7 @@ pub(crate) fn load(
     };
     let prog = lower(program);
     if let Err(e) = prog.verify() {
-        eprintln!("internal error: the compiled program does not verify: {e}");
+        say!("internal error: the compiled program does not verify: {e}");
         return Err(ExitCode::from(2));
     }
     Ok((prog, config))
@@ -155,37 +154,25 @@ pub fn run(args: RunArgs) -> ExitCode {
         OrderArg::MessagesFirst => Order::MessagesFirst,
     };
     let colour = colour(args.color);
+    // Every output path is checked (by starting its file) before anything is read or run.
+    let open = |p: &Option<PathBuf>| p.as_deref().map(open_output).transpose();
+    let (out_file, stats_file, mut trace_out) =
+        match (open(&args.out), open(&args.stats), open(&args.trace)) {
+            (Ok(o), Ok(s), Ok(t)) => (o, s, t),
+            (Err(c), _, _) | (_, Err(c), _) | (_, _, Err(c)) => return c,
+        };
     let (prog, config) = match load(&args.rules, &args.agents, args.quiet, colour) {
         Ok(l) => l,
         Err(c) => return c,
     };
-    let mut trace_out = match &args.trace {
-        Some(p) => match std::fs::File::create(p) {
-            Ok(f) => Some(std::io::BufWriter::new(f)),
-            Err(e) => {
-                eprintln!("error: cannot write `{}`: {e}", p.display());
-                return ExitCode::from(2);
-            }
-        },
-        None => None,
-    };
-    let threads = args
-        .threads
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let opts = Options {
-        threads,
+        threads: crate::engine_threads(args.threads, config.agents.len()),
         order,
         static_first: args.static_first,
         trace: trace_out.is_some(),
     };
     let mut engine = Engine::new(prog, Lattice::new(&config), opts);
-
-    let interrupted = Arc::new(AtomicBool::new(false));
-    {
-        let flag = interrupted.clone();
-        // A second handler cannot be installed (tests run the CLI as separate processes).
-        let _ = ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst));
-    }
+    output::poll_interrupts();
     let started = Instant::now();
     let mut bar: Option<indicatif::ProgressBar> = None;
     let show_progress = !args.quiet && std::io::stderr().is_terminal();
@@ -203,7 +190,7 @@ pub fn run(args: RunArgs) -> ExitCode {
                 let line = format!("{r}");
                 match &bar {
                     Some(b) => b.println(line),
-                    None => eprintln!("{line}"),
+                    None => say!("{line}"),
                 }
             }
         }
@@ -227,7 +214,7 @@ pub fn run(args: RunArgs) -> ExitCode {
                 ok &= writeln!(w, "{v}").is_ok();
             }
             if !ok {
-                eprintln!("error: cannot write the trace");
+                say!("error: cannot write `{}`", w.path().display());
                 return ExitCode::from(2);
             }
         }
@@ -242,7 +229,7 @@ pub fn run(args: RunArgs) -> ExitCode {
             stop = Stop::Quiescence;
             break;
         }
-        if interrupted.load(Ordering::SeqCst) {
+        if output::interrupted() {
             stop = Stop::Interrupted;
             break;
         }
@@ -264,33 +251,34 @@ pub fn run(args: RunArgs) -> ExitCode {
         b.finish_and_clear();
     }
     let wall = started.elapsed();
-    if let Some(mut w) = trace_out {
-        if w.flush().is_err() {
-            eprintln!("error: cannot write the trace");
-            return ExitCode::from(2);
+    // Every file asked for is written, even when an earlier one (or the terminal) failed.
+    let mut failed = None;
+    if let Some(t) = trace_out {
+        let path = t.path().to_path_buf();
+        if let Err(e) = t.commit() {
+            say!("error: cannot write `{}`: {e}", path.display());
+            failed = Some(ExitCode::from(2));
         }
     }
     let text = engine.lat.to_agents_text();
-    match &args.out {
-        Some(p) => {
-            if let Err(c) = write_file(p, &text) {
-                return c;
-            }
-        }
-        None => print!("{text}"),
+    match out_file {
+        Some(f) => failed = write_output(f, text.as_bytes()).err().or(failed),
+        None => output::stdout(text.as_bytes()),
     }
-    if let Some(p) = &args.stats {
+    drop(text);
+    if let Some(f) = stats_file {
         let v = stats_json(&engine, stop, (!args.no_timing).then_some(wall));
         let mut s = serde_json::to_string_pretty(&v).expect("plain data");
         s.push('\n');
-        if let Err(c) = write_file(p, &s) {
-            return c;
-        }
+        failed = write_output(f, s.as_bytes()).err().or(failed);
+    }
+    if let Some(c) = failed {
+        return c;
     }
     if !args.quiet {
         for (k, n) in &shown {
             if *n > RECORDS_SHOWN_PER_KIND {
-                eprintln!(
+                say!(
                     "... and {} more {} records",
                     n - RECORDS_SHOWN_PER_KIND,
                     k.name()
@@ -309,7 +297,7 @@ pub fn run(args: RunArgs) -> ExitCode {
             }
             Stop::Interrupted => "interrupted".into(),
         };
-        eprintln!(
+        say!(
             "{} agents, {} steps, {why}: {firings} rule firings, {} moves, {} swaps, {} messages sent ({} delivered, {} dropped), {errors} error records, {warnings} warnings, {:.3} s",
             engine.lat.len(),
             s.steps,

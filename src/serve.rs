@@ -1,20 +1,31 @@
-//! `latticesim serve`: the viewer and editor in the browser. A small synchronous HTTP server
-//! on 127.0.0.1 serves the single-page app embedded in the binary (`web/`) and a JSON API
-//! over a [`History`] of the run; the API is documented in docs/viewer.md.
+//! `latticesim serve`: the viewer and editor in the browser. An HTTP server on 127.0.0.1
+//! ([`http`]: connections, limits, deadlines) serves the single-page app embedded in the
+//! binary (`web/`) and a JSON API over a [`History`] of the run; the API and the security
+//! model are documented in docs/viewer.md.
 //!
-//! Requests are handled one at a time, so the run needs no locking. A request that fails
-//! gets a JSON `{"error": "..."}` with a 4xx status; a panic while handling one is caught,
-//! answered with 500 and ends the run (the files stay), so the server keeps serving.
+//! Every request passes the [`Gate`] first: its `Host` must be an address this server is
+//! reached at (against DNS rebinding), a cross-origin request is refused, and it must carry
+//! the session's secret token (query, header or the cookie set when the printed URL was
+//! opened). Requests are then handled one at a time under a lock on the [`Session`]. A
+//! request that fails gets a JSON `{"error": "..."}` with a 4xx status; a panic while
+//! handling one is caught, answered with 500 and ends the run (the files stay), so the
+//! server keeps serving.
 
+mod http;
+
+use crate::output::say;
 use crate::render::state_colour;
+use http::{error, Response as Reply};
 use latticesim_compiler::{lower, Checked};
 use latticesim_runtime::{Engine, History, Lattice, Options, Order, TraceEvent};
 use serde::Serialize;
 use serde_json::{json, Value};
 use std::collections::HashMap;
-use std::io::{Read, Write};
+use std::io::Read;
+use std::net::{IpAddr, SocketAddr, TcpListener, ToSocketAddrs};
 use std::path::{Component, Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 const INDEX_HTML: &str = include_str!("../web/index.html");
@@ -27,6 +38,18 @@ pub const MAX_BODY: usize = 8 << 20;
 const MAX_FILE: u64 = 8 << 20;
 /// How long one request may step forwards before it answers with the step it reached.
 const STEP_BUDGET: Duration = Duration::from_secs(5);
+/// What a client may send, and how slowly (see [`http::Limits`]).
+const LIMITS: http::Limits = http::Limits {
+    head: 32 << 10,
+    headers: 64,
+    body: MAX_BODY,
+    read: Duration::from_secs(30),
+    write: Duration::from_secs(30),
+    connections: 64,
+};
+/// The longest path the file API takes, in bytes, and the longest name in it.
+const MAX_PATH: usize = 4096;
+const MAX_NAME: usize = 255;
 
 /// The arguments of `latticesim serve`.
 #[derive(clap::Args)]
@@ -39,10 +62,14 @@ pub struct ServeArgs {
     /// The port (0: any free port; the URL printed says which).
     #[arg(long, default_value_t = 8080)]
     port: u16,
-    /// The address to listen on. Anyone who can reach it can read and write files in the
-    /// working folder, so only 127.0.0.1 is the default.
+    /// The address to listen on. Anyone who can reach it and knows the token can read and
+    /// write files in the working folder, so only 127.0.0.1 is the default.
     #[arg(long, default_value = "127.0.0.1")]
     host: String,
+    /// The secret every request must carry (default: a new random one each time, printed
+    /// in the URL).
+    #[arg(long)]
+    token: Option<String>,
     /// Threads for the per-agent work (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
@@ -52,29 +79,20 @@ pub struct ServeArgs {
     keyframe_every: u64,
 }
 
-/// An answer: status, content type and body.
-struct Reply {
-    status: u16,
-    ctype: &'static str,
-    body: Vec<u8>,
-}
-
 fn reply_json<T: Serialize>(status: u16, v: &T) -> Reply {
     Reply {
         status,
         ctype: "application/json",
+        headers: Vec::new(),
         body: serde_json::to_vec(v).expect("plain data"),
     }
-}
-
-fn error(status: u16, msg: impl Into<String>) -> Reply {
-    reply_json(status, &json!({ "error": msg.into() }))
 }
 
 fn asset(ctype: &'static str, text: &str) -> Reply {
     Reply {
         status: 200,
         ctype,
+        headers: Vec::new(),
         body: text.as_bytes().to_vec(),
     }
 }
@@ -174,6 +192,7 @@ fn check_json(c: &Checked, rules_name: &str) -> Value {
         "rules": c.rule_count,
         "agents": c.agent_count,
         "diagnostics": diags,
+        "not_shown": crate::not_shown_json(c),
     })
 }
 
@@ -398,6 +417,30 @@ impl Session {
         if p.trim().is_empty() {
             return Err(error(400, "the path is empty"));
         }
+        if p.contains('\0') {
+            return Err(error(400, "the path contains a NUL character"));
+        }
+        if p.len() > MAX_PATH {
+            return Err(error(
+                400,
+                format!(
+                    "the path has {} bytes; at most {MAX_PATH} are allowed",
+                    p.len()
+                ),
+            ));
+        }
+        if let Some(long) = Path::new(p)
+            .components()
+            .find(|c| c.as_os_str().len() > MAX_NAME)
+        {
+            return Err(error(
+                400,
+                format!(
+                    "a name in the path has {} bytes; at most {MAX_NAME} are allowed",
+                    long.as_os_str().len()
+                ),
+            ));
+        }
         // First by the path's text (so that `a/../../b` is refused whether `a` exists or
         // not), then by where it really leads (symbolic links).
         let mut full = PathBuf::new();
@@ -425,6 +468,14 @@ impl Session {
         }
         let canon = match full.canonicalize() {
             Ok(c) => c,
+            Err(_) if std::fs::symlink_metadata(&full).is_ok() => {
+                return Err(error(
+                    403,
+                    format!(
+                    "`{p}` is a symbolic link that leads nowhere; the server does not follow it"
+                ),
+                ))
+            }
             Err(_) if new => {
                 let name = full
                     .file_name()
@@ -595,7 +646,9 @@ impl Session {
                         ),
                     ));
                 }
-                let bytes = std::fs::read(&path)
+                let mut bytes = Vec::new();
+                crate::output::open_no_follow(&path)
+                    .and_then(|f| f.take(MAX_FILE + 1).read_to_end(&mut bytes))
                     .map_err(|e| error(404, format!("cannot read `{p}`: {e}")))?;
                 let text = String::from_utf8(bytes)
                     .map_err(|_| error(415, format!("`{p}` is not UTF-8 text")))?;
@@ -609,7 +662,7 @@ impl Session {
                 if path.is_dir() {
                     return Err(error(400, format!("`{p}` is a folder")));
                 }
-                std::fs::write(&path, text)
+                save(&path, text.as_bytes())
                     .map_err(|e| error(500, format!("cannot write `{p}`: {e}")))?;
                 Ok(reply_json(200, &json!({ "path": p, "bytes": text.len() })))
             }
@@ -620,55 +673,219 @@ impl Session {
 fn read_text(p: &Path) -> Result<String, ExitCode> {
     let bytes = crate::read(&p.to_path_buf())?;
     String::from_utf8(bytes).map_err(|_| {
-        eprintln!("error: `{}` is not UTF-8 text", p.display());
+        say!("error: `{}` is not UTF-8 text", p.display());
         ExitCode::from(2)
     })
 }
 
-/// Reads a request's body, at most [`MAX_BODY`] bytes.
-fn body(req: &mut tiny_http::Request) -> Result<Vec<u8>, Reply> {
-    let too_big = || {
-        error(
-            413,
-            format!("the request body is larger than {MAX_BODY} bytes"),
-        )
-    };
-    if req.body_length().is_some_and(|n| n > MAX_BODY) {
-        return Err(too_big());
+/// Writes a file of the editor whole or not at all (a new file beside it, renamed over it),
+/// keeping the permissions of the file it replaces.
+fn save(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    use std::io::Write;
+    let mut f = crate::output::AtomicFile::create(path)?;
+    f.write_all(bytes)?;
+    if let Ok(meta) = std::fs::metadata(path) {
+        f.set_permissions(meta.permissions())?;
     }
-    let mut buf = Vec::new();
-    req.as_reader()
-        .take(MAX_BODY as u64 + 1)
-        .read_to_end(&mut buf)
-        .map_err(|e| error(400, format!("cannot read the request body: {e}")))?;
-    if buf.len() > MAX_BODY {
-        return Err(too_big());
-    }
-    Ok(buf)
+    f.commit()
 }
 
-fn respond(req: tiny_http::Request, r: Reply) {
-    let header = tiny_http::Header::from_bytes("Content-Type", r.ctype).expect("valid header");
-    let nocache = tiny_http::Header::from_bytes("Cache-Control", "no-store").expect("valid header");
-    let resp = tiny_http::Response::from_data(r.body)
-        .with_status_code(r.status)
-        .with_header(header)
-        .with_header(nocache);
-    // The browser may have gone; nothing to do then.
-    let _ = req.respond(resp);
+/// Who may use the server: a request must name this server in its `Host` (a page that
+/// reaches it through DNS rebinding names its own site), must not come from another
+/// site's page (`Origin`, `Sec-Fetch-Site`), and must carry the token.
+struct Gate {
+    token: String,
+    port: u16,
+    /// The host names this server answers to (lower case, IPv6 without brackets).
+    names: Vec<String>,
+    /// Listening on every address: any IP address names this server.
+    any_ip: bool,
+    /// The cookie that holds the token once the printed URL was opened.
+    cookie: String,
+}
+
+/// The host and port of an authority (`host[:port]`, `[v6]:port`), port 80 by default.
+fn authority(a: &str) -> Option<(String, u16)> {
+    let a = a.trim();
+    let (host, port) = if let Some(rest) = a.strip_prefix('[') {
+        let (h, after) = rest.split_once(']')?;
+        let port = match after.strip_prefix(':') {
+            Some(p) => p.parse().ok()?,
+            None if after.is_empty() => 80,
+            None => return None,
+        };
+        (h, port)
+    } else {
+        match a.rsplit_once(':') {
+            Some((h, p)) => (h, p.parse().ok()?),
+            None => (a, 80),
+        }
+    };
+    Some((host.to_ascii_lowercase(), port))
+}
+
+/// Compares two strings in time that does not depend on where they differ.
+fn same_secret(a: &str, b: &str) -> bool {
+    a.len() == b.len() && a.bytes().zip(b.bytes()).fold(0u8, |d, (x, y)| d | (x ^ y)) == 0
+}
+
+impl Gate {
+    fn new(token: String, bound: SocketAddr, host_arg: &str) -> Gate {
+        let mut names: Vec<String> = ["127.0.0.1", "localhost", "::1"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        let arg = host_arg.trim_start_matches('[').trim_end_matches(']');
+        names.push(arg.to_ascii_lowercase());
+        names.push(bound.ip().to_string());
+        Gate {
+            token,
+            port: bound.port(),
+            names,
+            any_ip: bound.ip().is_unspecified(),
+            cookie: format!("latticesim-token-{}", bound.port()),
+        }
+    }
+
+    fn names_this_server(&self, a: &str) -> bool {
+        authority(a).is_some_and(|(host, port)| {
+            port == self.port
+                && (self.names.contains(&host) || (self.any_ip && host.parse::<IpAddr>().is_ok()))
+        })
+    }
+
+    fn token_in<'r>(
+        &self,
+        req: &'r http::Request,
+        query: &HashMap<&'r str, &'r str>,
+    ) -> Option<&'r str> {
+        let cookie = req.header("cookie").and_then(|c| {
+            c.split(';')
+                .filter_map(|kv| kv.trim().split_once('='))
+                .find(|(k, _)| *k == self.cookie)
+                .map(|(_, v)| v)
+        });
+        let auth = req.header("authorization").and_then(|a| {
+            a.strip_prefix("token ")
+                .or_else(|| a.strip_prefix("Bearer "))
+        });
+        [
+            query.get("token").copied(),
+            req.header("x-latticesim-token"),
+            auth,
+            cookie,
+        ]
+        .into_iter()
+        .flatten()
+        .find(|t| same_secret(t.trim(), &self.token))
+    }
+
+    /// Lets a request through (`Ok`, with the headers to add to its answer) or answers it.
+    fn admit(
+        &self,
+        req: &http::Request,
+        path: &str,
+        query: &HashMap<&str, &str>,
+    ) -> Result<Vec<(&'static str, String)>, Reply> {
+        let Some(host) = req.header("host") else {
+            return Err(error(400, "the request has no Host header"));
+        };
+        if !self.names_this_server(host) {
+            return Err(error(
+                403,
+                format!(
+                    "`Host: {host}` does not name this server (it answers at 127.0.0.1:{}, localhost:{0} and the address it listens on); a page of another site that reaches it by DNS rebinding is refused",
+                    self.port
+                ),
+            ));
+        }
+        let foreign_origin = req.header("origin").is_some_and(|o| {
+            !o.strip_prefix("http://")
+                .is_some_and(|a| self.names_this_server(a.trim_end_matches('/')))
+        });
+        if foreign_origin || req.header("sec-fetch-site") == Some("cross-site") {
+            return Err(error(
+                403,
+                format!(
+                    "cross-origin request from `{}` refused: only the viewer's own pages may use this server",
+                    req.header("origin").unwrap_or("another site")
+                ),
+            ));
+        }
+        if self.token_in(req, query).is_none() {
+            return Err(error(
+                403,
+                "this server needs its token: open the URL that `latticesim serve` printed (it ends in ?token=...), or send the token in an X-Latticesim-Token header",
+            ));
+        }
+        let cookie = format!(
+            "{}={}; Path=/; HttpOnly; SameSite=Strict",
+            self.cookie, self.token
+        );
+        if query.contains_key("token") && req.method == "GET" && matches!(path, "/" | "/index.html")
+        {
+            // Keep the token in a cookie and take it out of the address bar.
+            return Err(Reply {
+                status: 303,
+                ctype: "application/json",
+                headers: vec![("Set-Cookie", cookie), ("Location", "/".into())],
+                body: b"{}".to_vec(),
+            });
+        }
+        Ok(Vec::new())
+    }
+}
+
+/// A new random token: 24 bytes from the system, in hexadecimal.
+fn new_token() -> Result<String, String> {
+    let mut b = [0u8; 24];
+    getrandom::fill(&mut b).map_err(|e| format!("cannot make a random token: {e}"))?;
+    Ok(b.iter().map(|x| format!("{x:02x}")).collect())
+}
+
+/// Answers one request: the gate, then the session's handler under its lock.
+fn answer(gate: &Gate, session: &Mutex<Session>, r: &http::Request) -> Reply {
+    let (path, query) = r.target.split_once('?').unwrap_or((&r.target, ""));
+    let query: HashMap<&str, &str> = query
+        .split('&')
+        .filter_map(|kv| kv.split_once('='))
+        .collect();
+    let extra = match gate.admit(r, path, &query) {
+        Ok(h) => h,
+        Err(reply) => return reply,
+    };
+    let req = Req {
+        method: &r.method,
+        path,
+        query,
+        body: &r.body,
+    };
+    let mut s = session.lock().unwrap_or_else(|e| e.into_inner());
+    let s = &mut *s;
+    let mut reply = match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| s.handle(&req)))
+    {
+        Ok(r) => r,
+        Err(_) => {
+            s.run = None;
+            error(
+                500,
+                "internal error while handling the request (details on the server's terminal); the run was stopped, apply the files to start again",
+            )
+        }
+    };
+    reply.headers.extend(extra);
+    reply
 }
 
 pub fn serve(args: ServeArgs) -> ExitCode {
     let root = match std::env::current_dir().and_then(|d| d.canonicalize()) {
         Ok(r) => r,
         Err(e) => {
-            eprintln!("error: cannot open the working folder: {e}");
+            say!("error: cannot open the working folder: {e}");
             return ExitCode::from(2);
         }
     };
-    let threads = args
-        .threads
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let threads = crate::threads(args.threads, usize::MAX, "");
     let mut session = Session {
         root,
         allowed: Vec::new(),
@@ -700,63 +917,68 @@ pub fn serve(args: ServeArgs) -> ExitCode {
         session.agents = agents;
         let (verdict, running) = session.apply();
         if !running {
-            eprintln!(
+            say!(
                 "{}, {}: {} error(s); fix them in the editor",
-                session.rules_path, session.agents_path, verdict["errors"]
+                session.rules_path,
+                session.agents_path,
+                verdict["errors"]
             );
         }
     }
-    let addr = format!("{}:{}", args.host, args.port);
-    let server = match tiny_http::Server::http(&addr) {
-        Ok(s) => s,
+    let token = match args.token.clone().map_or_else(new_token, Ok) {
+        Ok(t)
+            if !t.is_empty()
+                && t.bytes()
+                    .all(|b| b.is_ascii_alphanumeric() || b"-._~".contains(&b)) =>
+        {
+            t
+        }
+        Ok(_) => {
+            say!("error: --token: use letters, digits and - . _ ~ only, at least one");
+            return ExitCode::from(2);
+        }
         Err(e) => {
-            eprintln!("error: cannot listen on {addr}: {e}");
+            say!("error: {e}");
             return ExitCode::from(2);
         }
     };
-    let url = match server.server_addr().to_ip() {
-        Some(a) => format!("http://{a}/"),
-        None => format!("http://{addr}/"),
+    let host = args.host.trim_start_matches('[').trim_end_matches(']');
+    let listener = match (host, args.port)
+        .to_socket_addrs()
+        .and_then(|mut a| a.next().ok_or_else(|| std::io::Error::other("no address")))
+        .and_then(TcpListener::bind)
+    {
+        Ok(l) => l,
+        Err(e) => {
+            say!("error: cannot listen on {}:{}: {e}", args.host, args.port);
+            return ExitCode::from(2);
+        }
     };
-    if args.host != "127.0.0.1" && args.host != "localhost" {
-        eprintln!(
-            "warning: listening on {}: anyone who can reach it can read and write files in {}",
+    let bound = match listener.local_addr() {
+        Ok(a) => a,
+        Err(e) => {
+            say!("error: cannot listen on {}:{}: {e}", args.host, args.port);
+            return ExitCode::from(2);
+        }
+    };
+    let loopback = host == "localhost" || bound.ip().is_loopback();
+    if !loopback {
+        say!(
+            "warning: listening on {}: anyone who can reach it and has the token can read and write files in {}",
             args.host,
             session.root.display()
         );
     }
-    println!("latticesim: serving {url} (Ctrl-C stops)");
-    let _ = std::io::stdout().flush();
-    for mut request in server.incoming_requests() {
-        let reply = match body(&mut request) {
-            Err(r) => r,
-            Ok(bytes) => {
-                let url = request.url().to_string();
-                let (path, query) = url.split_once('?').unwrap_or((&url, ""));
-                let req = Req {
-                    method: request.method().as_str(),
-                    path,
-                    query: query
-                        .split('&')
-                        .filter_map(|kv| kv.split_once('='))
-                        .collect(),
-                    body: &bytes,
-                };
-                let req_ref = &req;
-                let s = &mut session;
-                match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| s.handle(req_ref))) {
-                    Ok(r) => r,
-                    Err(_) => {
-                        session.run = None;
-                        error(
-                            500,
-                            "internal error while handling the request (details on the server's terminal); the run was stopped, apply the files to start again",
-                        )
-                    }
-                }
-            }
-        };
-        respond(request, reply);
-    }
+    let shown = if bound.ip().is_unspecified() || host == "localhost" {
+        format!("127.0.0.1:{}", bound.port())
+    } else {
+        bound.to_string()
+    };
+    crate::output::stdout(
+        format!("latticesim: serving http://{shown}/?token={token} (Ctrl-C stops)\n").as_bytes(),
+    );
+    let gate = Gate::new(token, bound, &args.host);
+    let session = Arc::new(Mutex::new(session));
+    http::serve(listener, LIMITS, move |r| answer(&gate, &session, r));
     ExitCode::SUCCESS
 }

@@ -3,7 +3,8 @@
 //! fitted power laws).
 
 use crate::gen::AgentOptions;
-use crate::write_file;
+use crate::output::say;
+use crate::output::{open_output, write_output};
 use clap::ValueEnum;
 use latticesim_compiler::lower;
 use latticesim_runtime::gen::{agents_text, Shape};
@@ -152,7 +153,8 @@ fn run_one(rules: &[u8], a: &SweepArgs, n: u32, seed: u64) -> Result<Row, String
     })
 }
 
-fn plot(path: &PathBuf, title: &str, rows: &[Row]) -> Result<(f64, f64), String> {
+/// The log-log plot of steps and moves against n, as SVG text.
+fn plot(title: &str, rows: &[Row]) -> Result<String, String> {
     let steps: Vec<(f64, f64)> = rows.iter().map(|r| (r.n as f64, r.steps as f64)).collect();
     let moves: Vec<(f64, f64)> = rows.iter().map(|r| (r.n as f64, r.moves as f64)).collect();
     let fs = fit_power(&steps).ok_or("too few points to fit the steps")?;
@@ -166,7 +168,8 @@ fn plot(path: &PathBuf, title: &str, rows: &[Row]) -> Result<(f64, f64), String>
         .unwrap_or(2)
         .max(2) as f64;
     let e = |e: DrawingAreaErrorKind<std::io::Error>| e.to_string();
-    let root = SVGBackend::new(path, (720, 450)).into_drawing_area();
+    let mut svg = String::new();
+    let root = SVGBackend::with_string(&mut svg, (720, 450)).into_drawing_area();
     root.fill(&WHITE).map_err(e)?;
     let mut chart = ChartBuilder::on(&root)
         .caption(title, ("sans-serif", 20))
@@ -221,16 +224,26 @@ fn plot(path: &PathBuf, title: &str, rows: &[Row]) -> Result<(f64, f64), String>
         .draw()
         .map_err(e)?;
     root.present().map_err(e)?;
-    Ok((fs.1, fm.map_or(f64::NAN, |f| f.1)))
+    drop(chart);
+    drop(root);
+    Ok(svg)
 }
 
 pub fn sweep(a: SweepArgs) -> ExitCode {
+    let out_file = match open_output(&a.out) {
+        Ok(f) => f,
+        Err(c) => return c,
+    };
+    let plot_file = match a.plot.as_deref().map(open_output).transpose() {
+        Ok(f) => f,
+        Err(c) => return c,
+    };
     let rules = match crate::read(&a.rules) {
         Ok(b) => b,
         Err(c) => return c,
     };
     if let Err(e) = a.agents.gen_options(0) {
-        eprintln!("error: {e}");
+        say!("error: {e}");
         return ExitCode::from(2);
     }
     let jobs: Vec<(u32, u64)> = a
@@ -239,12 +252,16 @@ pub fn sweep(a: SweepArgs) -> ExitCode {
         .flat_map(|&n| (1..=a.seeds).map(move |s| (n, s)))
         .collect();
     let pool = match rayon::ThreadPoolBuilder::new()
-        .num_threads(a.threads.unwrap_or(0))
+        .num_threads(crate::threads(
+            a.threads,
+            jobs.len(),
+            &format!("the sweep has {} runs", jobs.len()),
+        ))
         .build()
     {
         Ok(p) => p,
         Err(e) => {
-            eprintln!("error: cannot start threads: {e}");
+            say!("error: cannot start threads: {e}");
             return ExitCode::from(2);
         }
     };
@@ -258,7 +275,7 @@ pub fn sweep(a: SweepArgs) -> ExitCode {
         match r {
             Ok(row) => rows.push(row),
             Err(e) => {
-                eprintln!("error: {e}");
+                say!("error: {e}");
                 return ExitCode::from(1);
             }
         }
@@ -280,7 +297,7 @@ pub fn sweep(a: SweepArgs) -> ExitCode {
             r.secs
         );
     }
-    if let Err(c) = write_file(&a.out, &csv) {
+    if let Err(c) = write_output(out_file, csv.as_bytes()) {
         return c;
     }
     let fs = fit_power(
@@ -295,21 +312,28 @@ pub fn sweep(a: SweepArgs) -> ExitCode {
             .map(|r| (r.n as f64, r.moves as f64))
             .collect::<Vec<_>>(),
     );
-    eprintln!(
+    say!(
         "{} runs; steps ~ n^{}, moves ~ n^{}; wrote {}",
         rows.len(),
         fs.map_or("?".into(), |f| format!("{:.2}", f.1)),
         fm.map_or("-".into(), |f| format!("{:.2}", f.1)),
         a.out.display()
     );
-    if let Some(p) = &a.plot {
-        if let Err(e) = plot(p, &a.title, &rows) {
-            eprintln!("error: cannot draw `{}`: {e}", p.display());
-            return ExitCode::from(2);
+    if let Some(f) = plot_file {
+        match plot(&a.title, &rows) {
+            Ok(svg) => {
+                if let Err(c) = write_output(f, svg.as_bytes()) {
+                    return c;
+                }
+            }
+            Err(e) => {
+                say!("error: cannot draw `{}`: {e}", f.path().display());
+                return ExitCode::from(2);
+            }
         }
     }
     if rows.iter().any(|r| !r.quiescent) {
-        eprintln!(
+        say!(
             "warning: some runs stopped at --max-steps {} before quiescence",
             a.max_steps
         );

@@ -14,6 +14,7 @@ const ROOT: &str = env!("CARGO_MANIFEST_DIR");
 struct Server {
     child: Child,
     addr: String,
+    token: String,
     dir: PathBuf,
 }
 
@@ -47,13 +48,27 @@ fn start(name: &str, rules: &str, agents: &str) -> Server {
     BufReader::new(child.stdout.take().unwrap())
         .read_line(&mut line)
         .unwrap();
-    let addr = line
+    let (addr, token) = url_parts(&line);
+    Server {
+        child,
+        addr,
+        token,
+        dir,
+    }
+}
+
+/// The address and the token of the URL in the line the server printed.
+fn url_parts(line: &str) -> (String, String) {
+    let url = line
         .split("http://")
         .nth(1)
-        .and_then(|s| s.split('/').next())
-        .unwrap_or_else(|| panic!("no URL in {line:?}"))
-        .to_string();
-    Server { child, addr, dir }
+        .and_then(|s| s.split_whitespace().next())
+        .unwrap_or_else(|| panic!("no URL in {line:?}"));
+    let (addr, rest) = url.split_once('/').unwrap();
+    let token = rest
+        .strip_prefix("?token=")
+        .unwrap_or_else(|| panic!("no token in {line:?}"));
+    (addr.to_string(), token.to_string())
 }
 
 impl Server {
@@ -75,8 +90,14 @@ impl Server {
     }
 
     fn request(&self, method: &str, path: &str, body: &[u8]) -> (u16, String) {
+        let token = format!("X-Latticesim-Token: {}\r\n", self.token);
+        self.request_with(method, path, &token, body)
+    }
+
+    /// A request with these header lines (each ending in CRLF) besides Host.
+    fn request_with(&self, method: &str, path: &str, headers: &str, body: &[u8]) -> (u16, String) {
         let mut req = format!(
-            "{method} {path} HTTP/1.1\r\nHost: {}\r\nConnection: close\r\nContent-Length: {}\r\n\r\n",
+            "{method} {path} HTTP/1.1\r\nHost: {}\r\n{headers}Connection: close\r\nContent-Length: {}\r\n\r\n",
             self.addr,
             body.len()
         )
@@ -419,4 +440,272 @@ fn serves_the_app_and_refuses_a_busy_port() {
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("cannot listen on 127.0.0.1:"), "{err}");
+}
+
+/// The error text of a JSON error answer (which every error must be).
+fn error_of(text: &str) -> String {
+    let v: Value = serde_json::from_str(text).unwrap_or_else(|e| panic!("{e}: {text:?}"));
+    v["error"]
+        .as_str()
+        .unwrap_or_else(|| panic!("no error in {text}"))
+        .to_string()
+}
+
+#[test]
+fn only_the_viewers_own_pages_with_the_token_get_in() {
+    let srv = start(
+        "gate",
+        "examples/leader-election/rules.txt",
+        "examples/leader-election/agents-30.txt",
+    );
+    let write = br#"{"path":"csrf.txt","text":"x"}"#;
+    // A page of another site posting text/plain (no preflight in a browser): refused, with
+    // or without the token, and nothing is written.
+    let (s, e) = srv.request_with(
+        "POST",
+        "/api/file",
+        "Origin: http://evil.example\r\nContent-Type: text/plain\r\n",
+        write,
+    );
+    assert_eq!(s, 403, "{e}");
+    assert!(error_of(&e).contains("cross-origin"), "{e}");
+    let (s, _) = srv.request_with(
+        "POST",
+        "/api/apply",
+        &format!(
+            "Origin: http://evil.example\r\nX-Latticesim-Token: {}\r\n",
+            srv.token
+        ),
+        b"{}",
+    );
+    assert_eq!(s, 403);
+    let (s, _) = srv.request_with(
+        "GET",
+        "/api/session",
+        &format!(
+            "Sec-Fetch-Site: cross-site\r\nX-Latticesim-Token: {}\r\n",
+            srv.token
+        ),
+        b"",
+    );
+    assert_eq!(s, 403);
+    assert!(!srv.dir.join("csrf.txt").exists());
+    // DNS rebinding: the browser sends the attacker's host name.
+    let port = srv.addr.rsplit(':').next().unwrap();
+    let mut req = format!(
+        "GET /api/file HTTP/1.1\r\nHost: rebind.attacker.example:{port}\r\nX-Latticesim-Token: {}\r\nConnection: close\r\n\r\n",
+        srv.token
+    )
+    .into_bytes();
+    let (s, e) = srv.raw(&req);
+    assert_eq!(s, 403, "{e}");
+    assert!(error_of(&e).contains("DNS rebinding"), "{e}");
+    let body = r#"{"path":"rules.txt"}"#;
+    req = format!(
+        "POST /api/file HTTP/1.1\r\nHost: rebind.attacker.example:{port}\r\nX-Latticesim-Token: {}\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{body}",
+        srv.token,
+        body.len()
+    )
+    .into_bytes();
+    let (s, e) = srv.raw(&req);
+    assert_eq!(s, 403, "{e}");
+    assert!(!e.contains("leader"), "{e}");
+    // No token, a wrong one: refused; the viewer's own origin with the token: served.
+    let (s, e) = srv.request_with("GET", "/api/session", "", b"");
+    assert_eq!(s, 403);
+    assert!(error_of(&e).contains("token"), "{e}");
+    let (s, _) = srv.request_with("GET", "/", "X-Latticesim-Token: 0000\r\n", b"");
+    assert_eq!(s, 403);
+    let origin = format!("Origin: http://{}\r\n", srv.addr);
+    let (s, _) = srv.request_with(
+        "GET",
+        "/api/session",
+        &format!("{origin}X-Latticesim-Token: {}\r\n", srv.token),
+        b"",
+    );
+    assert_eq!(s, 200);
+    let local = format!("localhost:{port}");
+    let mut req = format!(
+        "GET /api/session HTTP/1.1\r\nHost: {local}\r\nAuthorization: token {}\r\nConnection: close\r\n\r\n",
+        srv.token
+    );
+    assert_eq!(srv.raw(req.as_bytes()).0, 200);
+    // The printed URL sets a cookie and takes the token out of the address bar; the cookie
+    // then lets the page and its API calls in.
+    req = format!(
+        "GET /?token={} HTTP/1.1\r\nHost: {}\r\nConnection: close\r\n\r\n",
+        srv.token, srv.addr
+    );
+    let mut s = TcpStream::connect(&srv.addr).unwrap();
+    s.write_all(req.as_bytes()).unwrap();
+    let mut head = String::new();
+    s.read_to_string(&mut head).unwrap();
+    assert!(head.starts_with("HTTP/1.1 303"), "{head}");
+    assert!(head.contains("\r\nLocation: /\r\n"), "{head}");
+    let cookie = head
+        .lines()
+        .find_map(|l| l.strip_prefix("Set-Cookie: "))
+        .unwrap_or_else(|| panic!("no cookie in {head}"));
+    assert!(
+        cookie.contains("HttpOnly") && cookie.contains("SameSite=Strict"),
+        "{cookie}"
+    );
+    let pair = cookie.split(';').next().unwrap();
+    let (s, html) = srv.request_with("GET", "/", &format!("Cookie: a=b; {pair}\r\n"), b"");
+    assert_eq!(s, 200);
+    assert!(html.contains("<script src=\"/app.js\">"));
+}
+
+#[test]
+fn the_file_api_never_leaves_the_folder_nor_fails_on_odd_names() {
+    let srv = start(
+        "files",
+        "examples/leader-election/rules.txt",
+        "examples/leader-election/agents-30.txt",
+    );
+    let err = |r: (u16, Value)| (r.0, r.1["error"].as_str().unwrap_or("").to_string());
+    // A dangling link to a file outside: refused, and the file is not created.
+    let outside = srv.dir.with_extension("outside");
+    let _ = std::fs::remove_dir_all(&outside);
+    std::fs::create_dir_all(&outside).unwrap();
+    #[cfg(unix)]
+    {
+        std::os::unix::fs::symlink(outside.join(".bash_profile"), srv.dir.join("notes.txt"))
+            .unwrap();
+        let (s, e) = err(srv.post(
+            "/api/file",
+            json!({ "path": "notes.txt", "text": "echo owned" }),
+        ));
+        assert_eq!(s, 403, "{e}");
+        assert!(!outside.join(".bash_profile").exists());
+        // A link inside the folder to a file inside: the file is written, the link stays.
+        std::fs::write(srv.dir.join("real.txt"), "old").unwrap();
+        std::os::unix::fs::symlink("real.txt", srv.dir.join("alias.txt")).unwrap();
+        let (s, _) = srv.post("/api/file", json!({ "path": "alias.txt", "text": "new" }));
+        assert_eq!(s, 200);
+        assert_eq!(
+            std::fs::read_to_string(srv.dir.join("real.txt")).unwrap(),
+            "new"
+        );
+        assert!(std::fs::symlink_metadata(srv.dir.join("alias.txt"))
+            .unwrap()
+            .file_type()
+            .is_symlink());
+    }
+    let _ = std::fs::remove_dir_all(&outside);
+    // Odd names are the client's mistake (400), not the server's (500).
+    for p in [
+        "a".repeat(5000),
+        "x/".to_string() + &"b".repeat(300),
+        "a\0b".into(),
+    ] {
+        let (s, e) = err(srv.post("/api/file", json!({ "path": p, "text": "x" })));
+        assert_eq!(s, 400, "{e}");
+        let (s, e) = err(srv.post("/api/file", json!({ "path": p })));
+        assert_eq!(s, 400, "{e}");
+    }
+    // No temporary file is left behind by a save.
+    let left: Vec<_> = std::fs::read_dir(&srv.dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".tmp"))
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+    srv.alive();
+}
+
+#[test]
+fn a_slow_or_stalled_client_holds_up_no_one() {
+    let srv = start(
+        "slow",
+        "examples/leader-election/rules.txt",
+        "examples/leader-election/agents-30.txt",
+    );
+    let answers_meanwhile = |what: &str| {
+        // Plain requests keep being answered while the bad client holds its connection.
+        let mut s = TcpStream::connect(&srv.addr).unwrap();
+        s.set_read_timeout(Some(std::time::Duration::from_secs(10)))
+            .unwrap();
+        let req = format!(
+            "GET /api/session HTTP/1.1\r\nHost: {}\r\nX-Latticesim-Token: {}\r\nConnection: close\r\n\r\n",
+            srv.addr, srv.token
+        );
+        s.write_all(req.as_bytes()).unwrap();
+        let mut out = Vec::new();
+        let r = s.read_to_end(&mut out);
+        assert!(
+            r.is_ok() && out.starts_with(b"HTTP/1.1 200"),
+            "no answer while {what}: {r:?}"
+        );
+    };
+    // A body announced as 2,000 bytes of which one arrives.
+    let mut slow = TcpStream::connect(&srv.addr).unwrap();
+    let head = format!(
+        "POST /api/check HTTP/1.1\r\nHost: {}\r\nX-Latticesim-Token: {}\r\nContent-Length: 2000\r\n\r\n{{",
+        srv.addr, srv.token
+    );
+    slow.write_all(head.as_bytes()).unwrap();
+    answers_meanwhile("a body is slow to come");
+    // A client that asks for a 9 MB answer and never reads it.
+    std::fs::write(srv.dir.join("big.txt"), "x".repeat(8 << 20)).unwrap();
+    let mut stalled = TcpStream::connect(&srv.addr).unwrap();
+    let body = r#"{"path":"big.txt"}"#;
+    let req = format!(
+        "POST /api/file HTTP/1.1\r\nHost: {}\r\nX-Latticesim-Token: {}\r\nContent-Length: {}\r\n\r\n{body}",
+        srv.addr,
+        srv.token,
+        body.len()
+    );
+    stalled.write_all(req.as_bytes()).unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    answers_meanwhile("an answer is not read");
+    // A head that never ends: refused at the limit with a JSON error, not read for ever.
+    let mut s = TcpStream::connect(&srv.addr).unwrap();
+    let _ = s.write_all(b"GET / HTTP/1.1\r\nX-Long: ");
+    let line = vec![b'a'; 1 << 20];
+    let _ = s.write_all(&line);
+    let mut out = Vec::new();
+    let _ = s.read_to_end(&mut out);
+    let text = String::from_utf8_lossy(&out);
+    assert!(text.starts_with("HTTP/1.1 431"), "{text}");
+    let body = text.split_once("\r\n\r\n").unwrap().1;
+    assert!(error_of(body).contains("head is larger"), "{body}");
+    // The transport's own errors are JSON too.
+    let (s, body) = srv.raw(b"NONSENSE\r\n\r\n");
+    assert_eq!(s, 400);
+    assert!(error_of(&body).contains("malformed"), "{body}");
+    let (s, body) = srv.raw(
+        format!(
+            "POST /api/check HTTP/1.1\r\nHost: {}\r\nTransfer-Encoding: chunked\r\n\r\n",
+            srv.addr
+        )
+        .as_bytes(),
+    );
+    assert_eq!(s, 411);
+    error_of(&body);
+    drop((slow, stalled));
+    srv.alive();
+}
+
+#[test]
+fn the_ipv6_loopback_is_loopback() {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_latticesim"))
+        .args(["serve", "--host", "::1", "--port", "0"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    let _ = child.kill();
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    if err.contains("cannot listen") {
+        // This machine has no IPv6 loopback; nothing to check.
+        return;
+    }
+    assert!(line.contains("http://[::1]:"), "{line}");
+    assert!(!err.contains("warning"), "{err}");
 }

@@ -15,10 +15,21 @@ fn field(tail: Span) -> Span {
     }
 }
 
-/// Checks a parsed agents file in the dimension `dim` (the file's own, or the one in force).
+/// The label of a number out of range.
+fn size_word(n: i64) -> &'static str {
+    if n < 0 {
+        "too small"
+    } else {
+        "too large"
+    }
+}
+
+/// Checks a parsed agents file (whose text is `src`) in the dimension `dim` (the file's
+/// own, or the one in force).
 pub fn check_agents(
     f: &AgentsFile<'_>,
     file: FileId,
+    src: &str,
     dim: &DimSource,
     diags: &mut Vec<Diagnostic>,
 ) -> Config {
@@ -33,8 +44,11 @@ pub fn check_agents(
                     diags.push(
                         Diagnostic::new(
                             Code::E406,
-                            format!("the universe bound {} is outside the 32-bit range", v.node),
-                            Label::new(file, v.span, "too large"),
+                            format!(
+                                "the universe bound {} is outside the 32-bit range",
+                                crate::written(src, v.span)
+                            ),
+                            Label::new(file, v.span, size_word(v.node)),
                         )
                         .with_help("leave out the `U` line for an unbounded universe"),
                     );
@@ -87,12 +101,12 @@ pub fn check_agents(
                 Err(_) => {
                     diags.push(
                         Diagnostic::new(
-                            Code::E403,
+                            Code::E410,
                             format!(
                                 "the coordinate {} is outside the 32-bit range of the lattice",
-                                c.node
+                                crate::written(src, c.span)
                             ),
-                            Label::new(file, c.span, "too large"),
+                            Label::new(file, c.span, size_word(c.node)),
                         )
                         .with_help("coordinates are 32-bit integers"),
                     );
@@ -223,9 +237,10 @@ pub fn check_agents(
                         Code::E404,
                         format!(
                             "the value {} of C{} is outside -32767..32767",
-                            v.node, c.node
+                            crate::written(src, v.span),
+                            c.node
                         ),
-                        Label::new(file, v.span, "out of range"),
+                        Label::new(file, v.span, size_word(v.node)),
                     )
                     .with_help("counters hold 16-bit values from -32767 to 32767"),
                 );

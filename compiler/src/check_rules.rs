@@ -47,6 +47,8 @@ pub const VALUE_MAX: i64 = 32767;
 
 pub(crate) struct Checker<'d> {
     pub file: FileId,
+    /// The file's text, to quote numbers as written.
+    pub src: &'d str,
     pub dim: &'d DimSource,
     pub diags: &'d mut Vec<Diagnostic>,
 }
@@ -83,11 +85,12 @@ impl Checker<'_> {
         if (-VALUE_MAX..=VALUE_MAX).contains(&n) {
             return Some(n as i16);
         }
+        let written = crate::written(self.src, span);
         self.push(
             Diagnostic::new(
                 Code::E310,
-                format!("{n} is outside the 16-bit range -32767..32767"),
-                self.label(span, "out of range"),
+                format!("{written} is outside the 16-bit range -32767..32767"),
+                self.label(span, if n < 0 { "too small" } else { "too large" }),
             )
             .with_help(format!(
                 "use a number from -32767 to 32767, e.g. {}",
@@ -840,10 +843,16 @@ impl Checker<'_> {
 pub fn check_rules(
     f: &latticesim_grammar::ast::RulesFile<'_>,
     file: FileId,
+    src: &str,
     dim: &DimSource,
     diags: &mut Vec<Diagnostic>,
 ) -> Program {
-    let mut ck = Checker { file, dim, diags };
+    let mut ck = Checker {
+        file,
+        src,
+        dim,
+        diags,
+    };
     let mut rules = Vec::with_capacity(f.rules.len());
     let mut names: HashMap<&str, Span> = HashMap::with_capacity(f.rules.len());
     for r in &f.rules {
@@ -866,8 +875,15 @@ pub fn check_rules(
                 ck.push(
                     Diagnostic::new(
                         Code::E309,
-                        format!("the priority {p} is outside 1..32767"),
-                        Label::new(file, r.priority.span, "out of range"),
+                        format!(
+                            "the priority {} is outside 1..32767",
+                            crate::written(src, r.priority.span)
+                        ),
+                        Label::new(
+                            file,
+                            r.priority.span,
+                            if p < 1 { "too small" } else { "too large" },
+                        ),
                     )
                     .with_help("a priority is a whole number from 1 (lowest) to 32767 (highest)"),
                 );

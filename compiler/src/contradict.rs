@@ -132,7 +132,86 @@ fn always_false(c: &Cond) -> bool {
     }
 }
 
-/// Reports W502 for the precondition `terms`, whose checked conditions are `conds`.
+/// What a condition pins down, one fact at a time: a key (what it speaks of) and the value
+/// it demands there. Two conditions conflict exactly when they pin one key to different
+/// values, so the check is linear in the number of terms (see [`Earliest`]).
+#[derive(Clone, Copy, PartialEq, Eq, Hash)]
+enum Key {
+    /// A cell at a literal offset: filled (1) or empty (0).
+    Cell([i32; 3]),
+    /// An own attachment: attached (1) or not (0).
+    Attach(u8),
+    /// A character of the own state.
+    State(u8),
+    /// A character of the message from a direction.
+    Message(u8, u8),
+    /// A character of the state of the agent at a literal offset.
+    Remote([i32; 3], u8),
+}
+
+fn text_keys(pat: &TextPat, key: impl Fn(u8) -> Key) -> impl Iterator<Item = (Key, u8)> {
+    let pat = *pat;
+    (0..5u8).filter_map(move |k| pat[k as usize].map(|c| (key(k), c)))
+}
+
+/// Every (key, value) a condition pins down; [`conflict`] says why two of them clash.
+fn keys(c: &Cond) -> Vec<(Key, u8)> {
+    let mut out: Vec<(Key, u8)> = cells(c).map(|(o, f)| (Key::Cell(o), f as u8)).collect();
+    match c {
+        Cond::Attached(p) => out.extend(
+            Dir::ALL
+                .iter()
+                .filter(|d| p.mask & (1 << d.index()) != 0)
+                .map(|d| {
+                    (
+                        Key::Attach(d.index() as u8),
+                        (p.want >> d.index()) as u8 & 1,
+                    )
+                }),
+        ),
+        Cond::State(p) => out.extend(text_keys(p, Key::State)),
+        Cond::Message { dir: Some(d), pat } => {
+            let d = d.index() as u8;
+            out.extend(text_keys(pat, |k| Key::Message(d, k)));
+        }
+        Cond::RemoteState(o, p) => {
+            if let Some(o) = lit(o) {
+                out.extend(text_keys(p, |k| Key::Remote(o, k)));
+            }
+        }
+        _ => {}
+    }
+    out
+}
+
+/// Per key, the first fact that pinned it (and its value) and the first fact that pinned it
+/// to another value: enough to find the earliest fact that disagrees with any value.
+#[derive(Default)]
+struct Earliest {
+    seen: std::collections::HashMap<Key, (usize, u8, Option<usize>)>,
+}
+
+impl Earliest {
+    /// The earliest fact that pins `key` to a value other than `v`.
+    fn against(&self, key: Key, v: u8) -> Option<usize> {
+        let &(first, value, other) = self.seen.get(&key)?;
+        if value != v {
+            Some(first)
+        } else {
+            other
+        }
+    }
+
+    fn add(&mut self, key: Key, v: u8, fact: usize) {
+        let e = self.seen.entry(key).or_insert((fact, v, None));
+        if e.1 != v && e.2.is_none() {
+            e.2 = Some(fact);
+        }
+    }
+}
+
+/// Reports W502 for the precondition `terms`, whose checked conditions are `conds`: each
+/// term that is always false, or that contradicts an earlier term (the earliest one).
 pub(crate) fn check(terms: &[Spanned<Term<'_>>], conds: &[Cond], ck: &mut Checker<'_>) {
     if terms.len() < 2
         && !conds
@@ -144,9 +223,17 @@ pub(crate) fn check(terms: &[Spanned<Term<'_>>], conds: &[Cond], ck: &mut Checke
     let mut facts = Vec::new();
     flatten(terms, conds, &mut facts);
     let dim3 = ck.dim.dim == crate::program::Dim::Three;
-    'next: for j in 0..facts.len() {
-        let (cj, tj) = facts[j];
+    let mut earliest = Earliest::default();
+    for (j, &(cj, tj)) in facts.iter().enumerate() {
         let (sj, tj) = (tj.span, &tj.node);
+        let pinned = keys(cj);
+        let against = pinned
+            .iter()
+            .filter_map(|&(k, v)| earliest.against(k, v))
+            .min();
+        for &(k, v) in &pinned {
+            earliest.add(k, v, j);
+        }
         if always_false(cj) {
             let d = Diagnostic::new(
                 Code::W502,
@@ -159,19 +246,38 @@ pub(crate) fn check(terms: &[Spanned<Term<'_>>], conds: &[Cond], ck: &mut Checke
             ck.push(d);
             continue;
         }
-        for &(ci, ti) in &facts[..j] {
-            let (si, ti) = (&ti.span, &ti.node);
-            if let Some(why) = conflict(ci, cj, dim3) {
-                let d = Diagnostic::new(
-                    Code::W502,
-                    format!("`{tj}` contradicts `{ti}`: {why}, so this rule never fires"),
-                    Label::new(ck.file, sj, "contradicts an earlier term"),
-                )
-                .with_secondary(Label::new(ck.file, *si, "the earlier term"))
-                .with_help("remove one of the two terms, or negate one with `!` if that was meant");
-                ck.push(d);
-                continue 'next;
-            }
+        let Some(i) = against else { continue };
+        let (ci, ti) = facts[i];
+        let (si, ti) = (&ti.span, &ti.node);
+        if let Some(why) = conflict(ci, cj, dim3) {
+            let d = Diagnostic::new(
+                Code::W502,
+                format!("`{tj}` contradicts `{ti}`: {why}, so this rule never fires"),
+                Label::new(ck.file, sj, "contradicts an earlier term"),
+            )
+            .with_secondary(Label::new(ck.file, *si, "the earlier term"))
+            .with_help("remove one of the two terms, or negate one with `!` if that was meant");
+            ck.push(d);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_earliest_disagreeing_fact_is_found() {
+        let mut e = Earliest::default();
+        let k = Key::State(0);
+        e.add(k, b'A', 0);
+        e.add(k, b'A', 1);
+        assert_eq!(e.against(k, b'A'), None);
+        assert_eq!(e.against(k, b'B'), Some(0));
+        e.add(k, b'B', 2);
+        e.add(k, b'C', 3);
+        assert_eq!(e.against(k, b'A'), Some(2));
+        assert_eq!(e.against(k, b'C'), Some(0));
+        assert_eq!(e.against(Key::State(1), b'A'), None);
     }
 }

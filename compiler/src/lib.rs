@@ -48,18 +48,95 @@ pub struct Checked {
     pub rule_count: usize,
     /// How many agent lines the file has.
     pub agent_count: usize,
+    /// Diagnostics found but not kept in `diags` (see [`SHOWN_PER_LINE`]), per file.
+    pub not_shown: Vec<NotShown>,
+}
+
+/// At most this many diagnostics of one line are kept for showing; the rest are counted.
+pub const SHOWN_PER_LINE: usize = 10;
+/// At most this many diagnostics of one file are kept for showing; the rest are counted.
+pub const SHOWN_PER_FILE: usize = 200;
+
+/// The diagnostics of one file that were found but are not shown.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct NotShown {
+    /// The file.
+    pub file: FileId,
+    /// Errors not shown.
+    pub errors: usize,
+    /// Warnings not shown.
+    pub warnings: usize,
 }
 
 impl Checked {
-    /// Number of errors.
+    /// Number of errors, shown or not.
     pub fn errors(&self) -> usize {
         self.diags.iter().filter(|d| d.is_error()).count()
+            + self.not_shown.iter().map(|n| n.errors).sum::<usize>()
     }
 
-    /// Number of warnings.
+    /// Number of warnings, shown or not.
     pub fn warnings(&self) -> usize {
-        self.diags.len() - self.errors()
+        self.diags.iter().filter(|d| !d.is_error()).count()
+            + self.not_shown.iter().map(|n| n.warnings).sum::<usize>()
     }
+
+    /// The diagnostics as terminal text (ANSI colours when `color`), with a line for each
+    /// file some of whose diagnostics are not shown.
+    pub fn render(&self, color: bool) -> String {
+        let mut text = render::render_text(&self.diags, &self.sources, color);
+        for n in &self.not_shown {
+            text += &render::not_shown_line(n, &self.sources);
+            text.push('\n');
+        }
+        text
+    }
+}
+
+/// A piece of a file's text as written (numbers are quoted so, not as the value they were
+/// read as, which saturates).
+pub(crate) fn written(src: &str, span: latticesim_grammar::Span) -> &str {
+    src.get(span.start as usize..span.end as usize)
+        .unwrap_or("?")
+}
+
+/// Keeps at most [`SHOWN_PER_LINE`] diagnostics of a line and [`SHOWN_PER_FILE`] of a
+/// file (in file order, so the first ones), counting the others per file.
+fn cap(diags: &mut Vec<Diagnostic>, sources: &Sources) -> Vec<NotShown> {
+    let mut not_shown: Vec<NotShown> = Vec::new();
+    let (mut file, mut line, mut in_file, mut in_line) = (None, None, 0, 0);
+    diags.retain(|d| {
+        let f = d.primary.file;
+        let l = sources.line_index(f, d.primary.span.start);
+        if file != Some(f) {
+            (file, line, in_file, in_line) = (Some(f), None, 0, 0);
+        }
+        if line != Some(l) {
+            (line, in_line) = (Some(l), 0);
+        }
+        in_file += 1;
+        in_line += 1;
+        let keep = in_file <= SHOWN_PER_FILE && in_line <= SHOWN_PER_LINE;
+        if !keep {
+            if not_shown.last().is_none_or(|n| n.file != f) {
+                not_shown.push(NotShown {
+                    file: f,
+                    errors: 0,
+                    warnings: 0,
+                });
+            }
+            let n = not_shown.last_mut().expect("just pushed");
+            if d.is_error() {
+                n.errors += 1;
+            } else {
+                n.warnings += 1;
+            }
+            // Only what is shown counts towards the file's limit.
+            in_file -= 1;
+        }
+        keep
+    });
+    not_shown
 }
 
 fn t_arity_mismatch(f: &RulesFile<'_>, dim: Dim) -> bool {
@@ -115,17 +192,19 @@ pub fn check(rules: Input<'_>, agents: Option<Input<'_>>, dim: Option<Dim>) -> C
         }
     };
     diags.extend(parse_diags);
-    let program = check_rules(&ast, rid, &dim_src, &mut diags);
+    let program = check_rules(&ast, rid, text, &dim_src, &mut diags);
     let config = agents_ast.as_ref().zip(agents_id).map(|(a, id)| {
         let own = agents_dim.clone().unwrap_or_else(|| dim_src.clone());
-        check_agents(a, id, &own, &mut diags)
+        check_agents(a, id, sources.text(id), &own, &mut diags)
     });
     let rule_count = ast.rules.len();
     let agent_count = agents_ast.as_ref().map_or(0, |a| a.agents.len());
     drop((ast, agents_ast));
     render::sort(&mut diags);
     let ok = !diags.iter().any(|d| d.is_error());
+    let not_shown = cap(&mut diags, &sources);
     Checked {
+        not_shown,
         sources,
         rule_count,
         agent_count,

@@ -8,9 +8,79 @@ use latticesim_grammar::{Diagnostic, FileId, Label, Severity};
 use serde::Serialize;
 
 /// The files a run read, by [`FileId`], with the names shown in messages.
+///
+/// Each file is kept as read (for the checker) and as shown (for excerpts): in the shown
+/// text every control character but tab and line ends is its Unicode picture (ESC `␛`, a
+/// lone CR `␍`), and C1 controls and bidirectional overrides are `�`, so quoting a file can
+/// never move the cursor, clear the screen or reorder what the terminal shows.
 #[derive(Default)]
 pub struct Sources {
+    /// As shown.
     files: SimpleFiles<String, String>,
+    /// As read.
+    texts: Vec<String>,
+    /// Per file: (offset as read just after a replaced character, bytes the shown text has
+    /// gained up to there), in order.
+    shifts: Vec<Vec<(u32, u32)>>,
+}
+
+/// What a character is shown as in an excerpt, if not itself (`next` follows it).
+fn picture(c: char, next: Option<char>) -> Option<char> {
+    match c {
+        '\t' | '\n' => None,
+        '\r' if next == Some('\n') => None,
+        '\0'..='\x1f' => char::from_u32(0x2400 + c as u32),
+        '\x7f' => Some('\u{2421}'),
+        '\u{80}'..='\u{9f}'
+        | '\u{200e}'
+        | '\u{200f}'
+        | '\u{202a}'..='\u{202e}'
+        | '\u{2066}'..='\u{2069}'
+        | '\u{061c}' => Some('\u{fffd}'),
+        _ => None,
+    }
+}
+
+/// The shown text of `text` and its shifts (see [`Sources`]).
+fn shown(text: &str) -> (String, Vec<(u32, u32)>) {
+    let mut chars = text.char_indices().peekable();
+    if !text
+        .chars()
+        .any(|c| picture(c, Some('\n')).is_some() || c == '\r')
+    {
+        return (text.to_string(), Vec::new());
+    }
+    let mut out = String::with_capacity(text.len());
+    let mut shifts = Vec::new();
+    let mut gained = 0u32;
+    while let Some((i, c)) = chars.next() {
+        match picture(c, chars.peek().map(|p| p.1)) {
+            Some(p) => {
+                out.push(p);
+                let grow = (p.len_utf8() - c.len_utf8()) as u32;
+                if grow > 0 {
+                    gained += grow;
+                    shifts.push(((i + c.len_utf8()) as u32, gained));
+                }
+            }
+            None => out.push(c),
+        }
+    }
+    (out, shifts)
+}
+
+/// A message with its control characters written as escapes (`\r`, `\u{1b}`).
+pub fn visible(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for c in s.chars() {
+        match c {
+            '\r' => out.push_str("\\r"),
+            '\t' => out.push_str("\\t"),
+            c if picture(c, None).is_some() => out.push_str(&format!("\\u{{{:x}}}", c as u32)),
+            c => out.push(c),
+        }
+    }
+    out
 }
 
 impl Sources {
@@ -21,15 +91,16 @@ impl Sources {
 
     /// Adds a file; its id is the number of files added before it.
     pub fn add(&mut self, name: impl Into<String>, text: impl Into<String>) -> FileId {
-        FileId(self.files.add(name.into(), text.into()) as u32)
+        let text = text.into();
+        let (show, shifts) = shown(&text);
+        self.texts.push(text);
+        self.shifts.push(shifts);
+        FileId(self.files.add(name.into(), show) as u32)
     }
 
-    /// The text of a file.
+    /// The text of a file, as read.
     pub fn text(&self, id: FileId) -> &str {
-        self.files
-            .get(id.0 as usize)
-            .map(|f| f.source().as_str())
-            .unwrap_or("")
+        self.texts.get(id.0 as usize).map_or("", |t| t.as_str())
     }
 
     /// The name of a file.
@@ -40,10 +111,25 @@ impl Sources {
             .unwrap_or("")
     }
 
+    /// Where a byte offset of the text as read is in the text as shown.
+    fn shown_offset(&self, id: FileId, byte: usize) -> usize {
+        let byte = byte.min(self.text(id).len());
+        let Some(shifts) = self.shifts.get(id.0 as usize) else {
+            return byte;
+        };
+        let k = shifts.partition_point(|&(at, _)| at as usize <= byte);
+        byte + k.checked_sub(1).map_or(0, |k| shifts[k].1 as usize)
+    }
+
+    /// The 0-based line of a byte offset (a binary search; no column is counted).
+    pub fn line_index(&self, id: FileId, byte: u32) -> usize {
+        let byte = self.shown_offset(id, byte as usize);
+        self.files.line_index(id.0 as usize, byte).unwrap_or(0)
+    }
+
     /// 1-based line and column (in characters) of a byte offset.
     pub fn line_col(&self, id: FileId, byte: u32) -> (usize, usize) {
-        let text = self.text(id);
-        let byte = (byte as usize).min(text.len());
+        let byte = self.shown_offset(id, byte as usize);
         match self.files.location(id.0 as usize, byte) {
             Ok(loc) => (loc.line_number, loc.column_number),
             Err(_) => (1, 1),
@@ -78,6 +164,12 @@ fn clamp(l: &Label, sources: &Sources) -> std::ops::Range<usize> {
     s..e
 }
 
+/// A label's range in the text as shown.
+fn shown_range(l: &Label, sources: &Sources) -> std::ops::Range<usize> {
+    let r = clamp(l, sources);
+    sources.shown_offset(l.file, r.start)..sources.shown_offset(l.file, r.end)
+}
+
 fn to_codespan(d: &Diagnostic, sources: &Sources) -> CsDiagnostic<usize> {
     let base = match d.severity() {
         Severity::Error => CsDiagnostic::error(),
@@ -86,21 +178,25 @@ fn to_codespan(d: &Diagnostic, sources: &Sources) -> CsDiagnostic<usize> {
     let mut labels = vec![CsLabel::new(
         LabelStyle::Primary,
         d.primary.file.0 as usize,
-        clamp(&d.primary, sources),
+        shown_range(&d.primary, sources),
     )
-    .with_message(d.primary.message.clone())];
+    .with_message(visible(&d.primary.message))];
     for l in &d.secondary {
         labels.push(
-            CsLabel::new(LabelStyle::Secondary, l.file.0 as usize, clamp(l, sources))
-                .with_message(l.message.clone()),
+            CsLabel::new(
+                LabelStyle::Secondary,
+                l.file.0 as usize,
+                shown_range(l, sources),
+            )
+            .with_message(visible(&l.message)),
         );
     }
     let mut notes = Vec::new();
     if let Some(h) = &d.help {
-        notes.push(format!("help: {h}"));
+        notes.push(format!("help: {}", visible(h)));
     }
     base.with_code(d.code.as_str())
-        .with_message(d.message.clone())
+        .with_message(visible(&d.message))
         .with_labels(labels)
         .with_notes(notes)
 }
@@ -117,26 +213,39 @@ pub fn render_plain(diags: &[Diagnostic], sources: &Sources) -> String {
     out
 }
 
-/// Writes diagnostics to standard error, in colour when `color` is true.
-pub fn render_stderr(diags: &[Diagnostic], sources: &Sources, color: bool) -> std::io::Result<()> {
-    use term::termcolor::{ColorChoice, StandardStream};
-    use term::{Styles, StylesWriter};
-    let choice = if color {
-        ColorChoice::Always
-    } else {
-        ColorChoice::Never
-    };
-    let stream = StandardStream::stderr(choice);
-    let mut lock = stream.lock();
-    let styles = Styles::default();
-    let mut writer = StylesWriter::new(&mut lock, &styles);
-    let config = Config::default();
-    for d in diags {
-        let cs = to_codespan(d, sources);
-        term::emit_to_write_style(&mut writer, &config, &sources.files, &cs)
-            .map_err(|e| std::io::Error::other(e.to_string()))?;
+/// The line that says how many diagnostics of a file are not shown.
+pub fn not_shown_line(n: &crate::NotShown, sources: &Sources) -> String {
+    let count = |k: usize, what: &str| format!("{k} {what}{}", if k == 1 { "" } else { "s" });
+    format!(
+        "note: not shown in {}: {} and {} (at most {} a line and {} a file are shown)",
+        sources.name(n.file),
+        count(n.errors, "more error"),
+        count(n.warnings, "more warning"),
+        crate::SHOWN_PER_LINE,
+        crate::SHOWN_PER_FILE
+    )
+}
+
+/// Renders diagnostics as terminal text, with ANSI colours when `color` is true (the caller
+/// writes it; this crate does no I/O).
+pub fn render_text(diags: &[Diagnostic], sources: &Sources, color: bool) -> String {
+    if !color {
+        return render_plain(diags, sources);
     }
-    Ok(())
+    use term::termcolor::Ansi;
+    use term::{Styles, StylesWriter};
+    let styles = Styles::default();
+    let mut ansi = Ansi::new(Vec::new());
+    {
+        let mut writer = StylesWriter::new(&mut ansi, &styles);
+        let config = Config::default();
+        for d in diags {
+            let cs = to_codespan(d, sources);
+            term::emit_to_write_style(&mut writer, &config, &sources.files, &cs)
+                .expect("labels were clamped to their files");
+        }
+    }
+    String::from_utf8(ansi.into_inner()).expect("rendered from UTF-8 text")
 }
 
 /// A label in JSON output.
@@ -200,7 +309,7 @@ fn json_label(l: &Label, primary: bool, sources: &Sources) -> JsonLabel {
         end_column,
         start_byte: r.start as u32,
         end_byte: r.end as u32,
-        message: l.message.clone(),
+        message: visible(&l.message),
     }
 }
 
@@ -218,14 +327,14 @@ pub fn to_json(diags: &[Diagnostic], sources: &Sources) -> Vec<JsonDiagnostic> {
                     Severity::Error => "error",
                     Severity::Warning => "warning",
                 },
-                message: d.message.clone(),
+                message: visible(&d.message),
                 file: p.file,
                 line: p.line,
                 column: p.column,
                 end_line: p.end_line,
                 end_column: p.end_column,
                 labels,
-                help: d.help.clone(),
+                help: d.help.as_deref().map(visible),
             }
         })
         .collect()

@@ -16,6 +16,21 @@
 
 use crate::span::{FileId, Span};
 
+/// A piece of text for a message: in backquotes, or named when it is a single control
+/// character (which would be invisible, or act on the terminal, if shown).
+pub fn quote_char(text: &str) -> String {
+    let mut chars = text.chars();
+    match (chars.next(), chars.next()) {
+        (Some('\r'), None) => "a lone carriage return (CR, `\\r`)".into(),
+        (Some('\0'), None) => "a NUL character (U+0000)".into(),
+        (Some('\x1b'), None) => "an escape character (ESC, U+001B)".into(),
+        (Some(c), None) if c.is_control() => {
+            format!("the control character U+{:04X}", c as u32)
+        }
+        _ => format!("`{text}`"),
+    }
+}
+
 /// How serious a diagnostic is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Severity {
@@ -72,6 +87,7 @@ codes! {
     E203 Error "unclosed-parenthesis" "a `(` without its `)`";
     E204 Error "blank-inside-term" "a blank inside a term";
     E205 Error "bad-priority" "a priority line that is not a whole number";
+    E206 Error "nested-too-deeply" "`!` and `(` nested deeper than latticesim allows";
     E301 Error "dimension-conflict" "two sources disagree about the dimension";
     E302 Error "pattern-length" "an N, A or P pattern of the wrong length";
     E303 Error "text-length" "a state or message text that is not 5 characters";
@@ -101,6 +117,7 @@ codes! {
     E407 Error "agents-dimension" "a position with the wrong number of coordinates";
     E408 Error "agents-state" "an agent state that is not 5 allowed characters";
     E409 Error "agents-attachments" "an attachment field of the wrong length or characters";
+    E410 Error "coordinate-range" "a coordinate outside the 32-bit range of the lattice";
     W501 Warning "duplicate-rule-name" "two rules with the same name";
     W502 Warning "contradictory-precondition" "a precondition that can never hold";
     W601 Warning "one-sided-attachment" "an attachment declared by only one of two agents";

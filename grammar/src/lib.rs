@@ -21,7 +21,7 @@ pub mod span;
 
 pub use agents::parse_agents;
 pub use diag::{Code, Diagnostic, Label, Severity};
-pub use parser::parse_rules;
+pub use parser::{parse_rules, MAX_NESTING};
 pub use span::{FileId, Span, Spanned};
 
 /// Decodes a file's bytes, reporting invalid UTF-8 (E101) at the first bad byte. The text

@@ -145,7 +145,12 @@ fn parse_priority(
     Spanned::new(value, span)
 }
 
-/// Lexes one line, reporting bad characters and unbalanced parentheses and leaving them out.
+/// How deep `!` and `(` may nest in one line. Every later phase walks terms recursively, so
+/// this bounds their stack (a few hundred bytes a level) far below any thread's.
+pub const MAX_NESTING: usize = 100;
+
+/// Lexes one line, reporting bad characters and unbalanced parentheses and leaving them out,
+/// and refusing lines nested deeper than [`MAX_NESTING`].
 fn clean_tokens<'a>(
     line: Line<'a>,
     file: FileId,
@@ -156,9 +161,46 @@ fn clean_tokens<'a>(
     toks.clear();
     let mut open = Vec::new();
     let mut drop = Vec::new();
+    // How deep the next term is: the levels of the open groups (each `(` and every `!`
+    // before it count one), plus the `!`s just read.
+    let mut levels: Vec<usize> = Vec::new();
+    let mut bangs = 0;
     for r in Lexer::new(line.text, line.start, dim_hint) {
         match r {
             Ok(t) => {
+                let depth = levels.last().copied().unwrap_or(0) + bangs;
+                match t.1 {
+                    Tok::Bang | Tok::LParen if depth >= MAX_NESTING => {
+                        diags.push(
+                            Diagnostic::new(
+                                Code::E206,
+                                format!("`!` and `(` are nested more than {MAX_NESTING} deep"),
+                                Label::new(
+                                    file,
+                                    Span::new(t.0, t.2),
+                                    format!("level {} starts here", depth + 1),
+                                ),
+                            )
+                            .with_help(
+                                "a double `!` cancels out and a group of one term needs no \
+                                 parentheses; write the condition flatter",
+                            ),
+                        );
+                        // The line is not parsed further: nothing deeper is built.
+                        toks.clear();
+                        return;
+                    }
+                    Tok::Bang => bangs += 1,
+                    Tok::LParen => {
+                        levels.push(depth + 1);
+                        bangs = 0;
+                    }
+                    Tok::RParen => {
+                        levels.pop();
+                        bangs = 0;
+                    }
+                    _ => bangs = 0,
+                }
                 match t.1 {
                     Tok::LParen => open.push(toks.len()),
                     // The guard pops the matching `(` when there is one.
@@ -182,7 +224,7 @@ fn clean_tokens<'a>(
                 diags.push(
                     Diagnostic::new(
                         Code::E102,
-                        format!("`{c}` does not start any term"),
+                        format!("{} does not start any term", crate::diag::quote_char(c)),
                         Label::new(file, Span::new(start, end), "unexpected character"),
                     )
                     .with_help(

@@ -17,5 +17,5 @@ mod trace;
 pub use history::History;
 pub use lattice::{Lattice, LatticeBuilder};
 pub use record::{Record, RecordKind};
-pub use step::{Engine, Options, Order, Stats, StepReport};
+pub use step::{Engine, Options, Order, Stats, StepReport, AGENTS_PER_THREAD};
 pub use trace::TraceEvent;

@@ -441,6 +441,10 @@ fn hop_run(
     n
 }
 
+/// Per-agent work is split over threads only for at least this many agents, and a run
+/// gains nothing from more threads than one per this many agents.
+pub const AGENTS_PER_THREAD: usize = 1024;
+
 /// The threads that run chunks of agents: `threads - 1` workers and the thread that
 /// steps, which takes chunks too (so that a step wakes one worker fewer, and the workers
 /// are placed beside a running thread rather than beside a sleeping one: on a machine
@@ -939,7 +943,7 @@ impl Engine {
                 .map(|off| literal(&prog.offsets[off as usize]))
                 .collect(),
             batchable,
-            pool: (opts.threads > 1)
+            pool: (opts.threads > 1 && n >= AGENTS_PER_THREAD)
                 .then(|| Workers::new(opts.threads))
                 .flatten(),
             tuner: Tuner::default(),
@@ -991,8 +995,7 @@ impl Engine {
     /// there are threads and enough agents (the one place that decides), else `None`.
     /// Chunks are whole multiples of 64 agents, so that they split bit sets by words.
     fn parallel(&self, n: usize) -> Option<(&Workers, usize)> {
-        const MIN_AGENTS: usize = 1024;
-        let pool = (self.pool.as_ref()).filter(|_| n >= MIN_AGENTS && !self.serial)?;
+        let pool = (self.pool.as_ref()).filter(|_| n >= AGENTS_PER_THREAD && !self.serial)?;
         Some((pool, n.div_ceil(pool.threads * 4).next_multiple_of(64)))
     }
 

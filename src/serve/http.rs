@@ -1,0 +1,400 @@
+//! The viewer's HTTP/1.1 transport: accepts connections, reads requests within limits and
+//! deadlines, hands each whole request to a handler and writes its answer. It knows nothing
+//! of the API; `serve.rs` decides what a request means and who may make it.
+//!
+//! Every connection has its own thread, at most [`Limits::connections`] at once (one more
+//! is answered 503 and closed). A request's head must arrive within [`Limits::read`] of the
+//! moment the server starts waiting for it and be at most [`Limits::head`] bytes (else 408
+//! or 431); its body (`Content-Length` only) at most [`Limits::body`] bytes, arriving
+//! within the same deadline (else 413 or 408); an answer must be taken by the client within
+//! [`Limits::write`] (else the connection is closed). So a slow or stalled client holds
+//! only its own thread, never the others. Every error this layer answers itself is JSON
+//! `{"error": ...}`, like the API's own.
+
+use std::io::{ErrorKind, Read, Write};
+use std::net::{TcpListener, TcpStream};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// How much a client may send, and how slowly.
+#[derive(Clone, Copy, Debug)]
+pub struct Limits {
+    /// The largest request head (request line and headers), in bytes.
+    pub head: usize,
+    /// The most header lines in one request.
+    pub headers: usize,
+    /// The largest request body, in bytes.
+    pub body: usize,
+    /// The time a whole request (head and body) may take to arrive, counted from when the
+    /// server starts waiting for it (so it is also the idle time of a kept-alive connection).
+    pub read: Duration,
+    /// The time the client may take to receive an answer.
+    pub write: Duration,
+    /// The most connections served at once.
+    pub connections: usize,
+}
+
+/// A whole request as received.
+pub struct Request {
+    /// `GET`, `POST`, ...
+    pub method: String,
+    /// The request target as sent: path and query.
+    pub target: String,
+    /// Header names in lower case, with their values.
+    pub headers: Vec<(String, String)>,
+    pub body: Vec<u8>,
+}
+
+impl Request {
+    /// The first header of this name (lower case), if any.
+    pub fn header(&self, name: &str) -> Option<&str> {
+        self.headers
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v.as_str())
+    }
+}
+
+/// An answer.
+pub struct Response {
+    pub status: u16,
+    pub ctype: &'static str,
+    /// Extra headers (`Set-Cookie`, `Location`, ...).
+    pub headers: Vec<(&'static str, String)>,
+    pub body: Vec<u8>,
+}
+
+/// A JSON `{"error": msg}` answer.
+pub fn error(status: u16, msg: impl Into<String>) -> Response {
+    Response {
+        status,
+        ctype: "application/json",
+        headers: Vec::new(),
+        body: serde_json::to_vec(&serde_json::json!({ "error": msg.into() })).expect("plain data"),
+    }
+}
+
+fn reason(status: u16) -> &'static str {
+    match status {
+        100 => "Continue",
+        200 => "OK",
+        303 => "See Other",
+        400 => "Bad Request",
+        403 => "Forbidden",
+        404 => "Not Found",
+        405 => "Method Not Allowed",
+        408 => "Request Timeout",
+        409 => "Conflict",
+        411 => "Length Required",
+        413 => "Content Too Large",
+        415 => "Unsupported Media Type",
+        421 => "Misdirected Request",
+        422 => "Unprocessable Content",
+        431 => "Request Header Fields Too Large",
+        500 => "Internal Server Error",
+        501 => "Not Implemented",
+        503 => "Service Unavailable",
+        505 => "HTTP Version Not Supported",
+        _ => "",
+    }
+}
+
+/// Accepts connections for ever, each on its own thread, calling `handler` for each request.
+pub fn serve<H>(listener: TcpListener, limits: Limits, handler: H)
+where
+    H: Fn(&Request) -> Response + Send + Sync + 'static,
+{
+    let handler = Arc::new(handler);
+    let active = Arc::new(AtomicUsize::new(0));
+    for stream in listener.incoming() {
+        let Ok(mut stream) = stream else { continue };
+        if active.fetch_add(1, Ordering::SeqCst) >= limits.connections {
+            active.fetch_sub(1, Ordering::SeqCst);
+            let r = error(
+                503,
+                format!(
+                    "the server already serves {} connections; try again later",
+                    limits.connections
+                ),
+            );
+            let _ = write_response(&mut stream, &r, false, Instant::now() + limits.write);
+            continue;
+        }
+        let (handler, count) = (handler.clone(), active.clone());
+        let spawned = std::thread::Builder::new()
+            .name("latticesim-http".into())
+            .spawn(move || {
+                connection(stream, limits, &*handler);
+                count.fetch_sub(1, Ordering::SeqCst);
+            });
+        if spawned.is_err() {
+            active.fetch_sub(1, Ordering::SeqCst);
+        }
+    }
+}
+
+/// What reading a request gave.
+enum Incoming {
+    Request(Request, bool),
+    /// The client closed or went quiet before sending anything: close without an answer.
+    Gone,
+    /// Answer this, then close.
+    Fail(Response),
+}
+
+fn connection(mut stream: TcpStream, limits: Limits, handler: &dyn Fn(&Request) -> Response) {
+    let _ = stream.set_nodelay(true);
+    // Bytes already read past the previous request (pipelining).
+    let mut buf: Vec<u8> = Vec::new();
+    loop {
+        let deadline = Instant::now() + limits.read;
+        match read_request(&mut stream, &mut buf, &limits, deadline) {
+            Incoming::Gone => return,
+            Incoming::Fail(r) => {
+                let _ = write_response(&mut stream, &r, false, Instant::now() + limits.write);
+                return;
+            }
+            Incoming::Request(req, keep) => {
+                let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| handler(&req)))
+                    .unwrap_or_else(|_| error(500, "internal error while handling the request"));
+                let head_only = req.method == "HEAD";
+                let r = if head_only {
+                    Response {
+                        body: Vec::new(),
+                        ..r
+                    }
+                } else {
+                    r
+                };
+                if write_response(&mut stream, &r, keep, Instant::now() + limits.write).is_err()
+                    || !keep
+                {
+                    return;
+                }
+            }
+        }
+    }
+}
+
+/// One read into `buf`, of what is waiting (at least one byte), never past `max` bytes in
+/// all; false at the deadline, an error or the end of the stream.
+fn read_some(stream: &mut TcpStream, buf: &mut Vec<u8>, max: usize, deadline: Instant) -> bool {
+    let mut chunk = [0u8; 16 * 1024];
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        if left.is_zero() || stream.set_read_timeout(Some(left)).is_err() {
+            return false;
+        }
+        let cap = chunk.len().min(max.saturating_sub(buf.len())).max(1);
+        match stream.read(&mut chunk[..cap]) {
+            Ok(0) => return false,
+            Ok(n) => {
+                buf.extend_from_slice(&chunk[..n]);
+                return true;
+            }
+            Err(e) if e.kind() == ErrorKind::Interrupted => {}
+            Err(_) => return false,
+        }
+    }
+}
+
+/// Reads into `buf` until it holds at least `want` bytes; false as [`read_some`].
+fn fill(stream: &mut TcpStream, buf: &mut Vec<u8>, want: usize, deadline: Instant) -> bool {
+    while buf.len() < want {
+        if !read_some(stream, buf, want, deadline) {
+            return false;
+        }
+    }
+    true
+}
+
+fn read_request(
+    stream: &mut TcpStream,
+    buf: &mut Vec<u8>,
+    limits: &Limits,
+    deadline: Instant,
+) -> Incoming {
+    // The head: up to the blank line, at most `limits.head` bytes.
+    let mut searched = 0;
+    let head_end = loop {
+        if let Some(i) = find_blank_line(buf, searched) {
+            break i;
+        }
+        searched = buf.len().saturating_sub(3);
+        if buf.len() > limits.head {
+            return Incoming::Fail(error(
+                431,
+                format!("the request's head is larger than {} bytes", limits.head),
+            ));
+        }
+        if !read_some(stream, buf, limits.head + 1, deadline) {
+            return if buf.iter().all(|b| b.is_ascii_whitespace()) {
+                Incoming::Gone
+            } else if Instant::now() >= deadline {
+                Incoming::Fail(error(
+                    408,
+                    format!(
+                        "the request did not arrive within {} s",
+                        limits.read.as_secs()
+                    ),
+                ))
+            } else {
+                Incoming::Gone
+            };
+        }
+    };
+    if head_end > limits.head {
+        return Incoming::Fail(error(
+            431,
+            format!("the request's head is larger than {} bytes", limits.head),
+        ));
+    }
+    let mut headers = vec![httparse::EMPTY_HEADER; limits.headers];
+    let mut parsed = httparse::Request::new(&mut headers);
+    match parsed.parse(&buf[..head_end]) {
+        Ok(httparse::Status::Complete(_)) => {}
+        Ok(httparse::Status::Partial) => {
+            return Incoming::Fail(error(400, "the request's head is cut short"))
+        }
+        Err(httparse::Error::TooManyHeaders) => {
+            return Incoming::Fail(error(
+                431,
+                format!("the request has more than {} headers", limits.headers),
+            ))
+        }
+        Err(e) => return Incoming::Fail(error(400, format!("malformed request: {e}"))),
+    }
+    let method = parsed.method.unwrap_or("").to_string();
+    let target = parsed.path.unwrap_or("").to_string();
+    let version = parsed.version.unwrap_or(0);
+    let headers: Vec<(String, String)> = parsed
+        .headers
+        .iter()
+        .map(|h| {
+            (
+                h.name.to_ascii_lowercase(),
+                String::from_utf8_lossy(h.value).into_owned(),
+            )
+        })
+        .collect();
+    let get = |name: &str| {
+        headers
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v.as_str())
+    };
+    let connection = get("connection").unwrap_or("").to_ascii_lowercase();
+    let keep = if version == 1 {
+        !connection.contains("close")
+    } else {
+        connection.contains("keep-alive")
+    };
+    if get("transfer-encoding").is_some() {
+        return Incoming::Fail(error(
+            411,
+            "send the request body with a Content-Length, not a Transfer-Encoding",
+        ));
+    }
+    let length = match get("content-length").map(|v| v.trim().parse::<usize>()) {
+        None => 0,
+        Some(Ok(n)) => n,
+        Some(Err(_)) => return Incoming::Fail(error(400, "the Content-Length is not a number")),
+    };
+    if length > limits.body {
+        return Incoming::Fail(error(
+            413,
+            format!("the request body is larger than {} bytes", limits.body),
+        ));
+    }
+    if length > 0
+        && get("expect").is_some_and(|e| e.eq_ignore_ascii_case("100-continue"))
+        && buf.len() == head_end
+    {
+        let _ = stream.set_write_timeout(Some(limits.write));
+        let _ = stream.write_all(b"HTTP/1.1 100 Continue\r\n\r\n");
+    }
+    let end = head_end + length;
+    if !fill(stream, buf, end, deadline) {
+        return Incoming::Fail(error(
+            408,
+            format!(
+                "the request body ({length} bytes announced) did not arrive within {} s",
+                limits.read.as_secs()
+            ),
+        ));
+    }
+    let body = buf[head_end..end].to_vec();
+    buf.drain(..end);
+    Incoming::Request(
+        Request {
+            method,
+            target,
+            headers,
+            body,
+        },
+        keep,
+    )
+}
+
+/// The end of the head (just past its blank line), searching from `from`.
+fn find_blank_line(buf: &[u8], from: usize) -> Option<usize> {
+    buf.get(from..)?
+        .windows(4)
+        .position(|w| w == b"\r\n\r\n")
+        .map(|i| from + i + 4)
+}
+
+/// Writes an answer in pieces, each within what is left of `deadline`.
+fn write_response(
+    stream: &mut TcpStream,
+    r: &Response,
+    keep: bool,
+    deadline: Instant,
+) -> std::io::Result<()> {
+    let mut head = format!(
+        "HTTP/1.1 {} {}\r\nContent-Type: {}\r\nContent-Length: {}\r\nCache-Control: no-store\r\nX-Content-Type-Options: nosniff\r\nConnection: {}\r\n",
+        r.status,
+        reason(r.status),
+        r.ctype,
+        r.body.len(),
+        if keep { "keep-alive" } else { "close" }
+    );
+    for (name, value) in &r.headers {
+        head += &format!("{name}: {value}\r\n");
+    }
+    head += "\r\n";
+    for piece in [head.as_bytes(), &r.body] {
+        for chunk in piece.chunks(64 * 1024) {
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                return Err(ErrorKind::TimedOut.into());
+            }
+            stream.set_write_timeout(Some(left))?;
+            stream.write_all(chunk)?;
+        }
+    }
+    stream.flush()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn blank_line_found_across_reads() {
+        assert_eq!(find_blank_line(b"GET / HTTP/1.1\r\n\r\nx", 0), Some(18));
+        assert_eq!(find_blank_line(b"GET / HTTP/1.1\r\n\r", 0), None);
+        assert_eq!(find_blank_line(b"ab\r\n\r\n", 1), Some(6));
+        assert_eq!(find_blank_line(b"ab", 5), None);
+    }
+
+    #[test]
+    fn every_status_used_has_a_reason() {
+        for s in [
+            200, 303, 400, 403, 404, 405, 408, 409, 411, 413, 415, 421, 422, 431, 500, 503,
+        ] {
+            assert!(!reason(s).is_empty(), "{s}");
+        }
+    }
+}
