@@ -650,3 +650,400 @@ fn render_refuses_bad_requests() {
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("bad-rules.txt:3:"), "{}", stderr(&o));
 }
+
+// ------------------------------------------------------------------ reliability (issue 14)
+
+/// Runs the program with standard output into a pipe whose reader takes one line and
+/// closes it: the exit status and standard error.
+fn closed_pipe(args: &[&str]) -> (Option<i32>, String) {
+    use std::io::{BufRead, Read};
+    let mut child = bin()
+        .args(args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    std::io::BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    // The reader is gone now.
+    let mut err = String::new();
+    child
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut err)
+        .unwrap();
+    (child.wait().unwrap().code(), err)
+}
+
+#[test]
+fn a_closed_pipe_ends_quietly_and_files_are_still_written() {
+    let (code, err) = closed_pipe(&["gen", "block", "--width", "300", "--height", "300"]);
+    assert_eq!((code, err.as_str()), (Some(0), ""));
+    let (code, err) = closed_pipe(&[
+        "check",
+        "examples/mistakes/rules.txt",
+        "--agents",
+        "examples/tour/agents.txt",
+        "--format",
+        "json",
+    ]);
+    assert_eq!((code, err.as_str()), (Some(1), ""));
+    let stats = tmp("pipe-stats.json", b"");
+    std::fs::remove_file(&stats).unwrap();
+    let agents = tmp("pipe-agents.txt", b"");
+    assert!(run(&[
+        "gen",
+        "block",
+        "--width",
+        "120",
+        "--height",
+        "120",
+        "--out",
+        agents.to_str().unwrap()
+    ])
+    .status
+    .success());
+    let (code, err) = closed_pipe(&[
+        "run",
+        "examples/maxflood/rules.txt",
+        agents.to_str().unwrap(),
+        "--max-steps",
+        "3",
+        "--stats",
+        stats.to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
+    assert_eq!(v["steps"], 3);
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn a_full_disk_is_exit_2_with_a_message() {
+    let full = || std::fs::File::create("/dev/full").unwrap();
+    let stats = tmp("full-stats.json", b"");
+    std::fs::remove_file(&stats).unwrap();
+    let o = bin()
+        .args([
+            "run",
+            "examples/gravity/rules.txt",
+            "examples/gravity/agents.txt",
+            "--stats",
+            stats.to_str().unwrap(),
+        ])
+        .stdout(full())
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("cannot write to standard output: No space left"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(stats.exists(), "the statistics asked for are still written");
+    for args in [
+        &[
+            "check",
+            "examples/mistakes/rules.txt",
+            "--agents",
+            "examples/tour/agents.txt",
+        ][..],
+        &["gen", "line", "--n", "3", "--nonsense"][..],
+    ] {
+        let o = bin().args(args).stderr(full()).output().unwrap();
+        assert_eq!(o.status.code(), Some(2), "{args:?}");
+    }
+    let o = bin()
+        .args(["check", "examples/tour/rules.txt", "--format", "json"])
+        .stdout(full())
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+}
+
+#[test]
+fn output_paths_are_checked_before_anything_runs() {
+    // The files that are fine are not started either (the trace was written while stepping).
+    let stats = tmp("early-stats.json", b"");
+    std::fs::remove_file(&stats).unwrap();
+    let trace = tmp("early-trace.jsonl", b"");
+    std::fs::remove_file(&trace).unwrap();
+    for flag in ["--out", "--stats"] {
+        let mut args = vec![
+            "run",
+            "examples/gravity/rules.txt",
+            "examples/gravity/agents.txt",
+            flag,
+            "/nonexistent/folder/file.txt",
+            "--trace",
+            trace.to_str().unwrap(),
+        ];
+        if flag != "--stats" {
+            args.extend(["--stats", stats.to_str().unwrap()]);
+        }
+        let o = run(&args);
+        assert_eq!(o.status.code(), Some(2), "{flag}");
+        let err = stderr(&o);
+        assert!(
+            err.contains("cannot write `/nonexistent/folder/file.txt`"),
+            "{err}"
+        );
+        assert!(!err.contains("steps"), "nothing ran: {err}");
+        assert!(!stats.exists(), "{flag}: nothing is written");
+        assert!(!trace.exists(), "{flag}: nothing is written");
+    }
+    for args in [
+        &["gen", "line", "--n", "3", "--out", "/nonexistent/a.txt"][..],
+        &[
+            "render",
+            "examples/gravity/rules.txt",
+            "examples/gravity/agents.txt",
+            "--out",
+            "/nonexistent/a.png",
+        ][..],
+        &[
+            "sweep",
+            "examples/gravity/rules.txt",
+            "--shape",
+            "line",
+            "--sizes",
+            "3",
+            "--out",
+            "/nonexistent/a.csv",
+        ][..],
+    ] {
+        let o = run(args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains("/nonexistent/"), "{}", stderr(&o));
+    }
+}
+
+/// Files of `dir` whose names end in `.tmp`.
+fn temporary_files(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".tmp"))
+        .collect()
+}
+
+#[cfg(unix)]
+#[test]
+fn a_killed_write_leaves_the_old_file_whole() {
+    // The process is killed (SIGXFSZ, as by a crash) once it has written 4 KB of a file:
+    // the file asked for keeps its old text instead of a cut one.
+    let dir = std::env::temp_dir().join(format!("latticesim-atomic-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let agents = dir.join("agents.txt");
+    assert!(run(&[
+        "gen",
+        "block",
+        "--width",
+        "60",
+        "--height",
+        "60",
+        "--out",
+        agents.to_str().unwrap()
+    ])
+    .status
+    .success());
+    let out = dir.join("final.txt");
+    std::fs::write(&out, "0,0 SOLD00\n").unwrap();
+    let cmd = format!(
+        "ulimit -f 4; exec '{}' run examples/gravity/rules.txt '{}' --out '{}'",
+        env!("CARGO_BIN_EXE_latticesim"),
+        agents.display(),
+        out.display()
+    );
+    let o = Command::new("sh")
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(["-c", &cmd])
+        .output()
+        .unwrap();
+    assert!(!o.status.success(), "the write was to be cut");
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), "0,0 SOLD00\n");
+    // A run that fails on its input leaves no temporary file either.
+    let bad = dir.join("bad.txt");
+    std::fs::write(&bad, "x\n").unwrap();
+    let o = run(&[
+        "run",
+        bad.to_str().unwrap(),
+        agents.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), "0,0 SOLD00\n");
+    // Only the killed run's temporary file may stay.
+    assert!(
+        temporary_files(&dir).len() <= 1,
+        "{:?}",
+        temporary_files(&dir)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn ctrl_c_while_loading_stops_at_once_with_a_message() {
+    let agents = tmp("load-agents.txt", b"");
+    assert!(run(&[
+        "gen",
+        "block",
+        "--width",
+        "700",
+        "--height",
+        "700",
+        "--out",
+        agents.to_str().unwrap()
+    ])
+    .status
+    .success());
+    let out = tmp("load-out.txt", b"");
+    std::fs::remove_file(&out).unwrap();
+    let child = bin()
+        .args(["run", "examples/maxflood/rules.txt"])
+        .arg(&agents)
+        .arg("--out")
+        .arg(&out)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(100));
+    let ok = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(ok.success());
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(err.contains("interrupted"), "{err}");
+    if err.contains("nothing was written") {
+        assert!(!out.exists());
+    }
+    assert!(temporary_files(out.parent().unwrap()).is_empty());
+}
+
+#[test]
+fn more_threads_than_can_work_are_capped_with_a_note() {
+    let o = run(&[
+        "run",
+        "examples/gravity/rules.txt",
+        "examples/gravity/agents.txt",
+        "--threads",
+        "5000",
+        "--quiet",
+    ]);
+    assert!(o.status.success());
+    let err = stderr(&o);
+    assert!(
+        err.contains("note: --threads 5000: using 1, because 45 agents keep at most 1 busy"),
+        "{err}"
+    );
+}
+
+#[test]
+fn render_stops_at_quiescence_and_says_where() {
+    let path = render_ok(
+        "examples/gravity/rules.txt",
+        "examples/gravity/agents.txt",
+        &["--step", "18446744073709551615"],
+        "quiet.png",
+    );
+    assert!(std::fs::metadata(path).unwrap().len() > 0);
+    let o = run(&[
+        "render",
+        "examples/gravity/rules.txt",
+        "examples/gravity/agents.txt",
+        "--steps",
+        "5..40",
+        "--out",
+        tmp("quiet.gif", b"").to_str().unwrap(),
+    ]);
+    assert!(o.status.success());
+    assert!(
+        stderr(&o).contains("quiescent after step 10"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn deep_nesting_is_an_error_not_a_crash() {
+    for (what, pre) in [
+        ("bangs", "!".repeat(14_000) + "S0****"),
+        (
+            "groups",
+            "(".repeat(11_500) + "S0****" + &")".repeat(11_500),
+        ),
+        ("unclosed", "(".repeat(10_000) + "S0****"),
+    ] {
+        let rules = tmp(
+            &format!("deep-{what}.txt"),
+            format!("r\n1\n{pre}\nS1****\n").as_bytes(),
+        );
+        for cmd in ["check", "run"] {
+            let mut args = vec![cmd, rules.to_str().unwrap()];
+            if cmd == "check" {
+                args.push("--agents");
+            }
+            args.push("examples/tour/agents.txt");
+            let o = run(&args);
+            assert_eq!(o.status.code(), Some(1), "{what} {cmd}: {}", stderr(&o));
+            let err = stderr(&o);
+            assert!(err.contains("error[E206]"), "{err}");
+            assert!(err.contains(":3:101"), "{err}");
+            assert!(err.len() < 100_000, "{what}: {} bytes", err.len());
+        }
+    }
+}
+
+#[test]
+fn diagnostics_are_capped_per_line_and_file() {
+    let rules = tmp(
+        "many-x.txt",
+        format!("r\n1\nS0****\nC00 + C00 1{}\n", " x".repeat(4000)).as_bytes(),
+    );
+    let o = run(&["check", rules.to_str().unwrap(), "--dim", "2"]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert_eq!(err.matches("error[E102]").count(), 10);
+    assert!(
+        err.contains("note: not shown in ")
+            && err.contains(": 3990 more errors and 0 more warnings"),
+        "{err}"
+    );
+    assert!(err.contains("4000 errors"), "{err}");
+    let o = run(&[
+        "check",
+        rules.to_str().unwrap(),
+        "--dim",
+        "2",
+        "--format",
+        "json",
+    ]);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["errors"], 4000);
+    assert_eq!(v["diagnostics"].as_array().unwrap().len(), 10);
+    assert_eq!(v["not_shown"][0]["errors"], 3990);
+}
+
+#[test]
+fn control_characters_are_shown_escaped() {
+    let rules = tmp("escapes.txt", b"r\n1\nS\x1b[2J12 \r N1***\nS1****\n");
+    let o = run(&["check", rules.to_str().unwrap(), "--dim", "2"]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert!(!err.contains('\x1b') && !err.contains('\r'), "{err:?}");
+    assert!(err.contains("`\\u{1b}[2J12`"), "{err}");
+    assert!(
+        err.contains("S\u{241b}[2J12"),
+        "the excerpt shows ESC as a picture: {err}"
+    );
+    assert!(err.contains("a lone carriage return (CR, `\\r`)"), "{err}");
+}

@@ -162,12 +162,7 @@ fn keys(c: &Cond) -> Vec<(Key, u8)> {
             Dir::ALL
                 .iter()
                 .filter(|d| p.mask & (1 << d.index()) != 0)
-                .map(|d| {
-                    (
-                        Key::Attach(d.index() as u8),
-                        (p.want >> d.index()) as u8 & 1,
-                    )
-                }),
+                .map(|d| (Key::Attach(d.index() as u8), (p.want >> d.index()) & 1)),
         ),
         Cond::State(p) => out.extend(text_keys(p, Key::State)),
         Cond::Message { dir: Some(d), pat } => {

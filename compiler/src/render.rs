@@ -339,3 +339,29 @@ pub fn to_json(diags: &[Diagnostic], sources: &Sources) -> Vec<JsonDiagnostic> {
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn control_characters_are_shown_as_pictures_at_the_right_places() {
+        let mut s = Sources::new();
+        let id = s.add("f", "a\x1bb\r\nc\rd\u{85}e\u{202e}f\n");
+        let (shown, _) = shown(s.text(id));
+        assert_eq!(shown, "a\u{241b}b\r\nc\u{240d}d\u{fffd}e\u{fffd}f\n");
+        // Offsets as read map onto the same characters as shown.
+        let text = s.text(id);
+        for (i, c) in text.char_indices() {
+            let j = s.shown_offset(id, i);
+            let d = shown[j..].chars().next().unwrap();
+            assert_eq!(
+                picture(c, text[i + c.len_utf8()..].chars().next()).unwrap_or(c),
+                d
+            );
+        }
+        assert_eq!(s.line_col(id, 5), (2, 1));
+        assert_eq!(s.line_col(id, 7), (2, 3));
+        assert_eq!(visible("x\x1b[2J\ry"), "x\\u{1b}[2J\\ry");
+    }
+}

@@ -204,3 +204,73 @@ proptest! {
         run(&seeds[0], Some(&mutated), None);
     }
 }
+
+/// Checks and renders an input on a thread with a small stack (the viewer's server checks on
+/// threads of 2 MiB), within a time a linear implementation meets easily even unoptimised.
+fn run_bounded(rules: Vec<u8>, agents: Vec<u8>) {
+    let started = std::time::Instant::now();
+    let size = rules.len() + agents.len();
+    std::thread::Builder::new()
+        .stack_size(1 << 20)
+        .spawn(move || {
+            let c = run(&rules, Some(&agents), None);
+            let text = c.render(false);
+            // Each line is quoted by at most SHOWN_PER_LINE diagnostics.
+            assert!(
+                text.len() < 12 * size + 200_000,
+                "{} bytes of diagnostics for {size} bytes of input",
+                text.len()
+            );
+            assert!(!text.contains('\x1b') && !text.contains('\0'));
+        })
+        .unwrap()
+        .join()
+        .expect("no panic and no stack overflow");
+    let took = started.elapsed();
+    assert!(
+        took < std::time::Duration::from_secs(20),
+        "{size} bytes took {took:?}"
+    );
+}
+
+/// A control character or a character that reorders text.
+fn control() -> impl Strategy<Value = char> {
+    prop_oneof![
+        (0u32..32).prop_map(|c| char::from_u32(c).unwrap()),
+        Just('\x7f'),
+        Just('\u{85}'),
+        Just('\u{202e}'),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: std::env::var("PROPTEST_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(8).min(64),
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    })]
+
+    /// Deep nesting, very long lines, many terms, many bad fields and control characters.
+    #[test]
+    fn huge_and_deep_inputs(
+        bangs in 0usize..20_000,
+        opens in 0usize..15_000,
+        closes in 0usize..15_000,
+        term in proptest::sample::select(FRAGMENTS),
+        copies in 1usize..30_000,
+        ctrl in proptest::collection::vec((any::<usize>(), control()), 0..20),
+        bad_fields in 0usize..50_000,
+    ) {
+        let mut pre = "!".repeat(bangs) + &"(".repeat(opens);
+        pre += &vec![term; copies].join(" ");
+        pre += &")".repeat(closes);
+        let mut rules: Vec<char> = format!("r\n1\n{pre}\nC00 + C00 1\n").chars().collect();
+        for (at, c) in ctrl {
+            let n = rules.len();
+            rules.insert(at % n, c);
+        }
+        let rules: String = rules.into_iter().collect();
+        let agents = format!("U-9,9,-9,9\n0,0{}\n99999999999999999999,-2147483649\n", " Q".repeat(bad_fields));
+        run_bounded(rules.into_bytes(), agents.into_bytes());
+    }
+}
