@@ -77,12 +77,17 @@ pub(crate) fn on_interrupt() {
     let _ = ctrlc::set_handler(|| {
         INTERRUPTED.store(true, Ordering::SeqCst);
         if POLLED.load(Ordering::SeqCst) == 0 {
+            let mut removed = false;
             if let Ok(pending) = PENDING.lock() {
                 for p in pending.iter() {
-                    let _ = std::fs::remove_file(p);
+                    removed |= std::fs::remove_file(p).is_ok();
                 }
             }
-            stderr("interrupted; nothing was written\n");
+            stderr(if removed {
+                "interrupted; nothing was written\n"
+            } else {
+                "interrupted\n"
+            });
             std::process::exit(130);
         }
     });

@@ -571,8 +571,13 @@ pub fn render(args: RenderArgs) -> ExitCode {
     if let Err(c) = write_output(out_file, &bytes) {
         return c;
     }
+    let steps = if first == last {
+        format!("step {first}")
+    } else {
+        format!("steps {first}..{last}")
+    };
     say!(
-        "{}: {} frame{} ({} x {} pixels, steps {first}..{last}), {} agents",
+        "{}: {} frame{} ({} x {} pixels, {steps}), {} agents",
         args.out.display(),
         frames.len(),
         if frames.len() == 1 { "" } else { "s" },
