@@ -1,7 +1,6 @@
 //! `latticesim gen`: agents files for lines, blocks, random connected shapes and clouds.
 
-use crate::output::say;
-use crate::output::{self, open_output, write_output};
+use crate::output::{self, open_output, say, write_output};
 use clap::ValueEnum;
 use latticesim_runtime::gen::{agents_text, GenOptions, Shape};
 use std::path::PathBuf;

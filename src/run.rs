@@ -1,7 +1,6 @@
 //! `latticesim run`: check, compile, step until quiescence, write the results.
 
-use crate::output::say;
-use crate::output::{self, open_output, write_output};
+use crate::output::{self, open_output, say, write_output};
 use crate::{check_pair, colour, read, Color, RECORDS_SHOWN_PER_KIND};
 use clap::ValueEnum;
 use latticesim_compiler::lower;
@@ -178,6 +177,7 @@ pub fn run(args: RunArgs) -> ExitCode {
     let show_progress = !args.quiet && std::io::stderr().is_terminal();
     let mut shown: BTreeMap<RecordKind, u64> = BTreeMap::new();
     let mut stop = Stop::MaxSteps;
+    let mut trace_failed = false;
     while engine.stats.steps < args.max_steps {
         let before = args
             .strict
@@ -214,8 +214,14 @@ pub fn run(args: RunArgs) -> ExitCode {
                 ok &= writeln!(w, "{v}").is_ok();
             }
             if !ok {
-                say!("error: cannot write `{}`", w.path().display());
-                return ExitCode::from(2);
+                // The trace is given up (its unfinished file removed); the run goes on and
+                // its other outputs are still written.
+                say!(
+                    "error: cannot write `{}`; the run goes on without it",
+                    w.path().display()
+                );
+                trace_out = None;
+                trace_failed = true;
             }
         }
         if args.strict && rep.records.iter().any(|r| r.is_error()) {
@@ -252,7 +258,7 @@ pub fn run(args: RunArgs) -> ExitCode {
     }
     let wall = started.elapsed();
     // Every file asked for is written, even when an earlier one (or the terminal) failed.
-    let mut failed = None;
+    let mut failed = trace_failed.then(|| ExitCode::from(2));
     if let Some(t) = trace_out {
         let path = t.path().to_path_buf();
         if let Err(e) = t.commit() {

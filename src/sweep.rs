@@ -3,8 +3,7 @@
 //! fitted power laws).
 
 use crate::gen::AgentOptions;
-use crate::output::say;
-use crate::output::{open_output, write_output};
+use crate::output::{open_output, say, write_output};
 use clap::ValueEnum;
 use latticesim_compiler::lower;
 use latticesim_runtime::gen::{agents_text, Shape};

@@ -36,18 +36,12 @@ fn start(name: &str, rules: &str, agents: &str) -> Server {
         std::fs::copy(Path::new(ROOT).join(f), to).unwrap();
     }
     let names = [rules, agents].map(|f| Path::new(f).file_name().unwrap().to_owned());
-    let mut child = Command::new(env!("CARGO_BIN_EXE_latticesim"))
-        .current_dir(&dir)
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_latticesim"));
+    cmd.current_dir(&dir)
         .args(["serve".as_ref(), names[0].as_os_str(), names[1].as_os_str()])
         .args(["--port", "0"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let mut line = String::new();
-    BufReader::new(child.stdout.take().unwrap())
-        .read_line(&mut line)
-        .unwrap();
+        .stderr(Stdio::null());
+    let (child, line) = launch(cmd);
     let (addr, token) = url_parts(&line);
     Server {
         child,
@@ -55,6 +49,16 @@ fn start(name: &str, rules: &str, agents: &str) -> Server {
         token,
         dir,
     }
+}
+
+/// Starts `cmd` with its standard output piped: the process and the first line it printed.
+fn launch(mut cmd: Command) -> (Child, String) {
+    let mut child = cmd.stdout(Stdio::piped()).spawn().unwrap();
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    (child, line)
 }
 
 /// The address and the token of the URL in the line the server printed.
@@ -688,16 +692,10 @@ fn a_slow_or_stalled_client_holds_up_no_one() {
 
 #[test]
 fn the_ipv6_loopback_is_loopback() {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_latticesim"))
-        .args(["serve", "--host", "::1", "--port", "0"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut line = String::new();
-    BufReader::new(child.stdout.take().unwrap())
-        .read_line(&mut line)
-        .unwrap();
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_latticesim"));
+    cmd.args(["serve", "--host", "::1", "--port", "0"])
+        .stderr(Stdio::piped());
+    let (mut child, line) = launch(cmd);
     let _ = child.kill();
     let out = child.wait_with_output().unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
