@@ -93,6 +93,35 @@ impl Checked {
     }
 }
 
+/// E321 for a rule whose bytecode would not fit.
+fn too_large(
+    r: &latticesim_grammar::ast::Rule<'_>,
+    file: FileId,
+    why: lower::TooLarge,
+) -> Diagnostic {
+    use latticesim_grammar::{Code, Label};
+    match why {
+        lower::TooLarge::Precondition => Diagnostic::new(
+            Code::E321,
+            format!(
+                "the precondition of `{}` is too long: it compiles to more than 65,535 instructions",
+                r.name.node
+            ),
+            Label::new(file, r.name.span, "this rule's precondition is too long"),
+        )
+        .with_help("split the rule into several rules, or drop repeated terms"),
+        lower::TooLarge::Constants(what) => Diagnostic::new(
+            Code::E321,
+            format!(
+                "with `{}` the rules use more than 65,536 distinct {what}",
+                r.name.node
+            ),
+            Label::new(file, r.name.span, "the limit is passed here"),
+        )
+        .with_help(format!("use fewer distinct {what} in one rules file")),
+    }
+}
+
 /// A piece of a file's text as written (numbers are quoted so, not as the value they were
 /// read as, which saturates).
 pub(crate) fn written(src: &str, span: latticesim_grammar::Span) -> &str {
@@ -197,6 +226,11 @@ pub fn check(rules: Input<'_>, agents: Option<Input<'_>>, dim: Option<Dim>) -> C
         let own = agents_dim.clone().unwrap_or_else(|| dim_src.clone());
         check_agents(a, id, sources.text(id), &own, &mut diags)
     });
+    if !diags.iter().any(|d| d.is_error()) {
+        if let Some((i, why)) = lower::too_large(&program) {
+            diags.push(too_large(&ast.rules[i], rid, why));
+        }
+    }
     let rule_count = ast.rules.len();
     let agent_count = agents_ast.as_ref().map_or(0, |a| a.agents.len());
     drop((ast, agents_ast));

@@ -10,6 +10,8 @@ use std::hash::Hash;
 struct Table<T: Hash + Eq + Clone> {
     items: Vec<T>,
     index: HashMap<T, u16>,
+    /// A constant past the 65,536 an instruction can name was asked for.
+    full: bool,
 }
 
 impl<T: Hash + Eq + Clone> Default for Table<T> {
@@ -17,25 +19,40 @@ impl<T: Hash + Eq + Clone> Default for Table<T> {
         Table {
             items: Vec::new(),
             index: HashMap::new(),
+            full: false,
         }
     }
 }
 
 impl<T: Hash + Eq + Clone> Table<T> {
+    /// The index of `t`, added if new (0, and the table marked full, when there is no room).
     fn intern(&mut self, t: T) -> u16 {
         if let Some(&i) = self.index.get(&t) {
             return i;
         }
-        let i = u16::try_from(self.items.len())
-            .expect("fewer than 65536 distinct constants of one kind");
+        let Ok(i) = u16::try_from(self.items.len()) else {
+            self.full = true;
+            return 0;
+        };
         self.items.push(t.clone());
         self.index.insert(t, i);
         i
     }
 }
 
+/// What does not fit in the bytecode's 16-bit fields.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TooLarge {
+    /// A precondition longer than its jumps can span.
+    Precondition,
+    /// More distinct constants of one kind than instructions can name.
+    Constants(&'static str),
+}
+
 #[derive(Default)]
 struct Lowering {
+    /// The first thing that did not fit, in the rule being lowered (then the code is wrong).
+    too_large: Option<TooLarge>,
     code: Vec<Op>,
     offsets: Table<Offset>,
     pats: Table<TextPat>,
@@ -72,8 +89,10 @@ impl Lowering {
                     self.cond(c, start, reads_prio);
                     self.code.push(Op::And {});
                 }
-                let end = u16::try_from(self.code.len() - start)
-                    .expect("a precondition of fewer than 65536 instructions");
+                let end = u16::try_from(self.code.len() - start).unwrap_or_else(|_| {
+                    self.too_large.get_or_insert(TooLarge::Precondition);
+                    u16::MAX
+                });
                 for j in jumps {
                     self.code[j] = Op::Jf { to: end };
                 }
@@ -255,10 +274,44 @@ fn top_state(c: &Cond) -> Option<p::TextPat> {
     }
 }
 
+impl Lowering {
+    /// What the rules lowered so far do not fit in, if anything.
+    fn too_large(&self) -> Option<TooLarge> {
+        let full = [
+            (self.offsets.full, "offsets"),
+            (self.pats.full, "state patterns"),
+            (self.texts.full, "message texts"),
+            (self.letters.full, "attachment actions"),
+            (self.externals.full, "external counters"),
+        ];
+        self.too_large
+            .or_else(|| full.iter().find(|f| f.0).map(|f| TooLarge::Constants(f.1)))
+    }
+}
+
+/// The first rule (its index) whose bytecode would not fit, and why: the checker reports it
+/// (E321), so that [`lower`] is only given programs that fit.
+pub(crate) fn too_large(p: &Program) -> Option<(usize, TooLarge)> {
+    let mut l = Lowering::default();
+    for (i, r) in p.rules.iter().enumerate() {
+        l.rule(r, p.dim);
+        if let Some(t) = l.too_large() {
+            return Some((i, t));
+        }
+    }
+    None
+}
+
 /// Lowers a checked program to bytecode. The result passes `verify`.
+///
+/// # Panics
+/// When the program does not fit (which [`crate::check`] reports as an error first).
 pub fn lower(p: &Program) -> latticesim_vm::Program {
     let mut l = Lowering::default();
     let rules = p.rules.iter().map(|r| l.rule(r, p.dim)).collect();
+    if let Some(t) = l.too_large() {
+        panic!("lowering a program that does not fit ({t:?}); `check` reports it as E321");
+    }
     let prog = latticesim_vm::Program {
         dim: p.dim,
         rules,

@@ -132,6 +132,7 @@ fn language_reference_lists_every_code() {
         for file in ["agents.txt", "rules.txt"] {
             if let Ok(text) = fs::read(case.join(file)) {
                 let text = String::from_utf8_lossy(&text).replace('\u{fffd}', "\\xff");
+                let text = shorten_long_lines(&text);
                 section += &format!("{file}:\n\n```\n{text}```\n\n");
             }
         }
@@ -149,6 +150,21 @@ fn language_reference_lists_every_code() {
         return;
     }
     assert!(doc[a..b] == section, "docs/language.md is out of date: run UPDATE_GOLDEN=1 cargo test -p latticesim-compiler --test golden");
+}
+
+/// Lines longer than 120 characters are shown cut, with their length.
+fn shorten_long_lines(text: &str) -> String {
+    text.lines()
+        .map(|l| {
+            let n = l.chars().count();
+            if n > 120 {
+                let head: String = l.chars().take(100).collect();
+                format!("{head}… ({n} characters in all)\n")
+            } else {
+                format!("{l}\n")
+            }
+        })
+        .collect()
 }
 
 fn capitalise(s: &str) -> String {

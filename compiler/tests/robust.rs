@@ -33,6 +33,10 @@ fn run(rules: &[u8], agents: Option<&[u8]>, dim: Option<Dim>) -> Checked {
         }
         assert!(d.help.is_some(), "{:?} has no help", d.code);
     }
+    // A program that passed the checks lowers to bytecode that verifies.
+    if let Some(p) = &c.program {
+        assert_eq!(latticesim_compiler::lower(p).verify(), Ok(()));
+    }
     // Rendering must not fail either.
     let _ = latticesim_compiler::render::render_plain(&c.diags, &c.sources);
     let _ = latticesim_compiler::render::to_json(&c.diags, &c.sources);
@@ -257,10 +261,12 @@ proptest! {
         opens in 0usize..15_000,
         closes in 0usize..15_000,
         term in proptest::sample::select(FRAGMENTS),
+        repeat_pre in any::<bool>(),
         copies in 1usize..30_000,
         ctrl in proptest::collection::vec((any::<usize>(), control()), 0..20),
         bad_fields in 0usize..50_000,
     ) {
+        let (bangs, opens, closes) = if repeat_pre { (0, 0, 0) } else { (bangs, opens, closes) };
         let mut pre = "!".repeat(bangs) + &"(".repeat(opens);
         pre += &vec![term; copies].join(" ");
         pre += &")".repeat(closes);

@@ -108,6 +108,7 @@ codes! {
     E318 Error "wildcard-not-allowed" "a `*` where a definite value is needed";
     E319 Error "remote-counter-form" "a remote or external counter written wrongly";
     E320 Error "logic-in-postcondition" "`!`, `(` or `)` in a postcondition";
+    E321 Error "rule-too-large" "a rule too large for the bytecode";
     E401 Error "agents-syntax" "an agents line that cannot be read";
     E402 Error "agents-same-cell" "two agents on one cell";
     E403 Error "agents-outside-universe" "an agent outside the universe";
