@@ -191,6 +191,10 @@ pub struct Engine {
     scratch: MoveScratch,
     /// The actions of the step being made (kept for their allocations).
     todo: Actions,
+    /// With `--static-first`: the moving half of the combined intents of agents executing
+    /// several rules, made in the static pass (where conflicts are judged over all of
+    /// them), in agent order.
+    later: Vec<(u32, Intent)>,
     /// Numeric outboxes: a column per direction and slot in use (as the inboxes), and a
     /// bit set per column of which agents wrote it.
     out_num: Vec<Vec<i16>>,
@@ -214,6 +218,8 @@ struct Actions {
     /// State patterns (as [`pat_bits`]) to apply.
     states: Vec<(u32, (u64, u64))>,
     links: Vec<Link>,
+    /// Agents whose rules asked for different swaps: they take part in no swap.
+    no_swap: Vec<u32>,
 }
 
 impl Actions {
@@ -222,6 +228,7 @@ impl Actions {
         self.blocked.clear();
         self.states.clear();
         self.links.clear();
+        self.no_swap.clear();
     }
 
     /// Adds the combined actions `it` of agent `a`.
@@ -236,6 +243,9 @@ impl Actions {
         }
         if it.swap.is_some() || it.letters.iter().any(|&l| l != AttachLetter::Keep) {
             self.links.push((a, it.letters, it.swap));
+        }
+        if it.swap_bad {
+            self.no_swap.push(a);
         }
     }
 
@@ -714,6 +724,8 @@ struct Intent {
     mv: Option<[i32; 3]>,
     mv_bad: bool,
     swap: Option<Dir>,
+    /// The rules ask for different swaps: the agent takes part in no swap.
+    swap_bad: bool,
     letters: [AttachLetter; 6],
     state: TextPat,
 }
@@ -724,6 +736,7 @@ impl Default for Intent {
             mv: None,
             mv_bad: false,
             swap: None,
+            swap_bad: false,
             letters: [AttachLetter::Keep; 6],
             state: [None; 5],
         }
@@ -961,6 +974,7 @@ impl Engine {
             computes: prog.rules.iter().map(|r| r.computes).collect(),
             scratch: MoveScratch::default(),
             todo: Actions::default(),
+            later: Vec::new(),
             out_num: written
                 .iter()
                 .map(|&w| if w { vec![0; n] } else { Vec::new() })
@@ -1588,17 +1602,26 @@ impl Engine {
                 .map(|r| r.moves.is_none() && r.swaps.is_none())
                 .collect();
             let moving: Vec<bool> = still.iter().map(|s| !s).collect();
-            self.actions(sel, rep, Some(&still));
-            self.actions(sel, rep, Some(&moving));
+            self.later.clear();
+            self.actions(sel, rep, Some((&still, true)));
+            self.actions(sel, rep, Some((&moving, false)));
         } else {
             self.actions(sel, rep, None);
         }
     }
 
-    /// Paper step 2 for the selected rules that `pick` accepts (all without one).
-    fn actions(&mut self, sel: &mut Selection, rep: &mut StepReport, pick: Option<&[bool]>) {
-        let every = pick.is_none();
-        let pick = |r: u32| pick.is_none_or(|p| p[r as usize]);
+    /// Paper step 2 for all selected rules, or with `--static-first` for the rules one
+    /// pass takes (`pass`: which rules, and whether it is the first, static one). An agent
+    /// executing several rules has its conflicts judged over all of them in the first pass
+    /// ([`Engine::split_intent`]), whose second half waits in `later` for the second.
+    fn actions(
+        &mut self,
+        sel: &mut Selection,
+        rep: &mut StepReport,
+        pass: Option<(&[bool], bool)>,
+    ) {
+        let every = pass.is_none();
+        let pick = |r: u32| pass.is_none_or(|p| p.0[r as usize]);
         let n = self.lat.len();
         // Rules with nothing to do in this phase (only calculations and sends) are left out;
         // only the agents with something to do get an intent.
@@ -1670,6 +1693,21 @@ impl Engine {
             }
             let acts = &self.has_actions;
             rs.clear();
+            if let Some((still, first)) = pass {
+                let it = if first {
+                    rs.extend((sel.of(a).iter().copied()).filter(|&r| acts[r as usize]));
+                    let (now, later) = self.split_intent(a, &rs, still, rep);
+                    self.later.push((a as u32, later));
+                    now
+                } else {
+                    match self.later.binary_search_by_key(&(a as u32), |l| l.0) {
+                        Ok(k) => self.later[k].1,
+                        Err(_) => continue,
+                    }
+                };
+                todo.add(a as u32, &it);
+                continue;
+            }
             rs.extend((sel.of(a).iter().copied()).filter(|&r| pick(r) && acts[r as usize]));
             match rs[..] {
                 [] => {}
@@ -1721,7 +1759,7 @@ impl Engine {
         self.cand_dirty |= lookups;
         self.states_changed |= changed;
         if todo.links.iter().any(|l| l.2.is_some()) {
-            self.swaps(&todo.links, rep);
+            self.swaps(&todo.links, &todo.no_swap, rep);
         }
         self.todo = todo;
     }
@@ -1799,8 +1837,9 @@ impl Engine {
             0 => {}
             1 => it.swap = Some(swaps[0].1),
             _ => {
+                it.swap_bad = true;
                 let msg = format!(
-                    "agent {a} is asked to swap in different directions by rules {}; it does not swap",
+                    "agent {a} is asked to swap in different directions by rules {}; it takes part in no swap",
                     swaps.iter().map(|(r, d)| format!("`{}` (X{})", self.rule_name(*r), d.letter())).collect::<Vec<_>>().join(" and ")
                 );
                 self.record(rep, RecordKind::SwapConflict, &[a32], msg);
@@ -1829,6 +1868,51 @@ impl Engine {
             }
         }
         it
+    }
+
+    /// With `--static-first`: the combined intent of agent `a` executing rules `rs` (its
+    /// conflicts judged and recorded over all of them), split into what its static rules
+    /// (`still`) do in the first pass and what its moving rules do in the second.
+    fn split_intent(
+        &mut self,
+        a: usize,
+        rs: &[u32],
+        still: &[bool],
+        rep: &mut StepReport,
+    ) -> (Intent, Intent) {
+        let all = self.combined_intent(a, rs, rep);
+        let mut now = Intent::default();
+        let mut later = Intent {
+            mv: all.mv,
+            mv_bad: all.mv_bad,
+            swap: all.swap,
+            swap_bad: all.swap_bad,
+            ..Intent::default()
+        };
+        for &r in rs {
+            let info = &self.prog.rules[r as usize];
+            let half = if still[r as usize] {
+                &mut now
+            } else {
+                &mut later
+            };
+            if let Some(l) = info.attaches {
+                let ls = &self.prog.letters[l as usize];
+                for d in 0..self.lat.dim.dirs() {
+                    if ls[d] != AttachLetter::Keep {
+                        half.letters[d] = all.letters[d];
+                    }
+                }
+            }
+            if let Some(p) = info.sets_state {
+                for (i, c) in self.prog.pats[p as usize].iter().enumerate() {
+                    if c.is_some() {
+                        half.state[i] = all.state[i];
+                    }
+                }
+            }
+        }
+        (now, later)
     }
 
     /// Agent `a`, whose one rule `r` only sets the state (as [`pat_bits`] `bits`), takes its
@@ -2332,9 +2416,11 @@ impl Engine {
         self.lat.attach = new_attach;
     }
 
-    /// Step 6: swaps.
-    fn swaps(&mut self, links: &[Link], rep: &mut StepReport) {
-        let mut pairs: Vec<(u32, u32, Dir)> = Vec::new();
+    /// Step 6: swaps. `no_swap` (in agent order) take part in none: a request towards one
+    /// is cancelled with a record, but still counts when pairs are judged.
+    fn swaps(&mut self, links: &[Link], no_swap: &[u32], rep: &mut StepReport) {
+        // (x, y, direction from x to y, cancelled because one of them takes no swap)
+        let mut pairs: Vec<(u32, u32, Dir, bool)> = Vec::new();
         for &(a, _, swap) in links {
             let Some(d) = swap else { continue };
             match self.lat.cell_at(self.lat.pos[a as usize], d.offset()) {
@@ -2345,8 +2431,16 @@ impl Engine {
                     } else {
                         (b, a, d.opposite())
                     };
+                    let dead = no_swap.binary_search(&b).is_ok();
+                    if dead {
+                        let msg = format!(
+                            "agent {a} cannot swap towards {}: agent {b} there is asked for different swaps and takes part in none",
+                            d.letter()
+                        );
+                        self.record(rep, RecordKind::SwapTarget, &[a], msg);
+                    }
                     if !pairs.iter().any(|p| p.0 == x && p.1 == y) {
-                        pairs.push((x, y, dd));
+                        pairs.push((x, y, dd, dead));
                     }
                 }
                 _ => {
@@ -2363,7 +2457,10 @@ impl Engine {
             *count.entry(p.0).or_default() += 1;
             *count.entry(p.1).or_default() += 1;
         }
-        for (x, y, d) in pairs {
+        for (x, y, d, dead) in pairs {
+            if dead {
+                continue;
+            }
             if count[&x] > 1 || count[&y] > 1 {
                 let msg = format!("the swap of agents {x} and {y} shares an agent with another swap; it is cancelled");
                 self.record(rep, RecordKind::SwapShared, &[x, y], msg);

@@ -576,3 +576,155 @@ fn a_later_text_to_the_same_direction_overwrites() {
         "each step: four directions, east written twice but sent once"
     );
 }
+
+// ---- SEMANTICS 5.2: conflicts, under every option ---------------------------------------
+
+/// The four combinations of `--order` and `--static-first`.
+fn every_option() -> Vec<Options> {
+    let mut v = Vec::new();
+    for order in [Order::ActionsFirst, Order::MessagesFirst] {
+        for static_first in [false, true] {
+            v.push(Options {
+                order,
+                static_first,
+                ..Options::default()
+            });
+        }
+    }
+    v
+}
+
+fn sorted_kinds(r: &StepReport) -> Vec<&'static str> {
+    let mut k = kinds(r);
+    k.sort();
+    k
+}
+
+#[test]
+fn a_swap_towards_an_agent_asked_for_different_swaps_is_cancelled() {
+    // Issue 15's case: agent 1 (CCCCC) is asked by `an` and `aw` to swap north and west: a
+    // swap-conflict, and it takes part in no swap; agent 0's `be` towards it (east) is
+    // cancelled with a swap-target record. Nothing moves.
+    for opts in every_option() {
+        let mut e = engine_with(
+            "an\n1\nSCCCCC\nXN\n\naw\n1\nSCCCCC\nXW\n\nbe\n1\nSBBBBB\nXE\n",
+            "0,0 SBBBBB\n1,0 SCCCCC\n1,1 SDDDDD\n",
+            opts,
+        );
+        let r = e.step();
+        assert_eq!(sorted_kinds(&r), vec!["swap-conflict", "swap-target"], "{opts:?}");
+        assert_eq!((xy(&e, 0), xy(&e, 1), xy(&e, 2)), ((0, 0), (1, 0), (1, 1)));
+        assert_eq!(e.stats.swaps, 0);
+    }
+}
+
+#[test]
+fn a_conflicted_agents_own_requests_block_nobody() {
+    // Agent 1 asks for two swaps (east and west); its requests are dropped before pairing,
+    // so agents 2 and 3, who ask to swap with each other, are judged without them and
+    // swap, although one of 1's dropped requests pointed at 2.
+    for opts in every_option() {
+        let mut e = engine_with(
+            "ae\n1\nSCCCCC\nXE\naw\n1\nSCCCCC\nXW\nb\n1\nSBBBBB\nXE\nd\n1\nSDDDDD\nXW\n",
+            "0,0\n1,0 SCCCCC\n2,0 SBBBBB\n3,0 SDDDDD\n",
+            opts,
+        );
+        let r = e.step();
+        assert_eq!(sorted_kinds(&r), vec!["swap-conflict"], "{opts:?}");
+        assert_eq!((xy(&e, 2), xy(&e, 3)), ((3, 0), (2, 0)), "{opts:?}");
+        assert_eq!(xy(&e, 1), (1, 0));
+        assert_eq!(e.stats.swaps, 1);
+    }
+}
+
+#[test]
+fn a_cancelled_request_towards_a_conflicted_agent_still_counts() {
+    // Agent 2 asks for two swaps: no swap. Agent 1 asks to swap east, towards 2: cancelled
+    // (swap-target), but it still counts as 1's request, so agent 0's request towards 1
+    // shares agent 1 with it: swap-shared, cancelled too.
+    for opts in every_option() {
+        let mut e = engine_with(
+            "a\n1\nSAAAAA\nXE\nb\n1\nSBBBBB\nXE\ncn\n1\nSCCCCC\nXN\ncs\n1\nSCCCCC\nXS\n",
+            "0,0 SAAAAA\n1,0 SBBBBB\n2,0 SCCCCC\n2,1\n2,-1\n",
+            opts,
+        );
+        let r = e.step();
+        assert_eq!(
+            sorted_kinds(&r),
+            vec!["swap-conflict", "swap-shared", "swap-target"],
+            "{opts:?}"
+        );
+        assert_eq!(e.stats.swaps, 0);
+        assert_eq!((xy(&e, 0), xy(&e, 1), xy(&e, 2)), ((0, 0), (1, 0), (2, 0)));
+    }
+}
+
+#[test]
+fn static_first_judges_state_conflicts_over_all_rules() {
+    // Issue 15's case: `st` (no move) sets AAAAA and `mv` moves east and sets BBBBB. Five
+    // state-conflict records and the state stays XXXXX, with and without --static-first;
+    // the move happens either way.
+    for opts in every_option() {
+        let mut e = engine_with(
+            "st\n1\nSXXXXX\nSAAAAA\nmv\n1\nSXXXXX\nP1,0 SBBBBB\n",
+            "0,0 SXXXXX\n",
+            opts,
+        );
+        let r = e.step();
+        assert_eq!(sorted_kinds(&r), vec!["state-conflict"; 5], "{opts:?}");
+        assert_eq!(state(&e, 0), "XXXXX", "{opts:?}");
+        assert_eq!(xy(&e, 0), (1, 0));
+    }
+}
+
+#[test]
+fn static_first_judges_attachment_conflicts_over_all_rules() {
+    // `st` says 0 towards east, `mv` moves north with `+` towards east: different letters
+    // for east, an attach-conflict, east counts as `*` in both passes, so agent 1 is not
+    // carried (the bond is not rigid) and is not detached for good either: the bond is
+    // removed and does not form again (1 is no longer adjacent). With or without the flag.
+    for opts in every_option() {
+        let mut e = engine_with(
+            "st\n1\nSM****\nA**0*\nmv\n1\nSM****\nP0,1 A**+*\n",
+            "0,0 SM0000 A0010\n1,0 A0100\n",
+            opts,
+        );
+        let r = e.step();
+        assert_eq!(sorted_kinds(&r), vec!["attach-conflict"], "{opts:?}");
+        assert_eq!((xy(&e, 0), xy(&e, 1)), ((0, 1), (1, 0)), "{opts:?}");
+        assert_eq!((e.lat.attach[0], e.lat.attach[1]), (0, 0), "{opts:?}");
+    }
+}
+
+#[test]
+fn static_first_keeps_agreeing_effects_of_both_passes() {
+    // No conflict: `st` sets the first character, `mv` the second and moves; both take
+    // effect with the flag (the static one first), and no record is made.
+    for opts in every_option() {
+        let mut e = engine_with(
+            "st\n1\nSXXXXX\nSA****\nmv\n1\nSXXXXX\nP1,0 S*B***\n",
+            "0,0 SXXXXX\n",
+            opts,
+        );
+        let r = e.step();
+        assert!(r.records.is_empty(), "{opts:?}: {:?}", kinds(&r));
+        assert_eq!(state(&e, 0), "ABXXX");
+        assert_eq!(xy(&e, 0), (1, 0));
+    }
+}
+
+#[test]
+fn different_moves_block_the_group_under_every_option() {
+    // Agent 0's rules ask for two moves: a move-conflict, and its rigid group (with agent 1,
+    // bonded by `+`) does not move.
+    for opts in every_option() {
+        let mut e = engine_with(
+            "a\n1\nSM****\nP1,0 A+***\nb\n1\nSM****\nP0,-1\n",
+            "0,0 SM0000 A1000\n0,1 A0001\n",
+            opts,
+        );
+        let r = e.step();
+        assert_eq!(sorted_kinds(&r), vec!["move-conflict"], "{opts:?}");
+        assert_eq!((xy(&e, 0), xy(&e, 1)), ((0, 0), (0, 1)));
+    }
+}

@@ -39,6 +39,17 @@ pub struct RefStats {
     pub records: BTreeMap<&'static str, u64>,
 }
 
+/// What an agent's rules of one step ask for in conflict (SEMANTICS 5.2).
+#[derive(Clone, Copy, Default)]
+struct Judged {
+    move_bad: bool,
+    swap_bad: bool,
+    /// Directions with different letters.
+    dirs: u8,
+    /// State positions set differently.
+    chars: u8,
+}
+
 pub struct World {
     pub dim: Dim,
     pub universe: Option<[(i32, i32); 3]>,
@@ -445,6 +456,9 @@ impl World {
     }
 
     fn all_actions(&mut self, sel: &[Vec<usize>], recs: &mut Vec<Rec>, step: u64) {
+        // Conflicts are judged over every rule an agent executes in the step, whatever
+        // the pass its effects belong to.
+        let judged = self.judge(sel, recs, step);
         if self.static_first {
             let moves = |r: &usize| {
                 self.prog.rules[*r]
@@ -460,14 +474,97 @@ impl World {
                 .iter()
                 .map(|rs| rs.iter().copied().filter(|r| moves(r)).collect())
                 .collect();
-            self.actions(&still, recs, step);
-            self.actions(&mov, recs, step);
+            self.actions(&still, &judged, recs, step);
+            self.actions(&mov, &judged, recs, step);
         } else {
-            self.actions(sel, recs, step);
+            self.actions(sel, &judged, recs, step);
         }
     }
 
-    fn actions(&mut self, sel: &[Vec<usize>], recs: &mut Vec<Rec>, step: u64) {
+    /// What each agent's rules `sel` ask for: every distinct non-zero move, swap
+    /// direction, letter per direction and character per position.
+    #[allow(clippy::type_complexity)]
+    fn asks(
+        &self,
+        a: usize,
+        rules: &[usize],
+    ) -> (Vec<[i32; 3]>, Vec<Dir>, Vec<Vec<AttachLetter>>, Vec<Vec<u8>>) {
+        let nd = self.dim.dirs();
+        let mut moves: Vec<[i32; 3]> = Vec::new();
+        let mut swaps: Vec<Dir> = Vec::new();
+        let mut lets: Vec<Vec<AttachLetter>> = vec![Vec::new(); nd];
+        let mut chars: Vec<Vec<u8>> = vec![Vec::new(); 5];
+        for &r in rules {
+            for act in &self.prog.rules[r].post {
+                match act {
+                    Action::Move(o) => {
+                        let o = self.offset(a, o);
+                        if o != [0, 0, 0] && !moves.contains(&o) {
+                            moves.push(o);
+                        }
+                    }
+                    Action::Swap(d) if !swaps.contains(d) => swaps.push(*d),
+                    Action::Attach(ls) => {
+                        for d in 0..nd {
+                            if !lets[d].contains(&ls[d]) {
+                                lets[d].push(ls[d]);
+                            }
+                        }
+                    }
+                    Action::State(p) => {
+                        for i in 0..5 {
+                            if let Some(c) = p[i] {
+                                if !chars[i].contains(&c) {
+                                    chars[i].push(c);
+                                }
+                            }
+                        }
+                    }
+                    _ => {}
+                }
+            }
+        }
+        (moves, swaps, lets, chars)
+    }
+
+    /// SEMANTICS 5.2's conflicts of each agent over all the rules it executes, with their
+    /// records.
+    fn judge(&self, sel: &[Vec<usize>], recs: &mut Vec<Rec>, step: u64) -> Vec<Judged> {
+        let nd = self.dim.dirs();
+        let mut out = vec![Judged::default(); sel.len()];
+        for (a, rules) in sel.iter().enumerate() {
+            let (moves, swaps, lets, chars) = self.asks(a, rules);
+            let rec = |kind| Rec {
+                step,
+                kind,
+                agents: vec![a as u32],
+            };
+            let j = &mut out[a];
+            if moves.len() > 1 {
+                j.move_bad = true;
+                recs.push(rec("move-conflict"));
+            }
+            if swaps.len() > 1 {
+                j.swap_bad = true;
+                recs.push(rec("swap-conflict"));
+            }
+            for (d, l) in lets.iter().enumerate().take(nd) {
+                if l.len() > 1 {
+                    j.dirs |= 1 << d;
+                    recs.push(rec("attach-conflict"));
+                }
+            }
+            for (i, c) in chars.iter().enumerate() {
+                if c.len() > 1 {
+                    j.chars |= 1 << i;
+                    recs.push(rec("state-conflict"));
+                }
+            }
+        }
+        out
+    }
+
+    fn actions(&mut self, sel: &[Vec<usize>], judged: &[Judged], recs: &mut Vec<Rec>, step: u64) {
         let n = self.agents.len();
         let nd = self.dim.dirs();
         if sel.iter().all(|s| s.is_empty()) {
@@ -476,82 +573,33 @@ impl World {
         let mut mv: Vec<Option<[i32; 3]>> = vec![None; n];
         let mut mv_bad = vec![false; n];
         let mut swap: Vec<Option<Dir>> = vec![None; n];
+        // Agents that take part in no swap: their rules ask for different ones.
+        let mut no_swap = vec![false; n];
         let mut letters: Vec<Vec<AttachLetter>> = vec![vec![AttachLetter::Keep; nd]; n];
         let mut newstate: Vec<[Option<u8>; 5]> = vec![[None; 5]; n];
         for a in 0..n {
-            let mut moves: Vec<[i32; 3]> = Vec::new();
-            let mut swaps: Vec<Dir> = Vec::new();
-            let mut lets: Vec<Vec<AttachLetter>> = vec![Vec::new(); nd];
-            let mut chars: Vec<Vec<u8>> = vec![Vec::new(); 5];
-            for &r in &sel[a] {
-                for act in &self.prog.rules[r].post {
-                    match act {
-                        Action::Move(o) => {
-                            let o = self.offset(a, o);
-                            if o != [0, 0, 0] && !moves.contains(&o) {
-                                moves.push(o);
-                            }
-                        }
-                        Action::Swap(d) if !swaps.contains(d) => swaps.push(*d),
-                        Action::Attach(ls) => {
-                            for d in 0..nd {
-                                if !lets[d].contains(&ls[d]) {
-                                    lets[d].push(ls[d]);
-                                }
-                            }
-                        }
-                        Action::State(p) => {
-                            for i in 0..5 {
-                                if let Some(c) = p[i] {
-                                    if !chars[i].contains(&c) {
-                                        chars[i].push(c);
-                                    }
-                                }
-                            }
-                        }
-                        _ => {}
-                    }
-                }
-            }
-            if moves.len() > 1 {
-                mv_bad[a] = true;
-                recs.push(Rec {
-                    step,
-                    kind: "move-conflict",
-                    agents: vec![a as u32],
-                });
+            let (moves, swaps, lets, chars) = self.asks(a, &sel[a]);
+            let j = judged[a];
+            if j.move_bad {
+                mv_bad[a] = !moves.is_empty();
             } else {
                 mv[a] = moves.first().copied();
             }
-            if swaps.len() > 1 {
-                recs.push(Rec {
-                    step,
-                    kind: "swap-conflict",
-                    agents: vec![a as u32],
-                });
+            if j.swap_bad {
+                no_swap[a] = true;
             } else {
                 swap[a] = swaps.first().copied();
             }
             for d in 0..nd {
-                match lets[d].len() {
-                    0 => {}
-                    1 => letters[a][d] = lets[d][0],
-                    _ => recs.push(Rec {
-                        step,
-                        kind: "attach-conflict",
-                        agents: vec![a as u32],
-                    }),
+                if j.dirs & (1 << d) == 0 {
+                    if let Some(&l) = lets[d].first() {
+                        letters[a][d] = l;
+                    }
                 }
             }
             for i in 0..5 {
-                match chars[i].len() {
-                    0 => {}
-                    1 => newstate[a][i] = Some(chars[i][0]),
-                    _ => recs.push(Rec {
-                        step,
-                        kind: "state-conflict",
-                        agents: vec![a as u32],
-                    }),
+                if j.chars & (1 << i) == 0 {
+                    newstate[a][i] = chars[i].first().copied();
                 }
             }
         }
@@ -736,8 +784,10 @@ impl World {
                 }
             }
         }
-        // 6. Swaps.
+        // 6. Swaps. A request towards an agent that takes part in no swap is cancelled
+        // (a swap-target record) but still counts when pairs are judged.
         let mut reqs: Vec<(usize, usize)> = Vec::new();
+        let mut dead: Vec<(usize, usize)> = Vec::new();
         for a in 0..n {
             let Some(d) = swap[a] else { continue };
             match self.look(self.agents[a].pos, d.offset()) {
@@ -745,6 +795,14 @@ impl World {
                     let pair = (a.min(b), a.max(b));
                     if !reqs.contains(&pair) {
                         reqs.push(pair);
+                    }
+                    if no_swap[b] {
+                        dead.push(pair);
+                        recs.push(Rec {
+                            step,
+                            kind: "swap-target",
+                            agents: vec![a as u32],
+                        });
                     }
                 }
                 _ => recs.push(Rec {
@@ -758,8 +816,12 @@ impl World {
             reqs.iter()
                 .any(|q| q != p && (q.0 == p.0 || q.0 == p.1 || q.1 == p.0 || q.1 == p.1))
         };
-        let ok: Vec<(usize, usize)> = reqs.iter().copied().filter(|p| !shared(p)).collect();
-        for p in reqs.iter().filter(|p| shared(p)) {
+        let ok: Vec<(usize, usize)> = reqs
+            .iter()
+            .copied()
+            .filter(|p| !shared(p) && !dead.contains(p))
+            .collect();
+        for p in reqs.iter().filter(|p| shared(p) && !dead.contains(p)) {
             recs.push(Rec {
                 step,
                 kind: "swap-shared",
