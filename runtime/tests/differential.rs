@@ -276,6 +276,28 @@ fn differential(
     order: Order,
     static_first: bool,
 ) -> Result<(), TestCaseError> {
+    differential_on(rules, agents, order, static_first, 1)
+}
+
+/// Runs the rules under all four combinations of `--order` and `--static-first`.
+fn every_option(rules: &str, agents: &str, threads: usize) -> Result<(), TestCaseError> {
+    for order in [Order::ActionsFirst, Order::MessagesFirst] {
+        for static_first in [false, true] {
+            differential_on(rules, agents, order, static_first, threads).map_err(|e| {
+                TestCaseError::fail(format!("{order:?}, static-first {static_first}: {e}"))
+            })?;
+        }
+    }
+    Ok(())
+}
+
+fn differential_on(
+    rules: &str,
+    agents: &str,
+    order: Order,
+    static_first: bool,
+    threads: usize,
+) -> Result<(), TestCaseError> {
     let c = common::checked(rules, agents);
     prop_assert_eq!(
         c.errors(),
@@ -297,7 +319,7 @@ fn differential(
             static_first,
             // Tracing only reports; half the cases run with it to show that it changes nothing.
             trace: static_first,
-            threads: 1,
+            threads,
         },
     );
     let mut w = World::new(
@@ -376,14 +398,144 @@ proptest! {
     })]
 
     #[test]
-    fn engine_agrees_with_reference_2d(r in rules(false), a in agents(false), mf in proptest::bool::ANY, sf in proptest::bool::ANY) {
-        differential(&r, &a, if mf { Order::MessagesFirst } else { Order::ActionsFirst }, sf)?;
+    fn engine_agrees_with_reference_2d(r in rules(false), a in agents(false)) {
+        every_option(&r, &a, 1)?;
     }
 
     #[test]
-    fn engine_agrees_with_reference_3d(r in rules(true), a in agents(true), mf in proptest::bool::ANY, sf in proptest::bool::ANY) {
-        differential(&r, &a, if mf { Order::MessagesFirst } else { Order::ActionsFirst }, sf)?;
+    fn engine_agrees_with_reference_3d(r in rules(true), a in agents(true)) {
+        every_option(&r, &a, 1)?;
     }
+
+    /// Several swap requests around one agent, and static and moving rules of one agent
+    /// touching the same state characters and attachment directions.
+    #[test]
+    fn themes_agree_with_reference_2d(r in themes(false), a in agents(false)) {
+        every_option(&r, &a, 1)?;
+    }
+
+    #[test]
+    fn themes_agree_with_reference_3d(r in themes(true), a in agents(true)) {
+        every_option(&r, &a, 1)?;
+    }
+}
+
+proptest! {
+    // Large instances (more than 2,500 agents) reach every batch, chunk and thread path of
+    // the engine; PROPTEST_LARGE_CASES sets how many.
+    #![proptest_config(ProptestConfig {
+        cases: std::env::var("PROPTEST_LARGE_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(2),
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    })]
+
+    #[test]
+    fn large_instances_agree_with_reference_2d(r in prop_oneof![rules(false), themes(false)], a in large_agents(false)) {
+        every_option(&r, &a, 2)?;
+    }
+
+    #[test]
+    fn large_instances_agree_with_reference_3d(r in prop_oneof![rules(true), themes(true)], a in large_agents(true)) {
+        every_option(&r, &a, 2)?;
+    }
+}
+
+/// Rules of the two themes: swaps around agents (several `X` rules of one priority, so an
+/// agent may be asked for several swaps and its neighbours for swaps towards it), and pairs
+/// of rules with one precondition and priority, one static and one moving, whose states
+/// and letters overlap.
+fn themes(d3: bool) -> BoxedStrategy<String> {
+    let n = if d3 { 6 } else { 4 };
+    let swaps = proptest::collection::vec(
+        (
+            1u16..3,
+            state_pat(),
+            pick(dirs(d3)),
+            proptest::option::of(state_pat()),
+        ),
+        2..6,
+    )
+    .prop_map(|rs| {
+        rs.iter()
+            .enumerate()
+            .map(|(i, (p, pre, d, st))| {
+                let st = st.as_ref().map_or(String::new(), |s| format!(" S{s}"));
+                format!("x{i}\n{p}\nS{pre}\nX{d}{st}\n")
+            })
+            .collect::<String>()
+    });
+    let letters = move || pat(n, "01*+");
+    let split = proptest::collection::vec(
+        (
+            1u16..3,
+            pre(d3),
+            state_pat(),
+            proptest::option::of(letters()),
+            prop_oneof![
+                offset(d3).prop_map(|o| format!("P{o}")),
+                pick(dirs(d3)).prop_map(|d| format!("X{d}"))
+            ],
+            proptest::option::of(state_pat()),
+            proptest::option::of(letters()),
+        ),
+        1..3,
+    )
+    .prop_map(|rs| {
+        rs.iter()
+            .enumerate()
+            .map(|(i, (p, pre, s1, a1, mv, s2, a2))| {
+                let a1 = a1.as_ref().map_or(String::new(), |a| format!(" A{a}"));
+                let s2 = s2.as_ref().map_or(String::new(), |s| format!(" S{s}"));
+                let a2 = a2.as_ref().map_or(String::new(), |a| format!(" A{a}"));
+                format!("st{i}\n{p}\n{pre}\nS{s1}{a1}\nmv{i}\n{p}\n{pre}\n{mv}{s2}{a2}\n")
+            })
+            .collect::<String>()
+    });
+    prop_oneof![swaps, split].boxed()
+}
+
+/// A full block of more than 2,500 agents (52 x 50, or 14 x 14 x 14) with random states,
+/// counters and bonds.
+fn large_agents(d3: bool) -> impl Strategy<Value = String> {
+    let (w, h, d) = if d3 { (14, 14, 14) } else { (52, 50, 1) };
+    let n = (w * h * d) as usize;
+    (
+        proptest::collection::vec((0usize..3, -3i16..4, 0u8..4), n),
+        proptest::bool::ANY,
+    )
+        .prop_map(move |(attrs, bounded)| {
+            let mut text = String::new();
+            if bounded {
+                text += &if d3 {
+                    format!("U0,{},0,{},0,{}\n", w - 1, h - 1, d - 1)
+                } else {
+                    format!("U0,{},0,{}\n", w - 1, h - 1)
+                };
+            }
+            let mut k = 0;
+            for z in 0..d {
+                for y in 0..h {
+                    for x in 0..w {
+                        let (st, c0, bond) = attrs[k];
+                        k += 1;
+                        // Bonds east, made by both ends (the next agent's west), on a few.
+                        let east = bond == 0 && x + 1 < w;
+                        let west = x > 0 && attrs[k - 2].2 == 0;
+                        let mut a = vec!['0'; if d3 { 6 } else { 4 }];
+                        a[2] = if east { '1' } else { '0' };
+                        a[1] = if west { '1' } else { '0' };
+                        let a: String = a.into_iter().collect();
+                        let pos = if d3 {
+                            format!("{x},{y},{z}")
+                        } else {
+                            format!("{x},{y}")
+                        };
+                        text += &format!("{pos} S{} A{a} C00 {c0}\n", STATES[st]);
+                    }
+                }
+            }
+            text
+        })
 }
 
 /// The generators reach every kind of record, moves, swaps and deliveries: the comparison

@@ -612,7 +612,11 @@ fn a_swap_towards_an_agent_asked_for_different_swaps_is_cancelled() {
             opts,
         );
         let r = e.step();
-        assert_eq!(sorted_kinds(&r), vec!["swap-conflict", "swap-target"], "{opts:?}");
+        assert_eq!(
+            sorted_kinds(&r),
+            vec!["swap-conflict", "swap-target"],
+            "{opts:?}"
+        );
         assert_eq!((xy(&e, 0), xy(&e, 1), xy(&e, 2)), ((0, 0), (1, 0), (1, 1)));
         assert_eq!(e.stats.swaps, 0);
     }
@@ -727,4 +731,68 @@ fn different_moves_block_the_group_under_every_option() {
         assert_eq!(sorted_kinds(&r), vec!["move-conflict"], "{opts:?}");
         assert_eq!((xy(&e, 0), xy(&e, 1)), ((0, 0), (0, 1)));
     }
+}
+
+// ---- --static-first and bonds between a static agent and a mover (docs/running.md) -----
+
+fn with_static_first(static_first: bool) -> Options {
+    Options {
+        static_first,
+        ..Options::default()
+    }
+}
+
+#[test]
+fn static_plus_carries_a_mover_without_a_letter_only_in_one_pass() {
+    // Agent 1 (static, `A++++`) is bonded east of agent 0 (mover, no `A` action).
+    // One pass: the bond's ends are `*` (0) and `+` (1): rigid, so 0 carries 1 north.
+    // --static-first: in the static pass the bond is kept (nothing moves); in the movers'
+    // pass 1's rule does not act, both ends are `*`: the bond is removed, 0 moves alone,
+    // and it does not form again (0 is no longer beside 1).
+    let rules = "mv\n1\nSM****\nP0,1\nst\n1\nSS****\nA++++\n";
+    let agents = "0,0 SM0000 A0010\n1,0 SS0000 A0100\n";
+    let mut one = engine_with(rules, agents, with_static_first(false));
+    one.step();
+    assert_eq!((xy(&one, 0), xy(&one, 1)), ((0, 1), (1, 1)));
+    assert_eq!((one.lat.attach[0], one.lat.attach[1]), (0b0100, 0b0010));
+    let mut two = engine_with(rules, agents, with_static_first(true));
+    two.step();
+    assert_eq!((xy(&two, 0), xy(&two, 1)), ((0, 1), (1, 0)));
+    assert_eq!((two.lat.attach[0], two.lat.attach[1]), (0, 0));
+}
+
+#[test]
+fn a_movers_own_plus_carries_a_static_agent_in_both() {
+    // The mover says `+` towards the static agent: rigid in the movers' pass too, so the
+    // static agent is carried with and without --static-first.
+    for sf in [false, true] {
+        let mut e = engine_with(
+            "mv\n1\nSM****\nP0,1 A**+*\nst\n1\nSS****\nSST000\n",
+            "0,0 SM0000 A0010\n1,0 SS0000 A0100\n",
+            with_static_first(sf),
+        );
+        e.step();
+        assert_eq!(
+            (xy(&e, 0), xy(&e, 1)),
+            ((0, 1), (1, 1)),
+            "static-first {sf}"
+        );
+        assert_eq!(state(&e, 1), "ST000");
+        assert_eq!((e.lat.attach[0], e.lat.attach[1]), (0b0100, 0b0010));
+    }
+}
+
+#[test]
+fn a_bond_of_letters_star_survives_when_the_agents_stay_beside() {
+    // --static-first, the movers' pass: two bonded movers without `A` actions (both ends
+    // `*`) both move north by their own rules: the bond is removed, and it forms again
+    // because they are still beside each other in that direction.
+    let mut e = engine_with(
+        "mv\n1\nSM****\nP0,1\n",
+        "0,0 SM0000 A0010\n1,0 SM0000 A0100\n",
+        with_static_first(true),
+    );
+    e.step();
+    assert_eq!((xy(&e, 0), xy(&e, 1)), ((0, 1), (1, 1)));
+    assert_eq!((e.lat.attach[0], e.lat.attach[1]), (0b0100, 0b0010));
 }

@@ -488,7 +488,12 @@ impl World {
         &self,
         a: usize,
         rules: &[usize],
-    ) -> (Vec<[i32; 3]>, Vec<Dir>, Vec<Vec<AttachLetter>>, Vec<Vec<u8>>) {
+    ) -> (
+        Vec<[i32; 3]>,
+        Vec<Dir>,
+        Vec<Vec<AttachLetter>>,
+        Vec<Vec<u8>>,
+    ) {
         let nd = self.dim.dirs();
         let mut moves: Vec<[i32; 3]> = Vec::new();
         let mut swaps: Vec<Dir> = Vec::new();
