@@ -60,6 +60,9 @@ pub struct World {
     pub static_first: bool,
     #[allow(clippy::type_complexity)]
     pending: Option<(Vec<Vec<Vec<Option<i16>>>>, Vec<Vec<Option<[u8; 5]>>>)>,
+    /// Who stands where: made again after the moves, updated by each swap (the only
+    /// places positions change).
+    cells: std::collections::HashMap<[i32; 3], usize>,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -128,7 +131,7 @@ impl World {
             })
             .collect();
         let k = prog.rules.len();
-        World {
+        let mut w = World {
             dim: d,
             universe: cfg.universe,
             agents,
@@ -140,7 +143,19 @@ impl World {
             messages_first,
             static_first,
             pending: None,
-        }
+            cells: Default::default(),
+        };
+        w.reindex();
+        w
+    }
+
+    fn reindex(&mut self) {
+        self.cells = self
+            .agents
+            .iter()
+            .enumerate()
+            .map(|(i, a)| (a.pos, i))
+            .collect();
     }
 
     fn inside(&self, p: [i64; 3]) -> bool {
@@ -168,7 +183,7 @@ impl World {
             return None;
         }
         let p = [p[0] as i32, p[1] as i32, p[2] as i32];
-        Some(self.agents.iter().position(|a| a.pos == p))
+        Some(self.cells.get(&p).copied())
     }
 
     fn offset(&self, a: usize, o: &Offset) -> [i32; 3] {
@@ -747,6 +762,7 @@ impl World {
                 self.stats.moves += 1;
             }
         }
+        self.reindex();
         // 4. Attach.
         let mut att = rigid.clone();
         for a in 0..n {
@@ -851,6 +867,8 @@ impl World {
             let (px, py) = (self.agents[x].pos, self.agents[y].pos);
             self.agents[x].pos = py;
             self.agents[y].pos = px;
+            self.cells.insert(py, x);
+            self.cells.insert(px, y);
             if bonded {
                 let d = Dir::from_offset([px[0] - py[0], px[1] - py[1], px[2] - py[2]])
                     .expect("neighbours");
