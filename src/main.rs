@@ -50,7 +50,8 @@ enum Command {
     ///
     /// Exit status: 0 done, 1 errors in the input files, 2 usage or I/O failure, 3 stopped by
     /// --strict at an error record, 130 interrupted (Ctrl-C). --out and --stats are written
-    /// in every case but 1 and 2.
+    /// in every case but 1 and 2 (and also when only another output failed, with 2); an
+    /// output path that cannot be written is found before anything runs.
     Run(run::RunArgs),
     /// Generate an agents file: a line, a block, a random connected shape or a cloud.
     Gen(gen::GenArgs),
@@ -178,14 +179,7 @@ fn run_check(
     );
     match format {
         Format::Human => {
-            let colour = match color {
-                Color::Always => true,
-                Color::Never => false,
-                Color::Auto => {
-                    std::io::stderr().is_terminal() && std::env::var_os("NO_COLOR").is_none()
-                }
-            };
-            let mut text = checked.render(colour);
+            let mut text = checked.render(colour(color));
             text += &summary(&checked, agents.is_some());
             text.push('\n');
             output::stderr(&text);

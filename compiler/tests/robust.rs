@@ -219,9 +219,11 @@ fn run_bounded(rules: Vec<u8>, agents: Vec<u8>) {
         .spawn(move || {
             let c = run(&rules, Some(&agents), None);
             let text = c.render(false);
-            // Each line is quoted by at most SHOWN_PER_LINE diagnostics.
+            // Each line is the primary place of at most SHOWN_PER_LINE diagnostics, each
+            // quoting it with its primary and at most one secondary label there.
+            let per_line = 2 * latticesim_compiler::SHOWN_PER_LINE;
             assert!(
-                text.len() < 12 * size + 200_000,
+                text.len() < per_line * size + 200_000,
                 "{} bytes of diagnostics for {size} bytes of input",
                 text.len()
             );
