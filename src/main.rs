@@ -8,6 +8,7 @@ use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+mod agents_file;
 mod gen;
 mod output;
 mod render;
@@ -165,18 +166,39 @@ fn run_check(
         Ok(b) => b,
         Err(c) => return c,
     };
-    let agents_bytes = match agents.as_ref().map(read).transpose() {
-        Ok(b) => b,
-        Err(c) => return c,
-    };
     let dim = dim.map(|d| if d == "3" { Dim::Three } else { Dim::Two });
     let rules_name = rules.display().to_string();
-    let agents_name = agents.as_ref().map(|p| p.display().to_string());
-    let checked = check_pair(
-        (&rules_name, &rules_bytes),
-        agents_name.as_deref().zip(agents_bytes.as_deref()),
-        dim,
-    );
+    let checked = match (&agents, dim) {
+        // The fast path of agents files, unless --dim is to be reconciled with the file's.
+        (Some(path), None) => {
+            let name = path.display().to_string();
+            let threads = run::io_threads(None);
+            match agents_file::load(
+                (&rules_name, &rules_bytes),
+                &name,
+                agents_file::Source::File(path),
+                threads,
+            ) {
+                Ok(l) => l.checked,
+                Err(e) => {
+                    say!("error: cannot read `{name}`: {e}");
+                    return ExitCode::from(2);
+                }
+            }
+        }
+        _ => {
+            let agents_bytes = match agents.as_deref().map(agents_file::read_all).transpose() {
+                Ok(b) => b,
+                Err(c) => return c,
+            };
+            let agents_name = agents.as_ref().map(|p| p.display().to_string());
+            check_pair(
+                (&rules_name, &rules_bytes),
+                agents_name.as_deref().zip(agents_bytes.as_deref()),
+                dim,
+            )
+        }
+    };
     match format {
         Format::Human => {
             let mut text = checked.render(colour(color));

@@ -63,6 +63,41 @@ pub(crate) fn stdout(bytes: &[u8]) {
     }
 }
 
+/// Standard output as a buffered writer, with the failures of [`stdout`] (a closed pipe
+/// ends the output quietly); its writes never fail.
+pub(crate) struct Stdout {
+    buf: Vec<u8>,
+}
+
+impl Stdout {
+    pub(crate) fn new() -> Stdout {
+        Stdout {
+            buf: Vec::with_capacity(1 << 16),
+        }
+    }
+}
+
+impl Write for Stdout {
+    fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
+        self.buf.extend_from_slice(bytes);
+        if self.buf.len() >= 1 << 16 {
+            self.flush()?;
+        }
+        Ok(bytes.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        stdout(&self.buf);
+        self.buf.clear();
+        Ok(())
+    }
+}
+
+impl Drop for Stdout {
+    fn drop(&mut self) {
+        let _ = self.flush();
+    }
+}
+
 /// The command's exit status, made 2 when the terminal output failed.
 pub(crate) fn finish(code: ExitCode) -> ExitCode {
     if FAILED.load(Ordering::SeqCst) {

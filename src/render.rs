@@ -483,19 +483,21 @@ pub fn render(args: RenderArgs) -> ExitCode {
         Ok(f) => f,
         Err(c) => return c,
     };
-    let (prog, config) = match load(&args.rules, &args.agents, true, colour(args.color)) {
+    let threads = crate::run::io_threads(None);
+    let ready = match load(&args.rules, &args.agents, true, colour(args.color), threads) {
         Ok(l) => l,
         Err(c) => return c,
     };
-    let dim = config.dim;
-    let universe = config
+    let dim = ready.lat.dim;
+    let universe = ready
+        .lat
         .universe
         .map(|b| [0, 1, 2].map(|k| (b[k].0 as i64, b[k].1 as i64)));
     let opts = Options {
-        threads: crate::engine_threads(None, config.agents.len()),
+        threads: crate::engine_threads(None, ready.lat.len()),
         ..Options::default()
     };
-    let mut engine = Engine::new(prog, Lattice::new(&config), opts);
+    let mut engine = Engine::new(ready.prog, ready.lat, opts);
     let agent_frames = engine.lat.len() as u64 * (last - first + 1);
     if agent_frames > MAX_AGENT_FRAMES {
         say!(

@@ -1,7 +1,8 @@
 //! `latticesim run`: check, compile, step until quiescence, write the results.
 
+use crate::agents_file;
 use crate::output::{self, open_output, say, write_output};
-use crate::{check_pair, colour, read, Color, RECORDS_SHOWN_PER_KIND};
+use crate::{colour, read, Color, RECORDS_SHOWN_PER_KIND};
 use clap::ValueEnum;
 use latticesim_compiler::lower;
 use latticesim_runtime::{Engine, Lattice, Options, Order, RecordKind, Stats};
@@ -111,27 +112,52 @@ fn stats_json(e: &Engine, stop: Stop, wall: Option<Duration>) -> serde_json::Val
     v
 }
 
+/// A rules and an agents file read, checked and compiled.
+pub(crate) struct Ready {
+    /// The verified program.
+    pub prog: latticesim_vm::Program,
+    /// The agents.
+    pub lat: Lattice,
+    /// The time spent reading the agents file (and building the lattice).
+    pub read: Duration,
+    /// The time spent checking and compiling.
+    pub check: Duration,
+}
+
+/// The threads that read and write agents files (all cores, or fewer when asked).
+pub(crate) fn io_threads(requested: Option<usize>) -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    requested.unwrap_or(cores).clamp(1, cores)
+}
+
 /// Reads and checks a rules and an agents file, printing the diagnostics (only errors when
-/// `quiet`): the verified program and the configuration, or the exit status (1 for errors
-/// in the files, 2 for I/O).
+/// `quiet`): the verified program and the lattice, or the exit status (1 for errors in the
+/// files, 2 for I/O).
 pub(crate) fn load(
     rules: &PathBuf,
     agents: &PathBuf,
     quiet: bool,
     colour: bool,
-) -> Result<(latticesim_vm::Program, latticesim_vm::model::Config), ExitCode> {
-    let (rules_bytes, agents_bytes) = (read(rules)?, read(agents)?);
+    threads: usize,
+) -> Result<Ready, ExitCode> {
+    let rules_bytes = read(rules)?;
     let rules_name = rules.display().to_string();
     let agents_name = agents.display().to_string();
-    let checked = check_pair(
+    let loaded = agents_file::load(
         (&rules_name, &rules_bytes),
-        Some((&agents_name, &agents_bytes)),
-        None,
-    );
+        &agents_name,
+        agents_file::Source::File(agents),
+        threads,
+    )
+    .map_err(|e| {
+        say!("error: cannot read `{agents_name}`: {e}");
+        ExitCode::from(2)
+    })?;
+    let checked = &loaded.checked;
     if !checked.diags.is_empty() && (checked.errors() > 0 || !quiet) {
         output::stderr(&checked.render(colour));
     }
-    let (Some(program), Some(config)) = (checked.program.as_ref(), checked.config.clone()) else {
+    let (Some(program), Some(lat)) = (checked.program.as_ref(), loaded.lattice) else {
         say!(
             "{rules_name}, {agents_name}: {} error{}; nothing was run",
             checked.errors(),
@@ -139,12 +165,18 @@ pub(crate) fn load(
         );
         return Err(ExitCode::from(1));
     };
+    let t = Instant::now();
     let prog = lower(program);
     if let Err(e) = prog.verify() {
         say!("internal error: the compiled program does not verify: {e}");
         return Err(ExitCode::from(2));
     }
-    Ok((prog, config))
+    Ok(Ready {
+        prog,
+        lat,
+        read: loaded.read,
+        check: loaded.check + t.elapsed(),
+    })
 }
 
 pub fn run(args: RunArgs) -> ExitCode {
@@ -160,17 +192,18 @@ pub fn run(args: RunArgs) -> ExitCode {
             (Ok(o), Ok(s), Ok(t)) => (o, s, t),
             (Err(c), _, _) | (_, Err(c), _) | (_, _, Err(c)) => return c,
         };
-    let (prog, config) = match load(&args.rules, &args.agents, args.quiet, colour) {
+    let io_threads = io_threads(args.threads);
+    let ready = match load(&args.rules, &args.agents, args.quiet, colour, io_threads) {
         Ok(l) => l,
         Err(c) => return c,
     };
     let opts = Options {
-        threads: crate::engine_threads(args.threads, config.agents.len()),
+        threads: crate::engine_threads(args.threads, ready.lat.len()),
         order,
         static_first: args.static_first,
         trace: trace_out.is_some(),
     };
-    let mut engine = Engine::new(prog, Lattice::new(&config), opts);
+    let mut engine = Engine::new(ready.prog, ready.lat, opts);
     output::poll_interrupts();
     let started = Instant::now();
     let mut bar: Option<indicatif::ProgressBar> = None;
@@ -266,12 +299,17 @@ pub fn run(args: RunArgs) -> ExitCode {
             failed = Some(ExitCode::from(2));
         }
     }
-    let text = engine.lat.to_agents_text();
     match out_file {
-        Some(f) => failed = write_output(f, text.as_bytes()).err().or(failed),
-        None => output::stdout(text.as_bytes()),
+        Some(f) => {
+            failed = agents_file::write_lattice(f, &engine.lat, io_threads)
+                .err()
+                .or(failed)
+        }
+        None => {
+            let mut w = output::Stdout::new();
+            let _ = engine.lat.write_agents_text(&mut w, io_threads);
+        }
     }
-    drop(text);
     if let Some(f) = stats_file {
         let v = stats_json(&engine, stop, (!args.no_timing).then_some(wall));
         let mut s = serde_json::to_string_pretty(&v).expect("plain data");

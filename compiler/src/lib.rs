@@ -3,12 +3,14 @@
 //! [`check`] is the whole pipeline from the bytes of rules.txt (and optionally agents.txt)
 //! to a checked [`Program`] and [`Config`]: decode, parse, find the dimension, check every
 //! rule and agent, sort the diagnostics. It does no I/O; the CLI reads the files and prints.
+//! [`fast_agents`] reads clean agents files straight into columns, for large runs.
 #![warn(missing_docs)]
 
 mod check_agents;
 mod check_rules;
 mod contradict;
 pub mod dim;
+pub mod fast_agents;
 mod lower;
 pub mod program;
 pub mod render;
@@ -16,7 +18,7 @@ pub mod render;
 pub use check_agents::check_agents;
 pub use check_rules::{check_rules, VALUE_MAX};
 pub use lower::lower;
-pub use program::{Config, Dim, Program};
+pub use program::{Columns, Config, Dim, Program};
 pub use render::Sources;
 
 use bumpalo::Bump;

@@ -4,7 +4,7 @@
 
 use latticesim_grammar::Span;
 pub use latticesim_vm::model::{
-    AgentInit, AttachLetter, BitPat, Bounds, CalcOp, CmpOp, Config, Coord, Dim, Dir, Offset,
+    AgentInit, AttachLetter, BitPat, Bounds, CalcOp, CmpOp, Columns, Config, Coord, Dim, Dir, Offset,
     TextPat,
 };
 

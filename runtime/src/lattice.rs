@@ -11,8 +11,7 @@
 use crate::cells::{CellIndex, Grid, EMPTY, NO_SLOT, RIM};
 use crate::step::{all_bits, no_bits, run_of, sequence_len, set_bits};
 use latticesim_vm::eval::Cell;
-use latticesim_vm::model::{AgentInit, Bounds, Config, Dim, Dir};
-use std::fmt::Write;
+use latticesim_vm::model::{AgentInit, Bounds, Columns, Config, Dim, Dir};
 
 /// In a column map: no column.
 pub(crate) const NO_COL: u8 = u8::MAX;
@@ -295,6 +294,41 @@ impl LatticeBuilder {
 }
 
 impl Lattice {
+    /// Builds the lattice of agents read as columns (the fast path of agents files),
+    /// without copying them. `None` when two agents stand on one cell or a bond is not
+    /// declared by both agents: the diagnostic path then reads the file and says so.
+    pub fn from_columns(dim: Dim, universe: Option<Bounds>, cols: Columns) -> Option<Lattice> {
+        let Columns {
+            pos,
+            state,
+            attach,
+            counters,
+        } = cols;
+        let n = pos.len();
+        let mut b = LatticeBuilder::new(dim, universe, 0);
+        let lat = &mut b.lat;
+        (lat.pos, lat.state, lat.attach) = (pos, state, attach);
+        for (i, col) in counters.into_iter().enumerate() {
+            if !col.is_empty() {
+                debug_assert_eq!(col.len(), n);
+                lat.counter_col[i] = lat.counters.len() as u8;
+                lat.counters.push(col);
+            }
+        }
+        let lat = b.finish();
+        // A later agent on an earlier one's cell took its place in the index.
+        let one_each = (0..n).all(|a| lat.cells.get(lat.pos[a]) == Some(a as u32));
+        let bonds = (0..n).filter(|&a| lat.attach[a] != 0).all(|a| {
+            Dir::ALL.iter().take(dim.dirs()).all(|d| {
+                lat.attach[a] & (1 << d.index()) == 0
+                    || lat.neighbour(a as u32, *d).is_some_and(|b| {
+                        lat.attach[b as usize] & (1 << d.opposite().index()) != 0
+                    })
+            })
+        });
+        (one_each && bonds).then_some(lat)
+    }
+
     /// Builds the lattice of a checked configuration.
     pub fn new(cfg: &Config) -> Lattice {
         let mut b = LatticeBuilder::new(cfg.dim, cfg.universe, cfg.agents.len());
@@ -830,43 +864,111 @@ impl Lattice {
     /// agents in id order with state, attachments (when any) and non-zero counters. It loads
     /// again to the same lattice.
     pub fn to_agents_text(&self) -> String {
-        let mut s = String::with_capacity(self.len() * 24);
+        let mut out = Vec::with_capacity(self.len() * 24);
+        self.write_agents_text(&mut out, 1)
+            .expect("writing to memory does not fail");
+        String::from_utf8(out).expect("states are ASCII")
+    }
+
+    /// Writes [`Lattice::to_agents_text`] into `w` as it is made, the agents formatted in
+    /// blocks on up to `threads` threads and written in order.
+    pub fn write_agents_text(&self, w: &mut impl std::io::Write, threads: usize) -> std::io::Result<()> {
+        /// Agents formatted at a time by one thread.
+        const BLOCK: usize = 1 << 16;
         let c = self.dim.coords();
         if let Some(b) = self.universe {
             let v: Vec<String> = b[..c]
                 .iter()
                 .flat_map(|(lo, hi)| [lo.to_string(), hi.to_string()])
                 .collect();
-            let _ = writeln!(s, "U{}", v.join(","));
+            writeln!(w, "U{}", v.join(","))?;
         }
-        for a in 0..self.len() {
-            let p = self.pos[a];
-            let _ = write!(s, "{},{}", p[0], p[1]);
-            if c == 3 {
-                let _ = write!(s, ",{}", p[2]);
+        // Counter columns in number order, so that a line lists its counters so.
+        let cols: Vec<(u8, &[i16])> = (0..self.nc() as u8)
+            .filter(|&i| self.counter_col[i as usize] != NO_COL)
+            .map(|i| (i, &self.counters[self.counter_col[i as usize] as usize][..]))
+            .collect();
+        let n = self.len();
+        let threads = threads.clamp(1, n.div_ceil(BLOCK).max(1));
+        let mut bufs: Vec<Vec<u8>> = vec![Vec::new(); threads];
+        let mut a = 0;
+        while a < n {
+            let group = (n - a).min(BLOCK * threads);
+            if threads == 1 {
+                bufs[0].clear();
+                self.format_agents(a..a + group, &cols, &mut bufs[0]);
+            } else {
+                std::thread::scope(|s| {
+                    for (k, buf) in bufs.iter_mut().enumerate() {
+                        let lo = (a + k * BLOCK).min(a + group);
+                        let hi = (lo + BLOCK).min(a + group);
+                        let cols = &cols;
+                        s.spawn(move || {
+                            buf.clear();
+                            self.format_agents(lo..hi, cols, buf);
+                        });
+                    }
+                });
             }
-            s.push_str(" S");
-            s.push_str(&String::from_utf8_lossy(&self.state[a]));
-            if self.attach[a] != 0 {
-                s.push_str(" A");
-                for d in 0..self.dim.dirs() {
-                    s.push(if self.attach[a] & (1 << d) != 0 {
-                        '1'
-                    } else {
-                        '0'
-                    });
-                }
+            for buf in &bufs {
+                w.write_all(buf)?;
             }
-            for i in 0..self.nc() {
-                let v = self.counter(a as u32, i as u8);
-                if v != 0 {
-                    let _ = write!(s, " C{i:02} {v}");
-                }
-            }
-            s.push('\n');
+            a += group;
         }
-        s
+        Ok(())
     }
+
+    /// The lines of agents `range` (see [`Lattice::to_agents_text`]), appended to `out`.
+    fn format_agents(&self, range: std::ops::Range<usize>, cols: &[(u8, &[i16])], out: &mut Vec<u8>) {
+        let (three, dirs) = (self.dim == Dim::Three, self.dim.dirs());
+        for a in range {
+            let p = self.pos[a];
+            push_int(out, p[0] as i64);
+            out.push(b',');
+            push_int(out, p[1] as i64);
+            if three {
+                out.push(b',');
+                push_int(out, p[2] as i64);
+            }
+            out.extend_from_slice(b" S");
+            out.extend_from_slice(&self.state[a]);
+            let bonds = self.attach[a];
+            if bonds != 0 {
+                out.extend_from_slice(b" A");
+                for d in 0..dirs {
+                    out.push(b'0' + (bonds >> d & 1));
+                }
+            }
+            for &(i, col) in cols {
+                let v = col[a];
+                if v != 0 {
+                    out.extend_from_slice(&[b' ', b'C', b'0' + i / 10, b'0' + i % 10, b' ']);
+                    push_int(out, v as i64);
+                }
+            }
+            out.push(b'\n');
+        }
+    }
+}
+
+/// Appends the decimal digits of `v`.
+#[inline]
+fn push_int(out: &mut Vec<u8>, v: i64) {
+    if v < 0 {
+        out.push(b'-');
+    }
+    let mut u = v.unsigned_abs();
+    let mut digits = [0u8; 20];
+    let mut i = digits.len();
+    loop {
+        i -= 1;
+        digits[i] = b'0' + (u % 10) as u8;
+        u /= 10;
+        if u == 0 {
+            break;
+        }
+    }
+    out.extend_from_slice(&digits[i..]);
 }
 
 #[cfg(test)]

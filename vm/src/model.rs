@@ -266,3 +266,74 @@ pub struct Config {
     /// Agents in id order.
     pub agents: Vec<AgentInit>,
 }
+
+/// Agents as columns, in id order: a configuration read straight from an agents file
+/// (without an [`AgentInit`] per agent), which becomes a lattice without a copy.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct Columns {
+    /// Positions (z = 0 in 2D).
+    pub pos: Vec<[i32; 3]>,
+    /// States.
+    pub state: Vec<[u8; 5]>,
+    /// Attachment bits as written (not yet known to be symmetric).
+    pub attach: Vec<u8>,
+    /// Per counter number (45 of them): its values, one per agent, or empty while no agent
+    /// has set it.
+    pub counters: Vec<Vec<i16>>,
+}
+
+impl Columns {
+    /// No agents.
+    pub fn new() -> Columns {
+        Columns {
+            counters: vec![Vec::new(); 45],
+            ..Columns::default()
+        }
+    }
+
+    /// Number of agents.
+    pub fn len(&self) -> usize {
+        self.pos.len()
+    }
+
+    /// True when there are no agents.
+    pub fn is_empty(&self) -> bool {
+        self.pos.is_empty()
+    }
+
+    /// Sets counter `c` of the last agent pushed (to a value that is not 0).
+    #[inline]
+    pub fn set_counter(&mut self, c: usize, v: i16) {
+        let n = self.pos.len();
+        let col = &mut self.counters[c];
+        col.resize(n - 1, 0);
+        col.push(v);
+    }
+
+    /// Gives every counter column that has values one per agent.
+    pub fn fill(&mut self) {
+        let n = self.pos.len();
+        for col in self.counters.iter_mut().filter(|c| !c.is_empty()) {
+            col.resize(n, 0);
+        }
+    }
+
+    /// Appends `other`'s agents after these (both filled).
+    pub fn append(&mut self, mut other: Columns) {
+        let (n, m) = (self.len(), other.len());
+        self.pos.append(&mut other.pos);
+        self.state.append(&mut other.state);
+        self.attach.append(&mut other.attach);
+        for (mine, theirs) in self.counters.iter_mut().zip(&mut other.counters) {
+            match (mine.is_empty(), theirs.is_empty()) {
+                (_, true) if !mine.is_empty() => mine.resize(n + m, 0),
+                (_, true) => {}
+                (true, false) => {
+                    mine.resize(n, 0);
+                    mine.append(theirs);
+                }
+                (false, false) => mine.append(theirs),
+            }
+        }
+    }
+}
