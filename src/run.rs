@@ -83,7 +83,46 @@ impl Stop {
     }
 }
 
-fn stats_json(e: &Engine, stop: Stop, wall: Option<Duration>) -> serde_json::Value {
+/// Where the time of a run went, and its peak memory.
+pub(crate) struct Timing {
+    pub read: Duration,
+    pub check: Duration,
+    pub steps: Duration,
+    pub write: Duration,
+}
+
+impl Timing {
+    fn json(&self) -> serde_json::Value {
+        json!({
+            "read_s": self.read.as_secs_f64(),
+            "check_s": self.check.as_secs_f64(),
+            "steps_s": self.steps.as_secs_f64(),
+            "write_s": self.write.as_secs_f64(),
+        })
+    }
+}
+
+/// The peak resident memory of this process so far, in bytes (0 where unknown).
+pub(crate) fn peak_memory() -> u64 {
+    #[cfg(unix)]
+    {
+        // SAFETY: getrusage writes into the struct it is given.
+        let mut u: libc::rusage = unsafe { std::mem::zeroed() };
+        if unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut u) } == 0 {
+            // Kilobytes on Linux, bytes on macOS.
+            let k = u.ru_maxrss.max(0) as u64;
+            return if cfg!(target_os = "macos") { k } else { k * 1024 };
+        }
+    }
+    0
+}
+
+/// Bytes as MB with one decimal.
+fn mb(b: u64) -> String {
+    format!("{:.1} MB", b as f64 / 1e6)
+}
+
+fn stats_json(e: &Engine, stop: Stop, timing: Option<&Timing>) -> serde_json::Value {
     let s: &Stats = &e.stats;
     let firings: Vec<serde_json::Value> = e
         .prog
@@ -106,8 +145,10 @@ fn stats_json(e: &Engine, stop: Stop, wall: Option<Duration>) -> serde_json::Val
         "messages": { "sent": s.sent, "delivered": s.delivered, "dropped": s.dropped },
         "records": { "errors": errors, "warnings": warnings, "by_kind": by_kind },
     });
-    if let Some(w) = wall {
-        v["wall_time_s"] = json!(w.as_secs_f64());
+    if let Some(t) = timing {
+        v["wall_time_s"] = json!(t.steps.as_secs_f64());
+        v["times"] = t.json();
+        v["peak_memory_bytes"] = json!(peak_memory());
     }
     v
 }
@@ -203,6 +244,7 @@ pub fn run(args: RunArgs) -> ExitCode {
         static_first: args.static_first,
         trace: trace_out.is_some(),
     };
+    let (ready_read, ready_check) = (ready.read, ready.check);
     let mut engine = Engine::new(ready.prog, ready.lat, opts);
     output::poll_interrupts();
     let started = Instant::now();
@@ -299,6 +341,7 @@ pub fn run(args: RunArgs) -> ExitCode {
             failed = Some(ExitCode::from(2));
         }
     }
+    let writing = Instant::now();
     match out_file {
         Some(f) => {
             failed = agents_file::write_lattice(f, &engine.lat, io_threads)
@@ -310,8 +353,14 @@ pub fn run(args: RunArgs) -> ExitCode {
             let _ = engine.lat.write_agents_text(&mut w, io_threads);
         }
     }
+    let timing = Timing {
+        read: ready_read,
+        check: ready_check,
+        steps: wall,
+        write: writing.elapsed(),
+    };
     if let Some(f) = stats_file {
-        let v = stats_json(&engine, stop, (!args.no_timing).then_some(wall));
+        let v = stats_json(&engine, stop, (!args.no_timing).then_some(&timing));
         let mut s = serde_json::to_string_pretty(&v).expect("plain data");
         s.push('\n');
         failed = write_output(f, s.as_bytes()).err().or(failed);
@@ -342,7 +391,7 @@ pub fn run(args: RunArgs) -> ExitCode {
             Stop::Interrupted => "interrupted".into(),
         };
         say!(
-            "{} agents, {} steps, {why}: {firings} rule firings, {} moves, {} swaps, {} messages sent ({} delivered, {} dropped), {errors} error records, {warnings} warnings, {:.3} s",
+            "{} agents, {} steps, {why}: {firings} rule firings, {} moves, {} swaps, {} messages sent ({} delivered, {} dropped), {errors} error records, {warnings} warnings; read {:.3} s, check {:.3} s, steps {:.3} s, write {:.3} s, peak memory {}",
             engine.lat.len(),
             s.steps,
             s.moves,
@@ -350,7 +399,11 @@ pub fn run(args: RunArgs) -> ExitCode {
             s.sent,
             s.delivered,
             s.dropped,
-            wall.as_secs_f64()
+            timing.read.as_secs_f64(),
+            timing.check.as_secs_f64(),
+            timing.steps.as_secs_f64(),
+            timing.write.as_secs_f64(),
+            mb(peak_memory()),
         );
     }
     match stop {

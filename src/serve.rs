@@ -161,12 +161,21 @@ fn text_field<'v>(v: &'v Value, name: &str) -> Result<&'v str, Reply> {
     })
 }
 
-fn check_texts(rules_name: &str, rules: &str, agents_name: &str, agents: &str) -> Checked {
-    crate::check_pair(
+/// Checks the editor's texts: the verdict, and the lattice when there are no errors.
+fn check_texts(
+    rules_name: &str,
+    rules: &str,
+    agents_name: &str,
+    agents: &str,
+) -> (Checked, Option<Lattice>) {
+    let l = crate::agents_file::load(
         (rules_name, rules.as_bytes()),
-        Some((agents_name, agents.as_bytes())),
-        None,
+        agents_name,
+        crate::agents_file::Source::Bytes(agents.as_bytes()),
+        crate::run::io_threads(None),
     )
+    .expect("reading memory does not fail");
+    (l.checked, l.lattice)
 }
 
 /// The checker's verdict: counts, dimension and every diagnostic with the editor it
@@ -381,7 +390,7 @@ impl Session {
             "rules": self.rules,
             "agents": self.agents,
             "check": check_json(
-                &check_texts(&self.rules_path, &self.rules, &self.agents_path, &self.agents),
+                &check_texts(&self.rules_path, &self.rules, &self.agents_path, &self.agents).0,
                 &self.rules_path,
             ),
             "running": self.run.is_some(),
@@ -391,18 +400,17 @@ impl Session {
     /// Checks the texts and, when they have no errors, starts a run of them from step 0
     /// (true); with errors the run stays as it was (false).
     fn apply(&mut self) -> (Value, bool) {
-        let c = check_texts(
+        let (c, lat) = check_texts(
             &self.rules_path,
             &self.rules,
             &self.agents_path,
             &self.agents,
         );
         let verdict = check_json(&c, &self.rules_path);
-        if let (Some(p), Some(cfg)) = (c.program.as_ref(), c.config.as_ref()) {
+        if let (Some(p), Some(lat)) = (c.program.as_ref(), lat) {
             let prog = lower(p);
             if prog.verify().is_ok() {
-                let hist =
-                    History::new(prog, Lattice::new(cfg), self.opts, self.keyframe_every, 256);
+                let hist = History::new(prog, lat, self.opts, self.keyframe_every, 256);
                 self.run = Some(Run { hist, note: None });
                 return (verdict, true);
             }
@@ -535,7 +543,7 @@ impl Session {
         let (rules, agents) = (text_field(&v, "rules")?, text_field(&v, "agents")?);
         let rules_path = v["rules_path"].as_str().unwrap_or(&self.rules_path);
         let agents_path = v["agents_path"].as_str().unwrap_or(&self.agents_path);
-        let c = check_texts(rules_path, rules, agents_path, agents);
+        let (c, _) = check_texts(rules_path, rules, agents_path, agents);
         Ok(reply_json(200, &check_json(&c, rules_path)))
     }
 

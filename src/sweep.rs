@@ -7,7 +7,7 @@ use crate::output::{open_output, say, write_output};
 use clap::ValueEnum;
 use latticesim_compiler::lower;
 use latticesim_runtime::gen::{agents_text, Shape};
-use latticesim_runtime::{Engine, Lattice, Options};
+use latticesim_runtime::{Engine, Options};
 use plotters::prelude::*;
 use rayon::prelude::*;
 use std::path::PathBuf;
@@ -110,12 +110,16 @@ fn run_one(rules: &[u8], a: &SweepArgs, n: u32, seed: u64) -> Result<Row, String
         }
     };
     let agents = agents_text(&shape, &a.agents.gen_options(seed)?)?;
-    let c = crate::check_pair(
+    let loaded = crate::agents_file::load(
         (&a.rules.display().to_string(), rules),
-        Some(("generated agents", agents.as_bytes())),
-        None,
-    );
-    let (Some(p), Some(cfg)) = (&c.program, &c.config) else {
+        "generated agents",
+        crate::agents_file::Source::Bytes(agents.as_bytes()),
+        1,
+    )
+    .map_err(|e| format!("n = {n}, seed {seed}: cannot read the generated agents: {e}"))?;
+    drop(agents);
+    let c = &loaded.checked;
+    let (Some(p), Some(lat)) = (&c.program, loaded.lattice) else {
         let first = c
             .diags
             .iter()
@@ -133,7 +137,7 @@ fn run_one(rules: &[u8], a: &SweepArgs, n: u32, seed: u64) -> Result<Row, String
         ));
     };
     let started = Instant::now();
-    let mut e = Engine::new(lower(p), Lattice::new(cfg), Options::default());
+    let mut e = Engine::new(lower(p), lat, Options::default());
     let mut quiescent = false;
     while e.stats.steps < a.max_steps {
         if e.step().quiescent {
