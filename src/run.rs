@@ -5,11 +5,11 @@ use crate::output::{self, open_output, say, write_output};
 use crate::{colour, read, Color, RECORDS_SHOWN_PER_KIND};
 use clap::ValueEnum;
 use latticesim_compiler::lower;
-use latticesim_runtime::{Engine, Lattice, Options, Order, RecordKind, Stats};
+use latticesim_runtime::{checkpoint, Engine, Lattice, Options, Order, RecordKind, Stats};
 use serde_json::json;
 use std::collections::BTreeMap;
 use std::io::{IsTerminal, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
@@ -18,8 +18,21 @@ use std::time::{Duration, Instant};
 pub struct RunArgs {
     /// The rules file.
     rules: PathBuf,
-    /// The agents file.
-    agents: PathBuf,
+    /// The agents file (not with --resume).
+    #[arg(required_unless_present = "resume", conflicts_with = "resume")]
+    agents: Option<PathBuf>,
+    /// Write a checkpoint here (an exact binary snapshot of the run) at the end of the
+    /// run, when interrupted (Ctrl-C), and every --checkpoint-every steps.
+    #[arg(long)]
+    checkpoint: Option<PathBuf>,
+    /// With --checkpoint: also write it every this many steps.
+    #[arg(long, requires = "checkpoint", value_parser = clap::value_parser!(u64).range(1..))]
+    checkpoint_every: Option<u64>,
+    /// Continue the run saved in this checkpoint (made with the same rules, --order and
+    /// --static-first) instead of starting from an agents file; --max-steps counts the
+    /// steps before the checkpoint too.
+    #[arg(long)]
+    resume: Option<PathBuf>,
     /// Stop after this many steps at the latest.
     #[arg(long, default_value_t = 10_000)]
     max_steps: u64,
@@ -220,6 +233,70 @@ pub(crate) fn load(
     })
 }
 
+/// Reads a rules file and the checkpoint of a run of it: the engine in that state, or the
+/// exit status (1 for errors in the rules, 2 for a checkpoint that cannot be resumed).
+fn resume(
+    rules: &PathBuf,
+    from: &Path,
+    opts: Options,
+    threads: Option<usize>,
+    quiet: bool,
+    colour: bool,
+) -> Result<(Engine, Duration, Duration), ExitCode> {
+    let started = Instant::now();
+    let cannot = |e: &dyn std::fmt::Display| {
+        say!("error: cannot resume from `{}`: {e}", from.display());
+        ExitCode::from(2)
+    };
+    let (dim, agents) = agents_file::open_read(from)
+        .map_err(|e| cannot(&e))
+        .and_then(|r| checkpoint::peek(r).map_err(|e| cannot(&e)))?;
+    let opts = Options {
+        threads: crate::engine_threads(threads, agents.min(u32::MAX as u64) as usize),
+        ..opts
+    };
+    let rules_bytes = read(rules)?;
+    let rules_name = rules.display().to_string();
+    let checked = crate::check_pair((&rules_name, &rules_bytes), None, Some(dim));
+    if !checked.diags.is_empty() && (checked.errors() > 0 || !quiet) {
+        output::stderr(&checked.render(colour));
+    }
+    let Some(program) = checked.program.as_ref() else {
+        say!(
+            "{rules_name}: {} error{}; nothing was run",
+            checked.errors(),
+            if checked.errors() == 1 { "" } else { "s" }
+        );
+        return Err(ExitCode::from(1));
+    };
+    let prog = lower(program);
+    if let Err(e) = prog.verify() {
+        say!("internal error: the compiled program does not verify: {e}");
+        return Err(ExitCode::from(2));
+    }
+    let check = started.elapsed();
+    let t = Instant::now();
+    let engine = agents_file::open_read(from)
+        .map_err(|e| cannot(&e))
+        .and_then(|r| Engine::read_checkpoint(prog, opts, r).map_err(|e| cannot(&e)))?;
+    Ok((engine, t.elapsed(), check))
+}
+
+/// Writes a checkpoint of the engine (compressed by the file's name) whole or not at all.
+fn save_checkpoint(engine: &Engine, path: &Path) -> Result<(), ExitCode> {
+    output::AtomicFile::create(path)
+        .and_then(|f| {
+            let mut w = agents_file::Packed::new(f, agents_file::Packing::of(path))?;
+            engine.write_checkpoint(&mut w)?;
+            w.finish()
+        })
+        .and_then(|f| f.commit())
+        .map_err(|e| {
+            say!("error: cannot write the checkpoint `{}`: {e}", path.display());
+            ExitCode::from(2)
+        })
+}
+
 pub fn run(args: RunArgs) -> ExitCode {
     let order = match args.order {
         OrderArg::ActionsFirst => Order::ActionsFirst,
@@ -233,19 +310,37 @@ pub fn run(args: RunArgs) -> ExitCode {
             (Ok(o), Ok(s), Ok(t)) => (o, s, t),
             (Err(c), _, _) | (_, Err(c), _) | (_, _, Err(c)) => return c,
         };
+    if let Some(p) = &args.checkpoint {
+        // Found now when it cannot be written, not at the end of a long run.
+        if let Err(c) = open_output(p) {
+            return c;
+        }
+    }
     let io_threads = io_threads(args.threads);
-    let ready = match load(&args.rules, &args.agents, args.quiet, colour, io_threads) {
-        Ok(l) => l,
-        Err(c) => return c,
-    };
     let opts = Options {
-        threads: crate::engine_threads(args.threads, ready.lat.len()),
+        threads: 1,
         order,
         static_first: args.static_first,
         trace: trace_out.is_some(),
     };
-    let (ready_read, ready_check) = (ready.read, ready.check);
-    let mut engine = Engine::new(ready.prog, ready.lat, opts);
+    let (mut engine, ready_read, ready_check) = match (&args.resume, &args.agents) {
+        (Some(from), _) => match resume(&args.rules, from, opts, args.threads, args.quiet, colour) {
+            Ok(r) => r,
+            Err(c) => return c,
+        },
+        (None, Some(agents)) => match load(&args.rules, agents, args.quiet, colour, io_threads) {
+            Ok(r) => {
+                let opts = Options {
+                    threads: crate::engine_threads(args.threads, r.lat.len()),
+                    ..opts
+                };
+                (Engine::new(r.prog, r.lat, opts), r.read, r.check)
+            }
+            Err(c) => return c,
+        },
+        (None, None) => unreachable!("clap requires an agents file or --resume"),
+    };
+    let mut checkpoint_failed = false;
     output::poll_interrupts();
     let started = Instant::now();
     let mut bar: Option<indicatif::ProgressBar> = None;
@@ -254,9 +349,7 @@ pub fn run(args: RunArgs) -> ExitCode {
     let mut stop = Stop::MaxSteps;
     let mut trace_failed = false;
     while engine.stats.steps < args.max_steps {
-        let before = args
-            .strict
-            .then(|| (engine.lat.clone(), engine.stats.clone()));
+        let before = args.strict.then(|| engine.undo_point());
         let rep = engine.step();
         for r in &rep.records {
             let n = shown.entry(r.kind).or_insert(0);
@@ -300,15 +393,18 @@ pub fn run(args: RunArgs) -> ExitCode {
             }
         }
         if args.strict && rep.records.iter().any(|r| r.is_error()) {
-            let (lat, stats) = before.expect("kept when strict");
-            engine.lat = lat;
-            engine.stats = stats;
+            engine = engine.undo(before.expect("kept when strict"));
             stop = Stop::Strict;
             break;
         }
         if rep.quiescent {
             stop = Stop::Quiescence;
             break;
+        }
+        if let (Some(p), Some(every)) = (&args.checkpoint, args.checkpoint_every) {
+            if engine.stats.steps % every == 0 && engine.stats.steps < args.max_steps {
+                checkpoint_failed |= save_checkpoint(&engine, p).is_err();
+            }
         }
         if output::interrupted() {
             stop = Stop::Interrupted;
@@ -333,7 +429,10 @@ pub fn run(args: RunArgs) -> ExitCode {
     }
     let wall = started.elapsed();
     // Every file asked for is written, even when an earlier one (or the terminal) failed.
-    let mut failed = trace_failed.then(|| ExitCode::from(2));
+    let mut failed = (trace_failed || checkpoint_failed).then(|| ExitCode::from(2));
+    if let Some(p) = &args.checkpoint {
+        failed = save_checkpoint(&engine, p).err().or(failed);
+    }
     if let Some(t) = trace_out {
         let path = t.path().to_path_buf();
         if let Err(e) = t.commit() {

@@ -7,6 +7,7 @@
 #![warn(missing_docs)]
 
 mod cells;
+pub mod checkpoint;
 pub mod gen;
 mod history;
 mod lattice;
@@ -15,7 +16,7 @@ mod step;
 mod trace;
 
 pub use history::History;
-pub use lattice::{Lattice, LatticeBuilder};
+pub use lattice::{Lattice, LatticeBuilder, Undo, Writes};
 pub use record::{Record, RecordKind};
 pub use step::{Engine, Options, Order, Stats, StepReport, AGENTS_PER_THREAD};
 pub use trace::TraceEvent;

@@ -8,7 +8,7 @@
 
 use crate::cells::{NO_SLOT, RIM};
 use crate::lattice::Lattice;
-use crate::lattice::{Pending, NO_AGENT, NO_COL};
+use crate::lattice::{Pending, Undo, Writes, NO_AGENT, NO_COL};
 use crate::record::{Record, RecordKind};
 use crate::trace::TraceEvent;
 use latticesim_vm::eval::{eval_pre, run_post, CalcEnv, CalcIssue, Cell, Env, Tri};
@@ -1530,6 +1530,45 @@ impl Engine {
         for (circle, msg) in circles {
             self.record(rep, RecordKind::CircularPriority, &circle, msg);
         }
+    }
+
+    /// What a step of this program can change in the lattice (for [`Lattice::undo_point`]).
+    pub fn writes(&self) -> Writes {
+        let mut w = Writes::default();
+        for r in &self.prog.rules {
+            w.positions |= r.moves.is_some() || r.swaps.is_some();
+            w.states |= r.sets_state.is_some();
+            w.bonds |= r.attaches.is_some();
+        }
+        for op in &self.prog.code {
+            match *op {
+                Op::Calc { target, .. } => match target {
+                    Target::Counter(c) => w.counters |= 1 << c,
+                    Target::Msg { .. } => w.messages = true,
+                },
+                Op::Send { .. } => w.messages = true,
+                _ => {}
+            }
+        }
+        w
+    }
+
+    /// What [`Engine::undo`] needs to go back to the state before the next step: only
+    /// the parts of the lattice a step can change, and the statistics.
+    pub fn undo_point(&self) -> (Undo, Stats) {
+        (self.lat.undo_point(&self.writes()), self.stats.clone())
+    }
+
+    /// Goes back to the state of an [`Engine::undo_point`] taken before the last step (an
+    /// engine made anew, so that nothing it kept of that step remains).
+    pub fn undo(self, (u, stats): (Undo, Stats)) -> Engine {
+        let Engine {
+            prog, mut lat, opts, ..
+        } = self;
+        lat.undo(u);
+        let mut e = Engine::new(prog, lat, opts);
+        e.stats = stats;
+        e
     }
 
     /// One step. Returns what happened; `stats` is updated.
