@@ -348,7 +348,11 @@ pub fn run(args: RunArgs) -> ExitCode {
     let mut shown: BTreeMap<RecordKind, u64> = BTreeMap::new();
     let mut stop = Stop::MaxSteps;
     let mut trace_failed = false;
-    while engine.stats.steps < args.max_steps {
+    // A run resumed after it ended by quiescence has ended.
+    if args.resume.is_some() && engine.stats.quiescent {
+        stop = Stop::Quiescence;
+    }
+    while stop != Stop::Quiescence && engine.stats.steps < args.max_steps {
         let before = args.strict.then(|| engine.undo_point());
         let rep = engine.step();
         for r in &rep.records {

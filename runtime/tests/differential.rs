@@ -1022,3 +1022,99 @@ fn traced_messages_carry_the_values_sent() {
         assert_eq!(seen, 4 * 40 * 4);
     }
 }
+
+/// What a run shows of one step: its records and trace, and the lattice and statistics
+/// after it.
+fn shown(e: &mut Engine) -> (String, String, String) {
+    let rep = e.step();
+    (
+        format!("{:?}{:?}", rep.records, rep.trace),
+        e.lat.to_agents_text(),
+        format!("{:?}", e.stats),
+    )
+}
+
+/// A run resumed from a checkpoint made after any step goes on exactly as the run without
+/// a stop (records, trace, lattice and statistics of every later step); a step undone with
+/// an undo point leaves the lattice and statistics as they were before it.
+fn resume_and_undo(rules: &str, agents: &str) -> Result<(), TestCaseError> {
+    const STEPS: u64 = 10;
+    let (prog, lat) = common::compile(rules, agents);
+    for order in [Order::ActionsFirst, Order::MessagesFirst] {
+        for static_first in [false, true] {
+            let opts = Options {
+                order,
+                static_first,
+                trace: true,
+                threads: 1,
+            };
+            let mut whole = Engine::new(prog.clone(), lat.clone(), opts);
+            let before: Vec<(String, String)> = std::iter::once((
+                whole.lat.to_agents_text(),
+                format!("{:?}", whole.stats),
+            ))
+            .collect();
+            let mut states = before;
+            let mut steps = Vec::new();
+            for _ in 0..STEPS {
+                let s = shown(&mut whole);
+                states.push((s.1.clone(), s.2.clone()));
+                steps.push(s);
+            }
+            for stop in [0, 1, 3, 7] {
+                let mut e = Engine::new(prog.clone(), lat.clone(), opts);
+                for _ in 0..stop {
+                    e.step();
+                }
+                let mut bytes = Vec::new();
+                e.write_checkpoint(&mut bytes).unwrap();
+                let undo = e.undo_point();
+                e.step();
+                let e = e.undo(undo);
+                prop_assert_eq!(
+                    (e.lat.to_agents_text(), format!("{:?}", e.stats)),
+                    states[stop as usize].clone(),
+                    "undo at step {} ({:?}, static-first {})",
+                    stop,
+                    order,
+                    static_first
+                );
+                let mut r = Engine::read_checkpoint(prog.clone(), opts, &bytes[..])
+                    .map_err(|e| TestCaseError::fail(format!("{e}")))?;
+                for k in stop..STEPS {
+                    let s = shown(&mut r);
+                    prop_assert_eq!(
+                        &s,
+                        &steps[k as usize],
+                        "step {} resumed after step {} ({:?}, static-first {})\n{}\n{}",
+                        k + 1,
+                        stop,
+                        order,
+                        static_first,
+                        rules,
+                        agents
+                    );
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: std::env::var("PROPTEST_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(64),
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    })]
+
+    #[test]
+    fn resumed_runs_go_on_exactly_2d(r in prop_oneof![rules(false), themes(false)], a in agents(false)) {
+        resume_and_undo(&r, &a)?;
+    }
+
+    #[test]
+    fn resumed_runs_go_on_exactly_3d(r in prop_oneof![rules(true), themes(true)], a in agents(true)) {
+        resume_and_undo(&r, &a)?;
+    }
+}
