@@ -1047,3 +1047,89 @@ fn control_characters_are_shown_escaped() {
     );
     assert!(err.contains("a lone carriage return (CR, `\\r`)"), "{err}");
 }
+
+/// A canonical B1 agents file of `l` x `l` agents (as `run --out` writes it).
+fn b1_text(l: u64) -> String {
+    let mut s = String::with_capacity((l * l * 20) as usize);
+    for x in 0..l {
+        for y in 0..l {
+            s += &format!("{x},{y} S00000 C00 {}\n", ((x * l + y) * 7919) % 32749 + 1);
+        }
+    }
+    s
+}
+
+#[test]
+fn large_files_stream_through_chunks_and_threads_unchanged() {
+    // 1,100 x 1,100 agents: 22 MB, more than one chunk of the reader, cut among threads.
+    let text = b1_text(1100);
+    assert!(text.len() > 17 << 20);
+    let input = tmp("large-b1.txt", text.as_bytes());
+    let rules = tmp("large-rules.txt", b"flood\n1\nS*****\nC00 A C00 #N01 C00 A C00 #W01 C00 A C00 #E01 C00 A C00 #S01 #*01 + C00 0000\n");
+    for threads in ["1", "2"] {
+        let out = tmp(&format!("large-out-{threads}.txt"), b"");
+        let o = run(&["run", rules.to_str().unwrap(), input.to_str().unwrap(), "--max-steps", "0", "--threads", threads, "--out", out.to_str().unwrap(), "-q"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(std::fs::read(&out).unwrap() == text.as_bytes(), "0 steps write back what was read ({threads} threads)");
+    }
+    // A defect on the last line: the diagnostic path names it.
+    let mut bad = text.clone();
+    bad += "5,5 C00 7\n";
+    let input = tmp("large-bad.txt", bad.as_bytes());
+    let o = run(&["check", rules.to_str().unwrap(), "--agents", input.to_str().unwrap(), "--color", "never"]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert!(err.contains("error[E402]: two agents on the cell 5,5"), "{err}");
+    assert!(err.contains(&format!("{}:1210001:1", input.display())), "{err}");
+}
+
+#[test]
+fn compressed_agents_files_read_and_write() {
+    let text = b1_text(40);
+    let plain = tmp("packed.txt", text.as_bytes());
+    let rules = "examples/maxflood/rules.txt";
+    let p = |p: &PathBuf| p.to_str().unwrap().to_string();
+    let mut outs = Vec::new();
+    for ext in ["txt", "zst", "gz"] {
+        let out = tmp(&format!("packed-out.{ext}"), b"");
+        let o = run(&["run", rules, &p(&plain), "--max-steps", "5", "--out", &p(&out), "-q"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        outs.push(out);
+    }
+    let raw = std::fs::read(&outs[0]).unwrap();
+    assert_eq!(&std::fs::read(&outs[1]).unwrap()[..4], &[0x28, 0xb5, 0x2f, 0xfd], "zstd magic");
+    assert_eq!(&std::fs::read(&outs[2]).unwrap()[..2], &[0x1f, 0x8b], "gzip magic");
+    // Each compressed output read back (0 steps) gives the plain text.
+    for out in &outs[1..] {
+        let again = tmp("packed-again.txt", b"");
+        let o = run(&["run", rules, &p(out), "--max-steps", "0", "--out", &p(&again), "-q"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert_eq!(std::fs::read(&again).unwrap(), raw);
+        let o = run(&["check", rules, "--agents", &p(out)]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(stderr(&o).contains("1600 agents"), "{}", stderr(&o));
+    }
+    // A damaged compressed file is an I/O error with the file's name.
+    let mut z = std::fs::read(&outs[1]).unwrap();
+    z.truncate(z.len() / 2);
+    let broken = tmp("broken.txt.zst", &z);
+    let o = run(&["run", rules, &p(&broken), "-q"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains(&format!("cannot read `{}`", broken.display())), "{}", stderr(&o));
+}
+
+#[test]
+fn the_summary_gives_each_part_of_the_time_and_the_peak_memory() {
+    let stats = tmp("timing-stats.json", b"");
+    let o = run(&["run", "examples/maxflood/rules.txt", "examples/maxflood/agents.txt", "--out", "/dev/null", "--stats", stats.to_str().unwrap()]);
+    assert!(o.status.success());
+    let err = stderr(&o);
+    for part in ["read ", "check ", "steps ", "write ", "peak memory "] {
+        assert!(err.contains(part), "{part} in {err}");
+    }
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
+    for k in ["read_s", "check_s", "steps_s", "write_s"] {
+        assert!(v["times"][k].as_f64().unwrap() >= 0.0, "{k}");
+    }
+    assert!(v["peak_memory_bytes"].as_u64().unwrap() > 1_000_000);
+}
