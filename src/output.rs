@@ -142,8 +142,12 @@ pub(crate) fn interrupted() -> bool {
 /// [`AtomicFile::commit`] renames it; dropped uncommitted, it is removed.
 pub(crate) struct AtomicFile {
     path: PathBuf,
-    tmp: PathBuf,
+    /// The temporary file; `None` when the target is not a regular file (a device such as
+    /// `/dev/null`, a pipe), which is written directly.
+    tmp: Option<PathBuf>,
     file: Option<BufWriter<File>>,
+    /// Flush the file to disk before the rename ([`AtomicFile::durable`]).
+    sync: bool,
 }
 
 /// Opens a file that must not exist yet, without following a symbolic link.
@@ -181,6 +185,18 @@ impl AtomicFile {
                 "it is a folder",
             ));
         }
+        // A device or a pipe is written as it is: a rename would replace it.
+        if let Ok(meta) = std::fs::metadata(path) {
+            if !meta.is_file() {
+                let file = OpenOptions::new().write(true).open(path)?;
+                return Ok(AtomicFile {
+                    path: path.to_path_buf(),
+                    tmp: None,
+                    file: Some(BufWriter::with_capacity(1 << 16, file)),
+                    sync: false,
+                });
+            }
+        }
         let name = path
             .file_name()
             .ok_or_else(|| std::io::Error::new(ErrorKind::InvalidInput, "it names no file"))?;
@@ -202,9 +218,18 @@ impl AtomicFile {
         }
         Ok(AtomicFile {
             path: path.to_path_buf(),
-            tmp,
+            tmp: Some(tmp),
             file: Some(BufWriter::with_capacity(1 << 16, file)),
+            sync: false,
         })
+    }
+
+    /// Makes [`AtomicFile::commit`] flush the file to disk before the rename, so that it
+    /// survives a power cut whole (for checkpoints and the editor's files; other outputs
+    /// are only renamed, which no crash of the process can leave half written).
+    pub(crate) fn durable(mut self) -> AtomicFile {
+        self.sync = true;
+        self
     }
 
     /// Gives the new file these permissions (e.g. those of the file it replaces).
@@ -222,16 +247,24 @@ impl AtomicFile {
     pub(crate) fn commit(mut self) -> std::io::Result<()> {
         let w = self.file.take().expect("committed once");
         let file = w.into_inner().map_err(|e| e.into_error())?;
-        file.sync_all()?;
+        let Some(tmp) = self.tmp.clone() else {
+            return Ok(());
+        };
+        if self.sync {
+            file.sync_all()?;
+        }
         drop(file);
-        std::fs::rename(&self.tmp, &self.path)?;
+        let renamed = std::fs::rename(&tmp, &self.path);
+        if renamed.is_err() {
+            let _ = std::fs::remove_file(&tmp);
+        }
         self.forget();
-        Ok(())
+        renamed
     }
 
     fn forget(&self) {
-        if let Ok(mut p) = PENDING.lock() {
-            p.retain(|t| *t != self.tmp);
+        if let (Ok(mut p), Some(tmp)) = (PENDING.lock(), &self.tmp) {
+            p.retain(|t| t != tmp);
         }
     }
 }
@@ -250,8 +283,8 @@ impl Write for AtomicFile {
 
 impl Drop for AtomicFile {
     fn drop(&mut self) {
-        if self.file.take().is_some() {
-            let _ = std::fs::remove_file(&self.tmp);
+        if let (Some(_), Some(tmp)) = (self.file.take(), &self.tmp) {
+            let _ = std::fs::remove_file(tmp);
             self.forget();
         }
     }

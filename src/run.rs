@@ -286,7 +286,7 @@ fn resume(
 fn save_checkpoint(engine: &Engine, path: &Path) -> Result<(), ExitCode> {
     output::AtomicFile::create(path)
         .and_then(|f| {
-            let mut w = agents_file::Packed::new(f, agents_file::Packing::of(path))?;
+            let mut w = agents_file::Packed::new(f.durable(), agents_file::Packing::of(path))?;
             engine.write_checkpoint(&mut w)?;
             w.finish()
         })

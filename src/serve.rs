@@ -690,7 +690,7 @@ fn read_text(p: &Path) -> Result<String, ExitCode> {
 /// keeping the permissions of the file it replaces.
 fn save(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     use std::io::Write;
-    let mut f = crate::output::AtomicFile::create(path)?;
+    let mut f = crate::output::AtomicFile::create(path)?.durable();
     f.write_all(bytes)?;
     if let Ok(meta) = std::fs::metadata(path) {
         f.set_permissions(meta.permissions())?;

@@ -1133,3 +1133,13 @@ fn the_summary_gives_each_part_of_the_time_and_the_peak_memory() {
     }
     assert!(v["peak_memory_bytes"].as_u64().unwrap() > 1_000_000);
 }
+
+#[test]
+fn an_output_that_is_a_device_is_written_not_replaced() {
+    use std::os::unix::fs::FileTypeExt;
+    let o = run(&["run", "examples/maxflood/rules.txt", "examples/maxflood/agents.txt", "-q", "--out", "/dev/null", "--stats", "/dev/null"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let meta = std::fs::metadata("/dev/null").unwrap();
+    assert!(meta.file_type().is_char_device(), "/dev/null was replaced");
+    assert!(temporary_files(Path::new("/dev")).is_empty());
+}

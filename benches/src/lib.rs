@@ -2,6 +2,7 @@
 #![warn(missing_docs)]
 
 pub mod native;
+pub mod plot;
 
 /// A small deterministic generator (PCG-style LCG), so inputs are the same on every machine.
 pub struct Lcg(u64);
