@@ -19,7 +19,7 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 /// The bytes read from an agents file at a time (then cut at the last line end).
-const CHUNK: usize = 16 << 20;
+const CHUNK: usize = 4 << 20;
 /// Below this many bytes a chunk is read on one thread.
 const BYTES_PER_THREAD: usize = 1 << 20;
 
@@ -161,6 +161,17 @@ pub(crate) enum Source<'a> {
 }
 
 impl<'a> Source<'a> {
+    /// Its size in bytes, when known before reading (not for compressed files).
+    fn size(self) -> Option<u64> {
+        match self {
+            Source::File(p) if Packing::of(p) == Packing::Plain => {
+                std::fs::metadata(p).ok().map(|m| m.len())
+            }
+            Source::File(_) => None,
+            Source::Bytes(b) => Some(b.len() as u64),
+        }
+    }
+
     fn open(self) -> io::Result<Box<dyn Read + Send + 'a>> {
         match self {
             Source::File(p) => open_read(p),
@@ -207,31 +218,50 @@ pub(crate) fn load(
     })
 }
 
-/// Fills `buf` from `r` up to `want` bytes (fewer at the end): whether the end was reached.
-fn fill(r: &mut dyn Read, buf: &mut Vec<u8>, want: usize) -> io::Result<bool> {
-    while buf.len() < want {
-        let had = buf.len();
-        let room = (want - had).min(CHUNK);
-        buf.resize(had + room, 0);
-        let n = loop {
-            match r.read(&mut buf[had..]) {
-                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
-                other => break other,
-            }
-        };
-        match n {
-            Ok(0) => {
-                buf.truncate(had);
-                return Ok(true);
-            }
-            Ok(n) => buf.truncate(had + n),
-            Err(e) => {
-                buf.truncate(had);
-                return Err(e);
+/// A buffer of bytes read from a file: `buf[..len]` holds them; the rest is room, zeroed
+/// once when the buffer grows (not at every read).
+struct Window {
+    buf: Vec<u8>,
+    len: usize,
+    eof: bool,
+}
+
+impl Window {
+    /// Reads until `want` bytes are held or the end is reached.
+    fn fill(&mut self, r: &mut dyn Read, want: usize) -> io::Result<()> {
+        if self.buf.len() < want {
+            self.buf.resize(want, 0);
+        }
+        while self.len < want && !self.eof {
+            match r.read(&mut self.buf[self.len..want]) {
+                Ok(0) => self.eof = true,
+                Ok(n) => self.len += n,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(e),
             }
         }
+        Ok(())
     }
-    Ok(false)
+
+    /// The bytes held.
+    fn bytes(&self) -> &[u8] {
+        &self.buf[..self.len]
+    }
+
+    /// The length of the whole lines held (all of it at the end of the file).
+    fn whole(&self) -> usize {
+        if self.eof {
+            self.len
+        } else {
+            memchr::memrchr(b'\n', self.bytes()).map_or(0, |p| p + 1)
+        }
+    }
+
+    /// Forgets the first `n` bytes.
+    fn consume(&mut self, n: usize) {
+        self.buf.copy_within(n..self.len, 0);
+        self.len -= n;
+    }
 }
 
 /// Reads whole lines into columns on up to `threads` threads (cut at line ends): false
@@ -239,10 +269,7 @@ fn fill(r: &mut dyn Read, buf: &mut Vec<u8>, want: usize) -> io::Result<bool> {
 fn read_parallel(bytes: &[u8], head: &Head, out: &mut Columns, threads: usize) -> bool {
     let parts = threads.min(bytes.len() / BYTES_PER_THREAD).max(1);
     if parts == 1 {
-        let mut cols = Columns::new();
-        let ok = read_lines(bytes, head, &mut cols);
-        out.append(cols);
-        return ok;
+        return read_lines(bytes, head, out);
     }
     let mut cuts = vec![0];
     for k in 1..parts {
@@ -254,8 +281,11 @@ fn read_parallel(bytes: &[u8], head: &Head, out: &mut Columns, threads: usize) -
         cuts.push(end);
     }
     cuts.push(bytes.len());
-    let results: Vec<(bool, Columns)> = std::thread::scope(|s| {
-        let handles: Vec<_> = cuts
+    // This thread reads the first piece straight into `out`; the others, read beside it,
+    // are appended after.
+    let (first, rest) = (&bytes[..cuts[1]], &cuts[1..]);
+    let (ok, results): (bool, Vec<(bool, Columns)>) = std::thread::scope(|s| {
+        let handles: Vec<_> = rest
             .windows(2)
             .map(|w| {
                 let piece = &bytes[w[0]..w[1]];
@@ -266,12 +296,14 @@ fn read_parallel(bytes: &[u8], head: &Head, out: &mut Columns, threads: usize) -
                 })
             })
             .collect();
-        handles
+        let ok = read_lines(first, head, out);
+        let results = handles
             .into_iter()
             .map(|h| h.join().unwrap_or_else(|_| (false, Columns::new())))
-            .collect()
+            .collect();
+        (ok, results)
     });
-    let mut ok = true;
+    let mut ok = ok;
     for (good, cols) in results {
         ok &= good;
         if ok {
@@ -290,16 +322,13 @@ fn fast(
 ) -> io::Result<Option<Loaded>> {
     let started = Instant::now();
     let mut r = open.open()?;
-    let mut buf = Vec::new();
-    let mut eof = fill(&mut *r, &mut buf, 1 << 20)?;
-    let whole = |buf: &[u8], eof: bool| {
-        if eof {
-            buf.len()
-        } else {
-            buf.iter().rposition(|&c| c == b'\n').map_or(0, |p| p + 1)
-        }
+    let mut w = Window {
+        buf: Vec::new(),
+        len: 0,
+        eof: false,
     };
-    let Some(head) = read_head(&buf[..whole(&buf, eof)]) else {
+    w.fill(&mut *r, 1 << 20)?;
+    let Some(head) = read_head(&w.bytes()[..w.whole()]) else {
         return Ok(None);
     };
     let t = Instant::now();
@@ -310,29 +339,39 @@ fn fast(
         },
         Input {
             name: agents_name,
-            bytes: &buf[..head.end],
+            bytes: &w.bytes()[..head.end],
         },
     ) else {
         return Ok(None);
     };
     let check_time = t.elapsed();
     let mut cols = Columns::new();
+    // Room for the agents the file's size suggests (from the lines of its first bytes), so
+    // that the columns do not move as they grow.
+    if let Some(size) = open.size() {
+        let first = &w.bytes()[head.agents_at..w.whole()];
+        let lines = memchr::memchr_iter(b'\n', first).count().max(1);
+        let guess = (size as f64 * lines as f64 / first.len().max(1) as f64 * 1.05) as usize + 64;
+        cols.pos.reserve(guess);
+        cols.state.reserve(guess);
+        cols.attach.reserve(guess);
+    }
     let mut from = head.agents_at;
     loop {
-        let upto = whole(&buf, eof);
-        if upto > from && !read_parallel(&buf[from..upto], &head, &mut cols, threads) {
+        let upto = w.whole();
+        if upto > from && !read_parallel(&w.bytes()[from..upto], &head, &mut cols, threads) {
             return Ok(None);
         }
-        if eof {
+        if w.eof {
             break;
         }
-        buf.drain(..upto);
+        w.consume(upto);
         from = 0;
         // A line longer than a chunk makes the buffer grow until its end is in it.
-        let want = buf.len() + CHUNK;
-        eof = fill(&mut *r, &mut buf, want)?;
+        let want = w.len + CHUNK;
+        w.fill(&mut *r, want)?;
     }
-    drop(buf);
+    drop(w);
     cols.fill();
     let n = cols.len();
     let Some(lat) = Lattice::from_columns(head.dim, head.universe, cols) else {

@@ -124,7 +124,11 @@ pub(crate) fn peak_memory() -> u64 {
         if unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut u) } == 0 {
             // Kilobytes on Linux, bytes on macOS.
             let k = u.ru_maxrss.max(0) as u64;
-            return if cfg!(target_os = "macos") { k } else { k * 1024 };
+            return if cfg!(target_os = "macos") {
+                k
+            } else {
+                k * 1024
+            };
         }
     }
     0
@@ -189,7 +193,7 @@ pub(crate) fn io_threads(requested: Option<usize>) -> usize {
 /// files, 2 for I/O).
 pub(crate) fn load(
     rules: &PathBuf,
-    agents: &PathBuf,
+    agents: &Path,
     quiet: bool,
     colour: bool,
     threads: usize,
@@ -292,7 +296,10 @@ fn save_checkpoint(engine: &Engine, path: &Path) -> Result<(), ExitCode> {
         })
         .and_then(|f| f.commit())
         .map_err(|e| {
-            say!("error: cannot write the checkpoint `{}`: {e}", path.display());
+            say!(
+                "error: cannot write the checkpoint `{}`: {e}",
+                path.display()
+            );
             ExitCode::from(2)
         })
 }
@@ -324,10 +331,12 @@ pub fn run(args: RunArgs) -> ExitCode {
         trace: trace_out.is_some(),
     };
     let (mut engine, ready_read, ready_check) = match (&args.resume, &args.agents) {
-        (Some(from), _) => match resume(&args.rules, from, opts, args.threads, args.quiet, colour) {
-            Ok(r) => r,
-            Err(c) => return c,
-        },
+        (Some(from), _) => {
+            match resume(&args.rules, from, opts, args.threads, args.quiet, colour) {
+                Ok(r) => r,
+                Err(c) => return c,
+            }
+        }
         (None, Some(agents)) => match load(&args.rules, agents, args.quiet, colour, io_threads) {
             Ok(r) => {
                 let opts = Options {

@@ -58,9 +58,21 @@ fn same_as_straight(rules: &Path, agents: &Path, steps: u64, stops: &[u64], extr
         "case-{}",
         CASE.fetch_add(1, std::sync::atomic::Ordering::SeqCst)
     ));
-    let (out, stats, trace) = (d.join("out.txt"), d.join("stats.json"), d.join("trace.jsonl"));
+    let (out, stats, trace) = (
+        d.join("out.txt"),
+        d.join("stats.json"),
+        d.join("trace.jsonl"),
+    );
     let max = steps.to_string();
-    let mut args = vec!["run", s(rules), s(agents), "-q", "--no-timing", "--max-steps", &max];
+    let mut args = vec![
+        "run",
+        s(rules),
+        s(agents),
+        "-q",
+        "--no-timing",
+        "--max-steps",
+        &max,
+    ];
     args.extend(extra);
     let mut straight = args.clone();
     straight.extend(["--out", s(&out), "--stats", s(&stats), "--trace", s(&trace)]);
@@ -79,24 +91,46 @@ fn same_as_straight(rules: &Path, agents: &Path, steps: u64, stops: &[u64], extr
         second.extend(["--out", s(&o2), "--stats", s(&s2), "--trace", s(&t2)]);
         ok(&second);
         let what = format!("{} stopped at {stop} {extra:?}", s(agents));
-        assert_eq!(std::fs::read(&out).unwrap(), std::fs::read(&o2).unwrap(), "--out, {what}");
-        assert_eq!(std::fs::read(&stats).unwrap(), std::fs::read(&s2).unwrap(), "--stats, {what}");
-        assert_eq!(trace_after(&trace, stop), trace_after(&t2, 0), "--trace, {what}");
+        assert_eq!(
+            std::fs::read(&out).unwrap(),
+            std::fs::read(&o2).unwrap(),
+            "--out, {what}"
+        );
+        assert_eq!(
+            std::fs::read(&stats).unwrap(),
+            std::fs::read(&s2).unwrap(),
+            "--stats, {what}"
+        );
+        assert_eq!(
+            trace_after(&trace, stop),
+            trace_after(&t2, 0),
+            "--trace, {what}"
+        );
     }
 }
 
 fn example(p: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("examples").join(p)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("examples")
+        .join(p)
 }
 
 #[test]
 fn resumed_examples_end_as_the_run_without_a_stop() {
     // Moves and carried groups, messages in flight, 3D, under both orders and static-first.
     let cases: &[(&str, &str, u64)] = &[
-        ("reconfigure-line/rules.txt", "reconfigure-line/agents-30.txt", 60),
+        (
+            "reconfigure-line/rules.txt",
+            "reconfigure-line/agents-30.txt",
+            60,
+        ),
         ("tour/rules.txt", "tour/agents.txt", 40),
         ("maxflood/rules.txt", "maxflood/agents.txt", 12),
-        ("spanning-tree/rules-3d.txt", "spanning-tree/agents-3d.txt", 30),
+        (
+            "spanning-tree/rules-3d.txt",
+            "spanning-tree/agents-3d.txt",
+            30,
+        ),
         ("gravity-3d/rules.txt", "gravity-3d/agents.txt", 30),
         ("bouncing/rules.txt", "bouncing/agents.txt", 30),
     ];
@@ -106,7 +140,13 @@ fn resumed_examples_end_as_the_run_without_a_stop() {
             &["--order", "messages-first"][..],
             &["--static-first"][..],
         ] {
-            same_as_straight(&example(r), &example(a), steps, &[1, steps / 3, steps - 1], extra);
+            same_as_straight(
+                &example(r),
+                &example(a),
+                steps,
+                &[1, steps / 3, steps - 1],
+                extra,
+            );
         }
     }
 }
@@ -132,7 +172,11 @@ fn resumed_swaps_and_text_messages_go_on_exactly() {
         }
     }
     std::fs::write(&agents, text).unwrap();
-    for extra in [&[][..], &["--order", "messages-first"][..], &["--static-first"][..]] {
+    for extra in [
+        &[][..],
+        &["--order", "messages-first"][..],
+        &["--static-first"][..],
+    ] {
         same_as_straight(&rules, &agents, 9, &[1, 2, 5, 8], extra);
     }
 }
@@ -143,7 +187,18 @@ fn checkpoints_that_cannot_be_resumed_are_refused() {
     let rules = example("maxflood/rules.txt");
     let agents = example("maxflood/agents.txt");
     let ck = d.join("run.ckpt");
-    ok(&["run", s(&rules), s(&agents), "-q", "--max-steps", "3", "--checkpoint", s(&ck), "--out", "/dev/null"]);
+    ok(&[
+        "run",
+        s(&rules),
+        s(&agents),
+        "-q",
+        "--max-steps",
+        "3",
+        "--checkpoint",
+        s(&ck),
+        "--out",
+        "/dev/null",
+    ]);
     let good = std::fs::read(&ck).unwrap();
     let out = d.join("out.txt");
     std::fs::write(&out, "keep me\n").unwrap();
@@ -155,7 +210,10 @@ fn checkpoints_that_cannot_be_resumed_are_refused() {
         let o = run(&args);
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{why}: {err}");
-        assert!(err.contains(&format!("cannot resume from `{}`", s(&bad))), "{err}");
+        assert!(
+            err.contains(&format!("cannot resume from `{}`", s(&bad))),
+            "{err}"
+        );
         assert!(err.contains(why), "expected `{why}` in: {err}");
         assert_eq!(std::fs::read_to_string(&out).unwrap(), "keep me\n", "{why}");
     };
@@ -176,12 +234,28 @@ fn checkpoints_that_cannot_be_resumed_are_refused() {
     let other = d.join("other.txt");
     std::fs::write(&other, "flood\n1\nS*****\n#*01 + C00 0001\n").unwrap();
     refuse(&good, &other, &[], "other rules");
-    refuse(&good, &rules, &["--order", "messages-first"], "--order actions-first");
+    refuse(
+        &good,
+        &rules,
+        &["--order", "messages-first"],
+        "--order actions-first",
+    );
     refuse(&good, &rules, &["--static-first"], "no --static-first");
     // The good one still resumes, and a compressed one too.
     ok(&["run", s(&rules), "--resume", s(&ck), "-q", "--out", s(&out)]);
     let zst = d.join("run.ckpt.zst");
-    ok(&["run", s(&rules), s(&agents), "-q", "--max-steps", "3", "--checkpoint", s(&zst), "--out", "/dev/null"]);
+    ok(&[
+        "run",
+        s(&rules),
+        s(&agents),
+        "-q",
+        "--max-steps",
+        "3",
+        "--checkpoint",
+        s(&zst),
+        "--out",
+        "/dev/null",
+    ]);
     let o2 = d.join("out2.txt");
     ok(&["run", s(&rules), "--resume", s(&zst), "-q", "--out", s(&o2)]);
     assert_eq!(std::fs::read(&out).unwrap(), std::fs::read(&o2).unwrap());
@@ -194,9 +268,35 @@ fn checkpoint_every_n_steps_and_at_the_end() {
     let agents = example("maxflood/agents.txt");
     let ck = d.join("run.ckpt");
     // Stopped by --max-steps 7 with a checkpoint every 3: the last one written is the end's.
-    ok(&["run", s(&rules), s(&agents), "-q", "--max-steps", "7", "--checkpoint", s(&ck), "--checkpoint-every", "3", "--out", "/dev/null"]);
+    ok(&[
+        "run",
+        s(&rules),
+        s(&agents),
+        "-q",
+        "--max-steps",
+        "7",
+        "--checkpoint",
+        s(&ck),
+        "--checkpoint-every",
+        "3",
+        "--out",
+        "/dev/null",
+    ]);
     let stats = d.join("stats.json");
-    ok(&["run", s(&rules), "--resume", s(&ck), "-q", "--max-steps", "7", "--no-timing", "--stats", s(&stats), "--out", "/dev/null"]);
+    ok(&[
+        "run",
+        s(&rules),
+        "--resume",
+        s(&ck),
+        "-q",
+        "--max-steps",
+        "7",
+        "--no-timing",
+        "--stats",
+        s(&stats),
+        "--out",
+        "/dev/null",
+    ]);
     let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
     assert_eq!(v["steps"], 7);
     // Both an agents file and --resume: refused by the argument parser.

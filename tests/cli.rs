@@ -1068,19 +1068,46 @@ fn large_files_stream_through_chunks_and_threads_unchanged() {
     let rules = tmp("large-rules.txt", b"flood\n1\nS*****\nC00 A C00 #N01 C00 A C00 #W01 C00 A C00 #E01 C00 A C00 #S01 #*01 + C00 0000\n");
     for threads in ["1", "2"] {
         let out = tmp(&format!("large-out-{threads}.txt"), b"");
-        let o = run(&["run", rules.to_str().unwrap(), input.to_str().unwrap(), "--max-steps", "0", "--threads", threads, "--out", out.to_str().unwrap(), "-q"]);
+        let o = run(&[
+            "run",
+            rules.to_str().unwrap(),
+            input.to_str().unwrap(),
+            "--max-steps",
+            "0",
+            "--threads",
+            threads,
+            "--out",
+            out.to_str().unwrap(),
+            "-q",
+        ]);
         assert!(o.status.success(), "{}", stderr(&o));
-        assert!(std::fs::read(&out).unwrap() == text.as_bytes(), "0 steps write back what was read ({threads} threads)");
+        assert!(
+            std::fs::read(&out).unwrap() == text.as_bytes(),
+            "0 steps write back what was read ({threads} threads)"
+        );
     }
     // A defect on the last line: the diagnostic path names it.
     let mut bad = text.clone();
     bad += "5,5 C00 7\n";
     let input = tmp("large-bad.txt", bad.as_bytes());
-    let o = run(&["check", rules.to_str().unwrap(), "--agents", input.to_str().unwrap(), "--color", "never"]);
+    let o = run(&[
+        "check",
+        rules.to_str().unwrap(),
+        "--agents",
+        input.to_str().unwrap(),
+        "--color",
+        "never",
+    ]);
     assert_eq!(o.status.code(), Some(1));
     let err = stderr(&o);
-    assert!(err.contains("error[E402]: two agents on the cell 5,5"), "{err}");
-    assert!(err.contains(&format!("{}:1210001:1", input.display())), "{err}");
+    assert!(
+        err.contains("error[E402]: two agents on the cell 5,5"),
+        "{err}"
+    );
+    assert!(
+        err.contains(&format!("{}:1210001:1", input.display())),
+        "{err}"
+    );
 }
 
 #[test]
@@ -1092,17 +1119,43 @@ fn compressed_agents_files_read_and_write() {
     let mut outs = Vec::new();
     for ext in ["txt", "zst", "gz"] {
         let out = tmp(&format!("packed-out.{ext}"), b"");
-        let o = run(&["run", rules, &p(&plain), "--max-steps", "5", "--out", &p(&out), "-q"]);
+        let o = run(&[
+            "run",
+            rules,
+            &p(&plain),
+            "--max-steps",
+            "5",
+            "--out",
+            &p(&out),
+            "-q",
+        ]);
         assert!(o.status.success(), "{}", stderr(&o));
         outs.push(out);
     }
     let raw = std::fs::read(&outs[0]).unwrap();
-    assert_eq!(&std::fs::read(&outs[1]).unwrap()[..4], &[0x28, 0xb5, 0x2f, 0xfd], "zstd magic");
-    assert_eq!(&std::fs::read(&outs[2]).unwrap()[..2], &[0x1f, 0x8b], "gzip magic");
+    assert_eq!(
+        &std::fs::read(&outs[1]).unwrap()[..4],
+        &[0x28, 0xb5, 0x2f, 0xfd],
+        "zstd magic"
+    );
+    assert_eq!(
+        &std::fs::read(&outs[2]).unwrap()[..2],
+        &[0x1f, 0x8b],
+        "gzip magic"
+    );
     // Each compressed output read back (0 steps) gives the plain text.
     for out in &outs[1..] {
         let again = tmp("packed-again.txt", b"");
-        let o = run(&["run", rules, &p(out), "--max-steps", "0", "--out", &p(&again), "-q"]);
+        let o = run(&[
+            "run",
+            rules,
+            &p(out),
+            "--max-steps",
+            "0",
+            "--out",
+            &p(&again),
+            "-q",
+        ]);
         assert!(o.status.success(), "{}", stderr(&o));
         assert_eq!(std::fs::read(&again).unwrap(), raw);
         let o = run(&["check", rules, "--agents", &p(out)]);
@@ -1115,13 +1168,25 @@ fn compressed_agents_files_read_and_write() {
     let broken = tmp("broken.txt.zst", &z);
     let o = run(&["run", rules, &p(&broken), "-q"]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains(&format!("cannot read `{}`", broken.display())), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains(&format!("cannot read `{}`", broken.display())),
+        "{}",
+        stderr(&o)
+    );
 }
 
 #[test]
 fn the_summary_gives_each_part_of_the_time_and_the_peak_memory() {
     let stats = tmp("timing-stats.json", b"");
-    let o = run(&["run", "examples/maxflood/rules.txt", "examples/maxflood/agents.txt", "--out", "/dev/null", "--stats", stats.to_str().unwrap()]);
+    let o = run(&[
+        "run",
+        "examples/maxflood/rules.txt",
+        "examples/maxflood/agents.txt",
+        "--out",
+        "/dev/null",
+        "--stats",
+        stats.to_str().unwrap(),
+    ]);
     assert!(o.status.success());
     let err = stderr(&o);
     for part in ["read ", "check ", "steps ", "write ", "peak memory "] {
@@ -1137,7 +1202,16 @@ fn the_summary_gives_each_part_of_the_time_and_the_peak_memory() {
 #[test]
 fn an_output_that_is_a_device_is_written_not_replaced() {
     use std::os::unix::fs::FileTypeExt;
-    let o = run(&["run", "examples/maxflood/rules.txt", "examples/maxflood/agents.txt", "-q", "--out", "/dev/null", "--stats", "/dev/null"]);
+    let o = run(&[
+        "run",
+        "examples/maxflood/rules.txt",
+        "examples/maxflood/agents.txt",
+        "-q",
+        "--out",
+        "/dev/null",
+        "--stats",
+        "/dev/null",
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let meta = std::fs::metadata("/dev/null").unwrap();
     assert!(meta.file_type().is_char_device(), "/dev/null was replaced");

@@ -32,7 +32,15 @@ fn root() -> PathBuf {
 fn latticesim() -> PathBuf {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let ok = Command::new(cargo)
-        .args(["build", "--release", "--quiet", "-p", "latticesim", "--bin", "latticesim"])
+        .args([
+            "build",
+            "--release",
+            "--quiet",
+            "-p",
+            "latticesim",
+            "--bin",
+            "latticesim",
+        ])
         .current_dir(root())
         .status()
         .expect("run cargo build")
@@ -60,7 +68,9 @@ fn agents_file(dir: &Path, l: u64) -> PathBuf {
     p
 }
 
-/// Runs a command to its end: wall time and peak resident bytes of the child.
+/// Runs a command to its end: wall time and peak resident bytes of the child (reaped by
+/// `wait4`, which gives its own peak, rather than by `Child::wait`).
+#[allow(clippy::zombie_processes)]
 fn measure(cmd: &mut Command) -> (Duration, u64) {
     let t = Instant::now();
     let child = cmd
@@ -72,7 +82,10 @@ fn measure(cmd: &mut Command) -> (Duration, u64) {
     let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
     let r = unsafe { libc::wait4(child.id() as i32, &mut status, 0, &mut ru) };
     let wall = t.elapsed();
-    assert!(r > 0 && libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0, "{cmd:?} failed");
+    assert!(
+        r > 0 && libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0,
+        "{cmd:?} failed"
+    );
     (wall, ru.ru_maxrss as u64 * 1024)
 }
 
@@ -97,7 +110,10 @@ struct Row {
 }
 
 fn main() {
-    if std::env::args().skip(1).any(|a| !a.starts_with("--") && a != "file_to_file") {
+    if std::env::args()
+        .skip(1)
+        .any(|a| !a.starts_with("--") && a != "file_to_file")
+    {
         return;
     }
     let quick = std::env::var_os("FILE_QUICK").is_some();
@@ -125,16 +141,28 @@ fn main() {
         let mut best_native = (Duration::MAX, 0);
         let reps = if l >= 10000 { 1 } else { reps };
         for _ in 0..reps {
-            let a = measure(Command::new(&exe).args(["run", "-q", "--max-steps", &s, "--out"]).arg(&o1).arg(&rules).arg(&input));
+            let a = measure(
+                Command::new(&exe)
+                    .args(["run", "-q", "--max-steps", &s, "--out"])
+                    .arg(&o1)
+                    .arg(&rules)
+                    .arg(&input),
+            );
             let b = measure(Command::new(&native).arg(&input).arg(&s).arg(&o2));
             best_ls = (best_ls.0.min(a.0), best_ls.1.max(a.1));
             best_native = (best_native.0.min(b.0), best_native.1.max(b.1));
         }
         let same = std::fs::read(&o1).unwrap() == std::fs::read(&o2).unwrap();
-        assert!(same, "L = {l}: latticesim and the native program wrote different files");
+        assert!(
+            same,
+            "L = {l}: latticesim and the native program wrote different files"
+        );
         let sum = checksum(&o1);
         if (l, steps) == (1000, 50) {
-            assert_eq!(sum, 32744877892, "WORKLOADS.md's checksum of B1 L=1000 S=50");
+            assert_eq!(
+                sum, 32744877892,
+                "WORKLOADS.md's checksum of B1 L=1000 S=50"
+            );
         }
         let row = Row {
             l,
@@ -160,13 +188,35 @@ fn main() {
     let stats = dir.join("read-stats.json");
     let mut read_best = f64::MAX;
     for _ in 0..reps {
-        measure(Command::new(&exe).args(["run", "-q", "--threads", "1", "--max-steps", "0", "--out", "/dev/null", "--stats"]).arg(&stats).arg(&rules).arg(&input));
+        measure(
+            Command::new(&exe)
+                .args([
+                    "run",
+                    "-q",
+                    "--threads",
+                    "1",
+                    "--max-steps",
+                    "0",
+                    "--out",
+                    "/dev/null",
+                    "--stats",
+                ])
+                .arg(&stats)
+                .arg(&rules)
+                .arg(&input),
+        );
         let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
         read_best = read_best.min(v["times"]["read_s"].as_f64().unwrap());
     }
     let mb = std::fs::metadata(&input).unwrap().len() as f64 / 1e6;
     let read_rate = mb / read_best;
-    let check = measure(Command::new(&exe).args(["check", "--color", "never"]).arg(&rules).arg("--agents").arg(&input));
+    let check = measure(
+        Command::new(&exe)
+            .args(["check", "--color", "never"])
+            .arg(&rules)
+            .arg("--agents")
+            .arg(&input),
+    );
     let check_per = check.1 as f64 / (l * l) as f64;
     eprintln!("reading on one core: {read_rate:.0} MB/s ({mb:.1} MB in {read_best:.3} s); check --agents: {check_per:.1} B/agent");
     // The .zst form of the biggest file, in and out.
@@ -184,7 +234,13 @@ fn main() {
         assert!(ok);
     }
     let zout = dir.join("out-latticesim.txt.zst");
-    let z = measure(Command::new(&exe).args(["run", "-q", "--max-steps", &zs.to_string(), "--out"]).arg(&zout).arg(&rules).arg(&zin));
+    let z = measure(
+        Command::new(&exe)
+            .args(["run", "-q", "--max-steps", &zs.to_string(), "--out"])
+            .arg(&zout)
+            .arg(&rules)
+            .arg(&zin),
+    );
     eprintln!(
         "L = {zl} from .zst to .zst: {:.3} s, {:.1} B/agent ({:.1} MB in)",
         z.0.as_secs_f64(),
@@ -197,20 +253,39 @@ fn main() {
     let img = root().join("docs/img");
     std::fs::create_dir_all(&data).unwrap();
     std::fs::create_dir_all(&img).unwrap();
-    let mut csv = String::from("l,n,steps,file_bytes,latticesim_s,latticesim_peak_bytes,native_s,native_peak_bytes\n");
+    let mut csv = String::from(
+        "l,n,steps,file_bytes,latticesim_s,latticesim_peak_bytes,native_s,native_peak_bytes\n",
+    );
     for r in &rows {
         csv += &format!(
             "{},{},{},{},{:.4},{},{:.4},{}\n",
-            r.l, r.n, r.steps, r.bytes, r.ls.0.as_secs_f64(), r.ls.1, r.native.0.as_secs_f64(), r.native.1
+            r.l,
+            r.n,
+            r.steps,
+            r.bytes,
+            r.ls.0.as_secs_f64(),
+            r.ls.1,
+            r.native.0.as_secs_f64(),
+            r.native.1
         );
     }
     std::fs::write(data.join("performance-file.csv"), csv).unwrap();
     let series = |f: &dyn Fn(&Row) -> (f64, f64)| -> Vec<(f64, f64)> {
-        rows.iter().map(|r| (r.n as f64, f(r).0)).collect::<Vec<_>>()
+        rows.iter()
+            .map(|r| (r.n as f64, f(r).0))
+            .collect::<Vec<_>>()
     };
     let time: Vec<Series> = vec![
-        ("latticesim run (whole process)", series(&|r| (r.ls.0.as_secs_f64(), 0.0)), RED),
-        ("plain hand-written program", series(&|r| (r.native.0.as_secs_f64(), 0.0)), BLUE),
+        (
+            "latticesim run (whole process)",
+            series(&|r| (r.ls.0.as_secs_f64(), 0.0)),
+            RED,
+        ),
+        (
+            "plain hand-written program",
+            series(&|r| (r.native.0.as_secs_f64(), 0.0)),
+            BLUE,
+        ),
     ];
     plot_lines(
         &img.join("performance-file-time.svg"),
@@ -221,8 +296,16 @@ fn main() {
     )
     .expect("plot");
     let memory: Vec<Series> = vec![
-        ("latticesim run", series(&|r| (r.ls.1 as f64 / r.n as f64, 0.0)), RED),
-        ("plain hand-written program", series(&|r| (r.native.1 as f64 / r.n as f64, 0.0)), BLUE),
+        (
+            "latticesim run",
+            series(&|r| (r.ls.1 as f64 / r.n as f64, 0.0)),
+            RED,
+        ),
+        (
+            "plain hand-written program",
+            series(&|r| (r.native.1 as f64 / r.n as f64, 0.0)),
+            BLUE,
+        ),
     ];
     plot_lines(
         &img.join("performance-file-memory.svg"),

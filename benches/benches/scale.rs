@@ -12,12 +12,12 @@
 //! a few minutes) to the memory table. `SCALE_QUICK=1` runs smaller sizes only (for a
 //! check that the harness works).
 
+use latticesim_benches::plot::*;
 use latticesim_benches::workloads::*;
 use latticesim_benches::{b2_checksum, b3_checksum, engine, fresh, native, program, sum_c00};
 use latticesim_benches::{Engine, Lcg};
 use latticesim_runtime::{LatticeBuilder, Options};
 use latticesim_vm::model::Dim;
-use latticesim_benches::plot::*;
 use plotters::prelude::*;
 use std::fmt::Write as _;
 use std::path::PathBuf;

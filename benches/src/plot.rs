@@ -84,4 +84,3 @@ pub fn plot_lines(
     root.present()?;
     Ok(())
 }
-

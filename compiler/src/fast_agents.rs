@@ -194,84 +194,232 @@ pub fn read_head(bytes: &[u8]) -> Option<Head> {
 /// a line end) into `out`. False when some line needs the diagnostic path; `out` then
 /// holds part of them.
 pub fn read_lines(chunk: &[u8], head: &Head, out: &mut Columns) -> bool {
-    let d = head.dim;
-    let (coords, dirs, ncounters) = (d.coords(), d.dirs(), d.counters());
-    for (_, raw) in lines(chunk) {
-        let Some(t) = significant(raw) else {
-            return false;
-        };
-        if t.is_empty() {
+    let mut at = 0;
+    while at < chunk.len() {
+        if let Some(next) = quick_line(chunk, at, head, out) {
+            at = next;
             continue;
         }
-        if t[0] == b'U' {
+        let len = memchr::memchr(b'\n', &chunk[at..]).unwrap_or(chunk.len() - at);
+        if !line(&chunk[at..at + len], head, out) {
             return false;
         }
-        let mut ws = words(t);
-        let Some((pos, n)) = ws.next().and_then(position) else {
-            return false;
-        };
-        if n != coords {
-            return false;
-        }
-        if let Some(b) = head.universe {
-            if (0..coords).any(|i| pos[i] < b[i].0 || pos[i] > b[i].1) {
-                return false;
-            }
-        }
-        out.pos.push(pos);
-        let (mut state, mut attach) = (None::<[u8; 5]>, None::<u8>);
-        let mut seen = 0u64;
-        while let Some(w) = ws.next() {
-            match w[0] {
-                b'S' => {
-                    let s = &w[1..];
-                    if state.is_some() || s.len() != 5 || s.contains(&b'*') {
-                        return false;
-                    }
-                    state = Some([s[0], s[1], s[2], s[3], s[4]]);
-                }
-                b'A' => {
-                    let s = &w[1..];
-                    if attach.is_some() || s.len() != dirs {
-                        return false;
-                    }
-                    let mut bits = 0u8;
-                    for (i, &c) in s.iter().enumerate() {
-                        match c {
-                            b'0' => {}
-                            b'1' => bits |= 1 << i,
-                            _ => return false,
-                        }
-                    }
-                    attach = Some(bits);
-                }
-                b'C' if w.len() == 3 => {
-                    let (a, b) = (w[1].wrapping_sub(b'0'), w[2].wrapping_sub(b'0'));
-                    if a > 9 || b > 9 {
-                        return false;
-                    }
-                    let c = (a * 10 + b) as usize;
-                    if c >= ncounters || seen & (1 << c) != 0 {
-                        return false;
-                    }
-                    seen |= 1 << c;
-                    let Some(v) = ws
-                        .next()
-                        .and_then(|v| int(v, -(VALUE_MAX as i64), VALUE_MAX as i64))
-                    else {
-                        return false;
-                    };
-                    if v != 0 {
-                        out.set_counter(c, v as i16);
-                    }
-                }
-                _ => return false,
-            }
-        }
-        out.state.push(state.unwrap_or(*b"00000"));
-        out.attach.push(attach.unwrap_or(0));
+        at += len + 1;
     }
     out.fill();
+    true
+}
+
+/// Where a field may end in `b`: at a blank, the line's end, or the end of the chunk.
+#[inline(always)]
+fn ends(b: &[u8], j: usize) -> bool {
+    j == b.len()
+        || matches!(b[j], b' ' | b'\t' | b'\n')
+        || (b[j] == b'\r' && (j + 1 == b.len() || b[j + 1] == b'\n'))
+}
+
+/// The whole number at `*i` in `b` (`-` and at most 12 digits) ending at a field's end or
+/// a comma, when it lies in `lo..=hi`; `*i` is moved past it.
+#[inline(always)]
+fn int_at(b: &[u8], i: &mut usize, lo: i64, hi: i64) -> Option<i64> {
+    let n = b.len();
+    let neg = b.get(*i) == Some(&b'-');
+    *i += neg as usize;
+    let start = *i;
+    let mut v: i64 = 0;
+    while *i < n && b[*i].is_ascii_digit() && *i - start < 12 {
+        v = v * 10 + (b[*i] - b'0') as i64;
+        *i += 1;
+    }
+    let v = if neg { -v } else { v };
+    (*i > start && (ends(b, *i) || b[*i] == b',') && (lo..=hi).contains(&v)).then_some(v)
+}
+
+/// The usual agent line at `at` in `b`, read in one pass: the position, then `S`, `A` and
+/// `C` fields separated by blanks, nothing else (no comment, no `/` at all), ended by `\n`,
+/// `\r\n` or the end of `b`. Where the next line starts; `None` when the line is anything
+/// else (or not clean): [`line`] then reads it. When it answers, it has read exactly what
+/// [`line`] would have.
+#[inline]
+fn quick_line(b: &[u8], mut i: usize, head: &Head, out: &mut Columns) -> Option<usize> {
+    let d = head.dim;
+    let n = b.len();
+    let blank = |c: u8| c == b' ' || c == b'\t';
+    let ends = |j: usize| ends(b, j);
+    let int = |i: &mut usize, lo: i64, hi: i64| int_at(b, i, lo, hi);
+    while i < n && blank(b[i]) {
+        i += 1;
+    }
+    let (lo, hi) = (i32::MIN as i64, i32::MAX as i64);
+    let mut pos = [0i32; 3];
+    for (k, p) in pos.iter_mut().enumerate().take(d.coords()) {
+        if k > 0 {
+            if b.get(i) != Some(&b',') {
+                return None;
+            }
+            i += 1;
+        }
+        *p = int(&mut i, lo, hi)? as i32;
+    }
+    if !ends(i) {
+        return None;
+    }
+    if let Some(u) = head.universe {
+        if (0..d.coords()).any(|k| pos[k] < u[k].0 || pos[k] > u[k].1) {
+            return None;
+        }
+    }
+    let (mut state, mut attach) = (None::<[u8; 5]>, None::<u8>);
+    let mut counters = [(0u8, 0i16); 8];
+    let (mut nc, mut seen) = (0, 0u64);
+    let next = loop {
+        while i < n && blank(b[i]) {
+            i += 1;
+        }
+        if i == n {
+            break n;
+        }
+        match b[i] {
+            b'\n' => break i + 1,
+            b'\r' if i + 1 == n => break n,
+            b'\r' if b[i + 1] == b'\n' => break i + 2,
+            b'S' if i + 6 <= n && ends(i + 6) && state.is_none() => {
+                let st: [u8; 5] = b[i + 1..i + 6].try_into().expect("5 bytes");
+                if st
+                    .iter()
+                    .any(|&c| !(0x21..0x7f).contains(&c) || c == b'*' || c == b'/')
+                {
+                    return None;
+                }
+                state = Some(st);
+                i += 6;
+            }
+            b'A' if i + 1 + d.dirs() <= n && ends(i + 1 + d.dirs()) && attach.is_none() => {
+                let mut bits = 0u8;
+                for (k, &c) in b[i + 1..i + 1 + d.dirs()].iter().enumerate() {
+                    match c {
+                        b'0' => {}
+                        b'1' => bits |= 1 << k,
+                        _ => return None,
+                    }
+                }
+                attach = Some(bits);
+                i += 1 + d.dirs();
+            }
+            b'C' if i + 3 < n && blank(b[i + 3]) => {
+                let (x, y) = (b[i + 1].wrapping_sub(b'0'), b[i + 2].wrapping_sub(b'0'));
+                if x > 9 || y > 9 || nc == counters.len() {
+                    return None;
+                }
+                let c = x * 10 + y;
+                if c as usize >= d.counters() || seen & (1 << c) != 0 {
+                    return None;
+                }
+                seen |= 1 << c;
+                i += 3;
+                while i < n && blank(b[i]) {
+                    i += 1;
+                }
+                let v = int(&mut i, -VALUE_MAX, VALUE_MAX)?;
+                if !ends(i) {
+                    return None;
+                }
+                counters[nc] = (c, v as i16);
+                nc += 1;
+            }
+            _ => return None,
+        }
+    };
+    out.pos.push(pos);
+    out.state.push(state.unwrap_or(*b"00000"));
+    out.attach.push(attach.unwrap_or(0));
+    for &(c, v) in &counters[..nc] {
+        if v != 0 {
+            out.set_counter(c as usize, v);
+        }
+    }
+    Some(next)
+}
+
+/// Any line after the head, read as the diagnostic path splits it (comments, blanks, line
+/// ends): true when it is blank, a comment or a clean agent line (then read into `out`).
+fn line(raw: &[u8], head: &Head, out: &mut Columns) -> bool {
+    let d = head.dim;
+    let (coords, dirs, ncounters) = (d.coords(), d.dirs(), d.counters());
+    let Some(t) = significant(raw) else {
+        return false;
+    };
+    if t.is_empty() {
+        return true;
+    }
+    if t[0] == b'U' {
+        return false;
+    }
+    let mut ws = words(t);
+    let Some((pos, n)) = ws.next().and_then(position) else {
+        return false;
+    };
+    if n != coords {
+        return false;
+    }
+    if let Some(b) = head.universe {
+        if (0..coords).any(|i| pos[i] < b[i].0 || pos[i] > b[i].1) {
+            return false;
+        }
+    }
+    let (mut state, mut attach) = (None::<[u8; 5]>, None::<u8>);
+    let mut counters = Vec::new();
+    let mut seen = 0u64;
+    while let Some(w) = ws.next() {
+        match w[0] {
+            b'S' => {
+                let s = &w[1..];
+                if state.is_some() || s.len() != 5 || s.contains(&b'*') {
+                    return false;
+                }
+                state = Some([s[0], s[1], s[2], s[3], s[4]]);
+            }
+            b'A' => {
+                let s = &w[1..];
+                if attach.is_some() || s.len() != dirs {
+                    return false;
+                }
+                let mut bits = 0u8;
+                for (i, &c) in s.iter().enumerate() {
+                    match c {
+                        b'0' => {}
+                        b'1' => bits |= 1 << i,
+                        _ => return false,
+                    }
+                }
+                attach = Some(bits);
+            }
+            b'C' if w.len() == 3 => {
+                let (a, b) = (w[1].wrapping_sub(b'0'), w[2].wrapping_sub(b'0'));
+                if a > 9 || b > 9 {
+                    return false;
+                }
+                let c = (a * 10 + b) as usize;
+                if c >= ncounters || seen & (1 << c) != 0 {
+                    return false;
+                }
+                seen |= 1 << c;
+                let Some(v) = ws.next().and_then(|v| int(v, -VALUE_MAX, VALUE_MAX)) else {
+                    return false;
+                };
+                counters.push((c, v as i16));
+            }
+            _ => return false,
+        }
+    }
+    out.pos.push(pos);
+    out.state.push(state.unwrap_or(*b"00000"));
+    out.attach.push(attach.unwrap_or(0));
+    for (c, v) in counters {
+        if v != 0 {
+            out.set_counter(c, v);
+        }
+    }
     true
 }
 
@@ -303,7 +451,8 @@ mod tests {
     #[test]
     fn reads_a_clean_file() {
         let (head, cols) =
-            read("// c\r\nU 0,9,0,9\r\n\r\n1,2 C03 -7 SAB(DE A1000 // x\n 3,4\t\n5,6 C00 0").unwrap();
+            read("// c\r\nU 0,9,0,9\r\n\r\n1,2 C03 -7 SAB(DE A1000 // x\n 3,4\t\n5,6 C00 0")
+                .unwrap();
         assert_eq!(head.dim, Dim::Two);
         assert_eq!(head.universe.unwrap()[1], (0, 9));
         assert_eq!(cols.pos, vec![[1, 2, 0], [3, 4, 0], [5, 6, 0]]);

@@ -4,8 +4,8 @@
 
 use latticesim_grammar::Span;
 pub use latticesim_vm::model::{
-    AgentInit, AttachLetter, BitPat, Bounds, CalcOp, CmpOp, Columns, Config, Coord, Dim, Dir, Offset,
-    TextPat,
+    AgentInit, AttachLetter, BitPat, Bounds, CalcOp, CmpOp, Columns, Config, Coord, Dim, Dir,
+    Offset, TextPat,
 };
 
 /// A readable value.

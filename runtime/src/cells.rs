@@ -150,6 +150,12 @@ impl CellsMut<'_> {
 impl CellIndex {
     /// An index for agents at these positions (z = 0 in 2D).
     pub fn new(pos: &[[i32; 3]], three_d: bool) -> CellIndex {
+        Self::new_checked(pos, three_d).0
+    }
+
+    /// The grid over the agents' bounding box (with a margin), when it has few enough
+    /// cells per agent.
+    fn grid_for(pos: &[[i32; 3]], three_d: bool) -> Option<Grid> {
         let mut grid = None;
         if !pos.is_empty() {
             let mut lo = [i32::MAX; 3];
@@ -179,14 +185,45 @@ impl CellIndex {
                 });
             }
         }
+        grid
+    }
+
+    /// [`CellIndex::new`], and whether every agent has a cell of its own (false when a
+    /// later agent stands on an earlier one's cell, and took it in the index).
+    pub fn new_checked(pos: &[[i32; 3]], three_d: bool) -> (CellIndex, bool) {
+        let grid = CellIndex::grid_for(pos, three_d);
         let mut idx = CellIndex {
             grid,
             map: FxHashMap::default(),
         };
+        let mut one_each = true;
         for (i, p) in pos.iter().enumerate() {
-            idx.insert(*p, i as u32);
+            one_each &= idx.insert(*p, i as u32);
         }
-        idx
+        (idx, one_each)
+    }
+
+    /// [`CellIndex::new_checked`], and every agent's [`CellIndex::code`], in one pass.
+    pub fn new_coded(pos: &[[i32; 3]], three_d: bool) -> (CellIndex, bool, Vec<u32>) {
+        let mut idx = CellIndex {
+            grid: CellIndex::grid_for(pos, three_d),
+            map: FxHashMap::default(),
+        };
+        let mut one_each = true;
+        let mut code = Vec::with_capacity(pos.len());
+        for (i, &p) in pos.iter().enumerate() {
+            let c = idx.code(p);
+            code.push(c);
+            match &mut idx.grid {
+                Some(g) if c != NO_SLOT => {
+                    let s = (c & !RIM) as usize;
+                    one_each &= g.cells[s] == EMPTY;
+                    g.occupy(s, i as u32);
+                }
+                _ => one_each &= idx.insert(p, i as u32),
+            }
+        }
+        (idx, one_each, code)
     }
 
     /// The agent on a cell.
@@ -335,15 +372,16 @@ impl CellIndex {
         self.grid.as_ref().map_or(0, |g| g.cells.len())
     }
 
-    /// Puts an agent on a cell.
-    pub fn insert(&mut self, p: [i32; 3], a: u32) {
+    /// Puts an agent on a cell: false when another stood there (it is no longer found).
+    pub fn insert(&mut self, p: [i32; 3], a: u32) -> bool {
         if let Some(g) = &mut self.grid {
             if let Some(i) = g.slot(p) {
+                let free = g.cells[i] == EMPTY;
                 g.put(i, a);
-                return;
+                return free;
             }
         }
-        self.map.insert(p, a);
+        self.map.insert(p, a).is_none()
     }
 
     /// Empties a cell if agent `a` stands there.

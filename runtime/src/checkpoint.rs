@@ -64,9 +64,14 @@ impl std::fmt::Display for CheckpointError {
                 f,
                 "it is a checkpoint of format version {v}; this latticesim reads version {VERSION}"
             ),
-            CheckpointError::Truncated => write!(f, "it is truncated (it ends before its checksum)"),
+            CheckpointError::Truncated => {
+                write!(f, "it is truncated (it ends before its checksum)")
+            }
             CheckpointError::Corrupt => {
-                write!(f, "it is corrupted (its checksum does not match its content)")
+                write!(
+                    f,
+                    "it is corrupted (its checksum does not match its content)"
+                )
             }
             CheckpointError::OtherRules => {
                 write!(f, "it was made with other rules than the rules file given")
@@ -330,7 +335,8 @@ impl Engine {
         // rather than made with other rules.
         let want = r.crc.clone().finalize();
         let mut sum = [0u8; 4];
-        r.r.read_exact(&mut sum).map_err(|_| CheckpointError::Truncated)?;
+        r.r.read_exact(&mut sum)
+            .map_err(|_| CheckpointError::Truncated)?;
         if u32::from_le_bytes(sum) != want {
             return Err(CheckpointError::Corrupt);
         }
@@ -511,7 +517,9 @@ fn check_cells(lat: &Lattice) -> Result<(), CheckpointError> {
             }
         }
         if lat.attach[a] >> lat.dim.dirs() != 0 {
-            return Err(CheckpointError::Invalid("a bond towards no direction".into()));
+            return Err(CheckpointError::Invalid(
+                "a bond towards no direction".into(),
+            ));
         }
     }
     Ok(())

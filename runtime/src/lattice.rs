@@ -262,7 +262,12 @@ impl Lattice {
             attach: (w.bonds || w.positions).then(|| self.attach.clone()),
             counters: (0..self.nc() as u8)
                 .filter(|&i| w.counters & (1 << i) != 0 && self.counter_col[i as usize] != NO_COL)
-                .map(|i| (i, self.counters[self.counter_col[i as usize] as usize].clone()))
+                .map(|i| {
+                    (
+                        i,
+                        self.counters[self.counter_col[i as usize] as usize].clone(),
+                    )
+                })
                 .collect(),
             messages: w.messages.then(|| {
                 (
@@ -294,8 +299,12 @@ impl Lattice {
             self.counters[self.counter_col[i as usize] as usize] = col;
         }
         if let Some((num, text, has, pending)) = u.messages {
-            (self.inbox_num, self.inbox_text, self.inbox_text_has, self.pending) =
-                (num, text, has, pending);
+            (
+                self.inbox_num,
+                self.inbox_text,
+                self.inbox_text_has,
+                self.pending,
+            ) = (num, text, has, pending);
         }
     }
 }
@@ -354,16 +363,21 @@ impl LatticeBuilder {
     }
 
     /// The lattice.
-    pub fn finish(mut self) -> Lattice {
+    pub fn finish(self) -> Lattice {
+        self.finish_checked().0
+    }
+
+    /// The lattice, and whether every agent has a cell of its own.
+    fn finish_checked(mut self) -> (Lattice, bool) {
         let n = self.lat.pos.len();
         for col in &mut self.lat.counters {
             col.resize(n, 0);
             col.shrink_to_fit();
         }
         let lat = &mut self.lat;
-        lat.cells = CellIndex::new(&lat.pos, lat.dim == Dim::Three);
-        lat.code = lat.pos.iter().map(|&p| lat.cells.code(p)).collect();
-        self.lat
+        let (cells, one_each, code) = CellIndex::new_coded(&lat.pos, lat.dim == Dim::Three);
+        (lat.cells, lat.code) = (cells, code);
+        (self.lat, one_each)
     }
 }
 
@@ -389,15 +403,13 @@ impl Lattice {
                 lat.counters.push(col);
             }
         }
-        let lat = b.finish();
-        // A later agent on an earlier one's cell took its place in the index.
-        let one_each = (0..n).all(|a| lat.cells.get(lat.pos[a]) == Some(a as u32));
+        let (lat, one_each) = b.finish_checked();
         let bonds = (0..n).filter(|&a| lat.attach[a] != 0).all(|a| {
             Dir::ALL.iter().take(dim.dirs()).all(|d| {
                 lat.attach[a] & (1 << d.index()) == 0
-                    || lat.neighbour(a as u32, *d).is_some_and(|b| {
-                        lat.attach[b as usize] & (1 << d.opposite().index()) != 0
-                    })
+                    || lat
+                        .neighbour(a as u32, *d)
+                        .is_some_and(|b| lat.attach[b as usize] & (1 << d.opposite().index()) != 0)
             })
         });
         (one_each && bonds).then_some(lat)
@@ -944,11 +956,16 @@ impl Lattice {
         String::from_utf8(out).expect("states are ASCII")
     }
 
-    /// Writes [`Lattice::to_agents_text`] into `w` as it is made, the agents formatted in
-    /// blocks on up to `threads` threads and written in order.
-    pub fn write_agents_text(&self, w: &mut impl std::io::Write, threads: usize) -> std::io::Result<()> {
-        /// Agents formatted at a time by one thread.
-        const BLOCK: usize = 1 << 16;
+    /// Writes [`Lattice::to_agents_text`] into `w` as it is made, a block of agents at a
+    /// time. With `threads` above one, a second thread formats the next blocks while this
+    /// one writes (formatting itself on several threads was slower on two cores).
+    pub fn write_agents_text(
+        &self,
+        w: &mut impl std::io::Write,
+        threads: usize,
+    ) -> std::io::Result<()> {
+        /// Agents formatted at a time.
+        const BLOCK: usize = 1 << 15;
         let c = self.dim.coords();
         if let Some(b) = self.universe {
             let v: Vec<String> = b[..c]
@@ -963,86 +980,125 @@ impl Lattice {
             .map(|i| (i, &self.counters[self.counter_col[i as usize] as usize][..]))
             .collect();
         let n = self.len();
-        let threads = threads.clamp(1, n.div_ceil(BLOCK).max(1));
-        let mut bufs: Vec<Vec<u8>> = vec![Vec::new(); threads];
-        let mut a = 0;
-        while a < n {
-            let group = (n - a).min(BLOCK * threads);
-            if threads == 1 {
-                bufs[0].clear();
-                self.format_agents(a..a + group, &cols, &mut bufs[0]);
-            } else {
-                std::thread::scope(|s| {
-                    for (k, buf) in bufs.iter_mut().enumerate() {
-                        let lo = (a + k * BLOCK).min(a + group);
-                        let hi = (lo + BLOCK).min(a + group);
-                        let cols = &cols;
-                        s.spawn(move || {
-                            buf.clear();
-                            self.format_agents(lo..hi, cols, buf);
-                        });
-                    }
-                });
+        let room = BLOCK * self.longest_line(&cols);
+        if threads < 2 || n <= BLOCK {
+            let mut buf = vec![0u8; room.min(n * self.longest_line(&cols))];
+            for a in (0..n).step_by(BLOCK) {
+                let len = self.format_agents(a..(a + BLOCK).min(n), &cols, &mut buf);
+                w.write_all(&buf[..len])?;
             }
-            for buf in &bufs {
-                w.write_all(buf)?;
-            }
-            a += group;
+            return Ok(());
         }
-        Ok(())
+        use std::sync::mpsc::sync_channel;
+        let (full_tx, full_rx) = sync_channel::<(Vec<u8>, usize)>(3);
+        let (empty_tx, empty_rx) = sync_channel::<Vec<u8>>(4);
+        for _ in 0..4 {
+            let _ = empty_tx.send(vec![0u8; room]);
+        }
+        std::thread::scope(|s| {
+            let cols = &cols;
+            s.spawn(move || {
+                for a in (0..n).step_by(BLOCK) {
+                    // The writer gave up (an error): stop.
+                    let Ok(mut buf) = empty_rx.recv() else {
+                        return;
+                    };
+                    let len = self.format_agents(a..(a + BLOCK).min(n), cols, &mut buf);
+                    if full_tx.send((buf, len)).is_err() {
+                        return;
+                    }
+                }
+            });
+            for (buf, len) in full_rx.iter() {
+                w.write_all(&buf[..len])?;
+                let _ = empty_tx.send(buf);
+            }
+            Ok(())
+        })
     }
 
-    /// The lines of agents `range` (see [`Lattice::to_agents_text`]), appended to `out`.
-    fn format_agents(&self, range: std::ops::Range<usize>, cols: &[(u8, &[i16])], out: &mut Vec<u8>) {
+    /// The longest line [`Lattice::format_agents`] can make with these counter columns.
+    fn longest_line(&self, cols: &[(u8, &[i16])]) -> usize {
+        3 * 12 + 7 + 8 + cols.len() * 11 + 1
+    }
+
+    /// The lines of agents `range` (see [`Lattice::to_agents_text`]), written into `line`
+    /// (room for the longest line per agent): their length. Each line is written in place
+    /// (a copy of a line would be a call to `memcpy`).
+    fn format_agents(
+        &self,
+        range: std::ops::Range<usize>,
+        cols: &[(u8, &[i16])],
+        line: &mut [u8],
+    ) -> usize {
         let (three, dirs) = (self.dim == Dim::Three, self.dim.dirs());
+        let mut at = 0;
         for a in range {
             let p = self.pos[a];
-            push_int(out, p[0] as i64);
-            out.push(b',');
-            push_int(out, p[1] as i64);
+            at = put_int(line, at, p[0] as i64);
+            line[at] = b',';
+            at = put_int(line, at + 1, p[1] as i64);
             if three {
-                out.push(b',');
-                push_int(out, p[2] as i64);
+                line[at] = b',';
+                at = put_int(line, at + 1, p[2] as i64);
             }
-            out.extend_from_slice(b" S");
-            out.extend_from_slice(&self.state[a]);
+            line[at] = b' ';
+            line[at + 1] = b'S';
+            let st = self.state[a];
+            line[at + 2] = st[0];
+            line[at + 3] = st[1];
+            line[at + 4] = st[2];
+            line[at + 5] = st[3];
+            line[at + 6] = st[4];
+            at += 7;
             let bonds = self.attach[a];
             if bonds != 0 {
-                out.extend_from_slice(b" A");
+                line[at] = b' ';
+                line[at + 1] = b'A';
+                at += 2;
                 for d in 0..dirs {
-                    out.push(b'0' + (bonds >> d & 1));
+                    line[at] = b'0' + (bonds >> d & 1);
+                    at += 1;
                 }
             }
             for &(i, col) in cols {
                 let v = col[a];
                 if v != 0 {
-                    out.extend_from_slice(&[b' ', b'C', b'0' + i / 10, b'0' + i % 10, b' ']);
-                    push_int(out, v as i64);
+                    line[at] = b' ';
+                    line[at + 1] = b'C';
+                    line[at + 2] = b'0' + i / 10;
+                    line[at + 3] = b'0' + i % 10;
+                    line[at + 4] = b' ';
+                    at = put_int(line, at + 5, v as i64);
                 }
             }
-            out.push(b'\n');
+            line[at] = b'\n';
+            at += 1;
         }
+        at
     }
 }
 
-/// Appends the decimal digits of `v`.
+/// Writes the decimal digits of `v` into `buf` at `at`: where they end. (Digit by digit
+/// from the end: a copy of a few bytes would be a call to `memcpy`.)
 #[inline]
-fn push_int(out: &mut Vec<u8>, v: i64) {
+fn put_int(buf: &mut [u8], mut at: usize, v: i64) -> usize {
     if v < 0 {
-        out.push(b'-');
+        buf[at] = b'-';
+        at += 1;
     }
     let mut u = v.unsigned_abs();
-    let mut digits = [0u8; 20];
-    let mut i = digits.len();
+    let end = at + u.checked_ilog10().map_or(1, |l| l as usize + 1);
+    let mut i = end;
     loop {
         i -= 1;
-        digits[i] = b'0' + (u % 10) as u8;
+        buf[i] = b'0' + (u % 10) as u8;
         u /= 10;
         if u == 0 {
             break;
         }
     }
-    out.extend_from_slice(&digits[i..]);
+    end
 }
 
 #[cfg(test)]

@@ -1563,7 +1563,10 @@ impl Engine {
     /// engine made anew, so that nothing it kept of that step remains).
     pub fn undo(self, (u, stats): (Undo, Stats)) -> Engine {
         let Engine {
-            prog, mut lat, opts, ..
+            prog,
+            mut lat,
+            opts,
+            ..
         } = self;
         lat.undo(u);
         let mut e = Engine::new(prog, lat, opts);

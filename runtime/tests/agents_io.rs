@@ -3,8 +3,6 @@
 //! path reads from a file it has nothing to say of; and what a lattice writes reads back
 //! to the same lattice.
 
-mod common;
-
 use latticesim_compiler::fast_agents::{read_head, read_lines};
 use latticesim_compiler::Columns;
 use latticesim_runtime::Lattice;
@@ -60,8 +58,11 @@ fn slow(src: &[u8]) -> (Option<Lattice>, bool) {
     (c.config.as_ref().map(Lattice::new), silent)
 }
 
-/// Everything a lattice holds that a file sets, in a form to compare.
-fn seen(l: &Lattice) -> (String, Vec<[i32; 3]>, Vec<(u8, Vec<i16>)>) {
+/// Everything a lattice holds that a file sets: its text, positions and counter columns.
+type Seen = (String, Vec<[i32; 3]>, Vec<(u8, Vec<i16>)>);
+
+/// What [`Seen`] says of a lattice, to compare.
+fn seen(l: &Lattice) -> Seen {
     let counters = l
         .counter_numbers()
         .into_iter()
@@ -74,7 +75,11 @@ fn agrees(src: &[u8], cuts: &[usize]) -> Result<(), TestCaseError> {
     let (lat, silent) = slow(src);
     match fast(src, cuts) {
         Some(f) => {
-            prop_assert!(silent, "the fast path read a file the diagnostic path speaks of:\n{}", String::from_utf8_lossy(src));
+            prop_assert!(
+                silent,
+                "the fast path read a file the diagnostic path speaks of:\n{}",
+                String::from_utf8_lossy(src)
+            );
             let s = lat.expect("no errors");
             prop_assert_eq!(seen(&f), seen(&s), "{}", String::from_utf8_lossy(src));
         }
@@ -115,16 +120,29 @@ fn clean_file() -> impl Strategy<Value = String> {
             let mut cells = std::collections::BTreeMap::new();
             for (x, y, z, state, counters, ws, deco) in agents {
                 let z = if three { z } else { 0 };
-                cells.entry([x, y, z]).or_insert((state, counters, ws, deco));
+                cells
+                    .entry([x, y, z])
+                    .or_insert((state, counters, ws, deco));
             }
             let dirs: &[[i32; 3]] = if three {
-                &[[0, 1, 0], [-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]]
+                &[
+                    [0, 1, 0],
+                    [-1, 0, 0],
+                    [1, 0, 0],
+                    [0, -1, 0],
+                    [0, 0, 1],
+                    [0, 0, -1],
+                ]
             } else {
                 &[[0, 1, 0], [-1, 0, 0], [1, 0, 0], [0, -1, 0]]
             };
             let mut s = String::new();
             if universe {
-                s += if three { "U -1,7,-1,7,-1,4\r\n" } else { "U-1,7,-1,7\n" };
+                s += if three {
+                    "U -1,7,-1,7,-1,4\r\n"
+                } else {
+                    "U-1,7,-1,7\n"
+                };
             }
             s += "// generated\n\n";
             for (p, (state, counters, ws, deco)) in &cells {
@@ -145,7 +163,11 @@ fn clean_file() -> impl Strategy<Value = String> {
                         .map(|d| {
                             let q = [p[0] + d[0], p[1] + d[1], p[2] + d[2]];
                             let both = cells.get(&q).is_some_and(|o| o.3 & 1 == 1);
-                            if both { '1' } else { '0' }
+                            if both {
+                                '1'
+                            } else {
+                                '0'
+                            }
                         })
                         .collect();
                     fields.push(format!("A{bonds}"));

@@ -1049,11 +1049,9 @@ fn resume_and_undo(rules: &str, agents: &str) -> Result<(), TestCaseError> {
                 threads: 1,
             };
             let mut whole = Engine::new(prog.clone(), lat.clone(), opts);
-            let before: Vec<(String, String)> = std::iter::once((
-                whole.lat.to_agents_text(),
-                format!("{:?}", whole.stats),
-            ))
-            .collect();
+            let before: Vec<(String, String)> =
+                std::iter::once((whole.lat.to_agents_text(), format!("{:?}", whole.stats)))
+                    .collect();
             let mut states = before;
             let mut steps = Vec::new();
             for _ in 0..STEPS {

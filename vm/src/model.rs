@@ -306,7 +306,9 @@ impl Columns {
     pub fn set_counter(&mut self, c: usize, v: i16) {
         let n = self.pos.len();
         let col = &mut self.counters[c];
-        col.resize(n - 1, 0);
+        if col.len() + 1 < n {
+            col.resize(n - 1, 0);
+        }
         col.push(v);
     }
 
