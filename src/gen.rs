@@ -1,8 +1,9 @@
 //! `latticesim gen`: agents files for lines, blocks, random connected shapes and clouds.
 
-use crate::output::{self, open_output, say, write_output};
+use crate::agents_file;
+use crate::output::{self, open_output, say};
 use clap::ValueEnum;
-use latticesim_runtime::gen::{agents_text, GenOptions, Shape};
+use latticesim_runtime::gen::{write_agents, GenOptions, Shape};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -126,21 +127,40 @@ pub fn gen(a: GenArgs) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let text = match shape.and_then(|s| agents_text(&s, &opts)) {
-        Ok(t) => t,
+    let shape = match shape {
+        Ok(s) => s,
         Err(e) => {
             say!("error: {e}");
             return ExitCode::from(2);
         }
     };
-    match out_file {
-        Some(f) => match write_output(f, text.as_bytes()) {
-            Ok(()) => ExitCode::SUCCESS,
-            Err(c) => c,
-        },
+    let written = match out_file {
+        Some(f) => {
+            let path = f.path().to_path_buf();
+            let packing = agents_file::Packing::of(&path);
+            let mut w = match agents_file::Packed::new(f, packing) {
+                Ok(w) => w,
+                Err(e) => {
+                    say!("error: cannot write `{}`: {e}", path.display());
+                    return ExitCode::from(2);
+                }
+            };
+            write_agents(&shape, &opts, &mut w).map(|r| {
+                r.and_then(|()| w.finish())
+                    .and_then(|f| f.commit())
+                    .map_err(|e| format!("cannot write `{}`: {e}", path.display()))
+            })
+        }
         None => {
-            output::stdout(text.as_bytes());
-            ExitCode::SUCCESS
+            let mut w = output::Stdout::new();
+            write_agents(&shape, &opts, &mut w).map(|_| Ok(()))
+        }
+    };
+    match written {
+        Ok(Ok(())) => ExitCode::SUCCESS,
+        Err(e) | Ok(Err(e)) => {
+            say!("error: {e}");
+            ExitCode::from(2)
         }
     }
 }

@@ -9,12 +9,16 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 mod agents_file;
+mod alloc;
 mod gen;
 mod output;
 mod render;
 mod run;
 mod serve;
 mod sweep;
+
+#[global_allocator]
+static ALLOCATOR: alloc::HugePages = alloc::HugePages;
 
 #[derive(Parser)]
 #[command(

@@ -3,7 +3,8 @@
 //! as a process, beside the plain hand-written file-to-file program `b1f_native` (this
 //! crate's `src/bin/b1f_native.rs`) run on the same file in the same run. Each figure is the
 //! fastest of three runs of the whole process (alternating the two programs), with its peak
-//! resident memory; both outputs must be byte-identical and give the same checksum (and the
+//! resident memory; each run writes a new output file (its last output removed, and the
+//! disk's dirty pages written out with `sync`, before it starts); both outputs must be byte-identical and give the same checksum (and the
 //! reference checksum where WORKLOADS.md has one).
 //!
 //! Also measured: reading alone on one core (`run --threads 1 --max-steps 0`, its `--stats`
@@ -89,15 +90,49 @@ fn measure(cmd: &mut Command) -> (Duration, u64) {
     (wall, ru.ru_maxrss as u64 * 1024)
 }
 
-/// The sum of C00 of an agents.txt text written by either program.
+/// The sum of C00 of an agents.txt text written by either program, read a line at a time
+/// (this process stays small: a child's peak memory as `wait4` reports it can include the
+/// parent's memory at the time it was started).
 fn checksum(p: &Path) -> u64 {
-    let text = std::fs::read(p).unwrap();
-    text.split(|&b| b == b'\n')
+    use std::io::BufRead;
+    let f = std::io::BufReader::with_capacity(1 << 20, std::fs::File::open(p).unwrap());
+    f.split(b'\n')
         .filter_map(|l| {
+            let l = l.unwrap();
             let i = l.windows(5).position(|w| w == b" C00 ")?;
             std::str::from_utf8(&l[i + 5..]).ok()?.parse::<u64>().ok()
         })
         .sum()
+}
+
+/// Whether two files hold the same bytes, read a block at a time.
+fn same_files(a: &Path, b: &Path) -> bool {
+    use std::io::Read;
+    let (mut fa, mut fb) = (
+        std::fs::File::open(a).unwrap(),
+        std::fs::File::open(b).unwrap(),
+    );
+    let (mut ba, mut bb) = (vec![0u8; 1 << 20], vec![0u8; 1 << 20]);
+    loop {
+        let na = read_full(&mut fa, &mut ba);
+        let nb = read_full(&mut fb, &mut bb);
+        if na != nb || ba[..na] != bb[..nb] {
+            return false;
+        }
+        if na == 0 {
+            return true;
+        }
+    }
+    fn read_full(f: &mut std::fs::File, buf: &mut [u8]) -> usize {
+        let mut n = 0;
+        while n < buf.len() {
+            match f.read(&mut buf[n..]).unwrap() {
+                0 => break,
+                k => n += k,
+            }
+        }
+        n
+    }
 }
 
 struct Row {
@@ -141,6 +176,15 @@ fn main() {
         let mut best_native = (Duration::MAX, 0);
         let reps = if l >= 10000 { 1 } else { reps };
         for _ in 0..reps {
+            // Each run writes a new file on a quiet disk: its output of the last run is
+            // removed and every dirty page written out first, so that neither program pays
+            // for the other's writing (or for replacing a file of gigabytes).
+            let fresh = |out: &Path| {
+                let _ = std::fs::remove_file(out);
+                // SAFETY: sync takes no arguments and cannot fail.
+                unsafe { libc::sync() };
+            };
+            fresh(&o1);
             let a = measure(
                 Command::new(&exe)
                     .args(["run", "-q", "--max-steps", &s, "--out"])
@@ -148,11 +192,12 @@ fn main() {
                     .arg(&rules)
                     .arg(&input),
             );
+            fresh(&o2);
             let b = measure(Command::new(&native).arg(&input).arg(&s).arg(&o2));
             best_ls = (best_ls.0.min(a.0), best_ls.1.max(a.1));
             best_native = (best_native.0.min(b.0), best_native.1.max(b.1));
         }
-        let same = std::fs::read(&o1).unwrap() == std::fs::read(&o2).unwrap();
+        let same = same_files(&o1, &o2);
         assert!(
             same,
             "L = {l}: latticesim and the native program wrote different files"
@@ -234,6 +279,9 @@ fn main() {
         assert!(ok);
     }
     let zout = dir.join("out-latticesim.txt.zst");
+    let _ = std::fs::remove_file(&zout);
+    // SAFETY: as above.
+    unsafe { libc::sync() };
     let z = measure(
         Command::new(&exe)
             .args(["run", "-q", "--max-steps", &zs.to_string(), "--out"])

@@ -189,6 +189,18 @@ pub fn fill_holes(cs: &mut Vec<[i32; 3]>) {
 
 /// An agents file for a shape.
 pub fn agents_text(shape: &Shape, o: &GenOptions) -> Result<String, String> {
+    let mut out = Vec::new();
+    write_agents(shape, o, &mut out)?.expect("writing to memory does not fail");
+    Ok(String::from_utf8(out).expect("agents files are ASCII"))
+}
+
+/// Writes the agents file for a shape into `w` as it is made: `Err` for a shape or an
+/// option that cannot be made, else the result of writing.
+pub fn write_agents(
+    shape: &Shape,
+    o: &GenOptions,
+    w: &mut impl std::io::Write,
+) -> Result<std::io::Result<()>, String> {
     for s in [&o.state, &o.first_state].into_iter().flatten() {
         if s.chars().count() != 5 || s.chars().any(|c| c == '*' || !c.is_ascii_graphic()) {
             return Err(format!(
@@ -213,7 +225,7 @@ pub fn agents_text(shape: &Shape, o: &GenOptions) -> Result<String, String> {
     for i in (1..n).rev() {
         ids.swap(i, rng.below(i as u64 + 1) as usize);
     }
-    let mut s = String::with_capacity(n * 16);
+    let mut s = String::with_capacity(1 << 16);
     if o.universe && n > 0 {
         let lo = |k: usize| cs.iter().map(|c| c[k]).min().unwrap_or(0);
         let hi = |k: usize| cs.iter().map(|c| c[k]).max().unwrap_or(0);
@@ -241,8 +253,14 @@ pub fn agents_text(shape: &Shape, o: &GenOptions) -> Result<String, String> {
             let _ = write!(s, " C{k:02} {}", ids[i]);
         }
         s.push('\n');
+        if s.len() >= 1 << 16 {
+            if let Err(e) = w.write_all(s.as_bytes()) {
+                return Ok(Err(e));
+            }
+            s.clear();
+        }
     }
-    Ok(s)
+    Ok(w.write_all(s.as_bytes()))
 }
 
 #[cfg(test)]
