@@ -209,7 +209,9 @@ pub(crate) fn load(
         None,
     );
     drop(bytes);
-    let lattice = checked.config.as_ref().map(Lattice::new);
+    let mut checked = checked;
+    // The description of every agent is let go once the lattice holds them.
+    let lattice = checked.config.take().map(|c| Lattice::new(&c));
     Ok(Loaded {
         checked,
         lattice,

@@ -109,6 +109,15 @@ fn same_as_straight(rules: &Path, agents: &Path, steps: u64, stops: &[u64], extr
     }
 }
 
+/// Runs `steps` steps and writes a checkpoint at the end (`extra`: more options).
+fn make_checkpoint(rules: &Path, agents: &Path, steps: u64, ck: &Path, extra: &[&str]) {
+    let steps = steps.to_string();
+    let mut args = vec!["run", s(rules), s(agents), "-q", "--max-steps", &steps];
+    args.extend(["--checkpoint", s(ck), "--out", "/dev/null"]);
+    args.extend(extra);
+    ok(&args);
+}
+
 fn example(p: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("examples")
@@ -187,18 +196,7 @@ fn checkpoints_that_cannot_be_resumed_are_refused() {
     let rules = example("maxflood/rules.txt");
     let agents = example("maxflood/agents.txt");
     let ck = d.join("run.ckpt");
-    ok(&[
-        "run",
-        s(&rules),
-        s(&agents),
-        "-q",
-        "--max-steps",
-        "3",
-        "--checkpoint",
-        s(&ck),
-        "--out",
-        "/dev/null",
-    ]);
+    make_checkpoint(&rules, &agents, 3, &ck, &[]);
     let good = std::fs::read(&ck).unwrap();
     let out = d.join("out.txt");
     std::fs::write(&out, "keep me\n").unwrap();
@@ -244,18 +242,7 @@ fn checkpoints_that_cannot_be_resumed_are_refused() {
     // The good one still resumes, and a compressed one too.
     ok(&["run", s(&rules), "--resume", s(&ck), "-q", "--out", s(&out)]);
     let zst = d.join("run.ckpt.zst");
-    ok(&[
-        "run",
-        s(&rules),
-        s(&agents),
-        "-q",
-        "--max-steps",
-        "3",
-        "--checkpoint",
-        s(&zst),
-        "--out",
-        "/dev/null",
-    ]);
+    make_checkpoint(&rules, &agents, 3, &zst, &[]);
     let o2 = d.join("out2.txt");
     ok(&["run", s(&rules), "--resume", s(&zst), "-q", "--out", s(&o2)]);
     assert_eq!(std::fs::read(&out).unwrap(), std::fs::read(&o2).unwrap());
@@ -268,20 +255,7 @@ fn checkpoint_every_n_steps_and_at_the_end() {
     let agents = example("maxflood/agents.txt");
     let ck = d.join("run.ckpt");
     // Stopped by --max-steps 7 with a checkpoint every 3: the last one written is the end's.
-    ok(&[
-        "run",
-        s(&rules),
-        s(&agents),
-        "-q",
-        "--max-steps",
-        "7",
-        "--checkpoint",
-        s(&ck),
-        "--checkpoint-every",
-        "3",
-        "--out",
-        "/dev/null",
-    ]);
+    make_checkpoint(&rules, &agents, 7, &ck, &["--checkpoint-every", "3"]);
     let stats = d.join("stats.json");
     ok(&[
         "run",

@@ -124,18 +124,8 @@ fn clean_file() -> impl Strategy<Value = String> {
                     .entry([x, y, z])
                     .or_insert((state, counters, ws, deco));
             }
-            let dirs: &[[i32; 3]] = if three {
-                &[
-                    [0, 1, 0],
-                    [-1, 0, 0],
-                    [1, 0, 0],
-                    [0, -1, 0],
-                    [0, 0, 1],
-                    [0, 0, -1],
-                ]
-            } else {
-                &[[0, 1, 0], [-1, 0, 0], [1, 0, 0], [0, -1, 0]]
-            };
+            let all = latticesim_compiler::program::Dir::ALL.map(|d| d.offset());
+            let dirs = &all[..if three { 6 } else { 4 }];
             let mut s = String::new();
             if universe {
                 s += if three {
