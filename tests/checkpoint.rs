@@ -277,3 +277,66 @@ fn checkpoint_every_n_steps_and_at_the_end() {
     let o = run(&["run", s(&rules), s(&agents), "--resume", s(&ck)]);
     assert_eq!(o.status.code(), Some(2));
 }
+
+#[test]
+fn ctrl_c_writes_a_checkpoint_that_resumes() {
+    let d = dir("ctrl-c");
+    let rules = d.join("rules.txt");
+    // Counters that climb by one a step (and stay at 32767, with a saturation warning).
+    std::fs::write(&rules, "climb\n1\nS*****\nC00 + C00 0001\n").unwrap();
+    let agents = d.join("agents.txt");
+    std::fs::write(&agents, "0,0\n1,0 C00 100\n").unwrap();
+    let (ck, stats) = (d.join("run.ckpt"), d.join("stats.json"));
+    let max = "100000";
+    let mut child = bin()
+        .args(["run", s(&rules), s(&agents), "-q", "--checkpoint", s(&ck)])
+        .args(["--stats", s(&stats), "--max-steps", max, "--out"])
+        .arg(d.join("stopped.txt"))
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(200));
+    let killed = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    assert_eq!(child.wait().unwrap().code(), Some(130));
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
+    assert_eq!(v["stopped_by"], "interrupted");
+    let at = v["steps"].as_u64().unwrap();
+    assert!(at > 0 && at < 100000, "interrupted at step {at}");
+    let (straight, resumed) = (d.join("straight.txt"), d.join("resumed.txt"));
+    let (s1, s2) = (d.join("s1.json"), d.join("s2.json"));
+    ok(&[
+        "run",
+        s(&rules),
+        s(&agents),
+        "-q",
+        "--no-timing",
+        "--max-steps",
+        max,
+        "--out",
+        s(&straight),
+        "--stats",
+        s(&s1),
+    ]);
+    ok(&[
+        "run",
+        s(&rules),
+        "--resume",
+        s(&ck),
+        "-q",
+        "--no-timing",
+        "--max-steps",
+        max,
+        "--out",
+        s(&resumed),
+        "--stats",
+        s(&s2),
+    ]);
+    assert_eq!(
+        std::fs::read(&straight).unwrap(),
+        std::fs::read(&resumed).unwrap()
+    );
+    assert_eq!(std::fs::read(&s1).unwrap(), std::fs::read(&s2).unwrap());
+}
