@@ -11,7 +11,7 @@
 use crate::output::say;
 use latticesim_compiler::fast_agents::{check_with_head, read_head, read_lines, Head};
 use latticesim_compiler::{check, Checked, Columns, Input};
-use latticesim_runtime::Lattice;
+use latticesim_runtime::{Defect, Lattice};
 use std::fs::File;
 use std::io::{self, BufReader, BufWriter, Read, Write};
 use std::path::Path;
@@ -145,6 +145,9 @@ pub(crate) struct Loaded {
     pub checked: Checked,
     /// The lattice, when there are no errors.
     pub lattice: Option<Lattice>,
+    /// What the caller must print after the diagnostics, when the file was too large to
+    /// be checked whole (its verdict is then an error).
+    pub note: Option<String>,
     /// The time spent reading the agents file (and building the lattice).
     pub read: Duration,
     /// The time spent checking.
@@ -180,9 +183,33 @@ impl<'a> Source<'a> {
     }
 }
 
+/// The checker's memory per byte of an agents file, about (575 MB for a 17.4 MB file of a
+/// million agents, with the lattice made from its description).
+const CHECK_BYTES_PER_BYTE: u64 = 36;
+/// Lines checked past the first line the fast reader left, when the file is too large to
+/// be checked whole (about: up to this many bytes).
+const CHECKED_AFTER: u64 = 1 << 20;
+
+/// The memory the checker may take: `LATTICESIM_CHECK_MEMORY` (bytes) when set, else what
+/// the system has free, where it says (Linux).
+fn available_memory() -> Option<u64> {
+    if let Some(v) = std::env::var_os("LATTICESIM_CHECK_MEMORY") {
+        return v.to_str().and_then(|v| v.parse().ok());
+    }
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
 /// Reads an agents file and checks it with its rules (`rules`: name and bytes): the fast
-/// path when the file is clean, the diagnostic path otherwise. `Err` only when the file
-/// cannot be read.
+/// path when the file is clean, the checker otherwise. `Err` only when the file cannot be
+/// read.
+///
+/// A file the checker cannot hold (it needs about 36 times the file's size, all its agents
+/// described with their spans) is checked as far as its first defect and a megabyte past
+/// it, with a note that says so (`Loaded::note`); agents on one cell, or a bond declared on
+/// one side only, in such a file are an error that names the agents and their lines.
 pub(crate) fn load(
     rules: (&str, &[u8]),
     agents_name: &str,
@@ -190,14 +217,31 @@ pub(crate) fn load(
     threads: usize,
 ) -> io::Result<Loaded> {
     let started = Instant::now();
-    if let Some(l) = fast(rules, agents_name, open, threads)? {
-        return Ok(l);
+    let declined = match fast(rules, agents_name, open, threads)? {
+        Ok(l) => return Ok(l),
+        Err(d) => d,
+    };
+    let size = match open.size() {
+        Some(s) => s,
+        None => io::copy(&mut open.open()?, &mut io::sink())?,
+    };
+    let need = size.saturating_mul(CHECK_BYTES_PER_BYTE);
+    let room = available_memory().unwrap_or(u64::MAX);
+    if need > room {
+        return too_large(
+            rules,
+            agents_name,
+            open,
+            declined,
+            (size, need, room),
+            started,
+        );
     }
     let mut bytes = Vec::new();
     open.open()?.read_to_end(&mut bytes)?;
     let read = started.elapsed();
     let t = Instant::now();
-    let checked = check(
+    let mut checked = check(
         Input {
             name: rules.0,
             bytes: rules.1,
@@ -209,15 +253,162 @@ pub(crate) fn load(
         None,
     );
     drop(bytes);
-    let mut checked = checked;
     // The description of every agent is let go once the lattice holds them.
     let lattice = checked.config.take().map(|c| Lattice::new(&c));
     Ok(Loaded {
         checked,
         lattice,
+        note: None,
         read,
         check: t.elapsed(),
     })
+}
+
+/// A size in GB, or in MB below a gigabyte, with one decimal.
+fn gb(b: u64) -> String {
+    if b >= 1_000_000_000 {
+        format!("{:.1} GB", b as f64 / 1e9)
+    } else {
+        format!("{:.1} MB", b as f64 / 1e6)
+    }
+}
+
+/// The checker's verdict on a file too large for it (see [`load`]): the file's first part
+/// checked, or an error naming the agents the lattice found wrong.
+fn too_large(
+    rules: (&str, &[u8]),
+    agents_name: &str,
+    open: Source<'_>,
+    declined: Declined,
+    (size, need, room): (u64, u64, u64),
+    started: Instant,
+) -> io::Result<Loaded> {
+    let why = format!(
+        "`{agents_name}` ({}) is too large to be checked whole here (that takes about {}; {} are free)",
+        gb(size),
+        gb(need),
+        gb(room)
+    );
+    let first_part = |upto: u64| -> io::Result<Vec<u8>> {
+        let mut bytes = Vec::new();
+        open.open()?.take(upto).read_to_end(&mut bytes)?;
+        // Whole lines only.
+        if (bytes.len() as u64) == upto {
+            let end = memchr::memrchr(b'\n', &bytes).map_or(0, |p| p + 1);
+            bytes.truncate(end);
+        }
+        Ok(bytes)
+    };
+    let checked_part = |bytes: &[u8]| {
+        check(
+            Input {
+                name: rules.0,
+                bytes: rules.1,
+            },
+            Some(Input {
+                name: agents_name,
+                bytes,
+            }),
+            None,
+        )
+    };
+    let (checked, note) = match declined {
+        Declined::Head | Declined::Line(_) => {
+            let at = match declined {
+                Declined::Line(at) => at,
+                _ => 0,
+            };
+            let bytes = first_part(at + CHECKED_AFTER)?;
+            let lines = bytecount_lines(&bytes);
+            let c = checked_part(&bytes);
+            (
+                c,
+                format!("note: only its first {lines} lines were checked: {why}; fix what is said above and check it again"),
+            )
+        }
+        Declined::Lattice(d) => {
+            // The head's verdict (rules and dimension), then the agents' lines.
+            let head = first_part(1 << 20)?;
+            let c = checked_part(&head[..head_end(&head)]);
+            let agents: Vec<u32> = match d {
+                Defect::SharedCell { first, second, .. } => vec![first, second],
+                Defect::OneSidedBond { agent, .. } => vec![agent],
+            };
+            let lines = agent_lines(open, &agents)?;
+            let at = |k: usize| format!("{agents_name}:{}", lines[k]);
+            let what = match d {
+                Defect::SharedCell {
+                    first, second, pos, ..
+                } => format!(
+                    "error: two agents on the cell {},{}{}: agent {first} ({}) and agent {second} ({})",
+                    pos[0],
+                    pos[1],
+                    if c.dim.dim.coords() == 3 { format!(",{}", pos[2]) } else { String::new() },
+                    at(0),
+                    at(1)
+                ),
+                Defect::OneSidedBond { agent, dir } => format!(
+                    "error: agent {agent} ({}) declares a bond towards {} that no agent there declares back (the checker would warn and make or drop it; here it is an error)",
+                    at(0),
+                    dir.letter()
+                ),
+            };
+            (c, format!("{what}\nnote: {why}"))
+        }
+    };
+    Ok(Loaded {
+        checked,
+        lattice: None,
+        note: Some(note),
+        read: started.elapsed(),
+        check: Duration::ZERO,
+    })
+}
+
+/// The number of lines in `bytes` (a last line without its end counts).
+fn bytecount_lines(bytes: &[u8]) -> usize {
+    let n = memchr::memchr_iter(b'\n', bytes).count();
+    n + (bytes.last().is_some_and(|&b| b != b'\n')) as usize
+}
+
+/// The length of the head of an agents file's first bytes (through its first agent line),
+/// as the fast reader finds it; all of them when it finds none.
+fn head_end(bytes: &[u8]) -> usize {
+    read_head(bytes).map_or(bytes.len(), |h| h.end)
+}
+
+/// The 1-based line numbers of the agents with these ids (ids count the agent lines: not
+/// blank, not a comment, not the `U` line), in the order given.
+fn agent_lines(open: Source<'_>, ids: &[u32]) -> io::Result<Vec<u64>> {
+    use std::io::BufRead;
+    let mut found = vec![0u64; ids.len()];
+    let mut r = io::BufReader::with_capacity(1 << 20, open.open()?);
+    let (mut line, mut id) = (0u64, 0u32);
+    let mut buf = Vec::new();
+    let last = ids.iter().copied().max().unwrap_or(0);
+    while id <= last {
+        buf.clear();
+        if r.read_until(b'\n', &mut buf)? == 0 {
+            break;
+        }
+        line += 1;
+        let text = buf.split(|&b| b == b'\n').next().unwrap_or(&[]);
+        let text = match memchr::memmem::find(text, b"//") {
+            Some(c) => &text[..c],
+            None => text,
+        };
+        let t = text.trim_ascii();
+        if t.is_empty() || t[0] == b'U' {
+            continue;
+        }
+        for (k, &want) in ids.iter().enumerate() {
+            if want == id {
+                found[k] = line;
+            }
+        }
+        id += 1;
+    }
+    Ok(found)
 }
 
 /// A buffer of bytes read from a file: `buf[..len]` holds them; the rest is room, zeroed
@@ -266,9 +457,14 @@ impl Window {
     }
 }
 
-/// Reads whole lines into columns on up to `threads` threads (cut at line ends): false
-/// when some line needs the diagnostic path.
-fn read_parallel(bytes: &[u8], head: &Head, out: &mut Columns, threads: usize) -> bool {
+/// Reads whole lines into columns on up to `threads` threads (cut at line ends): `Err`
+/// with where the first line that needs the checker starts.
+fn read_parallel(
+    bytes: &[u8],
+    head: &Head,
+    out: &mut Columns,
+    threads: usize,
+) -> Result<(), usize> {
     let parts = threads.min(bytes.len() / BYTES_PER_THREAD).max(1);
     if parts == 1 {
         return read_lines(bytes, head, out);
@@ -276,52 +472,58 @@ fn read_parallel(bytes: &[u8], head: &Head, out: &mut Columns, threads: usize) -
     let mut cuts = vec![0];
     for k in 1..parts {
         let at = (bytes.len() * k / parts).max(*cuts.last().expect("one cut"));
-        let end = bytes[at..]
-            .iter()
-            .position(|&c| c == b'\n')
-            .map_or(bytes.len(), |p| at + p + 1);
+        let end = memchr::memchr(b'\n', &bytes[at..]).map_or(bytes.len(), |p| at + p + 1);
         cuts.push(end);
     }
     cuts.push(bytes.len());
     // This thread reads the first piece straight into `out`; the others, read beside it,
     // are appended after.
     let (first, rest) = (&bytes[..cuts[1]], &cuts[1..]);
-    let (ok, results): (bool, Vec<(bool, Columns)>) = std::thread::scope(|s| {
+    type Part = (Result<(), usize>, Columns);
+    let (done, results): (Result<(), usize>, Vec<Part>) = std::thread::scope(|s| {
         let handles: Vec<_> = rest
             .windows(2)
             .map(|w| {
-                let piece = &bytes[w[0]..w[1]];
+                let (from, piece) = (w[0], &bytes[w[0]..w[1]]);
                 s.spawn(move || {
                     let mut cols = Columns::new();
-                    let ok = read_lines(piece, head, &mut cols);
-                    (ok, cols)
+                    let done = read_lines(piece, head, &mut cols).map_err(|at| from + at);
+                    (done, cols)
                 })
             })
             .collect();
-        let ok = read_lines(first, head, out);
+        let done = read_lines(first, head, out);
         let results = handles
             .into_iter()
-            .map(|h| h.join().unwrap_or_else(|_| (false, Columns::new())))
+            .map(|h| h.join().unwrap_or_else(|_| (Err(0), Columns::new())))
             .collect();
-        (ok, results)
+        (done, results)
     });
-    let mut ok = ok;
-    for (good, cols) in results {
-        ok &= good;
-        if ok {
-            out.append(cols);
-        }
+    done?;
+    for (done, cols) in results {
+        done?;
+        out.append(cols);
     }
-    ok
+    Ok(())
 }
 
-/// The fast path: `None` when the diagnostic path must read the file.
+/// Why the fast path left a file to the checker.
+enum Declined {
+    /// Its head (or the rules checked against it).
+    Head,
+    /// The line that starts at this offset (of the decompressed text).
+    Line(u64),
+    /// Its agents, read, do not make a lattice as they are.
+    Lattice(Defect),
+}
+
+/// The fast path: `Err` when the checker must read the file.
 fn fast(
     rules: (&str, &[u8]),
     agents_name: &str,
     open: Source<'_>,
     threads: usize,
-) -> io::Result<Option<Loaded>> {
+) -> io::Result<Result<Loaded, Declined>> {
     let started = Instant::now();
     let mut r = open.open()?;
     let mut w = Window {
@@ -331,7 +533,7 @@ fn fast(
     };
     w.fill(&mut *r, 1 << 20)?;
     let Some(head) = read_head(&w.bytes()[..w.whole()]) else {
-        return Ok(None);
+        return Ok(Err(Declined::Head));
     };
     let t = Instant::now();
     let Some(mut checked) = check_with_head(
@@ -344,7 +546,7 @@ fn fast(
             bytes: &w.bytes()[..head.end],
         },
     ) else {
-        return Ok(None);
+        return Ok(Err(Declined::Head));
     };
     let check_time = t.elapsed();
     let mut cols = Columns::new();
@@ -359,15 +561,20 @@ fn fast(
         cols.attach.reserve(guess);
     }
     let mut from = head.agents_at;
+    // The offset in the file of the window's first byte.
+    let mut base = 0u64;
     loop {
         let upto = w.whole();
-        if upto > from && !read_parallel(&w.bytes()[from..upto], &head, &mut cols, threads) {
-            return Ok(None);
+        if upto > from {
+            if let Err(at) = read_parallel(&w.bytes()[from..upto], &head, &mut cols, threads) {
+                return Ok(Err(Declined::Line(base + (from + at) as u64)));
+            }
         }
         if w.eof {
             break;
         }
         w.consume(upto);
+        base += upto as u64;
         from = 0;
         // A line longer than a chunk makes the buffer grow until its end is in it.
         let want = w.len + CHUNK;
@@ -376,14 +583,16 @@ fn fast(
     drop(w);
     cols.fill();
     let n = cols.len();
-    let Some(lat) = Lattice::from_columns(head.dim, head.universe, cols) else {
-        return Ok(None);
+    let lat = match Lattice::from_columns(head.dim, head.universe, cols) {
+        Ok(lat) => lat,
+        Err(d) => return Ok(Err(Declined::Lattice(d))),
     };
     checked.agent_count = n;
     checked.config = None;
-    Ok(Some(Loaded {
+    Ok(Ok(Loaded {
         checked,
         lattice: Some(lat),
+        note: None,
         read: started.elapsed() - check_time,
         check: check_time,
     }))

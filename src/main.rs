@@ -172,6 +172,8 @@ fn run_check(
     };
     let dim = dim.map(|d| if d == "3" { Dim::Three } else { Dim::Two });
     let rules_name = rules.display().to_string();
+    // What the checker could not do, for a file too large for it.
+    let mut note = None;
     let checked = match (&agents, dim) {
         // The fast path of agents files, unless --dim is to be reconciled with the file's.
         (Some(path), None) => {
@@ -183,7 +185,10 @@ fn run_check(
                 agents_file::Source::File(path),
                 threads,
             ) {
-                Ok(l) => l.checked,
+                Ok(l) => {
+                    note = l.note;
+                    l.checked
+                }
                 Err(e) => {
                     say!("error: cannot read `{name}`: {e}");
                     return ExitCode::from(2);
@@ -206,6 +211,10 @@ fn run_check(
     match format {
         Format::Human => {
             let mut text = checked.render(colour(color));
+            if let Some(n) = &note {
+                text += n;
+                text.push('\n');
+            }
             text += &summary(&checked, agents.is_some());
             text.push('\n');
             output::stderr(&text);
@@ -220,13 +229,14 @@ fn run_check(
                 "warnings": checked.warnings(),
                 "diagnostics": latticesim_compiler::render::to_json(&checked.diags, &checked.sources),
                 "not_shown": not_shown_json(&checked),
+                "not_checked": note,
             });
             let mut text = serde_json::to_string_pretty(&doc).expect("JSON of plain data");
             text.push('\n');
             output::stdout(text.as_bytes());
         }
     }
-    if checked.errors() > 0 {
+    if checked.errors() > 0 || note.is_some() {
         return ExitCode::from(1);
     }
     if dump_bytecode {

@@ -215,12 +215,19 @@ pub(crate) fn load(
     if !checked.diags.is_empty() && (checked.errors() > 0 || !quiet) {
         output::stderr(&checked.render(colour));
     }
+    if let Some(note) = &loaded.note {
+        say!("{note}");
+    }
     let (Some(program), Some(lat)) = (checked.program.as_ref(), loaded.lattice) else {
-        say!(
-            "{rules_name}, {agents_name}: {} error{}; nothing was run",
-            checked.errors(),
-            if checked.errors() == 1 { "" } else { "s" }
-        );
+        if loaded.note.is_some() {
+            say!("{rules_name}, {agents_name}: nothing was run");
+        } else {
+            say!(
+                "{rules_name}, {agents_name}: {} error{}; nothing was run",
+                checked.errors(),
+                if checked.errors() == 1 { "" } else { "s" }
+            );
+        }
         return Err(ExitCode::from(1));
     };
     let t = Instant::now();

@@ -1217,3 +1217,68 @@ fn an_output_that_is_a_device_is_written_not_replaced() {
     assert!(meta.file_type().is_char_device(), "/dev/null was replaced");
     assert!(temporary_files(Path::new("/dev")).is_empty());
 }
+
+#[test]
+fn a_file_too_large_for_the_checker_is_checked_up_to_its_defect() {
+    // The checker's memory is capped (LATTICESIM_CHECK_MEMORY) below what these files need.
+    let rules = "examples/maxflood/rules.txt";
+    let mut text = b1_text(200);
+    let good_len = text.len();
+    text += "1,2 C77 5\n";
+    text += &b1_text(100).replace('\n', " C01 3\n");
+    let bad = tmp("too-large-bad.txt", text.as_bytes());
+    let o = bin()
+        .args([
+            "check",
+            rules,
+            "--agents",
+            bad.to_str().unwrap(),
+            "--color",
+            "never",
+        ])
+        .env("LATTICESIM_CHECK_MEMORY", "100000")
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert!(err.contains(&format!("{}:40001:5", bad.display())), "{err}");
+    assert!(
+        err.contains("error[E404]: `C77` is not a counter of 2D"),
+        "{err}"
+    );
+    assert!(err.contains("note: only its first"), "{err}");
+    assert!(
+        err.contains("is too large to be checked whole here"),
+        "{err}"
+    );
+    assert!(good_len < 1 << 20);
+    // Two agents on a cell: named with their lines, in `run` too.
+    let mut text = b1_text(200);
+    text += "// a comment line\n3,4\n";
+    let dup = tmp("too-large-dup.txt", text.as_bytes());
+    let o = bin()
+        .args(["run", rules, dup.to_str().unwrap(), "--color", "never"])
+        .env("LATTICESIM_CHECK_MEMORY", "100000")
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    let d = dup.display();
+    assert!(
+        err.contains(&format!(
+            "error: two agents on the cell 3,4: agent 604 ({d}:605) and agent 40000 ({d}:40002)"
+        )),
+        "{err}"
+    );
+    assert!(err.contains("nothing was run"), "{err}");
+    // Without the cap, the checker says the same with its excerpts.
+    let o = run(&[
+        "check",
+        rules,
+        "--agents",
+        dup.to_str().unwrap(),
+        "--color",
+        "never",
+    ]);
+    assert!(stderr(&o).contains("error[E402]: two agents on the cell 3,4"));
+}

@@ -63,9 +63,10 @@ fn significant(raw: &[u8]) -> Option<&[u8]> {
         let c = line[i];
         if c == b'/' && line.get(i + 1) == Some(&b'/') {
             end = i;
-            // The comment may hold control characters, never bytes above ASCII (so the
-            // file's text is valid UTF-8 without a decoder looking at it).
-            if !line[i..].is_ascii() {
+            // The comment may hold anything but text that is not UTF-8 (which the checker
+            // speaks of; a line end cannot stand inside a character, so the line alone
+            // tells).
+            if !line[i..].is_ascii() && std::str::from_utf8(&line[i..]).is_err() {
                 return None;
             }
             break;
@@ -185,15 +186,17 @@ pub fn read_head(bytes: &[u8]) -> Option<Head> {
         };
         // The first agent line itself must read cleanly.
         let mut probe = Columns::new();
-        return read_lines(&bytes[start..head.end], &head, &mut probe).then_some(head);
+        return read_lines(&bytes[start..head.end], &head, &mut probe)
+            .is_ok()
+            .then_some(head);
     }
     None
 }
 
 /// Reads whole agent lines (after the head: from [`Head::agents_at`] on, cut anywhere at
-/// a line end) into `out`. False when some line needs the diagnostic path; `out` then
-/// holds part of them.
-pub fn read_lines(chunk: &[u8], head: &Head, out: &mut Columns) -> bool {
+/// a line end) into `out`. `Err` with where it starts when a line needs the diagnostic
+/// path; `out` then holds part of them.
+pub fn read_lines(chunk: &[u8], head: &Head, out: &mut Columns) -> Result<(), usize> {
     let mut at = 0;
     while at < chunk.len() {
         if let Some(next) = quick_line(chunk, at, head, out) {
@@ -202,12 +205,12 @@ pub fn read_lines(chunk: &[u8], head: &Head, out: &mut Columns) -> bool {
         }
         let len = memchr::memchr(b'\n', &chunk[at..]).unwrap_or(chunk.len() - at);
         if !line(&chunk[at..at + len], head, out) {
-            return false;
+            return Err(at);
         }
         at += len + 1;
     }
     out.fill();
-    true
+    Ok(())
 }
 
 /// Where a field may end in `b`: at a blank, the line's end, or the end of the chunk.
@@ -445,7 +448,9 @@ mod tests {
     fn read(src: &str) -> Option<(Head, Columns)> {
         let head = read_head(src.as_bytes())?;
         let mut cols = Columns::new();
-        read_lines(&src.as_bytes()[head.agents_at..], &head, &mut cols).then_some((head, cols))
+        read_lines(&src.as_bytes()[head.agents_at..], &head, &mut cols)
+            .is_ok()
+            .then_some((head, cols))
     }
 
     #[test]
@@ -479,7 +484,7 @@ mod tests {
             "1,2 X\n",
             "1,2 S00000 S00000\n",
             "U0,1,0,1\n5,5\n",
-            "1,2 // é\n",
+            "1,2 // \u{1}\n\n1,3 //\u{ff}\n3\n",
             "1,2 \u{1}\n",
             "1,2\r3,4\n",
             "1,99999999999\n",

@@ -226,6 +226,27 @@ pub(crate) struct PlanPart {
     next: [u32; 6],
 }
 
+/// Why agents read as columns do not make a lattice as they are ([`Lattice::from_columns`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Defect {
+    /// Two agents (ids in file order) on one cell.
+    SharedCell {
+        /// The earlier agent.
+        first: u32,
+        /// The later one.
+        second: u32,
+        /// The cell.
+        pos: [i32; 3],
+    },
+    /// A bond towards a direction where no agent declares it back (or none stands).
+    OneSidedBond {
+        /// The agent that declares it.
+        agent: u32,
+        /// Its direction.
+        dir: Dir,
+    },
+}
+
 /// What a step of some program can change in a lattice ([`crate::Engine::writes`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Writes {
@@ -383,9 +404,13 @@ impl LatticeBuilder {
 
 impl Lattice {
     /// Builds the lattice of agents read as columns (the fast path of agents files),
-    /// without copying them. `None` when two agents stand on one cell or a bond is not
-    /// declared by both agents: the diagnostic path then reads the file and says so.
-    pub fn from_columns(dim: Dim, universe: Option<Bounds>, cols: Columns) -> Option<Lattice> {
+    /// without copying them; `Err` when two agents stand on one cell or a bond is not
+    /// declared by both agents (the checker then reads the file and says so).
+    pub fn from_columns(
+        dim: Dim,
+        universe: Option<Bounds>,
+        cols: Columns,
+    ) -> Result<Lattice, Defect> {
         let Columns {
             pos,
             state,
@@ -404,15 +429,34 @@ impl Lattice {
             }
         }
         let (lat, one_each) = b.finish_checked();
-        let bonds = (0..n).filter(|&a| lat.attach[a] != 0).all(|a| {
-            Dir::ALL.iter().take(dim.dirs()).all(|d| {
-                lat.attach[a] & (1 << d.index()) == 0
-                    || lat
-                        .neighbour(a as u32, *d)
-                        .is_some_and(|b| lat.attach[b as usize] & (1 << d.opposite().index()) != 0)
-            })
-        });
-        (one_each && bonds).then_some(lat)
+        if !one_each {
+            // A later agent on an earlier one's cell took its place in the index.
+            let first = (0..n)
+                .find(|&a| lat.cells.get(lat.pos[a]) != Some(a as u32))
+                .expect("an agent lost its cell");
+            let pos = lat.pos[first];
+            let second = lat.cells.get(pos).expect("the cell is taken");
+            return Err(Defect::SharedCell {
+                first: first as u32,
+                second,
+                pos,
+            });
+        }
+        for a in (0..n).filter(|&a| lat.attach[a] != 0) {
+            for d in Dir::ALL.iter().take(dim.dirs()) {
+                let declared = lat.attach[a] & (1 << d.index()) != 0;
+                let back = lat
+                    .neighbour(a as u32, *d)
+                    .is_some_and(|b| lat.attach[b as usize] & (1 << d.opposite().index()) != 0);
+                if declared && !back {
+                    return Err(Defect::OneSidedBond {
+                        agent: a as u32,
+                        dir: *d,
+                    });
+                }
+            }
+        }
+        Ok(lat)
     }
 
     /// Builds the lattice of a checked configuration.

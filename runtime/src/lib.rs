@@ -16,7 +16,7 @@ mod step;
 mod trace;
 
 pub use history::History;
-pub use lattice::{Lattice, LatticeBuilder, Undo, Writes};
+pub use lattice::{Defect, Lattice, LatticeBuilder, Undo, Writes};
 pub use record::{Record, RecordKind};
 pub use step::{Engine, Options, Order, Stats, StepReport, AGENTS_PER_THREAD};
 pub use trace::TraceEvent;
