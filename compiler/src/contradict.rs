@@ -3,10 +3,9 @@
 //! is not negated) that demand opposite things of the same cell, attachment, state or message,
 //! and comparisons of two literals that are false.
 
-use crate::check_rules::Checker;
-use crate::program::{Cond, Coord, Dir, Offset, TextPat, Val};
+use crate::program::{Cond, Coord, Dim, Dir, Offset, TextPat, Val};
 use latticesim_grammar::ast::Term;
-use latticesim_grammar::{Code, Diagnostic, Label, Spanned};
+use latticesim_grammar::{Code, Diagnostic, FileId, Label, Spanned};
 
 /// Collects the AND-joined conditions with the term that wrote each.
 fn flatten<'c, 't, 'a>(
@@ -205,9 +204,15 @@ impl Earliest {
     }
 }
 
-/// Reports W502 for the precondition `terms`, whose checked conditions are `conds`: each
-/// term that is always false, or that contradicts an earlier term (the earliest one).
-pub(crate) fn check(terms: &[Spanned<Term<'_>>], conds: &[Cond], ck: &mut Checker<'_>) {
+/// W502 for the precondition `terms` of the rules file `file` (in `dim`), whose checked
+/// conditions are `conds`: each term that is always false, or that contradicts an earlier
+/// term (the earliest one), pushed onto `diags`.
+pub(crate) fn check(
+    terms: &[Spanned<Term<'_>>],
+    conds: &[Cond],
+    (file, dim): (FileId, Dim),
+    diags: &mut Vec<Diagnostic>,
+) {
     if terms.len() < 2
         && !conds
             .iter()
@@ -217,7 +222,7 @@ pub(crate) fn check(terms: &[Spanned<Term<'_>>], conds: &[Cond], ck: &mut Checke
     }
     let mut facts = Vec::new();
     flatten(terms, conds, &mut facts);
-    let dim3 = ck.dim.dim == crate::program::Dim::Three;
+    let dim3 = dim == Dim::Three;
     let mut earliest = Earliest::default();
     for (j, &(cj, tj)) in facts.iter().enumerate() {
         let (sj, tj) = (tj.span, &tj.node);
@@ -235,10 +240,10 @@ pub(crate) fn check(terms: &[Spanned<Term<'_>>], conds: &[Cond], ck: &mut Checke
                 format!(
                     "`{tj}` compares two numbers and is always false, so this rule never fires"
                 ),
-                Label::new(ck.file, sj, "always false"),
+                Label::new(file, sj, "always false"),
             )
             .with_help("compare a counter or a message with the number instead");
-            ck.push(d);
+            diags.push(d);
             continue;
         }
         let Some(i) = against else { continue };
@@ -248,11 +253,11 @@ pub(crate) fn check(terms: &[Spanned<Term<'_>>], conds: &[Cond], ck: &mut Checke
             let d = Diagnostic::new(
                 Code::W502,
                 format!("`{tj}` contradicts `{ti}`: {why}, so this rule never fires"),
-                Label::new(ck.file, sj, "contradicts an earlier term"),
+                Label::new(file, sj, "contradicts an earlier term"),
             )
-            .with_secondary(Label::new(ck.file, *si, "the earlier term"))
+            .with_secondary(Label::new(file, *si, "the earlier term"))
             .with_help("remove one of the two terms, or negate one with `!` if that was meant");
-            ck.push(d);
+            diags.push(d);
         }
     }
 }

@@ -8,8 +8,8 @@
 //! [`Lattice::ensure_text`]; the engine asks for what its program uses). A counter without
 //! a column reads 0, as does a slot without one.
 
+use crate::bits::{all_bits, no_bits, run_of, sequence_len, set_bits};
 use crate::cells::{CellIndex, Grid, EMPTY, NO_SLOT, RIM};
-use crate::step::{all_bits, no_bits, run_of, sequence_len, set_bits};
 use latticesim_vm::eval::Cell;
 use latticesim_vm::model::{AgentInit, Bounds, Columns, Config, Dim, Dir};
 

@@ -6,6 +6,7 @@
 //! can go back to any earlier step exactly, in bounded memory. The runtime does no I/O.
 #![warn(missing_docs)]
 
+mod bits;
 mod cells;
 pub mod checkpoint;
 pub mod gen;

@@ -1,0 +1,233 @@
+//! Bit sets in words of 64 and runs of ids: the small helpers the lattice and the engine
+//! share. A leaf: it uses nothing of the crate.
+
+/// The words a range of bits touches, `first..=last`, and the masks of the range in the
+/// first word and in the last; `None` for an empty range.
+#[inline]
+fn edges(range: std::ops::Range<usize>) -> Option<(usize, usize, u64, u64)> {
+    if range.is_empty() {
+        return None;
+    }
+    let (first, last) = (range.start >> 6, (range.end - 1) >> 6);
+    let head = u64::MAX << (range.start & 63);
+    let tail = u64::MAX >> (63 - ((range.end - 1) & 63));
+    Some((first, last, head, tail))
+}
+
+/// Sets every bit of `range` as in `word` (all zeros or all ones).
+#[inline]
+fn put_bits(bits: &mut [u64], range: std::ops::Range<usize>, word: u64) {
+    let Some((first, last, head, tail)) = edges(range) else {
+        return;
+    };
+    let put = |w: &mut u64, mask: u64| *w = (*w & !mask) | (word & mask);
+    if first == last {
+        put(&mut bits[first], head & tail);
+    } else {
+        put(&mut bits[first], head);
+        put(&mut bits[last], tail);
+        bits[first + 1..last].fill(word);
+    }
+}
+
+/// The bits set in a word; quick for the full and empty words of dense configurations
+/// (a machine without a population-count instruction counts the others in a dozen steps).
+#[inline(always)]
+pub(crate) fn ones(w: u64) -> u64 {
+    match w {
+        0 => 0,
+        u64::MAX => 64,
+        w => w.count_ones() as u64,
+    }
+}
+
+/// Clears the bits `range` of a bit set.
+#[inline]
+pub(crate) fn clear_bits(bits: &mut [u64], range: std::ops::Range<usize>) {
+    put_bits(bits, range, 0);
+}
+
+/// Sets the bits `range` of a bit set.
+#[inline]
+pub(crate) fn set_bits(bits: &mut [u64], range: std::ops::Range<usize>) {
+    put_bits(bits, range, u64::MAX);
+}
+
+/// How many of the first values of `s` equal `v` (compared in blocks, which vectorises).
+#[inline]
+pub(crate) fn run_of(s: &[u32], v: u32) -> usize {
+    let mut n = 0;
+    for block in s.chunks(32) {
+        if block.iter().fold(true, |ok, &x| ok & (x == v)) {
+            n += block.len();
+        } else {
+            return n + block.iter().take_while(|&&x| x == v).count();
+        }
+    }
+    n
+}
+
+/// How many of the first values of `s` are `start, start + 1, ...` (compared in blocks,
+/// as [`run_of`]).
+#[inline]
+pub(crate) fn sequence_len(s: &[u32], start: u32) -> usize {
+    let mut n = 0;
+    for block in s.chunks(32) {
+        let first = start.wrapping_add(n as u32);
+        if is_sequence(block, first) {
+            n += block.len();
+        } else {
+            return n
+                + (block.iter().zip(0u32..))
+                    .take_while(|&(&x, j)| x == first.wrapping_add(j))
+                    .count();
+        }
+    }
+    n
+}
+
+/// Whether `s` is `start, start + 1, ...` (compared without early exit, which vectorises).
+#[inline]
+pub(crate) fn is_sequence(s: &[u32], start: u32) -> bool {
+    s.iter()
+        .enumerate()
+        .fold(true, |ok, (j, &x)| ok & (x == start.wrapping_add(j as u32)))
+}
+
+/// Whether no bit of `range` is set.
+#[inline]
+pub(crate) fn no_bits(bits: &[u64], range: std::ops::Range<usize>) -> bool {
+    bits_are(bits, range, 0)
+}
+
+/// Whether every bit of `range` is set.
+#[inline]
+pub(crate) fn all_bits(bits: &[u64], range: std::ops::Range<usize>) -> bool {
+    bits_are(bits, range, u64::MAX)
+}
+
+/// Whether every bit of `range` is as in `word` (all zeros or all ones): the words at both
+/// ends under a mask, the ones between whole (or-ed, or and-ed, without early exit, which
+/// vectorises).
+#[inline(always)]
+fn bits_are(bits: &[u64], range: std::ops::Range<usize>, word: u64) -> bool {
+    let Some((first, last, head, tail)) = edges(range) else {
+        return true;
+    };
+    if first == last {
+        let mask = head & tail;
+        return bits[first] & mask == word & mask;
+    }
+    let between = &bits[first + 1..last];
+    bits[first] & head == word & head
+        && bits[last] & tail == word & tail
+        && if word == 0 {
+            between.iter().fold(0, |acc, &w| acc | w) == 0
+        } else {
+            between.iter().fold(u64::MAX, |acc, &w| acc & w) == u64::MAX
+        }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Setting and clearing ranges of bits against single bits, on every range across
+    /// four words.
+    #[test]
+    fn bit_writes_agree_with_single_bits() {
+        for start in 0..256 {
+            for end in start..=256 {
+                let mut bits = [0x5555_5555_5555_5555u64; 4];
+                set_bits(&mut bits, start..end);
+                let mut cleared = bits;
+                clear_bits(&mut cleared, start..end);
+                for i in 0..256 {
+                    let (w, b) = (i >> 6, 1u64 << (i & 63));
+                    let inside = (start..end).contains(&i);
+                    assert_eq!(
+                        bits[w] & b != 0,
+                        inside || i % 2 == 0,
+                        "set {start}..{end}: {i}"
+                    );
+                    assert_eq!(
+                        cleared[w] & b != 0,
+                        !inside && i % 2 == 0,
+                        "clear {start}..{end}: {i}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// `all_bits` and `no_bits` against a bit-by-bit reading, on every range of a
+    /// pattern of ones and zeros across four words.
+    #[test]
+    fn bit_tests_agree_with_single_bits() {
+        let mut bits = vec![0u64; 4];
+        set_bits(&mut bits, 5..70);
+        set_bits(&mut bits, 128..192);
+        set_bits(&mut bits, 200..201);
+        let bit = |i: usize| bits[i >> 6] & (1 << (i & 63)) != 0;
+        for start in 0..256 {
+            for end in start..=256 {
+                assert_eq!(
+                    all_bits(&bits, start..end),
+                    (start..end).all(bit),
+                    "{start}..{end}"
+                );
+                assert_eq!(
+                    no_bits(&bits, start..end),
+                    !(start..end).any(bit),
+                    "{start}..{end}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn runs_and_sequences_across_blocks() {
+        for len in [0usize, 1, 31, 32, 33, 64, 100] {
+            for cut in [0usize, 1, 5, 31, 32, 33, 63, 70, 99] {
+                // `len` values, the run (or sequence) broken at `cut` when inside.
+                let same: Vec<u32> = (0..len).map(|j| if j == cut { 5 } else { 9 }).collect();
+                // (Counting up through u32::MAX and 0; a break is one more than due.)
+                let seq: Vec<u32> = (0..len as u32)
+                    .map(|j| (u32::MAX - 40).wrapping_add(j + (j as usize == cut) as u32))
+                    .collect();
+                let want = cut.min(len);
+                assert_eq!(run_of(&same, 9), want, "run_of, len {len}, cut {cut}");
+                assert_eq!(
+                    sequence_len(&seq, u32::MAX - 40),
+                    want,
+                    "sequence_len, len {len}, cut {cut}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn bit_ranges_across_words() {
+        for (start, end) in [
+            (0, 0),
+            (3, 3),
+            (0, 64),
+            (5, 70),
+            (63, 65),
+            (64, 192),
+            (10, 200),
+        ] {
+            let mut bits = vec![0u64; 4];
+            set_bits(&mut bits, start..end);
+            for i in 0..256 {
+                let set = bits[i >> 6] & (1 << (i & 63)) != 0;
+                assert_eq!(set, (start..end).contains(&i), "{start}..{end}: bit {i}");
+            }
+            assert!(all_bits(&bits, start..end));
+            if start > 0 {
+                assert!(!all_bits(&bits, start - 1..end));
+            }
+            assert!(!all_bits(&bits, start..end + 1));
+        }
+    }
+}
