@@ -240,7 +240,7 @@ fn run_check(
         return ExitCode::from(1);
     }
     if dump_bytecode {
-        if let Some(p) = &checked.program {
+        if let Some(p) = &checked.rules {
             output::stdout(latticesim_compiler::lower(p).disassemble().as_bytes());
         }
     }

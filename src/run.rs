@@ -4,7 +4,7 @@ use crate::agents_file;
 use crate::output::{self, open_output, say, write_output};
 use crate::{colour, read, Color, RECORDS_SHOWN_PER_KIND};
 use clap::ValueEnum;
-use latticesim_compiler::lower;
+use latticesim_compiler::compile;
 use latticesim_runtime::{checkpoint, Engine, Lattice, Options, Order, RecordKind, Stats};
 use serde_json::json;
 use std::collections::BTreeMap;
@@ -170,10 +170,21 @@ fn stats_json(e: &Engine, stop: Stop, timing: Option<&Timing>) -> serde_json::Va
     v
 }
 
+/// The checked rules compiled and verified, or the message of an internal error and exit
+/// status 2.
+pub(crate) fn compiled(
+    rules: &latticesim_compiler::CheckedRules,
+) -> Result<latticesim_vm::Verified, ExitCode> {
+    compile(rules).map_err(|e| {
+        say!("internal error: the compiled program does not verify: {e}");
+        ExitCode::from(2)
+    })
+}
+
 /// A rules and an agents file read, checked and compiled.
 pub(crate) struct Ready {
     /// The verified program.
-    pub prog: latticesim_vm::Program,
+    pub prog: latticesim_vm::Verified,
     /// The agents.
     pub lat: Lattice,
     /// The time spent reading the agents file (and building the lattice).
@@ -218,7 +229,7 @@ pub(crate) fn load(
     if let Some(note) = &loaded.note {
         say!("{note}");
     }
-    let (Some(program), Some(lat)) = (checked.program.as_ref(), loaded.lattice) else {
+    let (Some(program), Some(lat)) = (checked.rules.as_ref(), loaded.lattice) else {
         if loaded.note.is_some() {
             say!("{rules_name}, {agents_name}: nothing was run");
         } else {
@@ -231,11 +242,7 @@ pub(crate) fn load(
         return Err(ExitCode::from(1));
     };
     let t = Instant::now();
-    let prog = lower(program);
-    if let Err(e) = prog.verify() {
-        say!("internal error: the compiled program does not verify: {e}");
-        return Err(ExitCode::from(2));
-    }
+    let prog = compiled(program)?;
     Ok(Ready {
         prog,
         lat,
@@ -272,7 +279,7 @@ fn resume(
     if !checked.diags.is_empty() && (checked.errors() > 0 || !quiet) {
         output::stderr(&checked.render(colour));
     }
-    let Some(program) = checked.program.as_ref() else {
+    let Some(program) = checked.rules.as_ref() else {
         say!(
             "{rules_name}: {} error{}; nothing was run",
             checked.errors(),
@@ -280,11 +287,7 @@ fn resume(
         );
         return Err(ExitCode::from(1));
     };
-    let prog = lower(program);
-    if let Err(e) = prog.verify() {
-        say!("internal error: the compiled program does not verify: {e}");
-        return Err(ExitCode::from(2));
-    }
+    let prog = compiled(program)?;
     let check = started.elapsed();
     let t = Instant::now();
     let engine = agents_file::open_read(from)

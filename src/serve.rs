@@ -16,7 +16,7 @@ mod http;
 use crate::output::say;
 use crate::render::state_colour;
 use http::{error, Response as Reply};
-use latticesim_compiler::{lower, Checked};
+use latticesim_compiler::{compile, Checked};
 use latticesim_runtime::{Engine, History, Lattice, Options, Order, TraceEvent};
 use serde::Serialize;
 use serde_json::{json, Value};
@@ -407,9 +407,8 @@ impl Session {
             &self.agents,
         );
         let verdict = check_json(&c, &self.rules_path);
-        if let (Some(p), Some(lat)) = (c.program.as_ref(), lat) {
-            let prog = lower(p);
-            if prog.verify().is_ok() {
+        if let (Some(p), Some(lat)) = (c.rules.as_ref(), lat) {
+            if let Ok(prog) = compile(p) {
                 let hist = History::new(prog, lat, self.opts, self.keyframe_every, 256);
                 self.run = Some(Run { hist, note: None });
                 return (verdict, true);

@@ -5,7 +5,7 @@
 use crate::gen::AgentOptions;
 use crate::output::{open_output, say, write_output};
 use clap::ValueEnum;
-use latticesim_compiler::lower;
+use latticesim_compiler::compile;
 use latticesim_runtime::gen::{agents_text, Shape};
 use latticesim_runtime::{Engine, Options};
 use plotters::prelude::*;
@@ -119,7 +119,7 @@ fn run_one(rules: &[u8], a: &SweepArgs, n: u32, seed: u64) -> Result<Row, String
     .map_err(|e| format!("n = {n}, seed {seed}: cannot read the generated agents: {e}"))?;
     drop(agents);
     let c = &loaded.checked;
-    let (Some(p), Some(lat)) = (&c.program, loaded.lattice) else {
+    let (Some(p), Some(lat)) = (&c.rules, loaded.lattice) else {
         let first = c
             .diags
             .iter()
@@ -137,7 +137,9 @@ fn run_one(rules: &[u8], a: &SweepArgs, n: u32, seed: u64) -> Result<Row, String
         ));
     };
     let started = Instant::now();
-    let mut e = Engine::new(lower(p), lat, Options::default());
+    let prog = compile(p)
+        .map_err(|e| format!("internal error: the compiled program does not verify: {e}"))?;
+    let mut e = Engine::new(prog, lat, Options::default());
     let mut quiescent = false;
     while e.stats.steps < a.max_steps {
         if e.step().quiescent {

@@ -6,7 +6,7 @@
 // The checks index agents, positions and counters in parallel.
 #![allow(clippy::needless_range_loop)]
 
-use latticesim_compiler::{check, lower, Input};
+use latticesim_compiler::{check, compile, Input};
 use latticesim_runtime::gen::{agents_text, GenOptions, Shape};
 use latticesim_runtime::{Engine, Lattice, Options};
 use std::collections::{HashMap, VecDeque};
@@ -27,7 +27,7 @@ fn engine(rules_file: &str, agents: &str) -> Engine {
     );
     assert!(c.diags.is_empty(), "{path}: {:?}", c.diags);
     Engine::new(
-        lower(c.program.as_ref().unwrap()),
+        compile(c.rules.as_ref().unwrap()).unwrap(),
         Lattice::new(c.config.as_ref().unwrap()),
         Options::default(),
     )

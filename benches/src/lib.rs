@@ -251,7 +251,8 @@ pub fn engine(rules: &str, agents: &str) -> latticesim_runtime::Engine {
         None,
     );
     assert_eq!(c.errors(), 0, "{:?}", c.diags.first());
-    let prog = latticesim_compiler::lower(c.program.as_ref().expect("no errors"));
+    let prog =
+        latticesim_compiler::compile(c.rules.as_ref().expect("no errors")).expect("verified");
     latticesim_runtime::Engine::new(
         prog,
         latticesim_runtime::Lattice::new(c.config.as_ref().expect("no errors")),
@@ -269,7 +270,7 @@ pub fn arg(i: usize, default: u64) -> u64 {
 }
 
 /// The compiled program of a rules file that must check without errors.
-pub fn program(rules: &str) -> latticesim_vm::Program {
+pub fn program(rules: &str) -> latticesim_vm::Verified {
     let c = latticesim_compiler::check(
         latticesim_compiler::Input {
             name: "rules",
@@ -279,7 +280,7 @@ pub fn program(rules: &str) -> latticesim_vm::Program {
         None,
     );
     assert_eq!(c.errors(), 0, "{:?}", c.diags.first());
-    latticesim_compiler::lower(c.program.as_ref().expect("no errors"))
+    latticesim_compiler::compile(c.rules.as_ref().expect("no errors")).expect("verified")
 }
 
 /// The sum of a counter over all agents.

@@ -2,8 +2,8 @@
 //! counters (E40x, W60x), producing the checked [`Config`].
 
 use crate::check_rules::{chars, VALUE_MAX};
+use crate::checked::{AgentInit, Bounds, Config, Dim, Dir};
 use crate::dim::DimSource;
-use crate::program::{AgentInit, Bounds, Config, Dim, Dir};
 use latticesim_grammar::ast::AgentsFile;
 use latticesim_grammar::{Code, Diagnostic, FileId, Label, Span};
 use std::collections::HashMap;

@@ -1,18 +1,18 @@
 //! Checking rules: every constraint of the paper and SEMANTICS.md on a parsed rules file,
-//! producing the checked [`Program`] and diagnostics (E3xx, W5xx).
+//! producing the [`CheckedRules`] and diagnostics (E3xx, W5xx).
 
+use crate::checked::{
+    Action, AttachLetter, BitPat, CheckedRules, Cond, Coord, Dim, Dir, Offset, Operand, Rule,
+    Target, TextPat, Val,
+};
 use crate::contradict;
 use crate::dim::DimSource;
-use crate::program::{
-    Action, AttachLetter, BitPat, Cond, Coord, Dim, Dir, Offset, Operand, Program, Rule, Target,
-    TextPat, Val,
-};
 use latticesim_grammar::ast::{self, Comp, Term, Value};
 use latticesim_grammar::{Code, Diagnostic, FileId, Label, Span, Spanned};
 use std::collections::HashMap;
 
-fn cmp_op(op: ast::CmpOp) -> crate::program::CmpOp {
-    use crate::program::CmpOp as C;
+fn cmp_op(op: ast::CmpOp) -> crate::checked::CmpOp {
+    use crate::checked::CmpOp as C;
     match op {
         ast::CmpOp::Lt => C::Lt,
         ast::CmpOp::Gt => C::Gt,
@@ -20,8 +20,8 @@ fn cmp_op(op: ast::CmpOp) -> crate::program::CmpOp {
     }
 }
 
-fn calc_op(op: ast::CalcOp) -> crate::program::CalcOp {
-    use crate::program::CalcOp as C;
+fn calc_op(op: ast::CalcOp) -> crate::checked::CalcOp {
+    use crate::checked::CalcOp as C;
     match op {
         ast::CalcOp::Add => C::Add,
         ast::CalcOp::Sub => C::Sub,
@@ -846,7 +846,7 @@ pub fn check_rules(
     src: &str,
     dim: &DimSource,
     diags: &mut Vec<Diagnostic>,
-) -> Program {
+) -> CheckedRules {
     let mut ck = Checker {
         file,
         src,
@@ -906,7 +906,7 @@ pub fn check_rules(
             });
         }
     }
-    Program {
+    CheckedRules {
         dim: dim.dim,
         rules,
     }

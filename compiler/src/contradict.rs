@@ -3,7 +3,7 @@
 //! is not negated) that demand opposite things of the same cell, attachment, state or message,
 //! and comparisons of two literals that are false.
 
-use crate::program::{Cond, Coord, Dim, Dir, Offset, TextPat, Val};
+use crate::checked::{Cond, Coord, Dim, Dir, Offset, TextPat, Val};
 use latticesim_grammar::ast::Term;
 use latticesim_grammar::{Code, Diagnostic, FileId, Label, Spanned};
 

@@ -2,7 +2,7 @@
 //! order of precedence, remembering where it came from so that a term of the other dimension
 //! can point at the reason.
 
-use crate::program::Dim;
+use crate::checked::Dim;
 use latticesim_grammar::ast::{AgentsFile, Operand, RulesFile, Term, Value};
 use latticesim_grammar::{Code, Diagnostic, FileId, Label, Span, Spanned};
 

@@ -13,7 +13,7 @@
 //! read on its own, on any thread ([`read_lines`]).
 
 use crate::check_rules::VALUE_MAX;
-use crate::program::{Bounds, Columns, Dim};
+use crate::checked::{Bounds, Columns, Dim};
 use crate::{check, Checked, Input};
 use latticesim_grammar::FileId;
 
@@ -433,7 +433,7 @@ fn line(raw: &[u8], head: &Head, out: &mut Columns) -> bool {
 /// rest of the agents file has been read cleanly.
 pub fn check_with_head(rules: Input<'_>, head: Input<'_>) -> Option<Checked> {
     let c = check(rules, Some(head), None);
-    let clean = c.program.is_some()
+    let clean = c.rules.is_some()
         && c.config.is_some()
         && c.errors() == 0
         && !c.diags.iter().any(|d| d.primary.file == FileId(1))

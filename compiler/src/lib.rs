@@ -1,24 +1,24 @@
 //! The front end's second half: checking parsed files and rendering diagnostics.
 //!
 //! [`check`] is the whole pipeline from the bytes of rules.txt (and optionally agents.txt)
-//! to a checked [`Program`] and [`Config`]: decode, parse, find the dimension, check every
+//! to [`CheckedRules`] and a [`Config`]: decode, parse, find the dimension, check every
 //! rule and agent, sort the diagnostics. It does no I/O; the CLI reads the files and prints.
 //! [`fast_agents`] reads clean agents files straight into columns, for large runs.
 #![warn(missing_docs)]
 
 mod check_agents;
 mod check_rules;
+pub mod checked;
 mod contradict;
 pub mod dim;
 pub mod fast_agents;
 mod lower;
-pub mod program;
 pub mod render;
 
 pub use check_agents::check_agents;
 pub use check_rules::{check_rules, VALUE_MAX};
-pub use lower::lower;
-pub use program::{Columns, Config, Dim, Program};
+pub use checked::{CheckedRules, Columns, Config, Dim};
+pub use lower::{compile, lower};
 pub use render::Sources;
 
 use bumpalo::Bump;
@@ -43,7 +43,7 @@ pub struct Checked {
     /// The dimension in force and why.
     pub dim: DimSource,
     /// The checked rules, when there was no error.
-    pub program: Option<Program>,
+    pub rules: Option<CheckedRules>,
     /// The checked agents, when an agents file was given and there was no error.
     pub config: Option<Config>,
     /// How many rules the file has (also when there were errors).
@@ -223,13 +223,13 @@ pub fn check(rules: Input<'_>, agents: Option<Input<'_>>, dim: Option<Dim>) -> C
         }
     };
     diags.extend(parse_diags);
-    let program = check_rules(&ast, rid, text, &dim_src, &mut diags);
+    let rules = check_rules(&ast, rid, text, &dim_src, &mut diags);
     let config = agents_ast.as_ref().zip(agents_id).map(|(a, id)| {
         let own = agents_dim.clone().unwrap_or_else(|| dim_src.clone());
         check_agents(a, id, sources.text(id), &own, &mut diags)
     });
     if !diags.iter().any(|d| d.is_error()) {
-        if let Some((i, why)) = lower::too_large(&program) {
+        if let Some((i, why)) = lower::too_large(&rules) {
             diags.push(too_large(&ast.rules[i], rid, why));
         }
     }
@@ -246,7 +246,7 @@ pub fn check(rules: Input<'_>, agents: Option<Input<'_>>, dim: Option<Dim>) -> C
         agent_count,
         diags,
         dim: dim_src,
-        program: ok.then_some(program),
+        rules: ok.then_some(rules),
         config: if ok { config } else { None },
     }
 }

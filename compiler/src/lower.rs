@@ -1,6 +1,6 @@
 //! Lowering a checked program to bytecode (`latticesim_vm::Program`).
 
-use crate::program::{self as p, Action, Cond, Dim, Program};
+use crate::checked::{self as p, Action, CheckedRules, Cond, Dim};
 use latticesim_vm::model::{AttachLetter, Coord, Offset, TextPat};
 use latticesim_vm::op::{Target, Val, ANY_DIR};
 use latticesim_vm::{Op, RuleInfo};
@@ -291,7 +291,7 @@ impl Lowering {
 
 /// The first rule (its index) whose bytecode would not fit, and why: the checker reports it
 /// (E321), so that [`lower`] is only given programs that fit.
-pub(crate) fn too_large(p: &Program) -> Option<(usize, TooLarge)> {
+pub(crate) fn too_large(p: &CheckedRules) -> Option<(usize, TooLarge)> {
     let mut l = Lowering::default();
     for (i, r) in p.rules.iter().enumerate() {
         l.rule(r, p.dim);
@@ -306,7 +306,21 @@ pub(crate) fn too_large(p: &Program) -> Option<(usize, TooLarge)> {
 ///
 /// # Panics
 /// When the program does not fit (which [`crate::check`] reports as an error first).
-pub fn lower(p: &Program) -> latticesim_vm::Program {
+pub fn lower(p: &CheckedRules) -> latticesim_vm::Program {
+    lower_unverified(p)
+}
+
+/// The checked rules compiled to bytecode and verified: what the engine runs. The front
+/// door from checked rules to a run; an `Err` is a fault of the compiler (lowering made a
+/// program the verifier refuses), never of the rules.
+///
+/// # Panics
+/// As [`lower`].
+pub fn compile(p: &CheckedRules) -> Result<latticesim_vm::Verified, latticesim_vm::VerifyError> {
+    lower_unverified(p).verified()
+}
+
+fn lower_unverified(p: &CheckedRules) -> latticesim_vm::Program {
     let mut l = Lowering::default();
     let rules = p.rules.iter().map(|r| l.rule(r, p.dim)).collect();
     if let Some(t) = l.too_large() {

@@ -1,7 +1,7 @@
 //! What the checker builds and decides, beyond the golden files: the checked program, the
 //! dimension rules, the agents configuration.
 
-use latticesim_compiler::program::{
+use latticesim_compiler::checked::{
     Action, AttachLetter, BitPat, Cond, Coord, Dir, Operand, Target, Val,
 };
 use latticesim_compiler::{check, Checked, Dim, Input};
@@ -41,7 +41,7 @@ fn builds_the_checked_program() {
     );
     assert!(c.diags.is_empty(), "{:?}", c.diags);
     assert_eq!(c.dim.dim, Dim::Two);
-    let p = c.program.unwrap();
+    let p = c.rules.unwrap();
     let r = &p.rules[0];
     assert_eq!(r.priority, 7);
     let Cond::And(pre) = &r.pre else { panic!() };
@@ -81,7 +81,7 @@ fn builds_the_checked_program() {
     assert_eq!(
         pre[5],
         Cond::Compare(
-            latticesim_compiler::program::CmpOp::Gt,
+            latticesim_compiler::checked::CmpOp::Gt,
             Val::Msg { dir: None, slot: 1 },
             Val::Lit(-5)
         )
@@ -110,7 +110,7 @@ fn builds_the_checked_program() {
         r.post[4],
         Action::Calc {
             target: Target::Counter(2),
-            op: latticesim_compiler::program::CalcOp::Max,
+            op: latticesim_compiler::checked::CalcOp::Max,
             lhs: Operand::External {
                 x: Coord::Lit(1),
                 y: Coord::Lit(0),
@@ -129,7 +129,7 @@ fn builds_the_checked_program() {
                 dir: Some(Dir::E),
                 slot: 2
             },
-            op: latticesim_compiler::program::CalcOp::Sub,
+            op: latticesim_compiler::checked::CalcOp::Sub,
             lhs: Operand::Val(Val::Counter(1)),
             rhs: Operand::Val(Val::Lit(2)),
         }
@@ -145,7 +145,7 @@ fn dimension_from_rules_and_remote_state_split() {
     // In 2D the same characters after two coordinates are a state "0,ABC".
     let c = run("r\n1\nN1*1* T1,0,0,ABC\nS*****\n", None, None);
     assert!(c.diags.is_empty(), "{:?}", c.diags);
-    let Cond::And(pre) = &c.program.unwrap().rules[0].pre else {
+    let Cond::And(pre) = &c.rules.unwrap().rules[0].pre else {
         panic!()
     };
     assert_eq!(
@@ -164,7 +164,7 @@ fn dimension_from_rules_and_remote_state_split() {
     );
     assert!(c.diags.is_empty(), "{:?}", c.diags);
     assert_eq!(c.dim.dim, Dim::Two);
-    let Cond::And(pre) = &c.program.unwrap().rules[0].pre else {
+    let Cond::And(pre) = &c.rules.unwrap().rules[0].pre else {
         panic!()
     };
     assert_eq!(

@@ -34,7 +34,7 @@ fn run(rules: &[u8], agents: Option<&[u8]>, dim: Option<Dim>) -> Checked {
         assert!(d.help.is_some(), "{:?} has no help", d.code);
     }
     // A program that passed the checks lowers to bytecode that verifies.
-    if let Some(p) = &c.program {
+    if let Some(p) = &c.rules {
         assert_eq!(latticesim_compiler::lower(p).verify(), Ok(()));
     }
     // Rendering must not fail either.

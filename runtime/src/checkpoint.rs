@@ -24,7 +24,7 @@ use crate::record::RecordKind;
 use crate::step::{Engine, Options, Order, Stats};
 use crate::Lattice;
 use latticesim_vm::model::{Bounds, Dim};
-use latticesim_vm::Program;
+use latticesim_vm::{Program, Verified};
 use std::io::{self, Read, Write};
 
 /// The first bytes of every checkpoint.
@@ -303,7 +303,7 @@ impl Engine {
     /// An engine in the state of the checkpoint in `r`, which must have been made with the
     /// same rules (`prog`) and the same order and `--static-first` as `opts`.
     pub fn read_checkpoint(
-        prog: Program,
+        prog: Verified,
         opts: Options,
         r: impl Read,
     ) -> Result<Engine, CheckpointError> {

@@ -5,7 +5,7 @@
 //! one is dropped and the interval doubles.
 
 use crate::{Engine, Lattice, Options, Stats, StepReport};
-use latticesim_vm::Program;
+use latticesim_vm::Verified;
 
 /// A run that can go back.
 pub struct History {
@@ -24,7 +24,7 @@ impl History {
     /// A run of `prog` on `lat` keeping a keyframe every `every` steps (at least 1) and at
     /// most `max_keyframes` of them (at least 2; the interval doubles when needed).
     pub fn new(
-        prog: Program,
+        prog: Verified,
         lat: Lattice,
         opts: Options,
         every: u64,

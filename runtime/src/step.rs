@@ -15,7 +15,7 @@ use crate::trace::TraceEvent;
 use latticesim_vm::eval::{eval_pre, run_post, CalcEnv, CalcIssue, Cell, Env, Tri};
 use latticesim_vm::model::{AttachLetter, CalcOp, CmpOp, Coord, Dir, TextPat};
 use latticesim_vm::op::{Op, Target, Val, ANY_DIR};
-use latticesim_vm::Program;
+use latticesim_vm::{Program, Verified};
 use rustc_hash::FxHashMap;
 use std::collections::BTreeMap;
 
@@ -100,7 +100,7 @@ pub struct StepReport {
 /// A program running on a lattice.
 pub struct Engine {
     /// The compiled rules.
-    pub prog: Program,
+    pub prog: Verified,
     /// The agents. Their states may be read at any time; change them only through the
     /// engine's steps (the rule dispatch remembers each agent's state).
     pub lat: Lattice,
@@ -827,7 +827,7 @@ impl Engine {
     /// A program ready to run on a lattice. The program must have passed `verify` and match
     /// the lattice's dimension. The lattice gets columns for every counter, message slot
     /// and text inbox the program uses.
-    pub fn new(prog: Program, mut lat: Lattice, opts: Options) -> Engine {
+    pub fn new(prog: Verified, mut lat: Lattice, opts: Options) -> Engine {
         let mut by_prio: Vec<u32> = (0..prog.rules.len() as u32).collect();
         by_prio.sort_by_key(|&r| std::cmp::Reverse(prog.rules[r as usize].priority));
         let uses = prog.uses();

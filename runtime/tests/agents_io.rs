@@ -123,7 +123,7 @@ fn clean_file() -> impl Strategy<Value = String> {
                     .entry([x, y, z])
                     .or_insert((state, counters, ws, deco));
             }
-            let all = latticesim_compiler::program::Dir::ALL.map(|d| d.offset());
+            let all = latticesim_compiler::checked::Dir::ALL.map(|d| d.offset());
             let dirs = &all[..if three { 6 } else { 4 }];
             let mut s = String::new();
             if universe {

@@ -10,7 +10,7 @@
 mod common;
 mod reference;
 
-use latticesim_compiler::lower;
+use latticesim_compiler::compile;
 use latticesim_runtime::{Engine, Lattice, Options, Order, TraceEvent};
 use proptest::prelude::*;
 use reference::{Rec, World};
@@ -200,7 +200,7 @@ fn agents(d3: bool) -> impl Strategy<Value = String> {
                 // Attach only where a neighbour stands and both ends agree.
                 let mut a = String::new();
                 for d in 0..n {
-                    let o = latticesim_compiler::program::Dir::ALL[d].offset();
+                    let o = latticesim_compiler::checked::Dir::ALL[d].offset();
                     let nb = at((x + o[0], y + o[1], z + o[2]));
                     let on = nb.is_some_and(|j| {
                         let pair = (i.min(j) * 7 + i.max(j) * 3) as u8;
@@ -307,10 +307,11 @@ fn differential_on(
         rules,
         agents
     );
-    let program = c.program.clone().unwrap();
+    let program = c.rules.clone().unwrap();
     let config = c.config.clone().unwrap();
-    let prog = lower(&program);
-    prop_assert!(prog.verify().is_ok());
+    let prog = compile(&program);
+    prop_assert!(prog.is_ok());
+    let prog = prog.unwrap();
     let mut e = Engine::new(
         prog,
         Lattice::new(&config),

@@ -19,4 +19,4 @@ mod program;
 
 pub use eval::{Env, Tri};
 pub use op::Op;
-pub use program::{Program, RuleInfo, Uses, VerifyError};
+pub use program::{Program, RuleInfo, Uses, Verified, VerifyError};

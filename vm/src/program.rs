@@ -84,6 +84,28 @@ impl fmt::Display for VerifyError {
 /// The deepest evaluation stack a precondition may need.
 pub const MAX_STACK: usize = 64;
 
+/// A program that passed [`Program::verify`]: the only kind the engine runs. Made by
+/// [`Program::verified`] (and, from checked rules, by the compiler's `compile`); it reads
+/// as the [`Program`] it holds.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Verified(Program);
+
+impl std::ops::Deref for Verified {
+    type Target = Program;
+
+    fn deref(&self) -> &Program {
+        &self.0
+    }
+}
+
+impl Program {
+    /// The program, verified ([`Program::verify`]).
+    pub fn verified(self) -> Result<Verified, VerifyError> {
+        self.verify()?;
+        Ok(Verified(self))
+    }
+}
+
 impl Program {
     /// What the program reads and writes: counters, numeric slots, texts.
     pub fn uses(&self) -> Uses {

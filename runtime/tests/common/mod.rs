@@ -1,6 +1,6 @@
 //! Helpers shared by the runtime's integration tests.
 
-use latticesim_compiler::{check, lower, Checked, Input};
+use latticesim_compiler::{check, Checked, Input};
 use latticesim_runtime::Lattice;
 
 /// Checks a rules and an agents file (named rules.txt and agents.txt).
@@ -20,10 +20,9 @@ pub fn checked(rules: &str, agents: &str) -> Checked {
 
 /// Checks a rules and an agents file that must have no errors: the verified program and
 /// the lattice.
-pub fn compile(rules: &str, agents: &str) -> (latticesim_vm::Program, Lattice) {
+pub fn compile(rules: &str, agents: &str) -> (latticesim_vm::Verified, Lattice) {
     let c = checked(rules, agents);
     assert_eq!(c.errors(), 0, "{:#?}", c.diags);
-    let prog = lower(c.program.as_ref().unwrap());
-    prog.verify().unwrap();
+    let prog = latticesim_compiler::compile(c.rules.as_ref().unwrap()).unwrap();
     (prog, Lattice::new(c.config.as_ref().unwrap()))
 }

@@ -4,9 +4,9 @@
 //! it, and resolves priorities by recomputing everything until nothing changes. It shares
 //! no code with the engine beyond the checked-program types.
 
-use latticesim_compiler::program::{
-    Action, AttachLetter, CalcOp, CmpOp, Cond, Config, Coord, Dim, Dir, Offset, Operand, Program,
-    Target, TextPat, Val,
+use latticesim_compiler::checked::{
+    Action, AttachLetter, CalcOp, CheckedRules, CmpOp, Cond, Config, Coord, Dim, Dir, Offset,
+    Operand, Target, TextPat, Val,
 };
 use std::collections::BTreeMap;
 
@@ -54,7 +54,7 @@ pub struct World {
     pub dim: Dim,
     pub universe: Option<[(i32, i32); 3]>,
     pub agents: Vec<Agent>,
-    pub prog: Program,
+    pub prog: CheckedRules,
     pub stats: RefStats,
     pub messages_first: bool,
     pub static_first: bool,
@@ -110,7 +110,12 @@ enum Status {
 }
 
 impl World {
-    pub fn new(prog: Program, cfg: &Config, messages_first: bool, static_first: bool) -> World {
+    pub fn new(
+        prog: CheckedRules,
+        cfg: &Config,
+        messages_first: bool,
+        static_first: bool,
+    ) -> World {
         let d = cfg.dim;
         let agents = cfg
             .agents

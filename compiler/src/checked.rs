@@ -1,4 +1,4 @@
-//! The checked program: rules with every name resolved, every pattern turned into masks and
+//! The checked rules: every name resolved, every pattern turned into masks and
 //! every number into range. This is what lowering to bytecode (and the reference evaluator)
 //! starts from; it holds no source text, only spans for mapping results back.
 
@@ -154,7 +154,7 @@ pub struct Rule {
 
 /// A checked rules file.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Program {
+pub struct CheckedRules {
     /// The dimension.
     pub dim: Dim,
     /// The rules, in file order.
