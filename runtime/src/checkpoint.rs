@@ -19,9 +19,9 @@
 //! count, moves, swaps, sent, delivered, dropped u64, records as a u32 count of (kind name
 //! length u8, name, count u64)); and last a CRC-32 of every byte before it.
 
+use crate::engine::{Engine, Options, Order, Stats};
 use crate::lattice::LatticeBuilder;
 use crate::record::RecordKind;
-use crate::step::{Engine, Options, Order, Stats};
 use crate::Lattice;
 use latticesim_vm::model::{Bounds, Dim};
 use latticesim_vm::{Program, Verified};

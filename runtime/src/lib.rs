@@ -9,15 +9,15 @@
 mod bits;
 mod cells;
 pub mod checkpoint;
+mod engine;
 pub mod gen;
 mod history;
 mod lattice;
 mod record;
-mod step;
 mod trace;
 
+pub use engine::{Engine, Options, Order, Stats, StepReport, AGENTS_PER_THREAD};
 pub use history::History;
 pub use lattice::{Defect, Lattice, LatticeBuilder, Undo, Writes};
 pub use record::{Record, RecordKind};
-pub use step::{Engine, Options, Order, Stats, StepReport, AGENTS_PER_THREAD};
 pub use trace::TraceEvent;

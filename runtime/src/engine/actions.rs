@@ -1,0 +1,590 @@
+//! The actions of a step: per agent, the combined intent of the rules it executes (a move
+//! or swap, attachment letters, a new state), conflicts between them judged, states set,
+//! and the movers handed to `moves`.
+
+use super::*;
+
+/// The actions of a step, each list in agent order.
+#[derive(Default)]
+pub(super) struct Actions {
+    /// Agents asked to move, by these offsets (never zero).
+    pub(super) moves: Vec<(u32, [i32; 3])>,
+    /// Agents whose rules asked for different moves: they do not move, nor their group.
+    pub(super) blocked: Vec<u32>,
+    /// State patterns (as [`pat_bits`]) to apply.
+    pub(super) states: Vec<(u32, (u64, u64))>,
+    pub(super) links: Vec<Link>,
+    /// Agents whose rules asked for different swaps: they take part in no swap.
+    pub(super) no_swap: Vec<u32>,
+}
+
+impl Actions {
+    pub(super) fn clear(&mut self) {
+        self.moves.clear();
+        self.blocked.clear();
+        self.states.clear();
+        self.links.clear();
+        self.no_swap.clear();
+    }
+
+    /// Adds the combined actions `it` of agent `a`.
+    pub(super) fn add(&mut self, a: u32, it: &Intent) {
+        if it.mv_bad {
+            self.blocked.push(a);
+        } else if let Some(o) = it.mv {
+            self.moves.push((a, o));
+        }
+        if it.state.iter().any(Option::is_some) {
+            self.states.push((a, pat_bits(&it.state)));
+        }
+        if it.swap.is_some() || it.letters.iter().any(|&l| l != AttachLetter::Keep) {
+            self.links.push((a, it.letters, it.swap));
+        }
+        if it.swap_bad {
+            self.no_swap.push(a);
+        }
+    }
+
+    /// The moves and letters as one intent per agent.
+    pub(super) fn dense(&self, n: usize) -> Vec<Intent> {
+        let mut dense = vec![Intent::default(); n];
+        for &(a, o) in &self.moves {
+            dense[a as usize].mv = Some(o);
+        }
+        for &a in &self.blocked {
+            dense[a as usize].mv_bad = true;
+        }
+        for &(a, letters, _) in &self.links {
+            dense[a as usize].letters = letters;
+        }
+        dense
+    }
+}
+
+/// What a program's actions are, taken together: none, only moves by literal offsets
+/// ([`Engine::plain_moves`]), only state changes ([`Engine::direct_bits`]), or others.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Acting {
+    Nothing,
+    PlainMoves,
+    States,
+    Mixed,
+}
+
+impl Acting {
+    pub(super) fn of(
+        acts: &[bool],
+        plain: &[Option<[i32; 3]>],
+        direct: &[Option<(u64, u64)>],
+    ) -> Acting {
+        let acting = |kind: &dyn Fn(usize) -> bool| (0..acts.len()).all(|r| !acts[r] || kind(r));
+        if !acts.contains(&true) {
+            Acting::Nothing
+        } else if acting(&|r| plain[r].is_some()) {
+            Acting::PlainMoves
+        } else if acting(&|r| direct[r].is_some()) {
+            Acting::States
+        } else {
+            Acting::Mixed
+        }
+    }
+}
+
+/// The combined actions of one agent's selected rules.
+#[derive(Clone, Copy)]
+pub(super) struct Intent {
+    pub(super) mv: Option<[i32; 3]>,
+    pub(super) mv_bad: bool,
+    pub(super) swap: Option<Dir>,
+    /// The rules ask for different swaps: the agent takes part in no swap.
+    pub(super) swap_bad: bool,
+    pub(super) letters: [AttachLetter; 6],
+    pub(super) state: TextPat,
+}
+
+impl Default for Intent {
+    fn default() -> Self {
+        Intent {
+            mv: None,
+            mv_bad: false,
+            swap: None,
+            swap_bad: false,
+            letters: [AttachLetter::Keep; 6],
+            state: [None; 5],
+        }
+    }
+}
+
+/// Applies a state pattern (as [`pat_bits`]) to agent `a`. When the state changes: the
+/// old and new states, and whether the cache knew the new state's candidate list (the
+/// agent's list is set from it, or marked for lookup).
+#[inline(always)]
+pub(super) fn apply_state(
+    lat: &mut Lattice,
+    cand_of: &mut [u32],
+    (cache, known_states): (&[(u64, u32)], &FxHashMap<u64, u32>),
+    a: usize,
+    (mask, val): (u64, u64),
+) -> Option<([u8; 5], [u8; 5], bool)> {
+    let old = lat.state[a];
+    let o = state_key(&old);
+    let v = (o & !mask) | val;
+    if v == o {
+        return None;
+    }
+    let new: [u8; 5] = v.to_le_bytes()[..5].try_into().expect("five bytes");
+    lat.state[a] = new;
+    let idx = cached(cache, v).or_else(|| known_states.get(&v).copied());
+    cand_of[a] = idx.unwrap_or(NO_LIST);
+    Some((old, new, idx.is_some()))
+}
+
+/// A state pattern as (mask of the characters it sets, their values) over state keys.
+pub(super) fn pat_bits(pat: &TextPat) -> (u64, u64) {
+    let (mut mask, mut val) = ([0u8; 8], [0u8; 8]);
+    for (i, p) in pat.iter().enumerate() {
+        if let Some(p) = p {
+            mask[i] = 0xff;
+            val[i] = *p;
+        }
+    }
+    (u64::from_le_bytes(mask), u64::from_le_bytes(val))
+}
+
+/// An offset's value when it has no counter in it.
+pub(super) fn literal(o: &latticesim_vm::model::Offset) -> Option<[i32; 3]> {
+    let lit = |c: &Coord| match *c {
+        Coord::Lit(v) => Some(v),
+        Coord::Counter(_) => None,
+    };
+    Some([lit(&o[0])?, lit(&o[1])?, lit(&o[2])?])
+}
+
+pub(super) fn text(s: &[u8; 5]) -> String {
+    String::from_utf8_lossy(s).into_owned()
+}
+
+impl Engine {
+    pub(super) fn all_actions(&mut self, sel: &mut Selection, rep: &mut StepReport) {
+        if self.opts.static_first {
+            let prog = &self.prog;
+            let still: Vec<bool> = prog
+                .rules
+                .iter()
+                .map(|r| r.moves.is_none() && r.swaps.is_none())
+                .collect();
+            let moving: Vec<bool> = still.iter().map(|s| !s).collect();
+            self.later.clear();
+            self.actions(sel, rep, Some((&still, true)));
+            self.actions(sel, rep, Some((&moving, false)));
+        } else {
+            self.actions(sel, rep, None);
+        }
+    }
+
+    /// Paper step 2 for all selected rules, or with `--static-first` for the rules one
+    /// pass takes (`pass`: which rules, and whether it is the first, static one). An agent
+    /// executing several rules has its conflicts judged over all of them in the first pass
+    /// ([`Engine::split_intent`]), whose second half waits in `later` for the second.
+    pub(super) fn actions(
+        &mut self,
+        sel: &mut Selection,
+        rep: &mut StepReport,
+        pass: Option<(&[bool], bool)>,
+    ) {
+        let every = pass.is_none();
+        let pick = |r: u32| pass.is_none_or(|p| p.0[r as usize]);
+        let n = self.lat.len();
+        // Rules with nothing to do in this phase (only calculations and sends) are left out;
+        // only the agents with something to do get an intent.
+        if self.acting == Acting::Nothing {
+            return;
+        }
+        let mut todo = std::mem::take(&mut self.todo);
+        todo.clear();
+        // Without tracing (which reports state changes after moves), an agent whose one
+        // rule only sets the state does so at once: no other action of the step reads
+        // states. When the selection is decided by states alone, its entry is also set at
+        // once to the rule of its new state (see `set_state_at_once`).
+        let direct = !self.opts.trace;
+        let keep = self.sel_by_state && !self.any_prio && !self.opts.static_first;
+        let (mut changed, mut lookups) = (false, false);
+        let mut rs: Vec<u32> = Vec::new();
+        let simple = every && sel.many.is_empty();
+        // When every rule's actions are a plain move (or none) and no agent executes several
+        // rules, the step's actions are the list of moves, collected in one tight loop.
+        let plain_moves = simple && self.acting == Acting::PlainMoves;
+        // When the selection is kept (decided by states alone) and every rule's actions
+        // only set the state, each agent takes its candidate list's hop, known per list,
+        // in one tight loop (`hop_run`); the loop stops at each agent whose list has no hop
+        // yet (or whose new state's rules need evaluating), which goes the general way.
+        let hops = simple && keep && direct && self.acting == Acting::States;
+        if plain_moves {
+            let plain = &self.plain_moves;
+            for (a, &r) in sel.one.iter().enumerate() {
+                if let Some(&Some(o)) = plain.get(r as usize) {
+                    todo.moves.push((a as u32, o));
+                }
+            }
+        } else if hops {
+            let mut a = 0;
+            loop {
+                a = hop_run(
+                    a,
+                    (&mut self.cand_of, &mut self.lat.state, &mut sel.one),
+                    &self.cand_hop,
+                    &mut self.cand_hopped,
+                );
+                if a >= n {
+                    break;
+                }
+                let r = sel.one[a];
+                if r != NO_RULE {
+                    let (c, l) = self.one_rule(&mut todo, a, r, (direct, keep), sel);
+                    changed |= c;
+                    lookups |= l;
+                }
+                a += 1;
+            }
+        }
+        // Otherwise, every agent in turn.
+        let agents = if plain_moves || hops { 0 } else { n };
+        for a in 0..agents {
+            let r = sel.one[a];
+            if r == NO_RULE {
+                continue;
+            }
+            if r & MANY == 0 {
+                // One rule: nothing can conflict.
+                if pick(r) {
+                    let (c, l) = self.one_rule(&mut todo, a, r, (direct, keep), sel);
+                    changed |= c;
+                    lookups |= l;
+                }
+                continue;
+            }
+            let acts = &self.has_actions;
+            rs.clear();
+            if let Some((still, first)) = pass {
+                let it = if first {
+                    rs.extend((sel.of(a).iter().copied()).filter(|&r| acts[r as usize]));
+                    let (now, later) = self.split_intent(a, &rs, still, rep);
+                    self.later.push((a as u32, later));
+                    now
+                } else {
+                    match self.later.binary_search_by_key(&(a as u32), |l| l.0) {
+                        Ok(k) => self.later[k].1,
+                        Err(_) => continue,
+                    }
+                };
+                todo.add(a as u32, &it);
+                continue;
+            }
+            rs.extend((sel.of(a).iter().copied()).filter(|&r| pick(r) && acts[r as usize]));
+            match rs[..] {
+                [] => {}
+                [r] => self.add_rule_actions(&mut todo, a as u32, r),
+                _ => {
+                    let it = self.combined_intent(a, &rs, rep);
+                    todo.add(a as u32, &it);
+                }
+            }
+        }
+        self.count_hops();
+        let letters = todo
+            .links
+            .iter()
+            .any(|l| l.1.iter().any(|&l| l != AttachLetter::Keep));
+        let moves = !todo.moves.is_empty() || !todo.blocked.is_empty();
+        // Bonds change only with attachment letters, or when attached agents move.
+        // (A fold rather than `any`: it runs over whole vectors of bonds.)
+        let attached = || self.lat.attach.iter().fold(0, |acc, &b| acc | b) != 0;
+        if letters || (moves && attached()) {
+            let dense = todo.dense(n);
+            self.detach_move_attach(&dense, rep);
+        } else if moves {
+            self.move_alone(&mut todo.moves, rep);
+        }
+        // 5. State updates, in agent order.
+        for &(a, bits) in &todo.states {
+            let Some((old, new, known)) = apply_state(
+                &mut self.lat,
+                &mut self.cand_of,
+                (&self.cand_cache, &self.candidates),
+                a as usize,
+                bits,
+            ) else {
+                continue;
+            };
+            changed = true;
+            lookups |= !known;
+            if self.opts.trace {
+                rep.trace.push(TraceEvent::State {
+                    agent: a,
+                    from: text(&old),
+                    to: text(&new),
+                });
+            }
+        }
+        // Agents whose state changed and whose rules the cache did not know look them up
+        // again; any change of state ends the reuse of the selection.
+        self.cand_dirty |= lookups;
+        self.states_changed |= changed;
+        if todo.links.iter().any(|l| l.2.is_some()) {
+            self.swaps(&todo.links, &todo.no_swap, rep);
+        }
+        self.todo = todo;
+    }
+
+    /// The combined actions of agent `a` executing several rules `rs`: where they ask for
+    /// different things, a conflict is recorded and that part is left out.
+    pub(super) fn combined_intent(&mut self, a: usize, rs: &[u32], rep: &mut StepReport) -> Intent {
+        let nd = self.lat.dim.dirs();
+        let mut it = Intent::default();
+        let mut moves: Vec<(u32, [i32; 3])> = Vec::new();
+        let mut swaps: Vec<(u32, Dir)> = Vec::new();
+        let mut letters: Vec<Option<(u32, AttachLetter)>> = vec![None; nd];
+        let mut conflict_dirs = 0u8;
+        let mut chars: [Option<(u32, u8)>; 5] = [None; 5];
+        let mut conflict_chars = 0u8;
+        for &r in rs {
+            let info = &self.prog.rules[r as usize];
+            if let Some(off) = info.moves {
+                let env = SelEnv {
+                    lat: &self.lat,
+                    a: a as u32,
+                    prio: None,
+                };
+                let o = latticesim_vm::eval::resolve(&self.prog.offsets[off as usize], &env);
+                if o != [0, 0, 0] && !moves.iter().any(|m| m.1 == o) {
+                    moves.push((r, o));
+                }
+            }
+            if let Some(d) = info.swaps {
+                if !swaps.iter().any(|s| s.1 == d) {
+                    swaps.push((r, d));
+                }
+            }
+            if let Some(l) = info.attaches {
+                let ls = self.prog.letters[l as usize];
+                for d in 0..nd {
+                    match letters[d] {
+                        None => letters[d] = Some((r, ls[d])),
+                        Some((_, prev)) if prev != ls[d] => conflict_dirs |= 1 << d,
+                        _ => {}
+                    }
+                }
+            }
+            if let Some(p) = info.sets_state {
+                let pat = self.prog.pats[p as usize];
+                for (i, c) in pat.iter().enumerate() {
+                    if let Some(c) = *c {
+                        match chars[i] {
+                            None => chars[i] = Some((r, c)),
+                            Some((_, prev)) if prev != c => conflict_chars |= 1 << i,
+                            _ => {}
+                        }
+                    }
+                }
+            }
+        }
+        let a32 = a as u32;
+        match moves.len() {
+            0 => {}
+            1 => it.mv = Some(moves[0].1),
+            _ => {
+                it.mv_bad = true;
+                let msg = format!(
+                    "agent {a} is asked for different moves by rules {}; its group does not move",
+                    moves
+                        .iter()
+                        .map(|(r, o)| format!("`{}` ({},{})", self.rule_name(*r), o[0], o[1]))
+                        .collect::<Vec<_>>()
+                        .join(" and ")
+                );
+                self.record(rep, RecordKind::MoveConflict, &[a32], msg);
+            }
+        }
+        match swaps.len() {
+            0 => {}
+            1 => it.swap = Some(swaps[0].1),
+            _ => {
+                it.swap_bad = true;
+                let msg = format!(
+                    "agent {a} is asked to swap in different directions by rules {}; it takes part in no swap",
+                    swaps.iter().map(|(r, d)| format!("`{}` (X{})", self.rule_name(*r), d.letter())).collect::<Vec<_>>().join(" and ")
+                );
+                self.record(rep, RecordKind::SwapConflict, &[a32], msg);
+            }
+        }
+        for d in 0..nd {
+            if conflict_dirs & (1 << d) != 0 {
+                let msg = format!(
+                    "agent {a}'s rules give different attachment letters towards {}; that direction counts as `*`",
+                    Dir::ALL[d].letter()
+                );
+                self.record(rep, RecordKind::AttachConflict, &[a32], msg);
+            } else if let Some((_, l)) = letters[d] {
+                it.letters[d] = l;
+            }
+        }
+        for i in 0..5 {
+            if conflict_chars & (1 << i) != 0 {
+                let msg = format!(
+                    "agent {a}'s rules set character {} of the state differently; it is left unchanged",
+                    i + 1
+                );
+                self.record(rep, RecordKind::StateConflict, &[a32], msg);
+            } else if let Some((_, c)) = chars[i] {
+                it.state[i] = Some(c);
+            }
+        }
+        it
+    }
+
+    /// With `--static-first`: the combined intent of agent `a` executing rules `rs` (its
+    /// conflicts judged and recorded over all of them), split into what its static rules
+    /// (`still`) do in the first pass and what its moving rules do in the second.
+    pub(super) fn split_intent(
+        &mut self,
+        a: usize,
+        rs: &[u32],
+        still: &[bool],
+        rep: &mut StepReport,
+    ) -> (Intent, Intent) {
+        let all = self.combined_intent(a, rs, rep);
+        let mut now = Intent::default();
+        let mut later = Intent {
+            mv: all.mv,
+            mv_bad: all.mv_bad,
+            swap: all.swap,
+            swap_bad: all.swap_bad,
+            ..Intent::default()
+        };
+        for &r in rs {
+            let info = &self.prog.rules[r as usize];
+            let half = if still[r as usize] {
+                &mut now
+            } else {
+                &mut later
+            };
+            if let Some(l) = info.attaches {
+                let ls = &self.prog.letters[l as usize];
+                for d in 0..self.lat.dim.dirs() {
+                    if ls[d] != AttachLetter::Keep {
+                        half.letters[d] = all.letters[d];
+                    }
+                }
+            }
+            if let Some(p) = info.sets_state {
+                for (i, c) in self.prog.pats[p as usize].iter().enumerate() {
+                    if c.is_some() {
+                        half.state[i] = all.state[i];
+                    }
+                }
+            }
+        }
+        (now, later)
+    }
+
+    /// Agent `a`, whose one rule `r` only sets the state (as [`pat_bits`] `bits`), takes its
+    /// new state now. With `keep` (the selection is decided by states alone), an agent whose
+    /// rule its state alone decides goes to the state that rule makes of it, remembered per
+    /// state, and its selection entry is set to that state's rule for the next step (when
+    /// neither rule calculates: the calculations of this step read the entry). Returns
+    /// whether the state changed without the selection following, and whether the new
+    /// state's rules must be looked up.
+    pub(super) fn set_state_at_once(
+        &mut self,
+        a: usize,
+        r: u32,
+        bits: (u64, u64),
+        keep: bool,
+        sel: &mut Selection,
+    ) -> (bool, bool) {
+        let idx = self.cand_of[a];
+        if keep && idx != NO_LIST && self.cand_single[idx as usize] == r {
+            let i = idx as usize;
+            if self.cand_hop[i].to == NO_LIST {
+                self.cand_hop[i] = self.hop(idx, r, bits);
+            }
+            let hop = self.cand_hop[i];
+            if hop.to == idx {
+                return (false, false);
+            }
+            if hop.to != NO_LIST && hop.next != EVALUATE {
+                let agent = (
+                    &mut self.cand_of[a],
+                    &mut self.lat.state[a],
+                    &mut sel.one[a],
+                );
+                hop.take(agent, &mut self.cand_hopped[i]);
+                return (false, false);
+            }
+        }
+        match apply_state(
+            &mut self.lat,
+            &mut self.cand_of,
+            (&self.cand_cache, &self.candidates),
+            a,
+            bits,
+        ) {
+            Some((_, _, known)) => (true, !known),
+            None => (false, false),
+        }
+    }
+
+    /// The actions of agent `a` executing rule `r` alone: a plain move listed, a state set
+    /// at once (with `direct`; `keep` as for [`Engine::set_state_at_once`], whose answer
+    /// is returned), or the rule's actions added to `todo`.
+    #[inline(always)]
+    pub(super) fn one_rule(
+        &mut self,
+        todo: &mut Actions,
+        a: usize,
+        r: u32,
+        (direct, keep): (bool, bool),
+        sel: &mut Selection,
+    ) -> (bool, bool) {
+        if let Some(o) = self.plain_moves[r as usize] {
+            todo.moves.push((a as u32, o));
+        } else if self.has_actions[r as usize] {
+            match self.direct_bits[r as usize] {
+                Some(bits) if direct => return self.set_state_at_once(a, r, bits, keep, sel),
+                _ => self.add_rule_actions(todo, a as u32, r),
+            }
+        }
+        (false, false)
+    }
+
+    /// Adds the actions of agent `a` executing rule `r` alone to `todo`.
+    #[inline(always)]
+    pub(super) fn add_rule_actions(&self, todo: &mut Actions, a: u32, r: u32) {
+        let info = &self.prog.rules[r as usize];
+        if let Some(off) = info.moves {
+            let o = match self.literal_offsets[off as usize] {
+                Some(o) => o,
+                None => {
+                    let env = SelEnv {
+                        lat: &self.lat,
+                        a,
+                        prio: None,
+                    };
+                    latticesim_vm::eval::resolve(&self.prog.offsets[off as usize], &env)
+                }
+            };
+            if o != [0, 0, 0] {
+                todo.moves.push((a, o));
+            }
+        }
+        if info.attaches.is_some() || info.swaps.is_some() {
+            let letters = info
+                .attaches
+                .map_or([AttachLetter::Keep; 6], |l| self.prog.letters[l as usize]);
+            todo.links.push((a, letters, info.swaps));
+        }
+        if let Some(p) = info.sets_state {
+            todo.states.push((a, pat_bits(&self.prog.pats[p as usize])));
+        }
+    }
+}

@@ -1,0 +1,586 @@
+//! The column interpreter: preconditions and calculations run over a run of agents at
+//! once, a column per value (`batch_pre`, `run_batch`), with the most frequent calculations
+//! in place (`fast_calc`, chains of `max`/`min`). The engine takes this path only for the
+//! rules its plan marks as batchable.
+
+use super::*;
+
+/// Stack depth of [`batch_pre`].
+pub(super) const PRE_STACK: usize = 6;
+
+/// The working space of [`batch_pre`], made once for a chunk of agents rather than at
+/// each call (a call may evaluate a run of a few agents): its stack of truth values and
+/// its two operands.
+pub(super) struct PreBufs {
+    pub(super) stack: [[bool; BATCH]; PRE_STACK],
+    pub(super) x: [i32; BATCH],
+    pub(super) y: [i32; BATCH],
+}
+
+impl PreBufs {
+    pub(super) fn new() -> Box<PreBufs> {
+        Box::new(PreBufs {
+            stack: [[false; BATCH]; PRE_STACK],
+            x: [0; BATCH],
+            y: [0; BATCH],
+        })
+    }
+}
+
+/// Whether a precondition can be evaluated by [`batch_pre`]: only terms about the agent
+/// itself and its neighbours (no priorities, offsets, texts or remote counters), within
+/// its stack depth.
+pub(super) fn pre_batchable(code: &[Op]) -> bool {
+    let mut depth = 0usize;
+    for op in code {
+        match op {
+            Op::True {} | Op::Nbr { .. } | Op::Att { .. } | Op::State { .. } => depth += 1,
+            Op::Cmp { a, b, .. }
+                if ![a, b]
+                    .iter()
+                    .any(|v| matches!(v, Val::Ext(_) | Val::Msg { dir: ANY_DIR, .. })) =>
+            {
+                depth += 1
+            }
+            Op::Not {} | Op::Jf { .. } => {}
+            Op::And {} => depth = depth.saturating_sub(1),
+            _ => return false,
+        }
+        if depth > PRE_STACK {
+            return false;
+        }
+    }
+    true
+}
+
+/// Evaluates rule `r`'s precondition (which [`pre_batchable`] accepted, in a program
+/// without priority terms) for agents `first..first + out.len()` at once, one instruction
+/// over all of them. Short-circuit jumps are not taken: the terms have no side effects and
+/// a false left operand makes the conjunction false either way.
+pub(super) fn batch_pre(
+    prog: &Program,
+    (r, first): (u32, usize),
+    lat: &Lattice,
+    bufs: &mut PreBufs,
+    out: &mut [bool],
+) {
+    let m = out.len();
+    let info = &prog.rules[r as usize];
+    let code = &prog.code[info.pre.start as usize..info.pre.end as usize];
+    let PreBufs { stack, x, y } = bufs;
+    let mut sp = 0;
+    let nd = lat.dim.dirs();
+    let load = |v: Val, into: &mut [i32]| match v {
+        Val::Lit(c) => into.fill(c as i32),
+        Val::Counter(c) => match lat.counter_col[c as usize] {
+            NO_COL => into.fill(0),
+            col => {
+                for (t, &s) in into
+                    .iter_mut()
+                    .zip(&lat.counters[col as usize][first..first + m])
+                {
+                    *t = s as i32;
+                }
+            }
+        },
+        Val::Msg { dir, slot } => {
+            for (j, t) in into.iter_mut().enumerate() {
+                *t = lat.inbox((first + j) as u32, dir, slot) as i32;
+            }
+        }
+        Val::Ext(_) => unreachable!("not batched"),
+    };
+    for op in code {
+        match *op {
+            Op::True {} => {
+                stack[sp][..m].fill(true);
+                sp += 1;
+            }
+            Op::Nbr { mask, want } => {
+                // Only the directions the term asks about are looked at.
+                let top = &mut stack[sp][..m];
+                top.fill(true);
+                for d in (0..nd).filter(|d| mask & (1 << d) != 0) {
+                    let filled = want & (1 << d) != 0;
+                    lat.keep_if_filled(first, d, filled, top);
+                }
+                sp += 1;
+            }
+            Op::Att { mask, want } => {
+                for (t, &at) in stack[sp][..m].iter_mut().zip(&lat.attach[first..first + m]) {
+                    *t = at & mask == want & mask;
+                }
+                sp += 1;
+            }
+            Op::State { pat } => {
+                let p = &prog.pats[pat as usize];
+                for (t, st) in stack[sp][..m].iter_mut().zip(&lat.state[first..first + m]) {
+                    *t = latticesim_vm::eval::matches(p, st);
+                }
+                sp += 1;
+            }
+            // A counter against a literal: compared straight from its column.
+            Op::Cmp {
+                op,
+                a: Val::Counter(c),
+                b: Val::Lit(v),
+            } if lat.counter_col[c as usize] != NO_COL => {
+                let col = &lat.counters[lat.counter_col[c as usize] as usize][first..first + m];
+                let top = stack[sp][..m].iter_mut().zip(col);
+                match op {
+                    CmpOp::Lt => top.for_each(|(t, &p)| *t = p < v),
+                    CmpOp::Gt => top.for_each(|(t, &p)| *t = p > v),
+                    CmpOp::Eq => top.for_each(|(t, &p)| *t = p == v),
+                }
+                sp += 1;
+            }
+            Op::Cmp { op, a, b } => {
+                load(a, &mut x[..m]);
+                load(b, &mut y[..m]);
+                let top = stack[sp][..m].iter_mut().zip(&x[..m]).zip(&y[..m]);
+                // One loop per operator, so that each is a vector compare.
+                match op {
+                    CmpOp::Lt => top.for_each(|((t, &p), &q)| *t = p < q),
+                    CmpOp::Gt => top.for_each(|((t, &p), &q)| *t = p > q),
+                    CmpOp::Eq => top.for_each(|((t, &p), &q)| *t = p == q),
+                }
+                sp += 1;
+            }
+            Op::Not {} => stack[sp - 1][..m].iter_mut().for_each(|t| *t = !*t),
+            Op::And {} => {
+                sp -= 1;
+                let (low, high) = stack.split_at_mut(sp);
+                for (t, &u) in low[sp - 1][..m].iter_mut().zip(&high[0][..m]) {
+                    *t &= u;
+                }
+            }
+            Op::Jf { .. } => {}
+            _ => unreachable!("not batched"),
+        }
+    }
+    out.copy_from_slice(&stack[0][..m]);
+}
+
+/// The most frequent calculations over a run of agents, without a detour through 32-bit
+/// temporaries: `Cxx = Cxx max/min (message or literal)` in place (cannot saturate),
+/// `Cxx = Cxx +/- literal` in place when no result saturates, and sending a counter as it
+/// is (`x + 0`, `x - 0`). Returns false for anything else.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub(super) fn fast_calc(
+    lat: &Lattice,
+    ch: &mut CalcChunk<'_>,
+    ks: std::ops::Range<usize>,
+    first: usize,
+    (target, op, a, b): (Target, CalcOp, Val, Val),
+    buf: &mut ([i16; BATCH], [usize; 6]),
+) -> bool {
+    let len = ks.len();
+    match (target, op, a, b) {
+        (Target::Counter(c), CalcOp::Max | CalcOp::Min, Val::Counter(ca), b) if ca == c => {
+            let col = &mut ch.counters[lat.counter_col[c as usize] as usize][ks];
+            let max = op == CalcOp::Max;
+            match b {
+                Val::Lit(v) if max => col.iter_mut().for_each(|t| *t = (*t).max(v)),
+                Val::Lit(v) => col.iter_mut().for_each(|t| *t = (*t).min(v)),
+                Val::Msg { dir, slot } if dir != ANY_DIR => {
+                    let src = lat.inbox_run(first, (dir, slot), &mut buf.0[..len], &mut buf.1);
+                    if max {
+                        col.iter_mut().zip(src).for_each(|(t, &v)| *t = (*t).max(v));
+                    } else {
+                        col.iter_mut().zip(src).for_each(|(t, &v)| *t = (*t).min(v));
+                    }
+                }
+                _ => return false,
+            }
+            true
+        }
+        // `Cxx = Cxx + v` or `Cxx = Cxx - v` in place, when no result saturates.
+        (Target::Counter(c), CalcOp::Add | CalcOp::Sub, Val::Counter(ca), Val::Lit(v))
+            if ca == c =>
+        {
+            let col = &mut ch.counters[lat.counter_col[c as usize] as usize][ks];
+            let v = if op == CalcOp::Add {
+                v as i32
+            } else {
+                -(v as i32)
+            };
+            let fits = |t: i16| (-32767..=32767).contains(&(t as i32 + v));
+            if !col.iter().fold(true, |ok, &t| ok & fits(t)) {
+                return false;
+            }
+            col.iter_mut().for_each(|t| *t = (*t as i32 + v) as i16);
+            true
+        }
+        (Target::Msg { dir, slot }, CalcOp::Add | CalcOp::Sub, Val::Counter(c), Val::Lit(0)) => {
+            let src = lat.counter_col[c as usize] as usize;
+            let cols = ch.send_cols(lat, dir, slot);
+            for &col in cols.write() {
+                let (counters, out) = (
+                    &ch.counters[src][ks.clone()],
+                    &mut ch.out_num[col][ks.clone()],
+                );
+                out.copy_from_slice(counters);
+                set_bits(ch.out_has[col], ks.clone());
+            }
+            for &col in cols.clear() {
+                clear_bits(ch.out_has[col], ks.clone());
+            }
+            true
+        }
+        _ => false,
+    }
+}
+
+/// How many instructions at the start of `code` (none, or two to six) are a chain of
+/// `Cxx = Cxx max #Dss` on one counter (or of `min`, not mixed), each with a message
+/// from one direction, which [`chain_in_place`] runs in one pass.
+#[inline]
+pub(super) fn max_chain(code: &[Op]) -> usize {
+    let link = |op: &Op| match *op {
+        Op::Calc {
+            target: Target::Counter(c),
+            op: op @ (CalcOp::Max | CalcOp::Min),
+            a: Val::Counter(ca),
+            b: Val::Msg { dir, .. },
+        } if ca == c && dir != ANY_DIR => Some((c, op)),
+        _ => None,
+    };
+    let Some(first) = code.first().and_then(link) else {
+        return 0;
+    };
+    let n = code
+        .iter()
+        .take(6)
+        .take_while(|op| link(op) == Some(first))
+        .count();
+    if n >= 2 {
+        n
+    } else {
+        0
+    }
+}
+
+/// Runs a chain of in-place max/min with messages ([`max_chain`]) over agents `ks` of the
+/// chunk: the messages of each link are read first (the first into `buf`, the others into
+/// `more`), then the counter is read and written once. Max and min of values within
+/// +-32767 cannot saturate, so nothing is recorded.
+pub(super) fn chain_in_place(
+    lat: &Lattice,
+    (ch, more): (&mut CalcChunk<'_>, &mut Vec<[i16; BATCH]>),
+    (chain, ks): (&[Op], std::ops::Range<usize>),
+    (first_buf, hint): &mut ([i16; BATCH], [usize; 6]),
+) {
+    let (len, first) = (ks.len(), ch.lo + ks.start);
+    if more.len() < chain.len() - 1 {
+        more.resize(chain.len() - 1, [0; BATCH]);
+    }
+    let mut bufs = std::iter::once(first_buf).chain(more.iter_mut());
+    let mut srcs: [&[i16]; 6] = [&[]; 6];
+    let (mut c, mut max) = (0, true);
+    for (k, op) in chain.iter().enumerate() {
+        let Op::Calc {
+            target: Target::Counter(t),
+            op,
+            b: Val::Msg { dir, slot },
+            ..
+        } = *op
+        else {
+            unreachable!("a chain holds only max/min of a counter with a message");
+        };
+        (c, max) = (t, op == CalcOp::Max);
+        let out = &mut bufs.next().expect("a buffer for each link")[..len];
+        srcs[k] = lat.inbox_run(first, (dir, slot), out, hint);
+    }
+    let col = &mut ch.counters[lat.counter_col[c as usize] as usize][ks];
+    if max {
+        fold_in_place(col, &srcs[..chain.len()], i16::max);
+    } else {
+        fold_in_place(col, &srcs[..chain.len()], i16::min);
+    }
+}
+
+/// `col[j] = f(...f(f(col[j], srcs[0][j]), srcs[1][j])...)` in passes of up to four
+/// sources each (vectorised).
+#[inline(always)]
+pub(super) fn fold_in_place(col: &mut [i16], srcs: &[&[i16]], f: impl Fn(i16, i16) -> i16 + Copy) {
+    let n = col.len();
+    match *srcs {
+        [] => {}
+        [a] => col
+            .iter_mut()
+            .zip(&a[..n])
+            .for_each(|(t, &x)| *t = f(*t, x)),
+        [a, b] => {
+            let ab = a[..n].iter().zip(&b[..n]);
+            col.iter_mut()
+                .zip(ab)
+                .for_each(|(t, (&x, &y))| *t = f(f(*t, x), y));
+        }
+        [a, b, c] => {
+            let abc = a[..n].iter().zip(&b[..n]).zip(&c[..n]);
+            col.iter_mut()
+                .zip(abc)
+                .for_each(|(t, ((&x, &y), &z))| *t = f(f(f(*t, x), y), z));
+        }
+        [a, b, c, d, ref rest @ ..] => {
+            let abcd = a[..n].iter().zip(&b[..n]).zip(&c[..n]).zip(&d[..n]);
+            col.iter_mut()
+                .zip(abcd)
+                .for_each(|(t, (((&x, &y), &z), &w))| *t = f(f(f(f(*t, x), y), z), w));
+            fold_in_place(col, rest, f);
+        }
+    }
+}
+
+/// Agents per inner batch of [`run_batch`], [`batch_pre`] and the post office.
+pub(super) const BATCH: usize = 1024;
+
+/// The working space of [`run_batch`], made once for a chunk of agents rather than at each
+/// call (a call may run a few agents): the two operands, whether each agent's result
+/// stands (all true between instructions), and the messages read with the post office's
+/// hints (see [`Lattice::inbox_run`]).
+pub(super) struct CalcBufs {
+    pub(super) x: [i32; BATCH],
+    pub(super) y: [i32; BATCH],
+    pub(super) ok: [bool; BATCH],
+    pub(super) msgs: ([i16; BATCH], [usize; 6]),
+    /// The messages of a chain of in-place max/min beyond the first (see [`max_chain`]),
+    /// made at the first chain.
+    pub(super) more: Vec<[i16; BATCH]>,
+}
+
+impl CalcBufs {
+    pub(super) fn new() -> Box<CalcBufs> {
+        Box::new(CalcBufs {
+            x: [0; BATCH],
+            y: [0; BATCH],
+            ok: [true; BATCH],
+            msgs: ([0; BATCH], [0; 6]),
+            more: Vec::new(),
+        })
+    }
+}
+
+/// Runs rule `r`'s calculations and sends for the chunk's agents `range` (all of which
+/// execute `r` alone), one instruction at a time over up to [`BATCH`] agents. The results,
+/// and the issues (in agent order, then instruction order), are those of [`run_post`] run
+/// for each agent in turn: an agent's instructions touch only its own counters and outbox.
+pub(super) fn run_batch(
+    prog: &Program,
+    r: u32,
+    lat: &Lattice,
+    (ch, bufs): (&mut CalcChunk<'_>, &mut CalcBufs),
+    range: std::ops::Range<usize>,
+    issues: &mut Vec<(u32, u32, CalcIssue)>,
+) {
+    let info = &prog.rules[r as usize];
+    let code = &prog.code[info.post.start as usize..info.post.end as usize];
+    let nd = lat.dim.dirs();
+    let mut found: Vec<(u32, CalcIssue)> = Vec::new();
+    let CalcBufs {
+        x,
+        y,
+        ok,
+        msgs: buf,
+        more,
+    } = bufs;
+    let mut start = range.start;
+    while start < range.end {
+        let len = (range.end - start).min(BATCH);
+        let ks = start..start + len;
+        let first = ch.lo + start;
+        let mut i = 0;
+        while i < code.len() {
+            // A chain of in-place max (or min) with messages: one pass over the counter.
+            let chain = max_chain(&code[i..]);
+            if chain >= 2 {
+                chain_in_place(
+                    lat,
+                    (ch, &mut *more),
+                    (&code[i..i + chain], ks.clone()),
+                    buf,
+                );
+                i += chain;
+                continue;
+            }
+            i += 1;
+            match code[i - 1] {
+                Op::Send { dir, text } => {
+                    let t = prog.texts[text as usize];
+                    for d in CalcChunk::text_dirs(lat, dir) {
+                        for k in ks.clone() {
+                            ch.out_text[k * nd + d] = t;
+                            ch.out_text_bits[k] |= 1 << d;
+                        }
+                    }
+                }
+                Op::Calc { target, op, a, b }
+                    if fast_calc(lat, ch, ks.clone(), first, (target, op, a, b), buf) => {}
+                Op::Calc { target, op, a, b } => {
+                    let mut load = |v: Val, into: &mut [i32], ch: &CalcChunk<'_>| match v {
+                        Val::Lit(c) => into.fill(c as i32),
+                        Val::Counter(c) => {
+                            let col = &ch.counters[lat.counter_col[c as usize] as usize];
+                            for (t, &s) in into.iter_mut().zip(&col[ks.clone()]) {
+                                *t = s as i32;
+                            }
+                        }
+                        Val::Msg { dir, slot } => {
+                            let src =
+                                lat.inbox_run(first, (dir, slot), &mut buf.0[..len], &mut buf.1);
+                            for (t, &s) in into.iter_mut().zip(src) {
+                                *t = s as i32;
+                            }
+                        }
+                        Val::Ext(_) => unreachable!("rules with external counters are not batched"),
+                    };
+                    load(a, &mut x[..len], ch);
+                    load(b, &mut y[..len], ch);
+                    let (xs, ys) = (&mut x[..len], &y[..len]);
+                    let mut all_ok = true;
+                    match op {
+                        CalcOp::Max => xs.iter_mut().zip(ys).for_each(|(p, &q)| *p = (*p).max(q)),
+                        CalcOp::Min => xs.iter_mut().zip(ys).for_each(|(p, &q)| *p = (*p).min(q)),
+                        CalcOp::Add => xs.iter_mut().zip(ys).for_each(|(p, &q)| *p += q),
+                        CalcOp::Sub => xs.iter_mut().zip(ys).for_each(|(p, &q)| *p -= q),
+                        CalcOp::Mul => xs.iter_mut().zip(ys).for_each(|(p, &q)| *p *= q),
+                        CalcOp::Div | CalcOp::Mod => {
+                            for (j, (p, &q)) in xs.iter_mut().zip(ys).enumerate() {
+                                ok[j] = q != 0;
+                                all_ok &= q != 0;
+                                if q == 0 {
+                                    found.push(((first + j) as u32, CalcIssue::DivisionByZero));
+                                } else if op == CalcOp::Div {
+                                    *p /= q;
+                                } else {
+                                    *p %= q;
+                                }
+                            }
+                        }
+                    }
+                    // Saturation (operands are within +-32767, so i32 holds every result).
+                    if xs.iter().any(|&v| !(-32767..=32767).contains(&v)) {
+                        for (j, v) in xs.iter_mut().enumerate() {
+                            if ok[j] && !(-32767..=32767).contains(v) {
+                                found.push((
+                                    (first + j) as u32,
+                                    CalcIssue::Saturated { exact: *v as i64 },
+                                ));
+                                *v = (*v).clamp(-32767, 32767);
+                            }
+                        }
+                    }
+                    let xs = &x[..len];
+                    let keep = |j: usize| all_ok || ok[j];
+                    match target {
+                        Target::Counter(c) => {
+                            let col =
+                                &mut ch.counters[lat.counter_col[c as usize] as usize][ks.clone()];
+                            if all_ok {
+                                col.iter_mut().zip(xs).for_each(|(t, &v)| *t = v as i16);
+                            } else {
+                                for (j, (t, &v)) in col.iter_mut().zip(xs).enumerate() {
+                                    if keep(j) {
+                                        *t = v as i16;
+                                    }
+                                }
+                            }
+                        }
+                        Target::Msg { dir, slot } => {
+                            let cols = ch.send_cols(lat, dir, slot);
+                            for &c in cols.clear() {
+                                let bits = &mut *ch.out_has[c];
+                                if all_ok {
+                                    clear_bits(bits, ks.clone());
+                                } else {
+                                    for k in ks.clone().filter(|&k| keep(k - start)) {
+                                        bits[k >> 6] &= !(1 << (k & 63));
+                                    }
+                                }
+                            }
+                            for &c in cols.write() {
+                                let col = &mut ch.out_num[c][ks.clone()];
+                                let bits = &mut *ch.out_has[c];
+                                if all_ok {
+                                    col.iter_mut().zip(xs).for_each(|(t, &v)| *t = v as i16);
+                                    set_bits(bits, ks.clone());
+                                } else {
+                                    for (j, (t, &v)) in col.iter_mut().zip(xs).enumerate() {
+                                        if keep(j) {
+                                            *t = v as i16;
+                                            let k = start + j;
+                                            bits[k >> 6] |= 1 << (k & 63);
+                                        }
+                                    }
+                                }
+                            }
+                        }
+                    }
+                    if !all_ok {
+                        ok[..len].fill(true);
+                    }
+                }
+                _ => {}
+            }
+        }
+        // Issues in agent order, then instruction order (the sort is stable).
+        found.sort_by_key(|f| f.0);
+        issues.extend(found.drain(..).map(|(a, i)| (a, r, i)));
+        start += len;
+    }
+}
+
+/// What the calculations of agent `a` (the `k`-th of its chunk) read and write: the
+/// lattice for positions and inboxes, and the chunk's own counters and outbox.
+pub(super) struct CalcCtx<'a, 'c, 'd> {
+    pub(super) lat: &'a Lattice,
+    pub(super) a: usize,
+    pub(super) k: usize,
+    pub(super) ch: &'c mut CalcChunk<'d>,
+    pub(super) snapshot: &'a [Vec<i16>],
+    pub(super) issues: Vec<(usize, CalcIssue)>,
+}
+
+impl CalcEnv for CalcCtx<'_, '_, '_> {
+    fn counter(&self, i: u8) -> i16 {
+        self.ch.counter(self.lat, self.k, i)
+    }
+    fn set_counter(&mut self, i: u8, v: i16) {
+        let c = self.lat.counter_col[i as usize] as usize;
+        self.ch.counters[c][self.k] = v;
+    }
+    fn inbox_num(&self, dir: u8, slot: u8) -> i16 {
+        self.lat.inbox(self.a as u32, dir, slot)
+    }
+    fn external(&self, off: [i32; 2], counter: u8) -> Option<i16> {
+        match self.lat.cell_at(self.lat.pos[self.a], [off[0], off[1], 0]) {
+            Cell::Agent(b) => Some(match self.lat.counter_col[counter as usize] {
+                NO_COL => 0,
+                c => self.snapshot[c as usize][b as usize],
+            }),
+            _ => None,
+        }
+    }
+    fn send_num(&mut self, dir: u8, slot: u8, v: i16) {
+        let k = self.k;
+        let cols = self.ch.send_cols(self.lat, dir, slot);
+        for &c in cols.clear() {
+            self.ch.out_has[c][k >> 6] &= !(1 << (k & 63));
+        }
+        for &c in cols.write() {
+            self.ch.out_num[c][k] = v;
+            self.ch.out_has[c][k >> 6] |= 1 << (k & 63);
+        }
+    }
+    fn send_text(&mut self, dir: u8, text: [u8; 5]) {
+        let nd = self.lat.dim.dirs();
+        for d in CalcChunk::text_dirs(self.lat, dir) {
+            self.ch.out_text[self.k * nd + d] = text;
+            self.ch.out_text_bits[self.k] |= 1 << d;
+        }
+    }
+    fn issue(&mut self, pc: usize, issue: CalcIssue) {
+        self.issues.push((pc, issue));
+    }
+}

@@ -1,0 +1,280 @@
+//! The calculations of a step: every agent that executes a rule with calculations or sends
+//! runs them, in chunks of agents (on the pool when it pays), through the column
+//! interpreter where the plan allows and the evaluator for one agent elsewhere.
+
+use super::*;
+
+/// Splits each column into `chunks` parts of `size` (the last may be shorter) and returns,
+/// per part, that part of every column.
+pub(super) fn split_columns<T>(
+    cols: &mut [Vec<T>],
+    size: usize,
+    chunks: usize,
+) -> Vec<Vec<&mut [T]>> {
+    let mut out: Vec<Vec<&mut [T]>> = (0..chunks)
+        .map(|_| Vec::with_capacity(cols.len()))
+        .collect();
+    for col in cols {
+        for (k, part) in parts(col, size, chunks).into_iter().enumerate() {
+            out[k].push(part);
+        }
+    }
+    out
+}
+
+/// `chunks` parts of `size` of a column (empty parts when the column is empty or short).
+pub(super) fn parts<T>(col: &mut [T], size: usize, chunks: usize) -> Vec<&mut [T]> {
+    let mut out: Vec<&mut [T]> = col.chunks_mut(size.max(1)).collect();
+    out.resize_with(chunks, Default::default);
+    out
+}
+
+/// One chunk of agents as the calculation phase splits them: `len` agents from `lo` (a
+/// multiple of 64), their counter columns, numeric outbox columns and bits, text outbox.
+pub(super) struct CalcChunk<'a> {
+    pub(super) lo: usize,
+    pub(super) len: usize,
+    pub(super) counters: Vec<&'a mut [i16]>,
+    pub(super) out_num: Vec<&'a mut [i16]>,
+    pub(super) out_has: Vec<&'a mut [u64]>,
+    pub(super) out_text: &'a mut [[u8; 5]],
+    pub(super) out_text_bits: &'a mut [u8],
+}
+
+impl CalcChunk<'_> {
+    /// Counter `i` of the chunk's `k`-th agent.
+    pub(super) fn counter(&self, lat: &Lattice, k: usize, i: u8) -> i16 {
+        match lat.counter_col[i as usize] {
+            NO_COL => 0,
+            c => self.counters[c as usize][k],
+        }
+    }
+
+    /// The outbox columns a send towards `dir` (or all directions) in `slot` writes, and
+    /// those whose bits it clears: where the outboxes have a column for sends to all
+    /// directions (see `Engine::defer`), such a send writes that one and clears the
+    /// direction columns (a value there would be taken before it).
+    pub(super) fn send_cols(&self, lat: &Lattice, dir: u8, slot: u8) -> SendCols {
+        let (nd, ns, sc) = (
+            lat.dim.dirs(),
+            lat.slots as usize,
+            lat.slot_col[slot as usize] as usize,
+        );
+        let mut c = SendCols {
+            write: [0; 6],
+            nw: 0,
+            clear: [0; 6],
+            nc: 0,
+        };
+        if dir != ANY_DIR {
+            c.write[0] = dir as usize * ns + sc;
+            c.nw = 1;
+        } else if self.out_num.len() > nd * ns {
+            c.write[0] = nd * ns + sc;
+            c.nw = 1;
+            for d in 0..nd {
+                c.clear[d] = d * ns + sc;
+            }
+            c.nc = nd;
+        } else {
+            for d in 0..nd {
+                c.write[d] = d * ns + sc;
+            }
+            c.nw = nd;
+        }
+        c
+    }
+
+    /// The text outbox directions of a send towards `dir` (or all directions).
+    pub(super) fn text_dirs(lat: &Lattice, dir: u8) -> std::ops::Range<usize> {
+        if dir == ANY_DIR {
+            0..lat.dim.dirs()
+        } else {
+            dir as usize..dir as usize + 1
+        }
+    }
+}
+
+/// The outbox columns of a send: see [`CalcChunk::send_cols`].
+pub(super) struct SendCols {
+    pub(super) write: [usize; 6],
+    pub(super) nw: usize,
+    pub(super) clear: [usize; 6],
+    pub(super) nc: usize,
+}
+
+impl SendCols {
+    pub(super) fn write(&self) -> &[usize] {
+        &self.write[..self.nw]
+    }
+    pub(super) fn clear(&self) -> &[usize] {
+        &self.clear[..self.nc]
+    }
+}
+
+impl Engine {
+    /// Paper step 3, first half: every selected rule's calculations and sends.
+    ///
+    /// Each agent writes only its own counters and outbox, so the agents are split into
+    /// chunks (worked on in parallel with --threads) whose issues and trace events are
+    /// joined in agent order afterwards. Within a chunk, a run of consecutive agents that
+    /// execute the same single rule runs that rule's calculations one instruction at a
+    /// time over the whole run ([`run_batch`]), which amortises the dispatch and lets the
+    /// compiler vectorise; other agents run the rule alone ([`run_post`]).
+    pub(super) fn calculations(&mut self, sel: &Selection, rep: &mut StepReport) {
+        if !self.any_computes {
+            return;
+        }
+        self.lat.refresh_neighbours();
+        let n = self.lat.len();
+        let nd = self.lat.dim.dirs();
+        // External counters read the values at the start of this phase.
+        let snapshot = if self.prog.externals.is_empty() {
+            Vec::new()
+        } else {
+            self.lat.counters.clone()
+        };
+        let mut counters = std::mem::take(&mut self.lat.counters);
+        let mut out_num = std::mem::take(&mut self.out_num);
+        let mut out_has = std::mem::take(&mut self.out_has);
+        let mut out_text = std::mem::take(&mut self.out_text);
+        let mut out_text_bits = std::mem::take(&mut self.out_text_bits);
+        let (par, size, chunks) = self.chunks(n);
+        let mut ctr = split_columns(&mut counters, size, chunks).into_iter();
+        let mut onum = split_columns(&mut out_num, size, chunks).into_iter();
+        let mut ohas = split_columns(&mut out_has, size.div_ceil(64), chunks).into_iter();
+        let mut otext = parts(&mut out_text, size * nd, chunks).into_iter();
+        let mut otbits = parts(&mut out_text_bits, size, chunks).into_iter();
+        let items: Vec<CalcChunk<'_>> = (0..chunks)
+            .map(|c| CalcChunk {
+                lo: c * size,
+                len: size.min(n - c * size),
+                counters: ctr.next().unwrap_or_default(),
+                out_num: onum.next().unwrap_or_default(),
+                out_has: ohas.next().unwrap_or_default(),
+                out_text: otext.next().unwrap_or_default(),
+                out_text_bits: otbits.next().unwrap_or_default(),
+            })
+            .collect();
+        let (prog, lat, trace) = (&self.prog, &self.lat, self.opts.trace);
+        let batchable = &self.batchable;
+        // When every agent executes the same one rule, runs need no search.
+        let uniform = sel.many.is_empty() && self.fire_counts.contains(&(n as u64));
+        // The neighbour bits are made at the first delivery; until then it counts.
+        let (defer, has_nbr) = (self.defer, &self.has_nbr);
+        let count = defer && has_nbr.len() == nd;
+        let work = |mut ch: CalcChunk<'_>| {
+            // With messages left with their senders, the outboxes come back from the
+            // lattice holding the step before last's bits.
+            if defer {
+                ch.out_has.iter_mut().for_each(|c| c.fill(0));
+            }
+            let mut issues: Vec<(u32, u32, CalcIssue)> = Vec::new();
+            let mut events = Vec::new();
+            let mut bufs = CalcBufs::new();
+            let mut k = 0;
+            while k < ch.len {
+                let a = ch.lo + k;
+                if sel.one[a] == NO_RULE {
+                    // A run of agents executing nothing.
+                    k += run_of(&sel.one[a..ch.lo + ch.len], NO_RULE);
+                    continue;
+                }
+                let rs = sel.of(a);
+                if let [r] = *rs {
+                    if !prog.rules[r as usize].computes {
+                        k += 1;
+                        continue;
+                    }
+                    if batchable[r as usize] && !trace {
+                        let end = if uniform {
+                            ch.len
+                        } else {
+                            k + run_of(&sel.one[ch.lo + k..ch.lo + ch.len], r)
+                        };
+                        run_batch(prog, r, lat, (&mut ch, &mut bufs), k..end, &mut issues);
+                        k = end;
+                        continue;
+                    }
+                }
+                for &r in rs {
+                    if !prog.rules[r as usize].computes {
+                        continue;
+                    }
+                    let before: Vec<i16> = if trace {
+                        (0..lat.nc() as u8).map(|i| ch.counter(lat, k, i)).collect()
+                    } else {
+                        Vec::new()
+                    };
+                    let mut env = CalcCtx {
+                        lat,
+                        a,
+                        k,
+                        ch: &mut ch,
+                        snapshot: &snapshot,
+                        issues: Vec::new(),
+                    };
+                    run_post(prog, r as usize, &mut env);
+                    issues.extend(env.issues.into_iter().map(|(_, i)| (a as u32, r, i)));
+                    if trace {
+                        for (i, &old) in before.iter().enumerate() {
+                            let new = ch.counter(lat, k, i as u8);
+                            if old != new {
+                                events.push(TraceEvent::Counter {
+                                    agent: a as u32,
+                                    counter: i as u8,
+                                    value: new,
+                                });
+                            }
+                        }
+                    }
+                }
+                k += 1;
+            }
+            let counted = if count {
+                Tally::of(&ch.out_has, has_nbr, ch.lo / 64, nd, ch.len)
+            } else {
+                Tally::default()
+            };
+            (issues, events, counted)
+        };
+        let results: Vec<_> = match par {
+            Some((pool, _)) => pool.map(items, work),
+            _ => items.into_iter().map(work).collect(),
+        };
+        self.lat.counters = counters;
+        self.out_num = out_num;
+        self.out_has = out_has;
+        self.out_text = out_text;
+        self.out_text_bits = out_text_bits;
+        if count {
+            let mut tallies = results.iter().map(|r| &r.2);
+            let first = tallies.next().cloned().unwrap_or_default();
+            self.counted = Some(tallies.fold(first, |t, u| t.and(u)));
+        }
+        for (issues, events, _) in results {
+            for (a, r, issue) in issues {
+                let name = self.rule_name(r).to_string();
+                let (kind, msg) = match issue {
+                    CalcIssue::Saturated { exact } => (
+                        RecordKind::Saturation,
+                        format!("agent {a}, rule `{name}`: the result {exact} is saturated to the 16-bit range"),
+                    ),
+                    CalcIssue::DivisionByZero => (
+                        RecordKind::DivisionByZero,
+                        format!("agent {a}, rule `{name}`: division by zero; the target is unchanged"),
+                    ),
+                    CalcIssue::NoExternalAgent { off } => (
+                        RecordKind::NoExternalAgent,
+                        format!(
+                            "agent {a}, rule `{name}`: no agent at ({},{}) to read an external counter from; the calculation is skipped",
+                            off[0], off[1]
+                        ),
+                    ),
+                };
+                self.record(rep, kind, &[a], msg);
+            }
+            rep.trace.extend(events);
+        }
+    }
+}

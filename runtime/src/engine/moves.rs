@@ -1,0 +1,562 @@
+//! Moves, carried groups, bonds and swaps: the actions that change positions. A mover alone
+//! (`move_alone`) when no agent is bonded and no group moves; otherwise bonds are broken,
+//! groups found and moved whole or not at all, and bonds made again
+//! (`detach_move_attach`); then swaps.
+
+use super::*;
+
+/// The common case of [`Engine::move_alone`] without tracing: every target in the grid (the
+/// targets' slot codes are in `sc.codes`), none targeted twice or held by an agent that
+/// stays. Then the moves are made and true is returned; otherwise nothing changes.
+/// `one_offset`: every mover moves by the same offset.
+pub(super) fn move_free(
+    lat: &mut Lattice,
+    live: &[(u32, [i32; 3])],
+    sc: &mut MoveScratch,
+    one_offset: bool,
+) -> bool {
+    let codes = std::mem::take(&mut sc.codes);
+    let mut free = !codes.contains(&NO_SLOT);
+    // Movers by one offset have distinct targets; when every target is empty, none is
+    // held by an agent that stays and none is a mover's old cell: no marks are needed.
+    if free
+        && one_offset
+        && codes
+            .iter()
+            .all(|&c| !lat.cells.filled_slot((c & !RIM) as usize))
+    {
+        lat.relocate_to_slots(live, &codes, |_| false);
+        sc.codes = codes;
+        return true;
+    }
+    if free {
+        let slots = || codes.iter().map(|&c| (c & !RIM) as usize);
+        for (&(a, _), s) in live.iter().zip(slots()) {
+            sc.claim(a, Some(s));
+        }
+        for s in slots() {
+            let stays = lat.cells.filled_slot(s) && !sc.moving(lat.cells.at_slot(s));
+            free &= !sc.claimed_twice(s) && !stays;
+        }
+        if free {
+            lat.relocate_to_slots(live, &codes, |s| sc.claimed(s));
+        }
+        for (&(a, _), s) in live.iter().zip(slots()) {
+            sc.unclaim(a, Some(s));
+        }
+    }
+    sc.codes = codes;
+    free
+}
+
+/// Marks for deciding moves, all clear between rounds: per grid cell, a bit when a mover
+/// targets it and one when more than one does; per agent, a bit when it is moving.
+#[derive(Default)]
+pub(super) struct MoveScratch {
+    pub(super) once: Vec<u64>,
+    pub(super) twice: Vec<u64>,
+    pub(super) moving: Vec<u64>,
+    /// The movers' targets as slot codes.
+    pub(super) codes: Vec<u32>,
+}
+
+/// The word and the bit of index `i` in a bit set.
+#[inline]
+pub(super) fn bit(i: usize) -> (usize, u64) {
+    (i / 64, 1 << (i % 64))
+}
+
+impl MoveScratch {
+    /// Marks agent `a` as moving, and its target's grid slot `s` (if any) as claimed.
+    #[inline]
+    pub(super) fn claim(&mut self, a: u32, s: Option<usize>) {
+        let (w, b) = bit(a as usize);
+        self.moving[w] |= b;
+        if let Some(s) = s {
+            let (w, b) = bit(s);
+            self.twice[w] |= self.once[w] & b;
+            self.once[w] |= b;
+        }
+    }
+
+    #[inline]
+    pub(super) fn moving(&self, a: u32) -> bool {
+        let (w, b) = bit(a as usize);
+        self.moving[w] & b != 0
+    }
+
+    #[inline]
+    pub(super) fn claimed(&self, s: usize) -> bool {
+        let (w, b) = bit(s);
+        self.once[w] & b != 0
+    }
+
+    #[inline]
+    pub(super) fn claimed_twice(&self, s: usize) -> bool {
+        let (w, b) = bit(s);
+        self.twice[w] & b != 0
+    }
+
+    /// Clears what [`MoveScratch::claim`] marked (whole words: nothing else is marked).
+    #[inline]
+    pub(super) fn unclaim(&mut self, a: u32, s: Option<usize>) {
+        self.moving[a as usize / 64] = 0;
+        if let Some(s) = s {
+            self.once[s / 64] = 0;
+            self.twice[s / 64] = 0;
+        }
+    }
+}
+
+pub(super) fn find(parent: &mut [u32], mut x: u32) -> u32 {
+    while parent[x as usize] != x {
+        parent[x as usize] = parent[parent[x as usize] as usize];
+        x = parent[x as usize];
+    }
+    x
+}
+
+impl Engine {
+    /// Counts the moves about to be made (agent, target), and traces them.
+    pub(super) fn count_moves(&mut self, moves: &[(u32, [i32; 3])], rep: &mut StepReport) {
+        if self.opts.trace {
+            for &(m, to) in moves {
+                rep.trace.push(TraceEvent::Move {
+                    agent: m,
+                    from: self.lat.pos[m as usize],
+                    to,
+                });
+            }
+        }
+        self.stats.moves += moves.len() as u64;
+    }
+
+    /// Steps 1 to 4 when no agent is attached and no rule attaches: every group is one
+    /// agent, so only the movers are looked at (the same decisions and records as
+    /// [`Engine::detach_move_attach`]).
+    pub(super) fn move_alone(&mut self, live: &mut Vec<(u32, [i32; 3])>, rep: &mut StepReport) {
+        // Movers in agent order, with their targets (in place of their offsets) and the
+        // targets' slot codes.
+        let mut sc = std::mem::take(&mut self.scratch);
+        sc.codes.clear();
+        let mut blocked = Vec::new();
+        let mut kept = 0;
+        let one_offset = live.iter().all(|m| m.1 == live[0].1);
+        for i in 0..live.len() {
+            let (a, o) = live[i];
+            if let Some(t) = self.lat.moved(self.lat.pos[a as usize], o) {
+                live[kept] = (a, t);
+                kept += 1;
+            } else {
+                blocked.push((a, o));
+            }
+        }
+        live.truncate(kept);
+        let cells = &self.lat.cells;
+        sc.codes.extend(live.iter().map(|&(_, t)| cells.code(t)));
+        for (a, o) in blocked {
+            let msg = format!("agent {a} cannot move by ({},{},{}): the target cell is blocked; its group does not move", o[0], o[1], o[2]);
+            self.record(rep, RecordKind::MoveBlocked, &[a], msg);
+        }
+        // Collisions: cancel every move involved, until none is left. Targets are counted
+        // in bits per grid cell (claimed once, claimed more than once) where the grid covers
+        // them, in a hash map elsewhere; movers are marked in bits per agent. Each round
+        // clears the bits it set.
+        let cells = self.lat.cells.slots();
+        let words = |bits: usize| bits.div_ceil(64);
+        if sc.once.len() != words(cells) || sc.moving.len() != words(self.lat.len()) {
+            sc.once = vec![0; words(cells)];
+            sc.twice = vec![0; words(cells)];
+            sc.moving = vec![0; words(self.lat.len())];
+        }
+        if !self.opts.trace && move_free(&mut self.lat, live, &mut sc, one_offset) {
+            self.scratch = sc;
+            self.count_moves(live, rep);
+            return;
+        }
+        loop {
+            let mut count: FxHashMap<[i32; 3], u32> = FxHashMap::default();
+            for &(a, t) in live.iter() {
+                let s = self.lat.cells.slot(t);
+                sc.claim(a, s);
+                if s.is_none() {
+                    *count.entry(t).or_insert(0) += 1;
+                }
+            }
+            let moving = |s: u32| sc.moving(s);
+            let claimed_again = |t: [i32; 3]| match self.lat.cells.slot(t) {
+                Some(s) => sc.claimed_twice(s),
+                None => count[&t] > 1,
+            };
+            let mut bad: BTreeMap<[i32; 3], Vec<u32>> = BTreeMap::new();
+            for (a, t) in live.iter() {
+                let stay = self.lat.agent_at(*t).filter(|&s| !moving(s));
+                if claimed_again(*t) || stay.is_some() {
+                    bad.entry(*t).or_default().push(*a);
+                }
+            }
+            let clear = |sc: &mut MoveScratch,
+                         live: &[(u32, [i32; 3])],
+                         cells: &crate::cells::CellIndex| {
+                for &(a, t) in live {
+                    sc.unclaim(a, cells.slot(t));
+                }
+            };
+            if bad.is_empty() {
+                clear(&mut sc, live, &self.lat.cells);
+                break;
+            }
+            let mut cancel: Vec<(u32, [i32; 3], Vec<u32>)> = Vec::new();
+            for (cell, ms) in bad {
+                let mut involved = ms.clone();
+                involved.extend(self.lat.agent_at(cell).filter(|&s| !moving(s)));
+                for m in ms {
+                    cancel.push((m, cell, involved.clone()));
+                }
+            }
+            cancel.sort_by_key(|c| c.0);
+            clear(&mut sc, live, &self.lat.cells);
+            for (a, cell, involved) in cancel {
+                let i = live.binary_search_by_key(&a, |m| m.0).expect("a mover");
+                live.remove(i);
+                let msg = format!(
+                    "a move of agent {} would put agents {} on the cell ({},{},{}); the moves are cancelled",
+                    a,
+                    involved.iter().map(|m| m.to_string()).collect::<Vec<_>>().join(", "),
+                    cell[0],
+                    cell[1],
+                    cell[2]
+                );
+                self.record(rep, RecordKind::MoveCollision, &[a], msg);
+            }
+        }
+        self.scratch = sc;
+        self.count_moves(live, rep);
+        self.lat.relocate(live);
+    }
+
+    /// Steps 1 to 4: detach, decide, move rigid groups, attach.
+    pub(super) fn detach_move_attach(&mut self, intents: &[Intent], rep: &mut StepReport) {
+        let n = self.lat.len();
+        let nd = self.lat.dim.dirs();
+        let old_attach = self.lat.attach.clone();
+        // Partner before detaching, per agent and direction.
+        let partner = |lat: &Lattice, a: usize, d: usize| -> Option<u32> {
+            (old_attach[a] & (1 << d) != 0)
+                .then(|| lat.neighbour(a as u32, Dir::ALL[d]))
+                .flatten()
+        };
+        // 1. Detach: keep rigid bonds only.
+        let mut rigid = vec![0u8; n];
+        for a in 0..n {
+            for d in 0..nd {
+                let Some(b) = partner(&self.lat, a, d) else {
+                    continue;
+                };
+                let od = Dir::ALL[d].opposite().index();
+                let (la, lb) = (intents[a].letters[d], intents[b as usize].letters[od]);
+                if la != AttachLetter::Detach
+                    && lb != AttachLetter::Detach
+                    && (la == AttachLetter::Rigid || lb == AttachLetter::Rigid)
+                {
+                    rigid[a] |= 1 << d;
+                }
+            }
+        }
+        // 3. Move: groups of rigid bonds.
+        let mut parent: Vec<u32> = (0..n as u32).collect();
+        for a in 0..n {
+            for d in 0..nd {
+                if rigid[a] & (1 << d) != 0 {
+                    if let Some(b) = partner(&self.lat, a, d) {
+                        let (x, y) = (find(&mut parent, a as u32), find(&mut parent, b));
+                        if x != y {
+                            parent[x.max(y) as usize] = x.min(y);
+                        }
+                    }
+                }
+            }
+        }
+        let mut members: BTreeMap<u32, Vec<u32>> = BTreeMap::new();
+        let movers: Vec<usize> = (0..n)
+            .filter(|&a| intents[a].mv.is_some() || intents[a].mv_bad)
+            .collect();
+        for &a in &movers {
+            let root = find(&mut parent, a as u32);
+            members.entry(root).or_default();
+        }
+        if !members.is_empty() {
+            for a in 0..n as u32 {
+                let root = find(&mut parent, a);
+                if let Some(m) = members.get_mut(&root) {
+                    m.push(a);
+                }
+            }
+        }
+        // Group offsets.
+        let mut group_off: BTreeMap<u32, [i32; 3]> = BTreeMap::new();
+        for (&root, ms) in &members {
+            let mut off: Option<[i32; 3]> = None;
+            let mut bad = false;
+            let mut differ = false;
+            for &m in ms {
+                let it = &intents[m as usize];
+                bad |= it.mv_bad;
+                if let Some(o) = it.mv {
+                    match off {
+                        None => off = Some(o),
+                        Some(p) if p != o => differ = true,
+                        _ => {}
+                    }
+                }
+            }
+            if differ && !bad {
+                let msg = format!(
+                    "the rigid group of agents {} is asked for different moves by its members; it does not move",
+                    ms.iter().map(|m| m.to_string()).collect::<Vec<_>>().join(", ")
+                );
+                self.record(rep, RecordKind::GroupConflict, ms, msg);
+            }
+            if let (Some(o), false, false) = (off, bad, differ) {
+                group_off.insert(root, o);
+            }
+        }
+        // Blocked targets.
+        let roots: Vec<u32> = group_off.keys().copied().collect();
+        for root in roots {
+            let o = group_off[&root];
+            let ms = &members[&root];
+            let blocked = ms.iter().find(|&&m| {
+                let p = self.lat.pos[m as usize];
+                !self.lat.inside([
+                    p[0] as i64 + o[0] as i64,
+                    p[1] as i64 + o[1] as i64,
+                    p[2] as i64 + o[2] as i64,
+                ])
+            });
+            if let Some(&m) = blocked {
+                let ms = ms.clone();
+                group_off.remove(&root);
+                let msg = format!("agent {m} cannot move by ({},{},{}): the target cell is blocked; its group does not move", o[0], o[1], o[2]);
+                self.record(rep, RecordKind::MoveBlocked, &ms, msg);
+            }
+        }
+        // Collisions: cancel every group involved, until none is left.
+        loop {
+            let mut target: rustc_hash::FxHashMap<[i32; 3], Vec<u32>> = Default::default();
+            for (&root, o) in &group_off {
+                for &m in &members[&root] {
+                    let p = self.lat.pos[m as usize];
+                    target
+                        .entry([p[0] + o[0], p[1] + o[1], p[2] + o[2]])
+                        .or_default()
+                        .push(m);
+                }
+            }
+            let moving = |a: u32, parent: &mut Vec<u32>| group_off.contains_key(&find(parent, a));
+            let mut cancel: Vec<(u32, [i32; 3], Vec<u32>)> = Vec::new();
+            let mut cells: Vec<&[i32; 3]> = target.keys().collect();
+            cells.sort();
+            for cell in cells {
+                let ms = &target[cell];
+                let stay = self
+                    .lat
+                    .agent_at(*cell)
+                    .filter(|&s| !moving(s, &mut parent));
+                if ms.len() > 1 || stay.is_some() {
+                    let mut involved = ms.clone();
+                    involved.extend(stay);
+                    for &m in ms {
+                        let root = find(&mut parent, m);
+                        if !cancel.iter().any(|c| c.0 == root) {
+                            cancel.push((root, *cell, involved.clone()));
+                        }
+                    }
+                }
+            }
+            if cancel.is_empty() {
+                break;
+            }
+            cancel.sort_by_key(|c| c.0);
+            for (root, cell, involved) in cancel {
+                group_off.remove(&root);
+                let msg = format!(
+                    "a move of agent {} would put agents {} on the cell ({},{},{}); the moves are cancelled",
+                    root,
+                    involved.iter().map(|m| m.to_string()).collect::<Vec<_>>().join(", "),
+                    cell[0],
+                    cell[1],
+                    cell[2]
+                );
+                self.record(rep, RecordKind::MoveCollision, &members[&root].clone(), msg);
+            }
+        }
+        let mut moves: Vec<(u32, [i32; 3])> = Vec::new();
+        for (root, o) in &group_off {
+            for &m in &members[root] {
+                let p = self.lat.pos[m as usize];
+                moves.push((m, [p[0] + o[0], p[1] + o[1], p[2] + o[2]]));
+            }
+        }
+        moves.sort_unstable();
+        self.count_moves(&moves, rep);
+        // Partners for `*` must be read before the moves.
+        let mut keep_partner: Vec<[Option<u32>; 6]> = vec![[None; 6]; n];
+        for a in 0..n {
+            for d in 0..nd {
+                keep_partner[a][d] = partner(&self.lat, a, d);
+            }
+        }
+        self.lat.relocate(&moves);
+        // 4. Attach: rigid bonds stay; a bond forms where one side decided to attach and
+        // neither side said 0.
+        let mut new_attach = rigid;
+        for a in 0..n {
+            for d in 0..nd {
+                if new_attach[a] & (1 << d) != 0 {
+                    continue;
+                }
+                let la = intents[a].letters[d];
+                // Only `1`, or `*`/`+` towards a former partner, can form a bond: look up
+                // the neighbour only then.
+                let wants = match la {
+                    AttachLetter::Attach => true,
+                    AttachLetter::Keep | AttachLetter::Rigid => keep_partner[a][d].is_some(),
+                    AttachLetter::Detach => false,
+                };
+                if !wants {
+                    continue;
+                }
+                let Some(b) = self.lat.neighbour(a as u32, Dir::ALL[d]) else {
+                    continue;
+                };
+                if la != AttachLetter::Attach && keep_partner[a][d] != Some(b) {
+                    continue;
+                }
+                let od = Dir::ALL[d].opposite().index();
+                let lb = intents[b as usize].letters[od];
+                if lb == AttachLetter::Detach {
+                    if la == AttachLetter::Attach {
+                        let msg = format!(
+                            "agent {a} wants to attach towards {} to agent {b}, which says 0; no bond",
+                            Dir::ALL[d].letter()
+                        );
+                        self.record(rep, RecordKind::AttachRefused, &[a as u32, b], msg);
+                    }
+                    continue;
+                }
+                new_attach[a] |= 1 << d;
+                new_attach[b as usize] |= 1 << od;
+            }
+        }
+        if self.opts.trace {
+            for a in 0..n {
+                for d in 0..nd {
+                    let was = old_attach[a] & (1 << d) != 0;
+                    let now = new_attach[a] & (1 << d) != 0;
+                    let b_now = self.lat.neighbour(a as u32, Dir::ALL[d]);
+                    let b_was = keep_partner[a][d];
+                    if was && (!now || b_now != b_was) {
+                        if let Some(b) = b_was.filter(|&b| b > a as u32) {
+                            rep.trace.push(TraceEvent::Bond {
+                                a: a as u32,
+                                b,
+                                formed: false,
+                            });
+                        }
+                    }
+                    if now && (!was || b_now != b_was) {
+                        if let Some(b) = b_now.filter(|&b| b > a as u32) {
+                            rep.trace.push(TraceEvent::Bond {
+                                a: a as u32,
+                                b,
+                                formed: true,
+                            });
+                        }
+                    }
+                }
+            }
+        }
+        self.lat.attach = new_attach;
+    }
+
+    /// Step 6: swaps. `no_swap` (in agent order) take part in none: a request towards one
+    /// is cancelled with a record, but still counts when pairs are judged.
+    pub(super) fn swaps(&mut self, links: &[Link], no_swap: &[u32], rep: &mut StepReport) {
+        // (x, y, direction from x to y, cancelled because one of them takes no swap)
+        let mut pairs: Vec<(u32, u32, Dir, bool)> = Vec::new();
+        for &(a, _, swap) in links {
+            let Some(d) = swap else { continue };
+            match self.lat.cell_at(self.lat.pos[a as usize], d.offset()) {
+                Cell::Agent(b) => {
+                    // Two agents asking to swap with each other make one swap.
+                    let (x, y, dd) = if a < b {
+                        (a, b, d)
+                    } else {
+                        (b, a, d.opposite())
+                    };
+                    let dead = no_swap.binary_search(&b).is_ok();
+                    if dead {
+                        let msg = format!(
+                            "agent {a} cannot swap towards {}: agent {b} there is asked for different swaps and takes part in none",
+                            d.letter()
+                        );
+                        self.record(rep, RecordKind::SwapTarget, &[a], msg);
+                    }
+                    if !pairs.iter().any(|p| p.0 == x && p.1 == y) {
+                        pairs.push((x, y, dd, dead));
+                    }
+                }
+                _ => {
+                    let msg = format!(
+                        "agent {a} cannot swap towards {}: no agent stands there",
+                        d.letter()
+                    );
+                    self.record(rep, RecordKind::SwapTarget, &[a], msg);
+                }
+            }
+        }
+        let mut count: rustc_hash::FxHashMap<u32, u32> = Default::default();
+        for p in &pairs {
+            *count.entry(p.0).or_default() += 1;
+            *count.entry(p.1).or_default() += 1;
+        }
+        for (x, y, d, dead) in pairs {
+            if dead {
+                continue;
+            }
+            if count[&x] > 1 || count[&y] > 1 {
+                let msg = format!("the swap of agents {x} and {y} shares an agent with another swap; it is cancelled");
+                self.record(rep, RecordKind::SwapShared, &[x, y], msg);
+                continue;
+            }
+            let (px, py) = (self.lat.pos[x as usize], self.lat.pos[y as usize]);
+            // Bonds other than the one between them are dropped.
+            let nd = self.lat.dim.dirs();
+            let bonded = self.lat.attach[x as usize] & (1 << d.index()) != 0;
+            for &(s, _) in &[(x, px), (y, py)] {
+                for k in 0..nd {
+                    if self.lat.attach[s as usize] & (1 << k) != 0 {
+                        if let Some(o) = self.lat.neighbour(s, Dir::ALL[k]) {
+                            if o != x && o != y {
+                                self.lat.attach[o as usize] &=
+                                    !(1 << Dir::ALL[k].opposite().index());
+                            }
+                        }
+                    }
+                }
+                self.lat.attach[s as usize] = 0;
+            }
+            self.lat.relocate(&[(x, py), (y, px)]);
+            if bonded {
+                // x is now where y was: y lies opposite to d from x.
+                self.lat.attach[x as usize] |= 1 << d.opposite().index();
+                self.lat.attach[y as usize] |= 1 << d.index();
+            }
+            self.stats.swaps += 1;
+            if self.opts.trace {
+                rep.trace.push(TraceEvent::Swap { a: x, b: y });
+            }
+        }
+    }
+}

@@ -1,0 +1,333 @@
+//! The post office: the messages of a step delivered into the inboxes the next step reads,
+//! or, while no agent can move, left where their senders wrote them (`Pending` in
+//! lattice.rs) and only counted; and the trace of the messages.
+
+use super::*;
+
+/// One chunk of recipients: `len` agents from `lo`, their numeric inbox columns, text
+/// inboxes and text bits.
+pub(super) struct InboxChunk<'a> {
+    pub(super) lo: usize,
+    pub(super) len: usize,
+    pub(super) num: Vec<&'a mut [i16]>,
+    pub(super) text: &'a mut [[u8; 5]],
+    pub(super) has: &'a mut [u8],
+}
+
+/// With messages left with their senders: how many messages the outbox bits `cols` (the
+/// words from `w0` of every column, the columns for sends to all directions last) hold,
+/// and how many of them have a recipient. A send to all directions is one message per
+/// direction (one sent later towards one direction replaces that one). `empty` tells the
+/// columns without a bit set, which are not read.
+pub(super) fn count_messages<C: AsRef<[u64]>>(
+    cols: &[C],
+    has_nbr: &[Vec<u64>],
+    (w0, nd): (usize, usize),
+    empty: &[bool],
+) -> (u64, u64) {
+    let ns = cols.len() / (nd + 1);
+    let (mut sent, mut delivered) = (0u64, 0u64);
+    for s in 0..ns {
+        let all = cols[nd * ns + s].as_ref();
+        let none_to_all = empty[nd * ns + s];
+        if !none_to_all {
+            sent += nd as u64 * all.iter().map(|&a| ones(a)).sum::<u64>();
+        }
+        for (d, nbr) in has_nbr.iter().enumerate().take(nd) {
+            let col = d * ns + s;
+            let (one, nbr) = (cols[col].as_ref(), &nbr[w0..w0 + all.len()]);
+            match (empty[col], none_to_all) {
+                (true, true) => {}
+                (true, false) => {
+                    delivered += all.iter().zip(nbr).map(|(a, b)| ones(a & b)).sum::<u64>();
+                }
+                (false, _) => {
+                    for ((h, a), b) in one.iter().zip(all).zip(nbr) {
+                        sent += ones(h & !a);
+                        delivered += ones((h | a) & b);
+                    }
+                }
+            }
+        }
+    }
+    (sent, delivered)
+}
+
+/// With messages left with their senders, what a step's outboxes (or a chunk of agents'
+/// part of them) hold: the messages sent and delivered ([`count_messages`]), and per
+/// outbox column whether every agent's bit is set (`full`) and whether none is (`empty`),
+/// so that the post office need not test ranges of bits in such columns.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Tally {
+    pub(super) sent: u64,
+    pub(super) delivered: u64,
+    pub(super) full: Vec<bool>,
+    pub(super) empty: Vec<bool>,
+}
+
+impl Tally {
+    /// The tally of the outbox bits `cols` of `len` agents (from word `w0` of the
+    /// neighbour bits).
+    pub(super) fn of<C: AsRef<[u64]>>(
+        cols: &[C],
+        has_nbr: &[Vec<u64>],
+        w0: usize,
+        nd: usize,
+        len: usize,
+    ) -> Tally {
+        let full = cols.iter().map(|c| all_bits(c.as_ref(), 0..len)).collect();
+        let empty: Vec<bool> = cols.iter().map(|c| no_bits(c.as_ref(), 0..len)).collect();
+        let (sent, delivered) = count_messages(cols, has_nbr, (w0, nd), &empty);
+        Tally {
+            sent,
+            delivered,
+            full,
+            empty,
+        }
+    }
+
+    /// The tally of two chunks together.
+    pub(super) fn and(self, other: &Tally) -> Tally {
+        let both = |a: Vec<bool>, b: &[bool]| a.iter().zip(b).map(|(&x, &y)| x && y).collect();
+        Tally {
+            sent: self.sent + other.sent,
+            delivered: self.delivered + other.delivered,
+            full: both(self.full, &other.full),
+            empty: both(self.empty, &other.empty),
+        }
+    }
+}
+
+impl Engine {
+    /// Paper step 3, second half: every inbox is emptied and filled with what this step's
+    /// outboxes hold, each agent pulling from the neighbour in each direction what that
+    /// neighbour sent towards it (in chunks of agents, in parallel with --threads).
+    pub(super) fn deliver(&mut self, rep: &mut StepReport) {
+        self.lat.refresh_neighbours();
+        let d = self.lat.dim;
+        let (n, nd, ns) = (self.lat.len(), d.dirs(), self.lat.slots as usize);
+        if self.opts.trace {
+            self.trace_messages(rep);
+        }
+        let texts = !self.out_text_bits.is_empty();
+        if ns == 0 && !texts {
+            // No rule sends or reads messages: there is nothing to deliver.
+            return;
+        }
+        if self.defer {
+            self.deliver_deferred();
+            return;
+        }
+        let sent: u64 = self.out_has.iter().flatten().map(|&w| ones(w)).sum::<u64>()
+            + self
+                .out_text_bits
+                .iter()
+                .map(|t| t.count_ones() as u64)
+                .sum::<u64>();
+        let mut inbox_num = std::mem::take(&mut self.lat.inbox_num);
+        let mut inbox_text = std::mem::take(&mut self.lat.inbox_text);
+        let mut inbox_has = std::mem::take(&mut self.lat.inbox_text_has);
+        let (par, size, chunks) = self.chunks(n);
+        let mut num = split_columns(&mut inbox_num, size, chunks).into_iter();
+        let mut text = parts(&mut inbox_text, size * nd, chunks).into_iter();
+        let mut has = parts(&mut inbox_has, size, chunks).into_iter();
+        let items: Vec<InboxChunk<'_>> = (0..chunks)
+            .map(|c| InboxChunk {
+                lo: c * size,
+                len: size.min(n - c * size),
+                num: num.next().unwrap_or_default(),
+                text: text.next().unwrap_or_default(),
+                has: has.next().unwrap_or_default(),
+            })
+            .collect();
+        let (lat, out_num, out_has) = (&self.lat, &self.out_num, &self.out_has);
+        let (out_text, out_text_bits) = (&self.out_text, &self.out_text_bits);
+        // Fills one chunk of recipients; returns how many messages arrived.
+        let pull = |ch: InboxChunk<'_>| {
+            let mut got = 0u64;
+            let InboxChunk {
+                lo,
+                len,
+                mut num,
+                text,
+                has,
+            } = ch;
+            if texts {
+                has.fill(0);
+            }
+            // In batches: first every recipient's neighbours, then one tight loop per
+            // direction and slot.
+            // Agents on consecutive cells of a grid read their neighbours straight from it.
+            let mut nb = [[NO_AGENT; BATCH]; 6];
+            let mut one = [NO_AGENT; 6];
+            let mut base = 0;
+            while base < len {
+                let mut m = BATCH.min(len - base);
+                let run = lat.neighbour_run(lo + base, m);
+                if let Some((r, _)) = run {
+                    m = r;
+                } else {
+                    for j in 0..m {
+                        lat.neighbours((lo + base + j) as u32, &mut one);
+                        for (col, &v) in nb.iter_mut().zip(&one).take(nd) {
+                            col[j] = v;
+                        }
+                    }
+                }
+                for dir in 0..nd {
+                    let from = match &run {
+                        Some((_, r)) => r[dir],
+                        None => &nb[dir][..m],
+                    };
+                    let od = OPPOSITE[dir];
+                    // The senders are themselves consecutive agents.
+                    let f0 = from[0] as usize;
+                    let dense = from[0] != NO_AGENT && is_sequence(from, from[0]);
+                    for sc in 0..ns {
+                        let cout = od * ns + sc;
+                        let (out, bits) = (&out_num[cout][..], &out_has[cout][..]);
+                        let inb = &mut num[dir * ns + sc][base..base + m];
+                        if dense && all_bits(bits, f0..f0 + m) {
+                            inb.copy_from_slice(&out[f0..f0 + m]);
+                            got += m as u64;
+                            continue;
+                        }
+                        for (v, &f) in inb.iter_mut().zip(from) {
+                            let f = f as usize;
+                            *v = if f != NO_AGENT as usize && bits[f >> 6] & (1 << (f & 63)) != 0 {
+                                got += 1;
+                                out[f]
+                            } else {
+                                0
+                            };
+                        }
+                    }
+                    if texts {
+                        for (j, &f) in from.iter().enumerate() {
+                            let f = f as usize;
+                            if f != NO_AGENT as usize && out_text_bits[f] & (1 << od) != 0 {
+                                let k = base + j;
+                                text[k * nd + dir] = out_text[f * nd + od];
+                                has[k] |= 1 << dir;
+                                got += 1;
+                            }
+                        }
+                    }
+                }
+                base += m;
+            }
+            got
+        };
+        let delivered: u64 = match par {
+            Some((pool, _)) => pool.map(items, pull).into_iter().sum(),
+            None => items.into_iter().map(pull).sum(),
+        };
+        self.lat.inbox_num = inbox_num;
+        self.lat.inbox_text = inbox_text;
+        self.lat.inbox_text_has = inbox_has;
+        self.out_has.iter_mut().for_each(|c| c.fill(0));
+        self.out_text_bits.fill(0);
+        self.stats.sent += sent;
+        self.stats.delivered += delivered;
+        self.stats.dropped += sent - delivered;
+    }
+
+    /// Delivery without copying: this step's outboxes become the lattice's pending
+    /// messages (and the last step's pending columns the next outboxes). A message is
+    /// delivered when its sender has a neighbour in the direction it was sent.
+    pub(super) fn deliver_deferred(&mut self) {
+        // Counted by the calculations (see [`Tally`]), but for the first time.
+        let tally = match self.counted.take() {
+            Some(c) => c,
+            None => {
+                self.prepare_deferred();
+                let (n, nd) = (self.lat.len(), self.lat.dim.dirs());
+                Tally::of(&self.out_has, &self.has_nbr, 0, nd, n)
+            }
+        };
+        let (sent, delivered) = (tally.sent, tally.delivered);
+        let p = self
+            .lat
+            .pending
+            .as_mut()
+            .expect("made at the first delivery");
+        std::mem::swap(&mut p.num, &mut self.out_num);
+        std::mem::swap(&mut p.has, &mut self.out_has);
+        (p.full, p.empty) = (tally.full, tally.empty);
+        // The inbox columns are not read while messages are pending. The outboxes' bits
+        // are cleared by the next calculations.
+        self.lat.inbox_num.iter_mut().for_each(|c| *c = Vec::new());
+        self.stats.sent += sent;
+        self.stats.delivered += delivered;
+        self.stats.dropped += sent - delivered;
+    }
+
+    /// With `defer`: the pending columns (and plan) and the neighbour bits, made once.
+    pub(super) fn prepare_deferred(&mut self) {
+        if self.lat.pending.is_none() {
+            let lat = &self.lat;
+            let parts = self.par_chunks(lat.len(), &|lo, hi| Pending::plan_part(lat, lo, hi));
+            self.lat.pending = Some(Pending::new(&self.lat, &self.out_num, parts));
+        }
+        let nd = self.lat.dim.dirs();
+        if self.has_nbr.len() != nd {
+            let p = self.lat.pending.as_ref().expect("just made");
+            self.has_nbr = (0..nd).map(|d| p.has_sender(&self.lat, d)).collect();
+        }
+    }
+
+    /// One trace event per message of this step's outboxes, senders in id order.
+    pub(super) fn trace_messages(&self, rep: &mut StepReport) {
+        let d = self.lat.dim;
+        let (nd, ns) = (d.dirs(), d.slots());
+        let bit = |col: usize, a: usize| self.out_has[col][a >> 6] & (1 << (a & 63)) != 0;
+        // With a column for sends to all directions (see `defer`), its bit counts too.
+        let cols = nd * self.lat.slots as usize;
+        let all =
+            |col: usize| (self.out_has.len() > cols).then(|| cols + col % self.lat.slots as usize);
+        let has = |col: usize, a: usize| bit(col, a) || all(col).is_some_and(|c| bit(c, a));
+        for a in 0..self.lat.len() {
+            for dir in 0..nd {
+                let slots: Vec<usize> = (0..ns)
+                    .filter(|&s| {
+                        let c = self.lat.slot_col[s];
+                        c != NO_COL && has(dir * self.lat.slots as usize + c as usize, a)
+                    })
+                    .collect();
+                let has_text = self
+                    .out_text_bits
+                    .get(a)
+                    .is_some_and(|t| t & (1 << dir) != 0);
+                if slots.is_empty() && !has_text {
+                    continue;
+                }
+                let to = self.lat.neighbour(a as u32, Dir::ALL[dir]);
+                let letter = Dir::ALL[dir].letter();
+                for s in slots {
+                    let col = dir * self.lat.slots as usize + self.lat.slot_col[s] as usize;
+                    rep.trace.push(TraceEvent::Message {
+                        from: a as u32,
+                        to,
+                        dir: letter,
+                        slot: Some(s as u8 + 1),
+                        value: Some(match all(col) {
+                            Some(c) if !bit(col, a) => self.out_num[c][a],
+                            _ => self.out_num[col][a],
+                        }),
+                        text: None,
+                    });
+                }
+                if has_text {
+                    rep.trace.push(TraceEvent::Message {
+                        from: a as u32,
+                        to,
+                        dir: letter,
+                        slot: None,
+                        value: None,
+                        text: Some(text(&self.out_text[a * nd + dir])),
+                    });
+                }
+            }
+        }
+    }
+}

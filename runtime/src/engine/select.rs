@@ -1,0 +1,507 @@
+//! Selection: which rules each agent executes this step, from its candidate rules, their
+//! preconditions and, when rules read them, the priorities of its neighbours resolved level
+//! by level.
+
+use super::*;
+
+/// The rules each agent executes in a step: one entry per agent, either [`NO_RULE`], a
+/// rule, or [`MANY`] with an index into `starts`/`many` (in file order).
+#[derive(Default)]
+pub(super) struct Selection {
+    pub(super) one: Vec<u32>,
+    pub(super) starts: Vec<u32>,
+    pub(super) many: Vec<u32>,
+}
+
+pub(super) const NO_RULE: u32 = u32::MAX;
+
+pub(super) const MANY: u32 = 1 << 31;
+
+impl Selection {
+    /// The rules agent `a` executes, in file order.
+    #[inline]
+    pub(super) fn of(&self, a: usize) -> &[u32] {
+        match self.one[a] {
+            NO_RULE => &[],
+            v if v & MANY == 0 => std::slice::from_ref(&self.one[a]),
+            v => {
+                let k = (v & !MANY) as usize;
+                &self.many[self.starts[k] as usize..self.starts[k + 1] as usize]
+            }
+        }
+    }
+
+    /// Sets agent `a`'s rules (agents must be set in increasing order for several rules).
+    pub(super) fn set(&mut self, a: usize, rules: &[u32]) {
+        self.one[a] = match rules {
+            [] => NO_RULE,
+            [r] => *r,
+            _ => {
+                if self.starts.is_empty() {
+                    self.starts.push(0);
+                }
+                self.many.extend_from_slice(rules);
+                self.starts.push(self.many.len() as u32);
+                MANY | (self.starts.len() - 2) as u32
+            }
+        };
+    }
+
+    pub(super) fn reset(&mut self, n: usize) {
+        self.one.clear();
+        self.one.resize(n, NO_RULE);
+        self.starts.clear();
+        self.many.clear();
+    }
+}
+
+pub(super) const OPEN: i32 = -1;
+
+pub(super) struct PrioView<'a> {
+    pub(super) fixed: &'a [i32],
+    pub(super) cur: &'a [u16],
+}
+
+pub(super) struct SelEnv<'a> {
+    pub(super) lat: &'a Lattice,
+    pub(super) a: u32,
+    pub(super) prio: Option<PrioView<'a>>,
+}
+
+impl Env for SelEnv<'_> {
+    #[inline]
+    fn counter(&self, i: u8) -> i16 {
+        self.lat.counter(self.a, i)
+    }
+    #[inline]
+    fn state(&self) -> [u8; 5] {
+        self.lat.state[self.a as usize]
+    }
+    #[inline]
+    fn attach(&self) -> u8 {
+        self.lat.attach[self.a as usize]
+    }
+    #[inline]
+    fn cell(&self, off: [i32; 3]) -> Cell {
+        self.lat.cell_at(self.lat.pos[self.a as usize], off)
+    }
+    #[inline]
+    fn agent_state(&self, id: u32) -> [u8; 5] {
+        self.lat.state[id as usize]
+    }
+    #[inline]
+    fn agent_counter(&self, id: u32, i: u8) -> i16 {
+        self.lat.counter(id, i)
+    }
+    #[inline]
+    fn inbox_num(&self, dir: u8, slot: u8) -> i16 {
+        self.lat.inbox(self.a, dir, slot)
+    }
+    #[inline]
+    fn inbox_text(&self, dir: u8) -> Option<[u8; 5]> {
+        self.lat.inbox_text(self.a, dir)
+    }
+    #[inline]
+    fn priorities_known(&self) -> bool {
+        self.prio.is_some()
+    }
+    #[inline]
+    fn prio(&self, other: Option<u32>, p: u16, strict: bool) -> Tri {
+        let Some(view) = &self.prio else {
+            return Tri::U;
+        };
+        let Some(b) = other else { return Tri::T };
+        let b = b as usize;
+        if view.fixed[b] != OPEN {
+            let f = view.fixed[b];
+            Tri::of(if strict { f < p as i32 } else { f <= p as i32 })
+        } else if !strict || view.cur[b] < p {
+            // An open neighbour ends at or below its current priority, which is <= p.
+            Tri::T
+        } else {
+            Tri::U
+        }
+    }
+    #[inline]
+    fn dirs(&self) -> u8 {
+        self.lat.dim.dirs() as u8
+    }
+    #[inline]
+    fn neighbour_cell(&self, d: u8) -> Cell {
+        self.lat.neighbour_cell(self.a, d as usize)
+    }
+}
+
+/// An open agent left with no rule at its level drops to its next valid priority `next`
+/// (to be resolved at that level), or, with none left, is fixed at priority 0.
+pub(super) fn drop_to(
+    a: u32,
+    next: Option<u16>,
+    fixed: &mut [i32],
+    cur: &mut [u16],
+    levels: &mut BTreeMap<u16, Vec<u32>>,
+) {
+    let ai = a as usize;
+    match next {
+        Some(q) => {
+            cur[ai] = q;
+            levels.entry(q).or_default().push(a);
+        }
+        None => {
+            fixed[ai] = 0;
+            cur[ai] = 0;
+        }
+    }
+}
+
+/// Adds to `counts` how many agents of the selection `one` execute each single rule,
+/// counting runs of equal entries at once, and returns how many execute any rule.
+pub(super) fn count_runs(one: &[u32], counts: &mut [u64]) -> u64 {
+    let mut active = 0;
+    let mut run = (NO_RULE, 0u64);
+    for &v in one.iter().chain([&NO_RULE]) {
+        if v != run.0 {
+            if run.0 != NO_RULE {
+                active += run.1;
+            }
+            if run.0 & MANY == 0 {
+                counts[run.0 as usize] += run.1;
+            }
+            run = (v, 0);
+        }
+        run.1 += 1;
+    }
+    active
+}
+
+impl Engine {
+    /// Selection when no rule reads priorities: each agent executes its true rules of the
+    /// highest priority among its true rules. Agents whose candidate list decides alone are
+    /// not evaluated at all.
+    pub(super) fn select_plain(&mut self) {
+        let n = self.lat.len();
+        let mut one = std::mem::take(&mut self.sel.one);
+        // Every entry is written below (a new column is zeroed lazily by the system, and
+        // its pages are touched by the chunks, in parallel).
+        if one.len() != n {
+            one = vec![0; n];
+        }
+        let (prog, lat, trivial) = (&self.prog, &self.lat, &self.trivial);
+        let (lists, single, of) = (&self.cand_lists, &self.cand_single, &self.cand_of);
+        let (par, chunk, _) = self.chunks(n);
+        let pre_batch = &self.pre_batch;
+        let work = |(c, one): (usize, &mut [u32])| {
+            let lo = c * chunk;
+            let mut multi: Vec<(u32, Vec<u32>)> = Vec::new();
+            let mut buf: Vec<u32> = Vec::new();
+            let mut evaluated = false;
+            let mut truth = [false; BATCH];
+            let mut bufs = PreBufs::new();
+            let hi = lo + one.len();
+            let mut k = 0;
+            while k < one.len() {
+                // The agents whose candidate list decides alone, in a tight loop up to
+                // the next agent to evaluate.
+                let decided = (one[k..].iter_mut().zip(&of[lo + k..hi])).position(
+                    |(slot, &idx)| match single[idx as usize] {
+                        EVALUATE => true,
+                        r => {
+                            *slot = r;
+                            false
+                        }
+                    },
+                );
+                let Some(skip) = decided else {
+                    break;
+                };
+                k += skip;
+                let a = lo + k;
+                let idx = of[a] as usize;
+                evaluated = true;
+                // A run of agents with the same one rule to test: evaluated together.
+                if let [r] = lists[idx][..] {
+                    if pre_batch[r as usize] {
+                        let m = run_of(&of[a..(a + BATCH).min(hi)], idx as u32);
+                        batch_pre(prog, (r, a), lat, &mut bufs, &mut truth[..m]);
+                        for (slot, &t) in one[k..k + m].iter_mut().zip(&truth[..m]) {
+                            *slot = if t { r } else { NO_RULE };
+                        }
+                        k += m;
+                        continue;
+                    }
+                }
+                let slot = &mut one[k];
+                k += 1;
+                let env = SelEnv {
+                    lat,
+                    a: a as u32,
+                    prio: None,
+                };
+                buf.clear();
+                let mut top = None;
+                for &r in &lists[idx] {
+                    let p = prog.rules[r as usize].priority;
+                    if top.is_some_and(|t| p < t) {
+                        break;
+                    }
+                    if trivial[r as usize] || eval_pre(prog, r as usize, &env) == Tri::T {
+                        top = Some(p);
+                        buf.push(r);
+                    }
+                }
+                *slot = match buf[..] {
+                    [] => NO_RULE,
+                    [r] => r,
+                    _ => {
+                        buf.sort_unstable();
+                        multi.push((a as u32, buf.clone()));
+                        MANY
+                    }
+                };
+            }
+            (multi, evaluated)
+        };
+        let parts: Vec<_> = match par {
+            Some((pool, _)) => pool.map(one.chunks_mut(chunk).enumerate().collect(), work),
+            None => one.chunks_mut(chunk).enumerate().map(work).collect(),
+        };
+        self.sel.one = one;
+        self.sel.starts.clear();
+        self.sel.many.clear();
+        self.sel_by_state = true;
+        for (multi, evaluated) in parts {
+            self.sel_by_state &= !evaluated;
+            for (a, rules) in multi {
+                self.sel.set(a as usize, &rules);
+            }
+        }
+    }
+
+    /// Selection: which rules each agent executes this step (into `self.sel`).
+    pub(super) fn select(&mut self, rep: &mut StepReport) {
+        let changed =
+            self.cand_dirty || self.states_changed || self.cand_of.len() != self.lat.len();
+        self.states_changed = false;
+        self.update_candidates();
+        self.sel_reused = !self.any_prio && !changed && self.sel_by_state;
+        if self.sel_reused {
+            return;
+        }
+        self.tuned(Phase::Select, |e| {
+            if e.any_prio {
+                e.select_with_priorities(rep);
+            } else {
+                e.select_plain();
+            }
+        });
+    }
+
+    /// Selection when rules read neighbours' priorities: a first pass with priorities
+    /// unknown, then the levels from the top down (SEMANTICS section 5).
+    pub(super) fn select_with_priorities(&mut self, rep: &mut StepReport) {
+        let n = self.lat.len();
+        let prog = &self.prog;
+        let mut ent_rule: Vec<u32> = Vec::with_capacity(n);
+        let mut ent_tri: Vec<Tri> = Vec::with_capacity(n);
+        let mut ent_start: Vec<u32> = Vec::with_capacity(n + 1);
+        let mut fixed = vec![OPEN; n];
+        let mut cur = vec![0u16; n];
+        let mut levels: BTreeMap<u16, Vec<u32>> = BTreeMap::new();
+        let mut queued = vec![false; n];
+        ent_start.push(0);
+        let (lists, of) = (&self.cand_lists, &self.cand_of);
+        // Pass 1: every agent's valid rules with priority terms unknown, in chunks of
+        // agents (in parallel with --threads), joined in agent order.
+        let lat = &self.lat;
+        let pass1 = |lo: usize, hi: usize| {
+            let mut rules_out = Vec::new();
+            let mut tris = Vec::new();
+            let mut ends = Vec::with_capacity(hi - lo);
+            for a in lo..hi {
+                let env = SelEnv {
+                    lat,
+                    a: a as u32,
+                    prio: None,
+                };
+                for &r in &lists[of[a] as usize] {
+                    let t = eval_pre(prog, r as usize, &env);
+                    if t != Tri::F {
+                        rules_out.push(r);
+                        tris.push(t);
+                    }
+                }
+                ends.push(rules_out.len() as u32);
+            }
+            (rules_out, tris, ends)
+        };
+        let parts = self.par_chunks(n, &pass1);
+        for (rules_out, tris, ends) in parts {
+            let base = ent_rule.len() as u32;
+            ent_start.extend(ends.iter().map(|e| base + e));
+            ent_rule.extend(rules_out);
+            ent_tri.extend(tris);
+        }
+        for a in 0..n {
+            let (start, end) = (ent_start[a] as usize, ent_start[a + 1] as usize);
+            if start == end {
+                fixed[a] = 0;
+                continue;
+            }
+            let p = prog.rules[ent_rule[start] as usize].priority;
+            cur[a] = p;
+            let top = (start..end).take_while(|&e| prog.rules[ent_rule[e] as usize].priority == p);
+            let mut any_t = false;
+            let mut any_u = false;
+            for e in top {
+                any_t |= ent_tri[e] == Tri::T;
+                any_u |= ent_tri[e] == Tri::U;
+            }
+            if any_t {
+                fixed[a] = p as i32;
+            }
+            if any_u {
+                levels.entry(p).or_default().push(a as u32);
+            }
+        }
+        let prog = &self.prog;
+        let prio_of = |e: usize| prog.rules[ent_rule[e] as usize].priority;
+        let mut circles: Vec<(Vec<u32>, String)> = Vec::new();
+        while let Some((p, mut list)) = levels.pop_last() {
+            list.sort_unstable();
+            list.dedup();
+            let at_level = |a: usize, fixed: &[i32], cur: &[u16]| {
+                (fixed[a] == OPEN && cur[a] == p) || fixed[a] == p as i32
+            };
+            // A worklist: every agent of the level once, then again only when an agent
+            // whose priority it may read was fixed or dropped (the same fixpoint as
+            // re-evaluating the whole level until nothing changes).
+            let mut queue: std::collections::VecDeque<u32> = list.iter().copied().collect();
+            for &a in &list {
+                queued[a as usize] = true;
+            }
+            while let Some(a) = queue.pop_front() {
+                let ai = a as usize;
+                queued[ai] = false;
+                if !at_level(ai, &fixed, &cur) {
+                    continue;
+                }
+                let before = (fixed[ai], cur[ai]);
+                let (s, e) = (ent_start[ai] as usize, ent_start[ai + 1] as usize);
+                let mut alive = false;
+                for k in s..e {
+                    if prio_of(k) != p {
+                        continue;
+                    }
+                    if ent_tri[k] == Tri::U {
+                        let env = SelEnv {
+                            lat: &self.lat,
+                            a,
+                            prio: Some(PrioView {
+                                fixed: &fixed,
+                                cur: &cur,
+                            }),
+                        };
+                        let v = eval_pre(prog, ent_rule[k] as usize, &env);
+                        if v != Tri::U {
+                            ent_tri[k] = v;
+                        }
+                    }
+                    if ent_tri[k] == Tri::T && fixed[ai] == OPEN {
+                        fixed[ai] = p as i32;
+                    }
+                    alive |= ent_tri[k] != Tri::F;
+                }
+                if fixed[ai] == OPEN && !alive {
+                    let next = (s..e)
+                        .find(|&k| prio_of(k) < p && ent_tri[k] != Tri::F)
+                        .map(prio_of);
+                    drop_to(a, next, &mut fixed, &mut cur, &mut levels);
+                }
+                if (fixed[ai], cur[ai]) != before {
+                    let mut wake = |b: u32| {
+                        let bi = b as usize;
+                        if b != NO_AGENT && !queued[bi] && at_level(bi, &fixed, &cur) {
+                            queued[bi] = true;
+                            queue.push_back(b);
+                        }
+                    };
+                    match &self.prio_offsets {
+                        Some(offs) => {
+                            let mut nb = [NO_AGENT; 6];
+                            self.lat.neighbours(a, &mut nb);
+                            nb.iter().for_each(|&b| wake(b));
+                            for off in offs {
+                                let back = [-off[0], -off[1], -off[2]];
+                                if let Cell::Agent(b) = self.lat.cell_at(self.lat.pos[ai], back) {
+                                    wake(b);
+                                }
+                            }
+                        }
+                        None => list.iter().for_each(|&b| wake(b)),
+                    }
+                }
+            }
+            // What is still unknown depends on itself in a circle: remove it all.
+            let mut circle: Vec<u32> = Vec::new();
+            let mut names: Vec<String> = Vec::new();
+            for &a in &list {
+                let ai = a as usize;
+                if !at_level(ai, &fixed, &cur) {
+                    continue;
+                }
+                let (s, e) = (ent_start[ai] as usize, ent_start[ai + 1] as usize);
+                let mut hit = false;
+                for k in s..e {
+                    if prio_of(k) == p && ent_tri[k] == Tri::U {
+                        ent_tri[k] = Tri::F;
+                        hit = true;
+                        let name = &prog.rules[ent_rule[k] as usize].name;
+                        if !names.contains(name) {
+                            names.push(name.clone());
+                        }
+                    }
+                }
+                if hit {
+                    circle.push(a);
+                    if fixed[ai] == OPEN {
+                        let next = (s..e)
+                            .find(|&k| prio_of(k) < p && ent_tri[k] != Tri::F)
+                            .map(prio_of);
+                        drop_to(a, next, &mut fixed, &mut cur, &mut levels);
+                    }
+                }
+            }
+            if !circle.is_empty() {
+                let ids: Vec<String> = circle.iter().map(|a| a.to_string()).collect();
+                let msg = format!(
+                    "the priorities of agents {} depend on each other in a circle at priority {p}; their rules {} are not executed",
+                    ids.join(", "),
+                    names.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ")
+                );
+                circles.push((circle, msg));
+            }
+        }
+        // Each agent executes its rules that are true at its final priority, in file order.
+        let mut sel = std::mem::take(&mut self.sel);
+        sel.reset(n);
+        let mut rules = Vec::new();
+        for a in 0..n {
+            let f = fixed[a];
+            if f > 0 {
+                rules.clear();
+                for k in ent_start[a] as usize..ent_start[a + 1] as usize {
+                    if prog.rules[ent_rule[k] as usize].priority as i32 == f && ent_tri[k] == Tri::T
+                    {
+                        rules.push(ent_rule[k]);
+                    }
+                }
+                rules.sort_unstable();
+                sel.set(a, &rules);
+            }
+        }
+        self.sel = sel;
+        for (circle, msg) in circles {
+            self.record(rep, RecordKind::CircularPriority, &circle, msg);
+        }
+    }
+}

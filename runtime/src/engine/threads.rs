@@ -1,0 +1,112 @@
+//! The threads of a step: a pool of workers that take chunks of agents beside the thread
+//! that steps, and the tuner that decides, per phase, whether waking them pays.
+
+/// Per-agent work is split over threads only for at least this many agents, and a run
+/// gains nothing from more threads than one per this many agents.
+pub const AGENTS_PER_THREAD: usize = 1024;
+
+/// The threads that run chunks of agents: `threads - 1` workers and the thread that
+/// steps, which takes chunks too (so that a step wakes one worker fewer, and the workers
+/// are placed beside a running thread rather than beside a sleeping one: on a machine
+/// of two cores, a pool of two workers woken by the stepping thread often shared one
+/// core for many steps).
+pub(super) struct Workers {
+    pub(super) pool: rayon::ThreadPool,
+    pub(super) threads: usize,
+}
+
+impl Workers {
+    /// `threads` threads in all (at least two), or `None` when the system cannot start
+    /// them.
+    pub(super) fn new(threads: usize) -> Option<Workers> {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads - 1)
+            .build()
+            .ok()?;
+        Some(Workers { pool, threads })
+    }
+
+    /// `f` of each item, the items taken in turn by the workers and this thread; the
+    /// results in the items' order.
+    pub(super) fn map<I: Send, T: Send>(&self, items: Vec<I>, f: impl Fn(I) -> T + Sync) -> Vec<T> {
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        use std::sync::{Mutex, MutexGuard};
+        // (A panic in `f` reaches the caller when the scope ends; the slots stay usable.)
+        fn lock<X>(m: &Mutex<X>) -> MutexGuard<'_, X> {
+            m.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+        }
+        let n = items.len();
+        let todo: Vec<Mutex<Option<I>>> = items.into_iter().map(|i| Mutex::new(Some(i))).collect();
+        let done: Vec<Mutex<Option<T>>> = (0..n).map(|_| Mutex::new(None)).collect();
+        let next = AtomicUsize::new(0);
+        let work = || loop {
+            let k = next.fetch_add(1, Ordering::Relaxed);
+            let Some(item) = todo.get(k) else {
+                break;
+            };
+            let r = f(lock(item).take().expect("each item is taken once"));
+            *lock(&done[k]) = Some(r);
+        };
+        let work = &work;
+        self.pool.in_place_scope(|s| {
+            for _ in 1..self.threads.min(n) {
+                s.spawn(move |_| work());
+            }
+            work();
+        });
+        (done.iter())
+            .map(|m| lock(m).take().expect("every item ran"))
+            .collect()
+    }
+}
+
+/// The phases that run in chunks of agents, on the pool when there is one.
+#[derive(Clone, Copy)]
+pub(super) enum Phase {
+    Select,
+    Calculate,
+    Deliver,
+}
+
+/// Chooses, per phase, whether it runs on the pool or on the stepping thread alone: every
+/// 64 runs of a phase, it runs once on one thread and then twice on the pool (on
+/// consecutive steps, which do about the same work), and keeps one thread until the next
+/// trial only when it beat both runs on the pool (the first run on the pool after one on
+/// one thread may have to wake the pool's threads). The first trial is at a phase's
+/// fourth to sixth runs: the first two steps do one-time work (the first touches of new
+/// columns, the plan of senders) which would count against whichever way ran then. The
+/// results are the same either way (chunks are joined in agent order).
+/// One thread wins where a phase is too light to pay for waking the pool and for the
+/// data it leaves in the other core's cache (B2's selection between two serial actions
+/// phases), or where the other core is busy.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Tuner {
+    /// Per phase: how often it ran, how long its last run on one thread took, and
+    /// whether one thread was faster at the last trial.
+    pub(super) phases: [(u64, std::time::Duration, bool); 3],
+}
+
+impl Tuner {
+    /// Whether the next run of `phase` is on the pool (it is counted).
+    pub(super) fn pooled(&mut self, phase: Phase) -> bool {
+        let p = &mut self.phases[phase as usize];
+        p.0 += 1;
+        // The first runs (the first steps, with their one-time work) are not trials.
+        match p.0 % 64 {
+            4 => false,
+            5 | 6 => true,
+            _ => !p.2,
+        }
+    }
+
+    /// The run of `phase` just counted took `d`.
+    pub(super) fn took(&mut self, phase: Phase, d: std::time::Duration) {
+        let p = &mut self.phases[phase as usize];
+        match p.0 % 64 {
+            4 => p.1 = d,
+            5 => p.2 = p.1 < d,
+            6 => p.2 &= p.1 < d,
+            _ => {}
+        }
+    }
+}
