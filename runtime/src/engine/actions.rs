@@ -197,7 +197,7 @@ impl Engine {
         let n = self.lat.len();
         // Rules with nothing to do in this phase (only calculations and sends) are left out;
         // only the agents with something to do get an intent.
-        if self.acting == Acting::Nothing {
+        if self.plan.acting == Acting::Nothing {
             return;
         }
         let mut todo = std::mem::take(&mut self.todo);
@@ -207,20 +207,20 @@ impl Engine {
         // states. When the selection is decided by states alone, its entry is also set at
         // once to the rule of its new state (see `set_state_at_once`).
         let direct = !self.opts.trace;
-        let keep = self.sel_by_state && !self.any_prio && !self.opts.static_first;
+        let keep = self.sel_by_state && !self.plan.any_prio && !self.opts.static_first;
         let (mut changed, mut lookups) = (false, false);
         let mut rs: Vec<u32> = Vec::new();
         let simple = every && sel.many.is_empty();
         // When every rule's actions are a plain move (or none) and no agent executes several
         // rules, the step's actions are the list of moves, collected in one tight loop.
-        let plain_moves = simple && self.acting == Acting::PlainMoves;
+        let plain_moves = simple && self.plan.acting == Acting::PlainMoves;
         // When the selection is kept (decided by states alone) and every rule's actions
         // only set the state, each agent takes its candidate list's hop, known per list,
         // in one tight loop (`hop_run`); the loop stops at each agent whose list has no hop
         // yet (or whose new state's rules need evaluating), which goes the general way.
-        let hops = simple && keep && direct && self.acting == Acting::States;
+        let hops = simple && keep && direct && self.plan.acting == Acting::States;
         if plain_moves {
-            let plain = &self.plain_moves;
+            let plain = &self.plan.plain_moves;
             for (a, &r) in sel.one.iter().enumerate() {
                 if let Some(&Some(o)) = plain.get(r as usize) {
                     todo.moves.push((a as u32, o));
@@ -263,7 +263,7 @@ impl Engine {
                 }
                 continue;
             }
-            let acts = &self.has_actions;
+            let acts = &self.plan.has_actions;
             rs.clear();
             if let Some((still, first)) = pass {
                 let it = if first {
@@ -546,10 +546,10 @@ impl Engine {
         (direct, keep): (bool, bool),
         sel: &mut Selection,
     ) -> (bool, bool) {
-        if let Some(o) = self.plain_moves[r as usize] {
+        if let Some(o) = self.plan.plain_moves[r as usize] {
             todo.moves.push((a as u32, o));
-        } else if self.has_actions[r as usize] {
-            match self.direct_bits[r as usize] {
+        } else if self.plan.has_actions[r as usize] {
+            match self.plan.direct_bits[r as usize] {
                 Some(bits) if direct => return self.set_state_at_once(a, r, bits, keep, sel),
                 _ => self.add_rule_actions(todo, a as u32, r),
             }
@@ -562,7 +562,7 @@ impl Engine {
     pub(super) fn add_rule_actions(&self, todo: &mut Actions, a: u32, r: u32) {
         let info = &self.prog.rules[r as usize];
         if let Some(off) = info.moves {
-            let o = match self.literal_offsets[off as usize] {
+            let o = match self.plan.literal_offsets[off as usize] {
                 Some(o) => o,
                 None => {
                     let env = SelEnv {

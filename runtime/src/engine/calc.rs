@@ -122,7 +122,7 @@ impl Engine {
     /// time over the whole run ([`run_batch`]), which amortises the dispatch and lets the
     /// compiler vectorise; other agents run the rule alone ([`run_post`]).
     pub(super) fn calculations(&mut self, sel: &Selection, rep: &mut StepReport) {
-        if !self.any_computes {
+        if !self.plan.any_computes {
             return;
         }
         self.lat.refresh_neighbours();
@@ -157,11 +157,11 @@ impl Engine {
             })
             .collect();
         let (prog, lat, trace) = (&self.prog, &self.lat, self.opts.trace);
-        let batchable = &self.batchable;
+        let batchable = &self.plan.batchable;
         // When every agent executes the same one rule, runs need no search.
         let uniform = sel.many.is_empty() && self.fire_counts.contains(&(n as u64));
         // The neighbour bits are made at the first delivery; until then it counts.
-        let (defer, has_nbr) = (self.defer, &self.has_nbr);
+        let (defer, has_nbr) = (self.plan.defer, &self.has_nbr);
         let count = defer && has_nbr.len() == nd;
         let work = |mut ch: CalcChunk<'_>| {
             // With messages left with their senders, the outboxes come back from the

@@ -155,7 +155,7 @@ impl Engine {
         let single = &mut self.cand_single;
         let (keys, hops) = (&mut self.cand_keys, &mut self.cand_hop);
         let hopped = &mut self.cand_hopped;
-        let (by_prio, trivial) = (&self.by_prio, &self.trivial);
+        let (by_prio, trivial) = (&self.by_prio, &self.plan.trivial);
         let idx = *self.candidates.entry(key).or_insert_with(|| {
             let list: Vec<u32> = by_prio
                 .iter()
@@ -261,7 +261,7 @@ impl Engine {
             return Hop::UNKNOWN;
         };
         let next = self.cand_single[to as usize];
-        let quiet = |q: u32| q == NO_RULE || !self.computes[q as usize];
+        let quiet = |q: u32| q == NO_RULE || !self.plan.computes[q as usize];
         Hop {
             to,
             next: if next != EVALUATE && quiet(r) && quiet(next) {

@@ -19,6 +19,8 @@ use latticesim_vm::{Program, Verified};
 use rustc_hash::FxHashMap;
 use std::collections::BTreeMap;
 
+mod plan;
+use plan::Plan;
 mod threads;
 use threads::*;
 
@@ -133,6 +135,8 @@ pub struct Engine {
     pub opts: Options,
     /// Counts so far.
     pub stats: Stats,
+    /// What the program allows: which fast paths apply (see [`plan`]).
+    plan: Plan,
     by_prio: Vec<u32>,
     /// Per state seen so far: the index in `cand_lists` of the rules (in `by_prio` order)
     /// whose state filter it passes.
@@ -158,42 +162,12 @@ pub struct Engine {
     cand_dirty: bool,
     /// Some agent's state changed since the last selection.
     states_changed: bool,
-    /// Per rule: its precondition is only its state filter (or nothing).
-    trivial: Vec<bool>,
-    /// Per rule: its precondition can be evaluated over a run of agents ([`batch_pre`]).
-    pre_batch: Vec<bool>,
-    /// Some rule reads neighbours' priorities.
-    any_prio: bool,
-    /// Some rule calculates or sends.
-    any_computes: bool,
-    /// Messages are left where their senders wrote them (see `Pending` in lattice.rs)
-    /// instead of copied into inboxes: no rule moves or swaps, and no rule uses texts.
-    /// The outboxes then have one more column per slot, for sends to all directions.
-    defer: bool,
     /// With `defer`: per direction, a bit per agent that has a neighbour there (to count
     /// the messages delivered); made at the first delivery.
     has_nbr: Vec<Vec<u64>>,
     /// With `defer`: this step's outboxes as counted by the calculations (see
     /// [`Tally`]).
     counted: Option<Tally>,
-    /// The offsets at which `L`/`Q` terms read priorities, when none depends on a counter
-    /// (an agent's priority is then read only by its neighbours and by the agents at these
-    /// offsets backwards); `None` when one does.
-    prio_offsets: Option<Vec<[i32; 3]>>,
-    /// Per rule: it has a move, swap, attachment or state action.
-    has_actions: Vec<bool>,
-    /// What the rules' actions are, taken together.
-    acting: Acting,
-    /// Per rule whose only action sets the state: that state pattern as [`pat_bits`].
-    direct_bits: Vec<Option<(u64, u64)>>,
-    /// Per entry of the program's offsets: its value when it has no counter in it.
-    literal_offsets: Vec<Option<[i32; 3]>>,
-    /// Per rule whose only action is a move by an offset without counters (not zero):
-    /// that offset.
-    plain_moves: Vec<Option<[i32; 3]>>,
-    /// Per rule: its calculations can run on a range of agents at once (no external
-    /// counters).
-    batchable: Vec<bool>,
     /// The threads that share chunks of agents (see [`Workers`]), when more than one was
     /// asked for.
     pool: Option<Workers>,
@@ -211,8 +185,6 @@ pub struct Engine {
     /// execute any rule. Kept up to date when the selection is reused.
     fire_counts: Vec<u64>,
     active: u64,
-    /// Per rule: it calculates or sends.
-    computes: Vec<bool>,
     /// Per-cell and per-agent marks for the moves (allocated at the first move).
     scratch: MoveScratch,
     /// The actions of the step being made (kept for their allocations).
@@ -259,12 +231,8 @@ impl Engine {
             lat.ensure_text();
         }
         let n = lat.len();
-        let defer = uses.slots != 0
-            && !uses.texts
-            && prog
-                .rules
-                .iter()
-                .all(|r| r.moves.is_none() && r.swaps.is_none());
+        let plan = Plan::of(&prog);
+        let defer = plan.defer;
         // With `defer`, a send to all directions writes one more column per slot.
         let cols = lat.inbox_num.len() + if defer { lat.slots as usize } else { 0 };
         // With `defer`, only the columns some send writes hold values (the others are
@@ -287,57 +255,8 @@ impl Engine {
                 }
             }
         }
-        let trivial = prog
-            .rules
-            .iter()
-            .map(
-                |r| match &prog.code[r.pre.start as usize..r.pre.end as usize] {
-                    [Op::True {}] => true,
-                    [Op::State { pat }] => r.state_filter == Some(*pat),
-                    _ => false,
-                },
-            )
-            .collect();
-        let pre_batch = prog
-            .rules
-            .iter()
-            .map(|r| pre_batchable(&prog.code[r.pre.start as usize..r.pre.end as usize]))
-            .collect();
-        let batchable = prog
-            .rules
-            .iter()
-            .map(|r| {
-                prog.code[r.post.start as usize..r.post.end as usize]
-                    .iter()
-                    .all(|op| {
-                        !matches!(op, Op::Calc { a, b, .. }
-                            if matches!(a, Val::Ext(_)) || matches!(b, Val::Ext(_)))
-                    })
-            })
-            .collect();
-        let has_actions: Vec<bool> = (prog.rules.iter())
-            .map(|i| {
-                i.moves.is_some()
-                    || i.swaps.is_some()
-                    || i.attaches.is_some()
-                    || i.sets_state.is_some()
-            })
-            .collect();
-        let plain_moves: Vec<Option<[i32; 3]>> = (prog.rules.iter())
-            .map(|i| match (i.moves, i.sets_state, i.swaps, i.attaches) {
-                (Some(o), None, None, None) => {
-                    literal(&prog.offsets[o as usize]).filter(|&o| o != [0, 0, 0])
-                }
-                _ => None,
-            })
-            .collect();
-        let direct_bits: Vec<Option<(u64, u64)>> = (prog.rules.iter())
-            .map(|i| match (i.sets_state, i.moves, i.swaps, i.attaches) {
-                (Some(p), None, None, None) => Some(pat_bits(&prog.pats[p as usize])),
-                _ => None,
-            })
-            .collect();
         Engine {
+            plan,
             stats: Stats {
                 firings: vec![0; prog.rules.len()],
                 ..Stats::default()
@@ -353,39 +272,18 @@ impl Engine {
             cand_of: vec![NO_LIST; n],
             cand_dirty: true,
             states_changed: true,
-            trivial,
-            pre_batch,
-            any_prio: prog.rules.iter().any(|r| r.reads_priorities),
-            any_computes: prog.rules.iter().any(|r| r.computes),
-            defer,
             has_nbr: Vec::new(),
             counted: None,
-            prio_offsets: prog
-                .code
-                .iter()
-                .filter_map(|op| match op {
-                    Op::Less { off } | Op::LessEq { off } => Some(*off),
-                    _ => None,
-                })
-                .map(|off| literal(&prog.offsets[off as usize]))
-                .collect(),
-            batchable,
             pool: (opts.threads > 1 && n >= AGENTS_PER_THREAD)
                 .then(|| Workers::new(opts.threads))
                 .flatten(),
             tuner: Tuner::default(),
             serial: false,
-            acting: Acting::of(&has_actions, &plain_moves, &direct_bits),
-            has_actions,
-            literal_offsets: prog.offsets.iter().map(literal).collect(),
-            plain_moves,
-            direct_bits,
             sel: Selection::default(),
             sel_by_state: false,
             sel_reused: false,
             fire_counts: vec![0; prog.rules.len()],
             active: 0,
-            computes: prog.rules.iter().map(|r| r.computes).collect(),
             scratch: MoveScratch::default(),
             todo: Actions::default(),
             later: Vec::new(),

@@ -114,7 +114,7 @@ impl Engine {
             // No rule sends or reads messages: there is nothing to deliver.
             return;
         }
-        if self.defer {
+        if self.plan.defer {
             self.deliver_deferred();
             return;
         }

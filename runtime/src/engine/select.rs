@@ -186,10 +186,10 @@ impl Engine {
         if one.len() != n {
             one = vec![0; n];
         }
-        let (prog, lat, trivial) = (&self.prog, &self.lat, &self.trivial);
+        let (prog, lat, trivial) = (&self.prog, &self.lat, &self.plan.trivial);
         let (lists, single, of) = (&self.cand_lists, &self.cand_single, &self.cand_of);
         let (par, chunk, _) = self.chunks(n);
-        let pre_batch = &self.pre_batch;
+        let pre_batch = &self.plan.pre_batch;
         let work = |(c, one): (usize, &mut [u32])| {
             let lo = c * chunk;
             let mut multi: Vec<(u32, Vec<u32>)> = Vec::new();
@@ -283,12 +283,12 @@ impl Engine {
             self.cand_dirty || self.states_changed || self.cand_of.len() != self.lat.len();
         self.states_changed = false;
         self.update_candidates();
-        self.sel_reused = !self.any_prio && !changed && self.sel_by_state;
+        self.sel_reused = !self.plan.any_prio && !changed && self.sel_by_state;
         if self.sel_reused {
             return;
         }
         self.tuned(Phase::Select, |e| {
-            if e.any_prio {
+            if e.plan.any_prio {
                 e.select_with_priorities(rep);
             } else {
                 e.select_plain();
@@ -425,7 +425,7 @@ impl Engine {
                             queue.push_back(b);
                         }
                     };
-                    match &self.prio_offsets {
+                    match &self.plan.prio_offsets {
                         Some(offs) => {
                             let mut nb = [NO_AGENT; 6];
                             self.lat.neighbours(a, &mut nb);

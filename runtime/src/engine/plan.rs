@@ -1,0 +1,130 @@
+//! The plan: what a program allows, decided once when the engine is made, from the program
+//! alone. Every fast path beside the evaluator for one agent is listed here; the phases ask
+//! the plan (`self.plan`) and do not derive it again. Some paths also depend on the step
+//! (whether states changed, whether a trace is kept): those conditions are in the last
+//! column's code, named where they are tested.
+//!
+//! | path | applies when | falls back to | test that guards it |
+//! |---|---|---|---|
+//! | state-only rules (`trivial`) | a rule's precondition is only its state filter (or nothing): agents in that state execute it without evaluating (`dispatch.rs`, `cand_single`) | evaluating preconditions (`select.rs`) | `differential.rs` `optimisations_agree_with_reference` (chains of state-only rules), `themes_agree_with_reference_*` |
+//! | preconditions over runs (`pre_batch`) | every op of the precondition is one `batch::batch_pre` runs (`batch::pre_batchable`) | `eval_pre` one agent at a time | `optimisations_agree_with_reference` (preconditions over runs, runs longer than a batch) |
+//! | priorities (`any_prio`, `prio_offsets`) | no rule reads `P`, `L` or `Q`: the plain selection (`select_plain`); with literal `L`/`Q` offsets, priorities are resolved only where read | `select_with_priorities` over every agent | `semantics.rs` priority tests, `optimisations_agree_with_reference` (priority chains) |
+//! | no actions (`acting` = `Nothing`) | no rule moves, swaps, attaches or sets a state: the actions phase is skipped | `actions.rs` | `engine_agrees_with_reference_*` |
+//! | plain moves (`acting` = `PlainMoves`, `plain_moves`) | every acting rule only moves by a literal, non-zero offset: movers are collected without intents (`actions.rs`), and a mover without bonds moves alone (`moves::move_free`) | intents per agent and `detach_move_attach` | `optimisations_agree_with_reference` (programs of plain moves only, single-agent moves) |
+//! | state hops (`acting` = `States`, `direct_bits`) | every acting rule only sets a state: runs of agents in one state take its hop at once (`dispatch.rs`) | `set_state_at_once` per agent | `optimisations_agree_with_reference` (chains of state-only rules taken as hops) |
+//! | literal offsets (`literal_offsets`) | an offset has no counter in it: its value is known once | the offset evaluated per agent | `engine_agrees_with_reference_*` |
+//! | calculations over runs (`batchable`) | no calculation of the rule reads an external counter: `batch::run_batch` (and `fast_calc`, chains of `max`/`min`) over runs of agents | `run_post` one agent at a time | `optimisations_agree_with_reference` (runs calculating together, chains of in-place max/min, saturation and division by zero inside runs) |
+//! | no calculations (`any_computes`, `computes`) | no rule calculates or sends: the calculation phase is skipped; per rule, agents of rules that do not compute are passed over | `calc.rs` | `engine_agrees_with_reference_*` |
+//! | messages left with their senders (`defer`) | numeric slots are used, no text message, and no rule moves or swaps: sends stay in the outboxes and are read through the plan of senders (`Pending` in lattice.rs, `post.rs`) | copying every message into its recipient's inbox (`post::deliver`) | `optimisations_agree_with_reference` (messages left with their senders, stale outboxes, sends to all and to one direction), `threads_join_chunks_in_order` |
+
+use super::*;
+
+/// See the module's text.
+pub(super) struct Plan {
+    /// Per rule: its precondition is only its state filter (or nothing).
+    pub(super) trivial: Vec<bool>,
+    /// Per rule: its precondition can be evaluated over a run of agents ([`batch_pre`]).
+    pub(super) pre_batch: Vec<bool>,
+    /// Some rule reads neighbours' priorities.
+    pub(super) any_prio: bool,
+    /// The offsets at which `L`/`Q` terms read priorities, when none depends on a counter
+    /// (an agent's priority is then read only by its neighbours and by the agents at these
+    /// offsets backwards); `None` when one does.
+    pub(super) prio_offsets: Option<Vec<[i32; 3]>>,
+    /// Per rule: it has a move, swap, attachment or state action.
+    pub(super) has_actions: Vec<bool>,
+    /// What the rules' actions are, taken together.
+    pub(super) acting: Acting,
+    /// Per rule whose only action is a move by an offset without counters (not zero):
+    /// that offset.
+    pub(super) plain_moves: Vec<Option<[i32; 3]>>,
+    /// Per rule whose only action sets the state: that state pattern as [`pat_bits`].
+    pub(super) direct_bits: Vec<Option<(u64, u64)>>,
+    /// Per entry of the program's offsets: its value when it has no counter in it.
+    pub(super) literal_offsets: Vec<Option<[i32; 3]>>,
+    /// Per rule: its calculations can run on a range of agents at once (no external
+    /// counters).
+    pub(super) batchable: Vec<bool>,
+    /// Some rule calculates or sends.
+    pub(super) any_computes: bool,
+    /// Per rule: it calculates or sends.
+    pub(super) computes: Vec<bool>,
+    /// Messages are left where their senders wrote them (see `Pending` in lattice.rs)
+    /// instead of copied into inboxes: numeric slots are used, no rule moves or swaps, and
+    /// no rule uses texts. The outboxes then have one more column per slot, for sends to
+    /// all directions.
+    pub(super) defer: bool,
+}
+
+impl Plan {
+    /// The plan of a program.
+    pub(super) fn of(prog: &Program) -> Plan {
+        let uses = prog.uses();
+        let pre =
+            |r: &latticesim_vm::RuleInfo| &prog.code[r.pre.start as usize..r.pre.end as usize];
+        let post =
+            |r: &latticesim_vm::RuleInfo| &prog.code[r.post.start as usize..r.post.end as usize];
+        let trivial = (prog.rules.iter())
+            .map(|r| match pre(r) {
+                [Op::True {}] => true,
+                [Op::State { pat }] => r.state_filter == Some(*pat),
+                _ => false,
+            })
+            .collect();
+        let pre_batch = prog.rules.iter().map(|r| pre_batchable(pre(r))).collect();
+        let batchable = (prog.rules.iter())
+            .map(|r| {
+                post(r).iter().all(|op| {
+                    !matches!(op, Op::Calc { a, b, .. }
+                        if matches!(a, Val::Ext(_)) || matches!(b, Val::Ext(_)))
+                })
+            })
+            .collect();
+        let has_actions: Vec<bool> = (prog.rules.iter())
+            .map(|i| {
+                i.moves.is_some()
+                    || i.swaps.is_some()
+                    || i.attaches.is_some()
+                    || i.sets_state.is_some()
+            })
+            .collect();
+        let plain_moves: Vec<Option<[i32; 3]>> = (prog.rules.iter())
+            .map(|i| match (i.moves, i.sets_state, i.swaps, i.attaches) {
+                (Some(o), None, None, None) => {
+                    literal(&prog.offsets[o as usize]).filter(|&o| o != [0, 0, 0])
+                }
+                _ => None,
+            })
+            .collect();
+        let direct_bits: Vec<Option<(u64, u64)>> = (prog.rules.iter())
+            .map(|i| match (i.sets_state, i.moves, i.swaps, i.attaches) {
+                (Some(p), None, None, None) => Some(pat_bits(&prog.pats[p as usize])),
+                _ => None,
+            })
+            .collect();
+        let prio_offsets = (prog.code.iter())
+            .filter_map(|op| match op {
+                Op::Less { off } | Op::LessEq { off } => Some(*off),
+                _ => None,
+            })
+            .map(|off| literal(&prog.offsets[off as usize]))
+            .collect();
+        Plan {
+            trivial,
+            pre_batch,
+            any_prio: prog.rules.iter().any(|r| r.reads_priorities),
+            prio_offsets,
+            acting: Acting::of(&has_actions, &plain_moves, &direct_bits),
+            has_actions,
+            plain_moves,
+            direct_bits,
+            literal_offsets: prog.offsets.iter().map(literal).collect(),
+            batchable,
+            any_computes: prog.rules.iter().any(|r| r.computes),
+            computes: prog.rules.iter().map(|r| r.computes).collect(),
+            defer: uses.slots != 0
+                && !uses.texts
+                && (prog.rules.iter()).all(|r| r.moves.is_none() && r.swaps.is_none()),
+        }
+    }
+}
