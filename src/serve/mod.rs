@@ -1,0 +1,236 @@
+//! `latticesim serve`: the viewer and editor in the browser. An HTTP server on 127.0.0.1
+//! ([`http`]: connections, limits, deadlines) serves the single-page app embedded in the
+//! binary (`web/`) and a JSON API over a [`History`] of the run; the API and the security
+//! model are documented in docs/viewer.md.
+//!
+//! Every request passes the [`Gate`] first: its `Host` must be an address this server is
+//! reached at (against DNS rebinding), a cross-origin request is refused, and it must carry
+//! the session's secret token (query, header or the cookie set when the printed URL was
+//! opened). Requests are then handled one at a time under a lock on the [`Session`]. A
+//! request that fails gets a JSON `{"error": "..."}` with a 4xx status; a panic while
+//! handling one is caught, answered with 500 and ends the run (the files stay), so the
+//! server keeps serving.
+
+mod http;
+
+use crate::output::say;
+use crate::render::state_colour;
+use http::{error, Response as Reply};
+use latticesim_compiler::{compile, Checked};
+use latticesim_runtime::{Engine, History, Lattice, Options, Order, TraceEvent};
+use serde::Serialize;
+use serde_json::{json, Value};
+use std::collections::HashMap;
+use std::io::Read;
+use std::net::{IpAddr, SocketAddr, TcpListener, ToSocketAddrs};
+use std::path::{Component, Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+mod gate;
+use gate::*;
+
+mod views;
+use views::*;
+
+mod routes;
+mod session;
+use session::*;
+
+/// The largest request body accepted (rules and agents texts travel in bodies).
+pub const MAX_BODY: usize = 8 << 20;
+/// The largest file the editor loads.
+const MAX_FILE: u64 = 8 << 20;
+/// How long one request may step forwards before it answers with the step it reached.
+const STEP_BUDGET: Duration = Duration::from_secs(5);
+/// What a client may send, and how slowly (see [`http::Limits`]).
+const LIMITS: http::Limits = http::Limits {
+    head: 32 << 10,
+    headers: 64,
+    body: MAX_BODY,
+    read: Duration::from_secs(30),
+    write: Duration::from_secs(30),
+    connections: 64,
+};
+/// The longest path the file API takes, in bytes, and the longest name in it.
+const MAX_PATH: usize = 4096;
+const MAX_NAME: usize = 255;
+
+/// The arguments of `latticesim serve`.
+#[derive(clap::Args)]
+pub struct ServeArgs {
+    /// The rules file to open (the editor can load others from the working folder).
+    #[arg(requires = "agents")]
+    rules: Option<PathBuf>,
+    /// The agents file to open.
+    agents: Option<PathBuf>,
+    /// The port (0: any free port; the URL printed says which).
+    #[arg(long, default_value_t = 8080)]
+    port: u16,
+    /// The address to listen on. Anyone who can reach it and knows the token can read and
+    /// write files in the working folder, so only 127.0.0.1 is the default.
+    #[arg(long, default_value = "127.0.0.1")]
+    host: String,
+    /// The secret every request must carry (default: a new random one each time, printed
+    /// in the URL).
+    #[arg(long)]
+    token: Option<String>,
+    /// Threads for the per-agent work (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Keep a keyframe every K steps for stepping back (the interval doubles past 256
+    /// keyframes, so memory stays bounded).
+    #[arg(long, default_value_t = 64)]
+    keyframe_every: u64,
+}
+
+fn reply_json<T: Serialize>(status: u16, v: &T) -> Reply {
+    Reply {
+        status,
+        ctype: "application/json",
+        headers: Vec::new(),
+        body: serde_json::to_vec(v).expect("plain data"),
+    }
+}
+
+/// Answers one request: the gate, then the session's handler under its lock.
+fn answer(gate: &Gate, session: &Mutex<Session>, r: &http::Request) -> Reply {
+    let (path, query) = r.target.split_once('?').unwrap_or((&r.target, ""));
+    let query: HashMap<&str, &str> = query
+        .split('&')
+        .filter_map(|kv| kv.split_once('='))
+        .collect();
+    let extra = match gate.admit(r, path, &query) {
+        Ok(h) => h,
+        Err(reply) => return reply,
+    };
+    let req = Req {
+        method: &r.method,
+        path,
+        query,
+        body: &r.body,
+    };
+    let mut s = session.lock().unwrap_or_else(|e| e.into_inner());
+    let s = &mut *s;
+    let mut reply = match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        routes::route(s, &req)
+    })) {
+        Ok(r) => r,
+        Err(_) => {
+            s.run = None;
+            error(
+                500,
+                "internal error while handling the request (details on the server's terminal); the run was stopped, apply the files to start again",
+            )
+        }
+    };
+    reply.headers.extend(extra);
+    reply
+}
+
+pub fn serve(args: ServeArgs) -> ExitCode {
+    let root = match std::env::current_dir().and_then(|d| d.canonicalize()) {
+        Ok(r) => r,
+        Err(e) => {
+            say!("error: cannot open the working folder: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let threads = crate::threads(args.threads, usize::MAX, "");
+    let mut session = Session {
+        root,
+        allowed: Vec::new(),
+        opts: Options {
+            threads,
+            order: Order::ActionsFirst,
+            static_first: false,
+            trace: false,
+        },
+        keyframe_every: args.keyframe_every.max(1),
+        rules_path: "rules.txt".into(),
+        agents_path: "agents.txt".into(),
+        rules: String::new(),
+        agents: String::new(),
+        run: None,
+    };
+    if let (Some(r), Some(a)) = (&args.rules, &args.agents) {
+        let (rules, agents) = match (read_text(r), read_text(a)) {
+            (Ok(r), Ok(a)) => (r, a),
+            (Err(c), _) | (_, Err(c)) => return c,
+        };
+        session.allowed = [r, a]
+            .iter()
+            .filter_map(|p| p.canonicalize().ok())
+            .collect();
+        session.rules_path = r.display().to_string();
+        session.agents_path = a.display().to_string();
+        session.rules = rules;
+        session.agents = agents;
+        let (verdict, running) = session.apply();
+        if !running {
+            say!(
+                "{}, {}: {} error(s); fix them in the editor",
+                session.rules_path,
+                session.agents_path,
+                verdict["errors"]
+            );
+        }
+    }
+    let token = match args.token.clone().map_or_else(new_token, Ok) {
+        Ok(t)
+            if !t.is_empty()
+                && t.bytes()
+                    .all(|b| b.is_ascii_alphanumeric() || b"-._~".contains(&b)) =>
+        {
+            t
+        }
+        Ok(_) => {
+            say!("error: --token: use letters, digits and - . _ ~ only, at least one");
+            return ExitCode::from(2);
+        }
+        Err(e) => {
+            say!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let host = args.host.trim_start_matches('[').trim_end_matches(']');
+    let listener = match (host, args.port)
+        .to_socket_addrs()
+        .and_then(|mut a| a.next().ok_or_else(|| std::io::Error::other("no address")))
+        .and_then(TcpListener::bind)
+    {
+        Ok(l) => l,
+        Err(e) => {
+            say!("error: cannot listen on {}:{}: {e}", args.host, args.port);
+            return ExitCode::from(2);
+        }
+    };
+    let bound = match listener.local_addr() {
+        Ok(a) => a,
+        Err(e) => {
+            say!("error: cannot listen on {}:{}: {e}", args.host, args.port);
+            return ExitCode::from(2);
+        }
+    };
+    let loopback = host == "localhost" || bound.ip().is_loopback();
+    if !loopback {
+        say!(
+            "warning: listening on {}: anyone who can reach it and has the token can read and write files in {}",
+            args.host,
+            session.root.display()
+        );
+    }
+    let shown = if bound.ip().is_unspecified() || host == "localhost" {
+        format!("127.0.0.1:{}", bound.port())
+    } else {
+        bound.to_string()
+    };
+    crate::output::stdout(
+        format!("latticesim: serving http://{shown}/?token={token} (Ctrl-C stops)\n").as_bytes(),
+    );
+    let gate = Gate::new(token, bound, &args.host);
+    let session = Arc::new(Mutex::new(session));
+    http::serve(listener, LIMITS, move |r| answer(&gate, &session, r));
+    ExitCode::SUCCESS
+}

@@ -1,0 +1,69 @@
+//! The one table of the server's routes: the pages of the app (embedded in the binary) and
+//! the API, each with its method. A path in the table asked for with another method is
+//! 405 (saying which it takes); any other path is 404.
+
+use super::*;
+
+/// The app's files: path, content type, content.
+const ASSETS: [(&str, &str, &str); 4] = [
+    (
+        "/",
+        "text/html; charset=utf-8",
+        include_str!("../../web/index.html"),
+    ),
+    (
+        "/index.html",
+        "text/html; charset=utf-8",
+        include_str!("../../web/index.html"),
+    ),
+    (
+        "/app.js",
+        "text/javascript; charset=utf-8",
+        include_str!("../../web/app.js"),
+    ),
+    (
+        "/app.css",
+        "text/css; charset=utf-8",
+        include_str!("../../web/app.css"),
+    ),
+];
+
+/// A handler of the API.
+type Handler = fn(&mut Session, &Req) -> Result<Reply, Reply>;
+
+/// The API: method, path, handler (documented in docs/viewer.md).
+const API: [(&str, &str, Handler); 6] = [
+    ("GET", "/api/session", |s, _| Ok(reply_json(200, &s.info()))),
+    ("POST", "/api/check", Session::api_check),
+    ("POST", "/api/apply", Session::api_apply),
+    ("GET", "/api/frame", Session::api_frame),
+    ("GET", "/api/agent", Session::api_agent),
+    ("POST", "/api/file", Session::api_file),
+];
+
+/// The answer to a request that passed the gate.
+pub(super) fn route(s: &mut Session, req: &Req) -> Reply {
+    let asset = ASSETS.iter().find(|a| a.0 == req.path);
+    let api = API.iter().find(|a| a.1 == req.path);
+    let result = match (asset, api) {
+        (Some(&(_, ctype, text)), _) if req.method == "GET" => Ok(Reply {
+            status: 200,
+            ctype,
+            headers: Vec::new(),
+            body: text.as_bytes().to_vec(),
+        }),
+        (_, Some(&(method, _, handler))) if req.method == method => handler(s, req),
+        (Some(_), _) | (_, Some(_)) => {
+            let takes = api.map_or("GET", |a| a.0);
+            Err(error(
+                405,
+                format!(
+                    "{} is not allowed on {}; it takes {takes}",
+                    req.method, req.path
+                ),
+            ))
+        }
+        (None, None) => Err(error(404, format!("no such page or API: {}", req.path))),
+    };
+    result.unwrap_or_else(|r| r)
+}

@@ -1,0 +1,366 @@
+//! The session: the files open in the editor, the run of them (a [`History`] that can go
+//! back to any step), and the handlers of the API, which work on it one request at a time.
+
+use super::*;
+
+/// The run shown: its history and the names of its rules.
+pub(super) struct Run {
+    pub(super) hist: History,
+    /// Why the last forward stepping stopped early, if it did.
+    pub(super) note: Option<String>,
+}
+
+/// Everything the server holds.
+pub(super) struct Session {
+    /// The working folder: files outside it are neither read nor written.
+    pub(super) root: PathBuf,
+    /// Files named on the command line, which may lie outside the working folder.
+    pub(super) allowed: Vec<PathBuf>,
+    pub(super) opts: Options,
+    pub(super) keyframe_every: u64,
+    pub(super) rules_path: String,
+    pub(super) agents_path: String,
+    pub(super) rules: String,
+    pub(super) agents: String,
+    pub(super) run: Option<Run>,
+}
+
+/// A request: method, path, query parameters and body.
+pub(super) struct Req<'a> {
+    pub(super) method: &'a str,
+    pub(super) path: &'a str,
+    pub(super) query: HashMap<&'a str, &'a str>,
+    pub(super) body: &'a [u8],
+}
+
+impl Req<'_> {
+    pub(super) fn json(&self) -> Result<Value, Reply> {
+        let v: Value = serde_json::from_slice(self.body)
+            .map_err(|e| error(400, format!("the request body is not valid JSON: {e}")))?;
+        if !v.is_object() {
+            return Err(error(400, "the request body must be a JSON object"));
+        }
+        Ok(v)
+    }
+
+    pub(super) fn number(&self, name: &str) -> Result<Option<u64>, Reply> {
+        self.query
+            .get(name)
+            .map(|v| {
+                v.parse::<u64>().map_err(|_| {
+                    error(
+                        400,
+                        format!("`{name}` must be a non-negative integer, not `{v}`"),
+                    )
+                })
+            })
+            .transpose()
+    }
+}
+
+pub(super) fn text_field<'v>(v: &'v Value, name: &str) -> Result<&'v str, Reply> {
+    v.get(name).and_then(Value::as_str).ok_or_else(|| {
+        error(
+            400,
+            format!("the request body needs a string field `{name}`"),
+        )
+    })
+}
+
+/// Checks the editor's texts: the verdict, and the lattice when there are no errors.
+pub(super) fn check_texts(
+    rules_name: &str,
+    rules: &str,
+    agents_name: &str,
+    agents: &str,
+) -> (Checked, Option<Lattice>) {
+    let l = crate::agents_file::load(
+        (rules_name, rules.as_bytes()),
+        agents_name,
+        crate::agents_file::Source::Bytes(agents.as_bytes()),
+        crate::run::io_threads(None),
+    )
+    .expect("reading memory does not fail");
+    (l.checked, l.lattice)
+}
+
+impl Session {
+    pub(super) fn info(&self) -> Value {
+        json!({
+            "root": self.root.display().to_string(),
+            "rules_path": self.rules_path,
+            "agents_path": self.agents_path,
+            "rules": self.rules,
+            "agents": self.agents,
+            "check": check_json(
+                &check_texts(&self.rules_path, &self.rules, &self.agents_path, &self.agents).0,
+                &self.rules_path,
+            ),
+            "running": self.run.is_some(),
+        })
+    }
+
+    /// Checks the texts and, when they have no errors, starts a run of them from step 0
+    /// (true); with errors the run stays as it was (false).
+    pub(super) fn apply(&mut self) -> (Value, bool) {
+        let (c, lat) = check_texts(
+            &self.rules_path,
+            &self.rules,
+            &self.agents_path,
+            &self.agents,
+        );
+        let verdict = check_json(&c, &self.rules_path);
+        if let (Some(p), Some(lat)) = (c.rules.as_ref(), lat) {
+            if let Ok(prog) = compile(p) {
+                let hist = History::new(prog, lat, self.opts, self.keyframe_every, 256);
+                self.run = Some(Run { hist, note: None });
+                return (verdict, true);
+            }
+        }
+        (verdict, false)
+    }
+
+    /// A path from the browser, made absolute and checked to lie in the working folder
+    /// (or to be a file named on the command line). `new` allows a file that does not
+    /// exist yet (its folder must).
+    pub(super) fn resolve(&self, p: &str, new: bool) -> Result<PathBuf, Reply> {
+        if p.trim().is_empty() {
+            return Err(error(400, "the path is empty"));
+        }
+        if p.contains('\0') {
+            return Err(error(400, "the path contains a NUL character"));
+        }
+        if p.len() > MAX_PATH {
+            return Err(error(
+                400,
+                format!(
+                    "the path has {} bytes; at most {MAX_PATH} are allowed",
+                    p.len()
+                ),
+            ));
+        }
+        if let Some(long) = Path::new(p)
+            .components()
+            .find(|c| c.as_os_str().len() > MAX_NAME)
+        {
+            return Err(error(
+                400,
+                format!(
+                    "a name in the path has {} bytes; at most {MAX_NAME} are allowed",
+                    long.as_os_str().len()
+                ),
+            ));
+        }
+        // First by the path's text (so that `a/../../b` is refused whether `a` exists or
+        // not), then by where it really leads (symbolic links).
+        let mut full = PathBuf::new();
+        for c in self.root.join(p).components() {
+            match c {
+                Component::ParentDir => {
+                    full.pop();
+                }
+                Component::CurDir => {}
+                c => full.push(c),
+            }
+        }
+        let outside = |q: &Path| !q.starts_with(&self.root) && !self.allowed.iter().any(|a| a == q);
+        let refuse = || {
+            error(
+                403,
+                format!(
+                    "`{p}` is outside the working folder {}; the server reads and writes only there",
+                    self.root.display()
+                ),
+            )
+        };
+        if outside(&full) {
+            return Err(refuse());
+        }
+        let canon = match full.canonicalize() {
+            Ok(c) => c,
+            Err(_) if std::fs::symlink_metadata(&full).is_ok() => {
+                return Err(error(
+                    403,
+                    format!(
+                    "`{p}` is a symbolic link that leads nowhere; the server does not follow it"
+                ),
+                ))
+            }
+            Err(_) if new => {
+                let name = full
+                    .file_name()
+                    .filter(|n| *n != "..")
+                    .ok_or_else(|| error(400, format!("`{p}` does not name a file")))?;
+                let parent = full.parent().unwrap_or(Path::new("/"));
+                let parent = parent.canonicalize().map_err(|e| {
+                    error(404, format!("the folder of `{p}` cannot be opened: {e}"))
+                })?;
+                parent.join(name)
+            }
+            Err(e) => return Err(error(404, format!("cannot open `{p}`: {e}"))),
+        };
+        if outside(&canon) {
+            return Err(refuse());
+        }
+        Ok(canon)
+    }
+
+    pub(super) fn api_check(&mut self, req: &Req) -> Result<Reply, Reply> {
+        let v = req.json()?;
+        let (rules, agents) = (text_field(&v, "rules")?, text_field(&v, "agents")?);
+        let rules_path = v["rules_path"].as_str().unwrap_or(&self.rules_path);
+        let agents_path = v["agents_path"].as_str().unwrap_or(&self.agents_path);
+        let (c, _) = check_texts(rules_path, rules, agents_path, agents);
+        Ok(reply_json(200, &check_json(&c, rules_path)))
+    }
+
+    pub(super) fn api_apply(&mut self, req: &Req) -> Result<Reply, Reply> {
+        let v = req.json()?;
+        self.rules = text_field(&v, "rules")?.to_string();
+        self.agents = text_field(&v, "agents")?.to_string();
+        if let Some(p) = v["rules_path"].as_str() {
+            self.rules_path = p.to_string();
+        }
+        if let Some(p) = v["agents_path"].as_str() {
+            self.agents_path = p.to_string();
+        }
+        match self.apply() {
+            (verdict, true) => {
+                let run = self.run.as_ref().expect("just started");
+                Ok(reply_json(
+                    200,
+                    &json!({ "check": verdict, "frame": frame(run) }),
+                ))
+            }
+            (verdict, false) => Ok(reply_json(
+                422,
+                &json!({
+                    "error": format!("the files have {} error(s); the run goes on as it was until they are fixed", verdict["errors"]),
+                    "check": verdict,
+                }),
+            )),
+        }
+    }
+
+    pub(super) fn run_mut(&mut self) -> Result<&mut Run, Reply> {
+        self.run.as_mut().ok_or_else(|| {
+            error(
+                409,
+                "nothing is running: the files have errors, or none were applied",
+            )
+        })
+    }
+
+    pub(super) fn api_frame(&mut self, req: &Req) -> Result<Reply, Reply> {
+        let target = req.number("step")?;
+        let run = self.run_mut()?;
+        run.note = None;
+        if let Some(t) = target {
+            if t < run.hist.steps() {
+                run.hist.goto(t);
+            }
+            let started = Instant::now();
+            while run.hist.steps() < t {
+                if run.hist.engine().stats.quiescent {
+                    run.note = Some(format!(
+                        "quiescent at step {}: no agent has a rule to execute",
+                        run.hist.steps()
+                    ));
+                    break;
+                }
+                if started.elapsed() > STEP_BUDGET {
+                    run.note = Some(format!(
+                        "reached step {} of {t} in {} s; ask again to go on",
+                        run.hist.steps(),
+                        STEP_BUDGET.as_secs()
+                    ));
+                    break;
+                }
+                run.hist.step();
+            }
+        }
+        Ok(reply_json(200, &frame(run)))
+    }
+
+    pub(super) fn api_agent(&mut self, req: &Req) -> Result<Reply, Reply> {
+        let id = req
+            .number("id")?
+            .ok_or_else(|| error(400, "`id` is missing"))?;
+        let run = self.run_mut()?;
+        let n = run.hist.engine().lat.len() as u64;
+        if id >= n {
+            return Err(error(
+                404,
+                format!(
+                    "there is no agent {id}: ids go from 0 to {}",
+                    n.saturating_sub(1)
+                ),
+            ));
+        }
+        Ok(reply_json(200, &inspect(run, id as u32)))
+    }
+
+    /// POST /api/file: `{"path"}` reads a file, `{"path", "text"}` writes one.
+    pub(super) fn api_file(&mut self, req: &Req) -> Result<Reply, Reply> {
+        let v = req.json()?;
+        let p = text_field(&v, "path")?;
+        match v.get("text") {
+            None => {
+                let path = self.resolve(p, false)?;
+                let meta = std::fs::metadata(&path)
+                    .map_err(|e| error(404, format!("cannot open `{p}`: {e}")))?;
+                if !meta.is_file() {
+                    return Err(error(400, format!("`{p}` is not a file")));
+                }
+                if meta.len() > MAX_FILE {
+                    return Err(error(
+                        413,
+                        format!(
+                            "`{p}` has {} bytes; the editor opens files up to {MAX_FILE} bytes",
+                            meta.len()
+                        ),
+                    ));
+                }
+                let mut bytes = Vec::new();
+                crate::output::open_no_follow(&path)
+                    .and_then(|f| f.take(MAX_FILE + 1).read_to_end(&mut bytes))
+                    .map_err(|e| error(404, format!("cannot read `{p}`: {e}")))?;
+                let text = String::from_utf8(bytes)
+                    .map_err(|_| error(415, format!("`{p}` is not UTF-8 text")))?;
+                Ok(reply_json(200, &json!({ "path": p, "text": text })))
+            }
+            Some(t) => {
+                let text = t
+                    .as_str()
+                    .ok_or_else(|| error(400, "`text` must be a string"))?;
+                let path = self.resolve(p, true)?;
+                if path.is_dir() {
+                    return Err(error(400, format!("`{p}` is a folder")));
+                }
+                save(&path, text.as_bytes())
+                    .map_err(|e| error(500, format!("cannot write `{p}`: {e}")))?;
+                Ok(reply_json(200, &json!({ "path": p, "bytes": text.len() })))
+            }
+        }
+    }
+}
+
+pub(super) fn read_text(p: &Path) -> Result<String, ExitCode> {
+    let bytes = crate::read(&p.to_path_buf())?;
+    String::from_utf8(bytes).map_err(|_| {
+        say!("error: `{}` is not UTF-8 text", p.display());
+        ExitCode::from(2)
+    })
+}
+
+/// Writes a file of the editor whole or not at all (a new file beside it, renamed over it),
+/// keeping the permissions of the file it replaces.
+pub(super) fn save(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    use std::io::Write;
+    let mut f = crate::output::AtomicFile::create(path)?.durable();
+    f.write_all(bytes)?;
+    if let Ok(meta) = std::fs::metadata(path) {
+        f.set_permissions(meta.permissions())?;
+    }
+    f.commit()
+}

@@ -1,0 +1,207 @@
+//! What the viewer draws and shows, as JSON: the frame of a step, the inspector's view of
+//! one agent, and the checker's verdict with each diagnostic's editor.
+
+use super::*;
+
+/// The checker's verdict: counts, dimension and every diagnostic with the editor it
+/// belongs to (`rules` or `agents`).
+pub(super) fn check_json(c: &Checked, rules_name: &str) -> Value {
+    let diags: Vec<Value> = latticesim_compiler::render::to_json(&c.diags, &c.sources)
+        .into_iter()
+        .map(|d| {
+            let editor = if d.file == rules_name {
+                "rules"
+            } else {
+                "agents"
+            };
+            let mut v = serde_json::to_value(d).expect("plain data");
+            v["editor"] = json!(editor);
+            v
+        })
+        .collect();
+    json!({
+        "errors": c.errors(),
+        "warnings": c.warnings(),
+        "dimension": c.dim.dim.name(),
+        "rules": c.rule_count,
+        "agents": c.agent_count,
+        "diagnostics": diags,
+        "not_shown": crate::not_shown_json(c),
+    })
+}
+
+/// A configuration as the viewer draws it.
+#[derive(Serialize)]
+pub(super) struct Frame {
+    pub(super) step: u64,
+    pub(super) dim: usize,
+    pub(super) quiescent: bool,
+    /// Positions, `dim` numbers per agent.
+    pub(super) pos: Vec<i32>,
+    /// Per agent: its index in `states`.
+    pub(super) state: Vec<u32>,
+    pub(super) states: Vec<StateInfo>,
+    /// Attachment bits per agent (bit i = direction i of N, W, E, S, A, B), or none when
+    /// no agent is attached.
+    pub(super) attach: Option<Vec<u8>>,
+    pub(super) universe: Option<Vec<[i32; 2]>>,
+    pub(super) records: Vec<Value>,
+    pub(super) stats: Value,
+    pub(super) keyframes: [u64; 2],
+    pub(super) note: Option<String>,
+}
+
+#[derive(Serialize)]
+pub(super) struct StateInfo {
+    pub(super) name: String,
+    pub(super) colour: String,
+    pub(super) count: u64,
+}
+
+pub(super) fn hex(c: [u8; 3]) -> String {
+    format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2])
+}
+
+pub(super) fn state_name(s: &[u8; 5]) -> String {
+    String::from_utf8_lossy(s).into_owned()
+}
+
+pub(super) fn frame(run: &Run) -> Frame {
+    let e = run.hist.engine();
+    let lat = &e.lat;
+    let coords = lat.dim.coords();
+    let mut index: HashMap<[u8; 5], u32> = HashMap::new();
+    let mut states: Vec<StateInfo> = Vec::new();
+    // Neighbours often share a state: the last one found is tried first.
+    let mut last: Option<([u8; 5], u32)> = None;
+    let state = lat
+        .state
+        .iter()
+        .map(|s| {
+            let i = match last {
+                Some((l, i)) if l == *s => i,
+                _ => *index.entry(*s).or_insert_with(|| {
+                    states.push(StateInfo {
+                        name: state_name(s),
+                        colour: hex(state_colour(s)),
+                        count: 0,
+                    });
+                    states.len() as u32 - 1
+                }),
+            };
+            last = Some((*s, i));
+            states[i as usize].count += 1;
+            i
+        })
+        .collect();
+    let mut pos = Vec::with_capacity(lat.len() * coords);
+    for p in &lat.pos {
+        pos.extend_from_slice(&p[..coords]);
+    }
+    let attach = lat
+        .attach
+        .iter()
+        .any(|&b| b != 0)
+        .then(|| lat.attach.clone());
+    let universe = lat
+        .universe
+        .map(|b| b[..coords].iter().map(|&(lo, hi)| [lo, hi]).collect());
+    let records = run
+        .hist
+        .last_report()
+        .map(|rep| {
+            rep.records
+                .iter()
+                .map(|r| {
+                    json!({
+                        "kind": r.kind.name(),
+                        "severity": if r.is_error() { "error" } else { "warning" },
+                        "message": r.message,
+                        "agents": r.agents.iter().map(|(id, _)| id).collect::<Vec<_>>(),
+                    })
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    let s = &e.stats;
+    let stats = json!({
+        "firings": s.firings.iter().sum::<u64>(),
+        "moves": s.moves,
+        "swaps": s.swaps,
+        "sent": s.sent,
+        "delivered": s.delivered,
+        "dropped": s.dropped,
+        "errors": s.errors(),
+        "warnings": s.warnings(),
+    });
+    let (k, every) = run.hist.keyframes();
+    Frame {
+        step: run.hist.steps(),
+        dim: coords,
+        quiescent: s.quiescent,
+        pos,
+        state,
+        states,
+        attach,
+        universe,
+        records,
+        stats,
+        keyframes: [k as u64, every],
+        note: run.note.clone(),
+    }
+}
+
+/// What the inspector shows of agent `a`: its columns, its inbox, and the rules it executes
+/// in the next step (found by running that step on a copy with tracing).
+pub(super) fn inspect(run: &Run, a: u32) -> Value {
+    let e = run.hist.engine();
+    let lat = &e.lat;
+    let i = a as usize;
+    let dirs = lat.dim.dirs();
+    let letters = ['N', 'W', 'E', 'S', 'A', 'B'];
+    let attached: String = (0..dirs)
+        .filter(|d| lat.attach[i] & (1 << d) != 0)
+        .map(|d| letters[d])
+        .collect();
+    let counters: Vec<Value> = lat
+        .counter_numbers()
+        .into_iter()
+        .map(|c| json!({ "name": format!("C{c:02}"), "value": lat.counter(a, c) }))
+        .collect();
+    let mut messages: Vec<Value> = Vec::new();
+    for (d, letter) in letters.iter().enumerate().take(dirs) {
+        for s in lat.slot_numbers() {
+            let v = lat.inbox(a, d as u8, s);
+            if v != 0 {
+                messages.push(json!({ "name": format!("#{letter}{:02}", s + 1), "value": v }));
+            }
+        }
+        if let Some(t) = lat.inbox_text(a, d as u8) {
+            messages.push(json!({ "name": format!("#{letter}"), "value": state_name(&t) }));
+        }
+    }
+    let mut opts = e.opts;
+    opts.trace = true;
+    opts.threads = 1;
+    let mut next = Engine::new(e.prog.clone(), lat.clone(), opts);
+    let rep = next.step();
+    let fires = rep.trace.iter().find_map(|ev| match ev {
+        TraceEvent::Fire {
+            agent,
+            rules,
+            priority,
+        } if *agent == a => Some(json!({ "rules": rules, "priority": priority })),
+        _ => None,
+    });
+    let p = lat.pos[i];
+    json!({
+        "id": a,
+        "pos": &p[..lat.dim.coords()],
+        "state": state_name(&lat.state[i]),
+        "attached": attached,
+        "counters": counters,
+        "messages": messages,
+        "next": fires,
+        "next_step": run.hist.steps() + 1,
+    })
+}
