@@ -11,7 +11,11 @@
 //! handling one is caught, answered with 500 and ends the run (the files stay), so the
 //! server keeps serving.
 
+mod gate;
 mod http;
+mod routes;
+mod session;
+mod views;
 
 use crate::output::say;
 use crate::render::state_colour;
@@ -28,15 +32,9 @@ use std::process::ExitCode;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-mod gate;
 use gate::*;
-
-mod views;
-use views::*;
-
-mod routes;
-mod session;
 use session::*;
+use views::*;
 
 /// The largest request body accepted (rules and agents texts travel in bodies).
 pub const MAX_BODY: usize = 8 << 20;

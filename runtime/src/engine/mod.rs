@@ -1,6 +1,9 @@
-//! The synchronous step: selection with priorities, actions, calculations and the post
-//! office, exactly as `../shared/SEMANTICS.md` section 5 defines them. Every phase visits
-//! agents in id order, so a run is deterministic.
+//! The engine: the synchronous step (selection with priorities, actions, calculations and
+//! the post office, exactly as `../shared/SEMANTICS.md` section 5 defines them) conducted
+//! over parts that own their code: the plan of fast paths (`plan`), rule dispatch by state
+//! (`dispatch`), the selection (`select`), the actions (`actions`, `moves`), the
+//! calculations (`calc`, `batch`), the post office (`post`) and the threads (`threads`).
+//! Every phase visits agents in id order, so a run is deterministic.
 
 // The step works on parallel columns indexed by agent id and direction; index loops say
 // that more plainly than zipped iterators over five columns.
@@ -19,32 +22,26 @@ use latticesim_vm::{Program, Verified};
 use rustc_hash::FxHashMap;
 use std::collections::BTreeMap;
 
-mod plan;
-use plan::Plan;
-mod threads;
-use threads::*;
-
-mod batch;
-use batch::*;
-
-mod post;
-use post::*;
-
-mod calc;
-use calc::*;
-
-mod moves;
-use moves::*;
-
-mod dispatch;
-use dispatch::*;
-
-mod select;
-use select::*;
-
+// The parts of the step, each in its own module (docs/architecture.md).
 mod actions;
+mod batch;
+mod calc;
+mod dispatch;
+mod moves;
+mod plan;
+mod post;
+mod select;
+mod threads;
 use actions::*;
+use batch::*;
+use calc::*;
+use dispatch::*;
+use moves::*;
+use plan::Plan;
+use post::*;
+use select::*;
 pub use threads::AGENTS_PER_THREAD;
+use threads::*;
 
 /// Which of the paper's steps 2 and 3 comes first.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
