@@ -27,52 +27,93 @@ impl PreBufs {
     }
 }
 
-/// Whether a precondition can be evaluated by [`batch_pre`]: only terms about the agent
-/// itself and its neighbours (no priorities, offsets, texts or remote counters), within
-/// its stack depth.
-pub(super) fn pre_batchable(code: &[Op]) -> bool {
-    let mut depth = 0usize;
-    for op in code {
-        match op {
-            Op::True {} | Op::Nbr { .. } | Op::Att { .. } | Op::State { .. } => depth += 1,
-            Op::Cmp { a, b, .. }
-                if ![a, b]
-                    .iter()
-                    .any(|v| matches!(v, Val::Ext(_) | Val::Msg { dir: ANY_DIR, .. })) =>
-            {
-                depth += 1
-            }
-            Op::Not {} | Op::Jf { .. } => {}
-            Op::And {} => depth = depth.saturating_sub(1),
-            _ => return false,
-        }
-        if depth > PRE_STACK {
-            return false;
-        }
-    }
-    true
+/// A value a column precondition reads: never an external counter nor a message from any
+/// direction (those are evaluated one agent at a time).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum ColVal {
+    /// A literal.
+    Lit(i16),
+    /// An own counter.
+    Counter(u8),
+    /// An incoming numeric message from one direction.
+    Msg { dir: u8, slot: u8 },
 }
 
-/// Evaluates rule `r`'s precondition (which [`pre_batchable`] accepted, in a program
-/// without priority terms) for agents `first..first + out.len()` at once, one instruction
-/// over all of them. Short-circuit jumps are not taken: the terms have no side effects and
-/// a false left operand makes the conjunction false either way.
+/// One instruction of a precondition the column interpreter runs ([`batch_pre`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum PreStep {
+    True,
+    Nbr { mask: u8, want: u8 },
+    Att { mask: u8, want: u8 },
+    State { pat: u16 },
+    Cmp { op: CmpOp, a: ColVal, b: ColVal },
+    Not,
+    And,
+}
+
+/// A rule's precondition as the column interpreter runs it: made by [`column_pre`], only
+/// for preconditions it can run, so that running one never meets an instruction it does
+/// not know.
+pub(super) type ColumnPre = Vec<PreStep>;
+
+/// A precondition for [`batch_pre`], when it can run it: only terms about the agent itself
+/// and its neighbours (no priorities, offsets, texts, external counters or messages from
+/// any direction), within its stack depth. Short-circuit jumps are left out: the terms
+/// have no side effects and a false left operand makes the conjunction false either way.
+pub(super) fn column_pre(code: &[Op]) -> Option<ColumnPre> {
+    let val = |v: Val| match v {
+        Val::Lit(c) => Some(ColVal::Lit(c)),
+        Val::Counter(c) => Some(ColVal::Counter(c)),
+        Val::Msg { dir, slot } if dir != ANY_DIR => Some(ColVal::Msg { dir, slot }),
+        _ => None,
+    };
+    let mut depth = 0usize;
+    let mut steps = Vec::with_capacity(code.len());
+    for op in code {
+        let step = match *op {
+            Op::True {} => PreStep::True,
+            Op::Nbr { mask, want } => PreStep::Nbr { mask, want },
+            Op::Att { mask, want } => PreStep::Att { mask, want },
+            Op::State { pat } => PreStep::State { pat },
+            Op::Cmp { op, a, b } => PreStep::Cmp {
+                op,
+                a: val(a)?,
+                b: val(b)?,
+            },
+            Op::Not {} => PreStep::Not,
+            Op::And {} => PreStep::And,
+            Op::Jf { .. } => continue,
+            _ => return None,
+        };
+        match step {
+            PreStep::Not => {}
+            PreStep::And => depth = depth.saturating_sub(1),
+            _ => depth += 1,
+        }
+        if depth > PRE_STACK {
+            return None;
+        }
+        steps.push(step);
+    }
+    Some(steps)
+}
+
+/// Evaluates a precondition made by [`column_pre`] (in a program without priority terms)
+/// for agents `first..first + out.len()` at once, one instruction over all of them.
 pub(super) fn batch_pre(
     prog: &Program,
-    (r, first): (u32, usize),
+    (pre, first): (&[PreStep], usize),
     lat: &Lattice,
     bufs: &mut PreBufs,
     out: &mut [bool],
 ) {
     let m = out.len();
-    let info = &prog.rules[r as usize];
-    let code = &prog.code[info.pre.start as usize..info.pre.end as usize];
     let PreBufs { stack, x, y } = bufs;
     let mut sp = 0;
     let nd = lat.dim.dirs();
-    let load = |v: Val, into: &mut [i32]| match v {
-        Val::Lit(c) => into.fill(c as i32),
-        Val::Counter(c) => match lat.counter_col[c as usize] {
+    let load = |v: ColVal, into: &mut [i32]| match v {
+        ColVal::Lit(c) => into.fill(c as i32),
+        ColVal::Counter(c) => match lat.counter_col[c as usize] {
             NO_COL => into.fill(0),
             col => {
                 for (t, &s) in into
@@ -83,20 +124,19 @@ pub(super) fn batch_pre(
                 }
             }
         },
-        Val::Msg { dir, slot } => {
+        ColVal::Msg { dir, slot } => {
             for (j, t) in into.iter_mut().enumerate() {
                 *t = lat.inbox((first + j) as u32, dir, slot) as i32;
             }
         }
-        Val::Ext(_) => unreachable!("not batched"),
     };
-    for op in code {
-        match *op {
-            Op::True {} => {
+    for &step in pre {
+        match step {
+            PreStep::True => {
                 stack[sp][..m].fill(true);
                 sp += 1;
             }
-            Op::Nbr { mask, want } => {
+            PreStep::Nbr { mask, want } => {
                 // Only the directions the term asks about are looked at.
                 let top = &mut stack[sp][..m];
                 top.fill(true);
@@ -106,13 +146,13 @@ pub(super) fn batch_pre(
                 }
                 sp += 1;
             }
-            Op::Att { mask, want } => {
+            PreStep::Att { mask, want } => {
                 for (t, &at) in stack[sp][..m].iter_mut().zip(&lat.attach[first..first + m]) {
                     *t = at & mask == want & mask;
                 }
                 sp += 1;
             }
-            Op::State { pat } => {
+            PreStep::State { pat } => {
                 let p = &prog.pats[pat as usize];
                 for (t, st) in stack[sp][..m].iter_mut().zip(&lat.state[first..first + m]) {
                     *t = latticesim_vm::eval::matches(p, st);
@@ -120,10 +160,10 @@ pub(super) fn batch_pre(
                 sp += 1;
             }
             // A counter against a literal: compared straight from its column.
-            Op::Cmp {
+            PreStep::Cmp {
                 op,
-                a: Val::Counter(c),
-                b: Val::Lit(v),
+                a: ColVal::Counter(c),
+                b: ColVal::Lit(v),
             } if lat.counter_col[c as usize] != NO_COL => {
                 let col = &lat.counters[lat.counter_col[c as usize] as usize][first..first + m];
                 let top = stack[sp][..m].iter_mut().zip(col);
@@ -134,7 +174,7 @@ pub(super) fn batch_pre(
                 }
                 sp += 1;
             }
-            Op::Cmp { op, a, b } => {
+            PreStep::Cmp { op, a, b } => {
                 load(a, &mut x[..m]);
                 load(b, &mut y[..m]);
                 let top = stack[sp][..m].iter_mut().zip(&x[..m]).zip(&y[..m]);
@@ -146,16 +186,14 @@ pub(super) fn batch_pre(
                 }
                 sp += 1;
             }
-            Op::Not {} => stack[sp - 1][..m].iter_mut().for_each(|t| *t = !*t),
-            Op::And {} => {
+            PreStep::Not => stack[sp - 1][..m].iter_mut().for_each(|t| *t = !*t),
+            PreStep::And => {
                 sp -= 1;
                 let (low, high) = stack.split_at_mut(sp);
                 for (t, &u) in low[sp - 1][..m].iter_mut().zip(&high[0][..m]) {
                     *t &= u;
                 }
             }
-            Op::Jf { .. } => {}
-            _ => unreachable!("not batched"),
         }
     }
     out.copy_from_slice(&stack[0][..m]);

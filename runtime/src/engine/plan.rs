@@ -7,7 +7,7 @@
 //! | path | applies when | falls back to | test that guards it |
 //! |---|---|---|---|
 //! | state-only rules (`trivial`) | a rule's precondition is only its state filter (or nothing): agents in that state execute it without evaluating (`dispatch.rs`, `cand_single`) | evaluating preconditions (`select.rs`) | `differential.rs` `optimisations_agree_with_reference` (chains of state-only rules), `themes_agree_with_reference_*` |
-//! | preconditions over runs (`pre_batch`) | every op of the precondition is one `batch::batch_pre` runs (`batch::pre_batchable`) | `eval_pre` one agent at a time | `optimisations_agree_with_reference` (preconditions over runs, runs longer than a batch) |
+//! | preconditions over runs (`pre_columns`) | every op of the precondition is one the column interpreter runs: `batch::column_pre` translates it into `batch::PreStep`s, which `batch::batch_pre` runs (an op it cannot run makes no column program, so none is met mid-run) | `eval_pre` one agent at a time | `optimisations_agree_with_reference` (preconditions over runs, runs longer than a batch) |
 //! | priorities (`any_prio`, `prio_offsets`) | no rule reads `P`, `L` or `Q`: the plain selection (`select_plain`); with literal `L`/`Q` offsets, priorities are resolved only where read | `select_with_priorities` over every agent | `semantics.rs` priority tests, `optimisations_agree_with_reference` (priority chains) |
 //! | no actions (`acting` = `Nothing`) | no rule moves, swaps, attaches or sets a state: the actions phase is skipped | `actions.rs` | `engine_agrees_with_reference_*` |
 //! | plain moves (`acting` = `PlainMoves`, `plain_moves`) | every acting rule only moves by a literal, non-zero offset: movers are collected without intents (`actions.rs`), and a mover without bonds moves alone (`moves::move_free`) | intents per agent and `detach_move_attach` | `optimisations_agree_with_reference` (programs of plain moves only, single-agent moves) |
@@ -23,8 +23,9 @@ use super::*;
 pub(super) struct Plan {
     /// Per rule: its precondition is only its state filter (or nothing).
     pub(super) trivial: Vec<bool>,
-    /// Per rule: its precondition can be evaluated over a run of agents ([`batch_pre`]).
-    pub(super) pre_batch: Vec<bool>,
+    /// Per rule: its precondition as the column interpreter runs it over a run of agents
+    /// ([`batch_pre`]), when it can.
+    pub(super) pre_columns: Vec<Option<ColumnPre>>,
     /// Some rule reads neighbours' priorities.
     pub(super) any_prio: bool,
     /// The offsets at which `L`/`Q` terms read priorities, when none depends on a counter
@@ -71,7 +72,7 @@ impl Plan {
                 _ => false,
             })
             .collect();
-        let pre_batch = prog.rules.iter().map(|r| pre_batchable(pre(r))).collect();
+        let pre_columns = prog.rules.iter().map(|r| column_pre(pre(r))).collect();
         let batchable = (prog.rules.iter())
             .map(|r| {
                 post(r).iter().all(|op| {
@@ -111,7 +112,7 @@ impl Plan {
             .collect();
         Plan {
             trivial,
-            pre_batch,
+            pre_columns,
             any_prio: prog.rules.iter().any(|r| r.reads_priorities),
             prio_offsets,
             acting: Acting::of(&has_actions, &plain_moves, &direct_bits),

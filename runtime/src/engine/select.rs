@@ -189,7 +189,7 @@ impl Engine {
         let (prog, lat, trivial) = (&self.prog, &self.lat, &self.plan.trivial);
         let (lists, single, of) = (&self.cand_lists, &self.cand_single, &self.cand_of);
         let (par, chunk, _) = self.chunks(n);
-        let pre_batch = &self.plan.pre_batch;
+        let pre_columns = &self.plan.pre_columns;
         let work = |(c, one): (usize, &mut [u32])| {
             let lo = c * chunk;
             let mut multi: Vec<(u32, Vec<u32>)> = Vec::new();
@@ -220,9 +220,9 @@ impl Engine {
                 evaluated = true;
                 // A run of agents with the same one rule to test: evaluated together.
                 if let [r] = lists[idx][..] {
-                    if pre_batch[r as usize] {
+                    if let Some(pre) = &pre_columns[r as usize] {
                         let m = run_of(&of[a..(a + BATCH).min(hi)], idx as u32);
-                        batch_pre(prog, (r, a), lat, &mut bufs, &mut truth[..m]);
+                        batch_pre(prog, (pre, a), lat, &mut bufs, &mut truth[..m]);
                         for (slot, &t) in one[k..k + m].iter_mut().zip(&truth[..m]) {
                             *slot = if t { r } else { NO_RULE };
                         }
