@@ -1117,3 +1117,78 @@ proptest! {
         resume_and_undo(&r, &a)?;
     }
 }
+
+/// A traced run takes the paths of an untraced one: the same records, lattice and
+/// statistics at every step; and its trace agrees with what changed (a move event per
+/// move counted, a state event per agent whose state changed, from the old state to the
+/// new).
+fn traced_as_untraced(rules: &str, agents: &str) -> Result<(), TestCaseError> {
+    let (prog, lat) = common::compile(rules, agents);
+    for order in [Order::ActionsFirst, Order::MessagesFirst] {
+        for static_first in [false, true] {
+            let opts = |trace| Options {
+                order,
+                static_first,
+                trace,
+                threads: 1,
+            };
+            let mut plain = Engine::new(prog.clone(), lat.clone(), opts(false));
+            let mut traced = Engine::new(prog.clone(), lat.clone(), opts(true));
+            for step in 1..=8 {
+                let states: Vec<[u8; 5]> = traced.lat.state.clone();
+                let moves = traced.stats.moves;
+                let (a, b) = (plain.step(), traced.step());
+                prop_assert_eq!(&a.records, &b.records, "records, step {}", step);
+                prop_assert_eq!(plain.lat.to_agents_text(), traced.lat.to_agents_text());
+                prop_assert_eq!(format!("{:?}", plain.stats), format!("{:?}", traced.stats));
+                let moved = b
+                    .trace
+                    .iter()
+                    .filter(|e| matches!(e, TraceEvent::Move { .. }))
+                    .count();
+                prop_assert_eq!(
+                    moved as u64,
+                    traced.stats.moves - moves,
+                    "move events, step {}",
+                    step
+                );
+                let changed: Vec<u32> = (0..states.len())
+                    .filter(|&i| states[i] != traced.lat.state[i])
+                    .map(|i| i as u32)
+                    .collect();
+                let mut told = Vec::new();
+                for e in &b.trace {
+                    if let TraceEvent::State { agent, from, to } = e {
+                        let i = *agent as usize;
+                        prop_assert_eq!(from.as_bytes(), &states[i][..]);
+                        prop_assert_eq!(to.as_bytes(), &traced.lat.state[i][..]);
+                        told.push(*agent);
+                    }
+                }
+                if !static_first {
+                    // With --static-first a state may change in both passes.
+                    prop_assert_eq!(told, changed, "state events, step {}", step);
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: std::env::var("PROPTEST_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(64),
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    })]
+
+    #[test]
+    fn traced_runs_take_the_untraced_paths_2d(r in prop_oneof![rules(false), themes(false)], a in agents(false)) {
+        traced_as_untraced(&r, &a)?;
+    }
+
+    #[test]
+    fn traced_runs_take_the_untraced_paths_3d(r in prop_oneof![rules(true), themes(true)], a in agents(true)) {
+        traced_as_untraced(&r, &a)?;
+    }
+}

@@ -62,7 +62,7 @@ impl Actions {
 }
 
 /// What a program's actions are, taken together: none, only moves by literal offsets
-/// ([`Engine::plain_moves`]), only state changes ([`Engine::direct_bits`]), or others.
+/// ([`Plan::plain_moves`]), only state changes ([`Plan::direct_bits`]), or others.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) enum Acting {
     Nothing,
@@ -202,11 +202,12 @@ impl Engine {
         }
         let mut todo = std::mem::take(&mut self.todo);
         todo.clear();
-        // Without tracing (which reports state changes after moves), an agent whose one
-        // rule only sets the state does so at once: no other action of the step reads
-        // states. When the selection is decided by states alone, its entry is also set at
-        // once to the rule of its new state (see `set_state_at_once`).
-        let direct = !self.opts.trace;
+        // An agent whose one rule only sets the state does so at once: no other action of
+        // the step reads states. When the selection is decided by states alone, its entry
+        // is also set at once to the rule of its new state (see `set_state_at_once`).
+        // Traced, the states before are kept, and the changes reported after the moves
+        // (where the trace has them) from the difference: the same path either way.
+        let states_before = self.opts.trace.then(|| self.lat.state.clone());
         let keep = self.sel_by_state && !self.plan.any_prio && !self.opts.static_first;
         let (mut changed, mut lookups) = (false, false);
         let mut rs: Vec<u32> = Vec::new();
@@ -218,7 +219,7 @@ impl Engine {
         // only set the state, each agent takes its candidate list's hop, known per list,
         // in one tight loop (`hop_run`); the loop stops at each agent whose list has no hop
         // yet (or whose new state's rules need evaluating), which goes the general way.
-        let hops = simple && keep && direct && self.plan.acting == Acting::States;
+        let hops = simple && keep && self.plan.acting == Acting::States;
         if plain_moves {
             let plain = &self.plan.plain_moves;
             for (a, &r) in sel.one.iter().enumerate() {
@@ -240,7 +241,7 @@ impl Engine {
                 }
                 let r = sel.one[a];
                 if r != NO_RULE {
-                    let (c, l) = self.one_rule(&mut todo, a, r, (direct, keep), sel);
+                    let (c, l) = self.one_rule(&mut todo, a, r, keep, sel);
                     changed |= c;
                     lookups |= l;
                 }
@@ -257,7 +258,7 @@ impl Engine {
             if r & MANY == 0 {
                 // One rule: nothing can conflict.
                 if pick(r) {
-                    let (c, l) = self.one_rule(&mut todo, a, r, (direct, keep), sel);
+                    let (c, l) = self.one_rule(&mut todo, a, r, keep, sel);
                     changed |= c;
                     lookups |= l;
                 }
@@ -307,7 +308,7 @@ impl Engine {
         }
         // 5. State updates, in agent order.
         for &(a, bits) in &todo.states {
-            let Some((old, new, known)) = apply_state(
+            let Some((_, _, known)) = apply_state(
                 &mut self.lat,
                 &mut self.cand_of,
                 (&self.cand_cache, &self.candidates),
@@ -318,12 +319,16 @@ impl Engine {
             };
             changed = true;
             lookups |= !known;
-            if self.opts.trace {
-                rep.trace.push(TraceEvent::State {
-                    agent: a,
-                    from: text(&old),
-                    to: text(&new),
-                });
+        }
+        if let Some(before) = states_before {
+            for (a, (old, new)) in before.iter().zip(&self.lat.state).enumerate() {
+                if old != new {
+                    rep.trace.push(TraceEvent::State {
+                        agent: a as u32,
+                        from: text(old),
+                        to: text(new),
+                    });
+                }
             }
         }
         // Agents whose state changed and whose rules the cache did not know look them up
@@ -535,22 +540,22 @@ impl Engine {
     }
 
     /// The actions of agent `a` executing rule `r` alone: a plain move listed, a state set
-    /// at once (with `direct`; `keep` as for [`Engine::set_state_at_once`], whose answer
-    /// is returned), or the rule's actions added to `todo`.
+    /// at once (`keep` as for [`Engine::set_state_at_once`], whose answer is returned), or
+    /// the rule's actions added to `todo`.
     #[inline(always)]
     pub(super) fn one_rule(
         &mut self,
         todo: &mut Actions,
         a: usize,
         r: u32,
-        (direct, keep): (bool, bool),
+        keep: bool,
         sel: &mut Selection,
     ) -> (bool, bool) {
         if let Some(o) = self.plan.plain_moves[r as usize] {
             todo.moves.push((a as u32, o));
         } else if self.plan.has_actions[r as usize] {
             match self.plan.direct_bits[r as usize] {
-                Some(bits) if direct => return self.set_state_at_once(a, r, bits, keep, sel),
+                Some(bits) => return self.set_state_at_once(a, r, bits, keep, sel),
                 _ => self.add_rule_actions(todo, a as u32, r),
             }
         }

@@ -52,7 +52,7 @@ impl CalcChunk<'_> {
 
     /// The outbox columns a send towards `dir` (or all directions) in `slot` writes, and
     /// those whose bits it clears: where the outboxes have a column for sends to all
-    /// directions (see `Engine::defer`), such a send writes that one and clears the
+    /// directions (see `Plan::defer`), such a send writes that one and clears the
     /// direction columns (a value there would be taken before it).
     pub(super) fn send_cols(&self, lat: &Lattice, dir: u8, slot: u8) -> SendCols {
         let (nd, ns, sc) = (
@@ -186,13 +186,36 @@ impl Engine {
                         k += 1;
                         continue;
                     }
-                    if batchable[r as usize] && !trace {
+                    if batchable[r as usize] {
                         let end = if uniform {
                             ch.len
                         } else {
                             k + run_of(&sel.one[ch.lo + k..ch.lo + ch.len], r)
                         };
+                        // Traced, the run takes the same path; its counters before are kept
+                        // to say which changed, agent by agent as the path of one agent does.
+                        let before: Vec<Vec<i16>> = if trace {
+                            (0..lat.nc() as u8)
+                                .map(|i| (k..end).map(|j| ch.counter(lat, j, i)).collect())
+                                .collect()
+                        } else {
+                            Vec::new()
+                        };
                         run_batch(prog, r, lat, (&mut ch, &mut bufs), k..end, &mut issues);
+                        if trace {
+                            for j in k..end {
+                                for (i, col) in before.iter().enumerate() {
+                                    let new = ch.counter(lat, j, i as u8);
+                                    if col[j - k] != new {
+                                        events.push(TraceEvent::Counter {
+                                            agent: (ch.lo + j) as u32,
+                                            counter: i as u8,
+                                            value: new,
+                                        });
+                                    }
+                                }
+                            }
+                        }
                         k = end;
                         continue;
                     }

@@ -5,7 +5,7 @@
 
 use super::*;
 
-/// The common case of [`Engine::move_alone`] without tracing: every target in the grid (the
+/// The common case of [`Engine::move_alone`]: every target in the grid (the
 /// targets' slot codes are in `sc.codes`), none targeted twice or held by an agent that
 /// stays. Then the moves are made and true is returned; otherwise nothing changes.
 /// `one_offset`: every mover moves by the same offset.
@@ -169,9 +169,22 @@ impl Engine {
             sc.twice = vec![0; words(cells)];
             sc.moving = vec![0; words(self.lat.len())];
         }
-        if !self.opts.trace && move_free(&mut self.lat, live, &mut sc, one_offset) {
+        // Traced, the moves are reported from where the movers stand before they move.
+        let traced: Vec<TraceEvent> = if self.opts.trace {
+            (live.iter())
+                .map(|&(m, to)| TraceEvent::Move {
+                    agent: m,
+                    from: self.lat.pos[m as usize],
+                    to,
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        if move_free(&mut self.lat, live, &mut sc, one_offset) {
             self.scratch = sc;
-            self.count_moves(live, rep);
+            rep.trace.extend(traced);
+            self.stats.moves += live.len() as u64;
             return;
         }
         loop {
