@@ -311,159 +311,9 @@ impl Engine {
             r,
             crc: crc32fast::Hasher::new(),
         };
-        let mut magic = [0u8; 8];
-        r.bytes(&mut magic).map_err(|e| match e {
-            CheckpointError::Truncated => CheckpointError::NotACheckpoint,
-            e => e,
-        })?;
-        if &magic != MAGIC {
-            return Err(CheckpointError::NotACheckpoint);
-        }
-        let version = r.u32()?;
-        if version != VERSION {
-            return Err(CheckpointError::Version(version));
-        }
-        let hash = r.u64()?;
-        let (order, static_first, coords) = (r.u8()?, r.u8()?, r.u8()?);
-        let has_universe = r.u8()?;
-        let mut b: Bounds = [(0, 0); 3];
-        for pair in b.iter_mut() {
-            *pair = (r.i32()?, r.i32()?);
-        }
-        let n = r.u64()?;
-        // The header has a checksum of its own, so that a damaged file is called damaged
-        // rather than made with other rules.
-        let want = r.crc.clone().finalize();
-        let mut sum = [0u8; 4];
-        r.r.read_exact(&mut sum)
-            .map_err(|_| CheckpointError::Truncated)?;
-        if u32::from_le_bytes(sum) != want {
-            return Err(CheckpointError::Corrupt);
-        }
-        let dim = match coords {
-            2 => Dim::Two,
-            3 => Dim::Three,
-            c => return Err(CheckpointError::Invalid(format!("{c} coordinates"))),
-        };
-        if hash != rules_hash(&prog) {
-            return Err(CheckpointError::OtherRules);
-        }
-        if dim != prog.dim {
-            return Err(CheckpointError::OtherRules);
-        }
-        if order != order_byte(opts.order) {
-            return Err(CheckpointError::OtherOptions(
-                if order == 1 {
-                    "--order messages-first"
-                } else {
-                    "--order actions-first"
-                }
-                .into(),
-            ));
-        }
-        if (static_first != 0) != opts.static_first {
-            return Err(CheckpointError::OtherOptions(
-                if static_first != 0 {
-                    "--static-first"
-                } else {
-                    "no --static-first"
-                }
-                .into(),
-            ));
-        }
-        let n = usize::try_from(n)
-            .ok()
-            .filter(|&n| n <= u32::MAX as usize - 2)
-            .ok_or_else(|| CheckpointError::Invalid(format!("{n} agents")))?;
-        let universe = (has_universe != 0).then_some(b);
-        let c = dim.coords();
-        let mut builder = LatticeBuilder::new(dim, universe, n);
-        let mut bad = None;
-        r.column(n, 4 * c + 6, |v| {
-            let mut p = [0i32; 3];
-            for (k, q) in p.iter_mut().enumerate().take(c) {
-                *q = i32::from_le_bytes(v[4 * k..4 * k + 4].try_into().expect("4 bytes"));
-            }
-            let state: [u8; 5] = v[4 * c..4 * c + 5].try_into().expect("5 bytes");
-            if bad.is_none() && state.iter().any(|&ch| ch == b'*' || !ch.is_ascii_graphic()) {
-                bad = Some("a state that is not 5 printable characters".to_string());
-            }
-            builder.push(p, state, v[4 * c + 5], &[]);
-        })?;
-        let mut lat = builder.finish();
-        let ncounters = r.u8()?;
-        for _ in 0..ncounters {
-            let i = r.u8()?;
-            if i as usize >= dim.counters() {
-                return Err(CheckpointError::Invalid(format!("counter {i}")));
-            }
-            let col = lat.ensure_counter(i);
-            let mut a = 0;
-            let column = &mut lat.counters[col];
-            r.column(n, 2, |v| {
-                column[a] = i16::from_le_bytes([v[0], v[1]]);
-                a += 1;
-            })?;
-        }
-        let nslots = r.u8()?;
-        for _ in 0..nslots {
-            let s = r.u8()?;
-            if s as usize >= dim.slots() {
-                return Err(CheckpointError::Invalid(format!("message slot {s}")));
-            }
-            lat.ensure_slot(s);
-            let (ns, sc) = (lat.slots as usize, lat.slot_col[s as usize] as usize);
-            for dir in 0..dim.dirs() {
-                let mut a = 0;
-                let column = &mut lat.inbox_num[dir * ns + sc];
-                r.column(n, 2, |v| {
-                    column[a] = i16::from_le_bytes([v[0], v[1]]);
-                    a += 1;
-                })?;
-            }
-        }
-        if r.u8()? != 0 {
-            lat.ensure_text();
-            let dirs = dim.dirs();
-            let mut a = 0;
-            let (has, text) = (&mut lat.inbox_text_has, &mut lat.inbox_text);
-            r.column(n, 1 + 5 * dirs, |v| {
-                has[a] = v[0];
-                for k in 0..dirs {
-                    text[a * dirs + k] = v[1 + 5 * k..6 + 5 * k].try_into().expect("5 bytes");
-                }
-                a += 1;
-            })?;
-        }
-        let mut stats = Stats {
-            steps: r.u64()?,
-            quiescent: r.u8()? != 0,
-            ..Stats::default()
-        };
-        let nf = r.u32()? as usize;
-        if nf != prog.rules.len() {
-            return Err(CheckpointError::OtherRules);
-        }
-        for _ in 0..nf {
-            stats.firings.push(r.u64()?);
-        }
-        stats.moves = r.u64()?;
-        stats.swaps = r.u64()?;
-        stats.sent = r.u64()?;
-        stats.delivered = r.u64()?;
-        stats.dropped = r.u64()?;
-        let nr = r.u32()?;
-        for _ in 0..nr.min(RecordKind::ALL.len() as u32 + 1) {
-            let len = r.u8()? as usize;
-            let mut name = vec![0u8; len];
-            r.bytes(&mut name)?;
-            let count = r.u64()?;
-            let kind = RecordKind::ALL
-                .iter()
-                .find(|k| k.name().as_bytes() == name.as_slice())
-                .ok_or_else(|| CheckpointError::Invalid("an unknown kind of record".into()))?;
-            stats.records.insert(*kind, count);
-        }
+        let (dim, universe, n) = read_header(&mut r, &prog, opts)?;
+        let (lat, bad) = read_lattice(&mut r, dim, universe, n)?;
+        let (stats, nr) = read_stats(&mut r, &prog)?;
         let want = r.crc.clone().finalize();
         let mut sum = [0u8; 4];
         r.r.read_exact(&mut sum).map_err(|e| match e.kind() {
@@ -488,6 +338,189 @@ impl Engine {
         e.stats = stats;
         Ok(e)
     }
+}
+
+/// The header of a checkpoint, checked against the rules and options: the dimension, the
+/// universe and the number of agents.
+fn read_header<R: Read>(
+    r: &mut Checked<R>,
+    prog: &Program,
+    opts: Options,
+) -> Result<(Dim, Option<Bounds>, usize), CheckpointError> {
+    let mut magic = [0u8; 8];
+    r.bytes(&mut magic).map_err(|e| match e {
+        CheckpointError::Truncated => CheckpointError::NotACheckpoint,
+        e => e,
+    })?;
+    if &magic != MAGIC {
+        return Err(CheckpointError::NotACheckpoint);
+    }
+    let version = r.u32()?;
+    if version != VERSION {
+        return Err(CheckpointError::Version(version));
+    }
+    let hash = r.u64()?;
+    let (order, static_first, coords) = (r.u8()?, r.u8()?, r.u8()?);
+    let has_universe = r.u8()?;
+    let mut b: Bounds = [(0, 0); 3];
+    for pair in b.iter_mut() {
+        *pair = (r.i32()?, r.i32()?);
+    }
+    let n = r.u64()?;
+    // The header has a checksum of its own, so that a damaged file is called damaged
+    // rather than made with other rules.
+    let want = r.crc.clone().finalize();
+    let mut sum = [0u8; 4];
+    r.r.read_exact(&mut sum)
+        .map_err(|_| CheckpointError::Truncated)?;
+    if u32::from_le_bytes(sum) != want {
+        return Err(CheckpointError::Corrupt);
+    }
+    let dim = match coords {
+        2 => Dim::Two,
+        3 => Dim::Three,
+        c => return Err(CheckpointError::Invalid(format!("{c} coordinates"))),
+    };
+    if hash != rules_hash(prog) {
+        return Err(CheckpointError::OtherRules);
+    }
+    if dim != prog.dim {
+        return Err(CheckpointError::OtherRules);
+    }
+    if order != order_byte(opts.order) {
+        return Err(CheckpointError::OtherOptions(
+            if order == 1 {
+                "--order messages-first"
+            } else {
+                "--order actions-first"
+            }
+            .into(),
+        ));
+    }
+    if (static_first != 0) != opts.static_first {
+        return Err(CheckpointError::OtherOptions(
+            if static_first != 0 {
+                "--static-first"
+            } else {
+                "no --static-first"
+            }
+            .into(),
+        ));
+    }
+    let n = usize::try_from(n)
+        .ok()
+        .filter(|&n| n <= u32::MAX as usize - 2)
+        .ok_or_else(|| CheckpointError::Invalid(format!("{n} agents")))?;
+    let universe = (has_universe != 0).then_some(b);
+    Ok((dim, universe, n))
+}
+
+/// The lattice of a checkpoint (after its header), and what is wrong with its states, if
+/// anything (said after the checksum is known good).
+fn read_lattice<R: Read>(
+    r: &mut Checked<R>,
+    dim: Dim,
+    universe: Option<Bounds>,
+    n: usize,
+) -> Result<(Lattice, Option<String>), CheckpointError> {
+    let c = dim.coords();
+    let mut builder = LatticeBuilder::new(dim, universe, n);
+    let mut bad = None;
+    r.column(n, 4 * c + 6, |v| {
+        let mut p = [0i32; 3];
+        for (k, q) in p.iter_mut().enumerate().take(c) {
+            *q = i32::from_le_bytes(v[4 * k..4 * k + 4].try_into().expect("4 bytes"));
+        }
+        let state: [u8; 5] = v[4 * c..4 * c + 5].try_into().expect("5 bytes");
+        if bad.is_none() && state.iter().any(|&ch| ch == b'*' || !ch.is_ascii_graphic()) {
+            bad = Some("a state that is not 5 printable characters".to_string());
+        }
+        builder.push(p, state, v[4 * c + 5], &[]);
+    })?;
+    let mut lat = builder.finish();
+    let ncounters = r.u8()?;
+    for _ in 0..ncounters {
+        let i = r.u8()?;
+        if i as usize >= dim.counters() {
+            return Err(CheckpointError::Invalid(format!("counter {i}")));
+        }
+        let col = lat.ensure_counter(i);
+        let mut a = 0;
+        let column = &mut lat.counters[col];
+        r.column(n, 2, |v| {
+            column[a] = i16::from_le_bytes([v[0], v[1]]);
+            a += 1;
+        })?;
+    }
+    let nslots = r.u8()?;
+    for _ in 0..nslots {
+        let s = r.u8()?;
+        if s as usize >= dim.slots() {
+            return Err(CheckpointError::Invalid(format!("message slot {s}")));
+        }
+        lat.ensure_slot(s);
+        let (ns, sc) = (lat.slots as usize, lat.slot_col[s as usize] as usize);
+        for dir in 0..dim.dirs() {
+            let mut a = 0;
+            let column = &mut lat.inbox_num[dir * ns + sc];
+            r.column(n, 2, |v| {
+                column[a] = i16::from_le_bytes([v[0], v[1]]);
+                a += 1;
+            })?;
+        }
+    }
+    if r.u8()? != 0 {
+        lat.ensure_text();
+        let dirs = dim.dirs();
+        let mut a = 0;
+        let (has, text) = (&mut lat.inbox_text_has, &mut lat.inbox_text);
+        r.column(n, 1 + 5 * dirs, |v| {
+            has[a] = v[0];
+            for k in 0..dirs {
+                text[a * dirs + k] = v[1 + 5 * k..6 + 5 * k].try_into().expect("5 bytes");
+            }
+            a += 1;
+        })?;
+    }
+    Ok((lat, bad))
+}
+
+/// The statistics of a checkpoint (after its lattice), and the number of kinds of record
+/// it says it has.
+fn read_stats<R: Read>(
+    r: &mut Checked<R>,
+    prog: &Program,
+) -> Result<(Stats, u32), CheckpointError> {
+    let mut stats = Stats {
+        steps: r.u64()?,
+        quiescent: r.u8()? != 0,
+        ..Stats::default()
+    };
+    let nf = r.u32()? as usize;
+    if nf != prog.rules.len() {
+        return Err(CheckpointError::OtherRules);
+    }
+    for _ in 0..nf {
+        stats.firings.push(r.u64()?);
+    }
+    stats.moves = r.u64()?;
+    stats.swaps = r.u64()?;
+    stats.sent = r.u64()?;
+    stats.delivered = r.u64()?;
+    stats.dropped = r.u64()?;
+    let nr = r.u32()?;
+    for _ in 0..nr.min(RecordKind::ALL.len() as u32 + 1) {
+        let len = r.u8()? as usize;
+        let mut name = vec![0u8; len];
+        r.bytes(&mut name)?;
+        let count = r.u64()?;
+        let kind = RecordKind::ALL
+            .iter()
+            .find(|k| k.name().as_bytes() == name.as_slice())
+            .ok_or_else(|| CheckpointError::Invalid("an unknown kind of record".into()))?;
+        stats.records.insert(*kind, count);
+    }
+    Ok((stats, nr))
 }
 
 /// One agent a cell, inside the universe, bonds symmetric.

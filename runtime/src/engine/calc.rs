@@ -194,63 +194,22 @@ impl Engine {
                         };
                         // Traced, the run takes the same path; its counters before are kept
                         // to say which changed, agent by agent as the path of one agent does.
-                        let before: Vec<Vec<i16>> = if trace {
-                            (0..lat.nc() as u8)
-                                .map(|i| (k..end).map(|j| ch.counter(lat, j, i)).collect())
-                                .collect()
+                        let before = if trace {
+                            counters_of(&ch, lat, k..end)
                         } else {
                             Vec::new()
                         };
                         run_batch(prog, r, lat, (&mut ch, &mut bufs), k..end, &mut issues);
                         if trace {
-                            for j in k..end {
-                                for (i, col) in before.iter().enumerate() {
-                                    let new = ch.counter(lat, j, i as u8);
-                                    if col[j - k] != new {
-                                        events.push(TraceEvent::Counter {
-                                            agent: (ch.lo + j) as u32,
-                                            counter: i as u8,
-                                            value: new,
-                                        });
-                                    }
-                                }
-                            }
+                            counter_events(&before, &ch, lat, k..end, &mut events);
                         }
                         k = end;
                         continue;
                     }
                 }
                 for &r in rs {
-                    if !prog.rules[r as usize].computes {
-                        continue;
-                    }
-                    let before: Vec<i16> = if trace {
-                        (0..lat.nc() as u8).map(|i| ch.counter(lat, k, i)).collect()
-                    } else {
-                        Vec::new()
-                    };
-                    let mut env = CalcCtx {
-                        lat,
-                        a,
-                        k,
-                        ch: &mut ch,
-                        snapshot: &snapshot,
-                        issues: Vec::new(),
-                    };
-                    run_post(prog, r as usize, &mut env);
-                    issues.extend(env.issues.into_iter().map(|(_, i)| (a as u32, r, i)));
-                    if trace {
-                        for (i, &old) in before.iter().enumerate() {
-                            let new = ch.counter(lat, k, i as u8);
-                            if old != new {
-                                events.push(TraceEvent::Counter {
-                                    agent: a as u32,
-                                    counter: i as u8,
-                                    value: new,
-                                });
-                            }
-                        }
-                    }
+                    let found = (&mut issues, &mut events);
+                    run_alone(prog, lat, (&mut ch, k, &snapshot), r, trace, found);
                 }
                 k += 1;
             }
@@ -276,28 +235,99 @@ impl Engine {
             self.counted = Some(tallies.fold(first, |t, u| t.and(u)));
         }
         for (issues, events, _) in results {
-            for (a, r, issue) in issues {
-                let name = self.rule_name(r).to_string();
-                let (kind, msg) = match issue {
-                    CalcIssue::Saturated { exact } => (
-                        RecordKind::Saturation,
-                        format!("agent {a}, rule `{name}`: the result {exact} is saturated to the 16-bit range"),
-                    ),
-                    CalcIssue::DivisionByZero => (
-                        RecordKind::DivisionByZero,
-                        format!("agent {a}, rule `{name}`: division by zero; the target is unchanged"),
-                    ),
-                    CalcIssue::NoExternalAgent { off } => (
-                        RecordKind::NoExternalAgent,
-                        format!(
-                            "agent {a}, rule `{name}`: no agent at ({},{}) to read an external counter from; the calculation is skipped",
-                            off[0], off[1]
-                        ),
-                    ),
-                };
-                self.record(rep, kind, &[a], msg);
-            }
+            self.calc_records(issues, rep);
             rep.trace.extend(events);
         }
+    }
+
+    /// The records of the calculations' issues (agent, rule, issue), in order.
+    fn calc_records(&mut self, issues: Vec<(u32, u32, CalcIssue)>, rep: &mut StepReport) {
+        for (a, r, issue) in issues {
+            let name = self.rule_name(r).to_string();
+            let (kind, msg) = match issue {
+                CalcIssue::Saturated { exact } => (
+                    RecordKind::Saturation,
+                    format!("agent {a}, rule `{name}`: the result {exact} is saturated to the 16-bit range"),
+                ),
+                CalcIssue::DivisionByZero => (
+                    RecordKind::DivisionByZero,
+                    format!("agent {a}, rule `{name}`: division by zero; the target is unchanged"),
+                ),
+                CalcIssue::NoExternalAgent { off } => (
+                    RecordKind::NoExternalAgent,
+                    format!(
+                        "agent {a}, rule `{name}`: no agent at ({},{}) to read an external counter from; the calculation is skipped",
+                        off[0], off[1]
+                    ),
+                ),
+            };
+            self.record(rep, kind, &[a], msg);
+        }
+    }
+}
+
+/// Every counter of agents `range` of a chunk (a column per counter), for a trace.
+fn counters_of(ch: &CalcChunk<'_>, lat: &Lattice, range: std::ops::Range<usize>) -> Vec<Vec<i16>> {
+    (0..lat.nc() as u8)
+        .map(|i| range.clone().map(|j| ch.counter(lat, j, i)).collect())
+        .collect()
+}
+
+/// The trace events of the counters of agents `range` of a chunk that changed since
+/// `before` ([`counters_of`]), agent by agent, counters in number order.
+fn counter_events(
+    before: &[Vec<i16>],
+    ch: &CalcChunk<'_>,
+    lat: &Lattice,
+    range: std::ops::Range<usize>,
+    events: &mut Vec<TraceEvent>,
+) {
+    for j in range.clone() {
+        for (i, col) in before.iter().enumerate() {
+            let new = ch.counter(lat, j, i as u8);
+            if col[j - range.start] != new {
+                events.push(TraceEvent::Counter {
+                    agent: (ch.lo + j) as u32,
+                    counter: i as u8,
+                    value: new,
+                });
+            }
+        }
+    }
+}
+
+/// The calculations of rule `r` for agent `k` of a chunk, alone (the evaluator of one
+/// agent; `snapshot`: the counters read by external terms), with its issues and, traced,
+/// its counters' events.
+#[inline]
+fn run_alone(
+    prog: &Program,
+    lat: &Lattice,
+    (ch, k, snapshot): (&mut CalcChunk<'_>, usize, &[Vec<i16>]),
+    r: u32,
+    trace: bool,
+    (issues, events): (&mut Vec<(u32, u32, CalcIssue)>, &mut Vec<TraceEvent>),
+) {
+    if !prog.rules[r as usize].computes {
+        return;
+    }
+    let a = ch.lo + k;
+    let before = if trace {
+        counters_of(ch, lat, k..k + 1)
+    } else {
+        Vec::new()
+    };
+    let mut env = CalcCtx {
+        lat,
+        a,
+        k,
+        ch: &mut *ch,
+        snapshot,
+        issues: Vec::new(),
+    };
+    run_post(prog, r as usize, &mut env);
+    issues.extend(env.issues.into_iter().map(|(_, i)| (a as u32, r, i)));
+    if trace {
+        counter_events(&before, ch, lat, k..k + 1, events);
     }
 }

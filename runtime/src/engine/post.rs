@@ -140,84 +140,14 @@ impl Engine {
                 has: has.next().unwrap_or_default(),
             })
             .collect();
-        let (lat, out_num, out_has) = (&self.lat, &self.out_num, &self.out_has);
-        let (out_text, out_text_bits) = (&self.out_text, &self.out_text_bits);
-        // Fills one chunk of recipients; returns how many messages arrived.
-        let pull = |ch: InboxChunk<'_>| {
-            let mut got = 0u64;
-            let InboxChunk {
-                lo,
-                len,
-                mut num,
-                text,
-                has,
-            } = ch;
-            if texts {
-                has.fill(0);
-            }
-            // In batches: first every recipient's neighbours, then one tight loop per
-            // direction and slot.
-            // Agents on consecutive cells of a grid read their neighbours straight from it.
-            let mut nb = [[NO_AGENT; BATCH]; 6];
-            let mut one = [NO_AGENT; 6];
-            let mut base = 0;
-            while base < len {
-                let mut m = BATCH.min(len - base);
-                let run = lat.neighbour_run(lo + base, m);
-                if let Some((r, _)) = run {
-                    m = r;
-                } else {
-                    for j in 0..m {
-                        lat.neighbours((lo + base + j) as u32, &mut one);
-                        for (col, &v) in nb.iter_mut().zip(&one).take(nd) {
-                            col[j] = v;
-                        }
-                    }
-                }
-                for dir in 0..nd {
-                    let from = match &run {
-                        Some((_, r)) => r[dir],
-                        None => &nb[dir][..m],
-                    };
-                    let od = OPPOSITE[dir];
-                    // The senders are themselves consecutive agents.
-                    let f0 = from[0] as usize;
-                    let dense = from[0] != NO_AGENT && is_sequence(from, from[0]);
-                    for sc in 0..ns {
-                        let cout = od * ns + sc;
-                        let (out, bits) = (&out_num[cout][..], &out_has[cout][..]);
-                        let inb = &mut num[dir * ns + sc][base..base + m];
-                        if dense && all_bits(bits, f0..f0 + m) {
-                            inb.copy_from_slice(&out[f0..f0 + m]);
-                            got += m as u64;
-                            continue;
-                        }
-                        for (v, &f) in inb.iter_mut().zip(from) {
-                            let f = f as usize;
-                            *v = if f != NO_AGENT as usize && bits[f >> 6] & (1 << (f & 63)) != 0 {
-                                got += 1;
-                                out[f]
-                            } else {
-                                0
-                            };
-                        }
-                    }
-                    if texts {
-                        for (j, &f) in from.iter().enumerate() {
-                            let f = f as usize;
-                            if f != NO_AGENT as usize && out_text_bits[f] & (1 << od) != 0 {
-                                let k = base + j;
-                                text[k * nd + dir] = out_text[f * nd + od];
-                                has[k] |= 1 << dir;
-                                got += 1;
-                            }
-                        }
-                    }
-                }
-                base += m;
-            }
-            got
+        let out = Outboxes {
+            num: &self.out_num,
+            has: &self.out_has,
+            text: &self.out_text,
+            text_bits: &self.out_text_bits,
         };
+        let lat = &self.lat;
+        let pull = |ch: InboxChunk<'_>| pull(ch, lat, &out, (nd, ns, texts));
         let delivered: u64 = match par {
             Some((pool, _)) => pool.map(items, pull).into_iter().sum(),
             None => items.into_iter().map(pull).sum(),
@@ -330,4 +260,97 @@ impl Engine {
             }
         }
     }
+}
+
+/// This step's outboxes, for [`pull`].
+pub(super) struct Outboxes<'a> {
+    num: &'a [Vec<i16>],
+    has: &'a [Vec<u64>],
+    text: &'a [[u8; 5]],
+    text_bits: &'a [u8],
+}
+
+/// Fills one chunk of recipients' inboxes from the outboxes of their neighbours: how many
+/// messages arrived. `texts`: text messages are in use.
+#[inline]
+pub(super) fn pull(
+    ch: InboxChunk<'_>,
+    lat: &Lattice,
+    out: &Outboxes<'_>,
+    (nd, ns, texts): (usize, usize, bool),
+) -> u64 {
+    let (out_num, out_has, out_text, out_text_bits) = (out.num, out.has, out.text, out.text_bits);
+    let mut got = 0u64;
+    let InboxChunk {
+        lo,
+        len,
+        mut num,
+        text,
+        has,
+    } = ch;
+    if texts {
+        has.fill(0);
+    }
+    // In batches: first every recipient's neighbours, then one tight loop per
+    // direction and slot.
+    // Agents on consecutive cells of a grid read their neighbours straight from it.
+    let mut nb = [[NO_AGENT; BATCH]; 6];
+    let mut one = [NO_AGENT; 6];
+    let mut base = 0;
+    while base < len {
+        let mut m = BATCH.min(len - base);
+        let run = lat.neighbour_run(lo + base, m);
+        if let Some((r, _)) = run {
+            m = r;
+        } else {
+            for j in 0..m {
+                lat.neighbours((lo + base + j) as u32, &mut one);
+                for (col, &v) in nb.iter_mut().zip(&one).take(nd) {
+                    col[j] = v;
+                }
+            }
+        }
+        for dir in 0..nd {
+            let from = match &run {
+                Some((_, r)) => r[dir],
+                None => &nb[dir][..m],
+            };
+            let od = OPPOSITE[dir];
+            // The senders are themselves consecutive agents.
+            let f0 = from[0] as usize;
+            let dense = from[0] != NO_AGENT && is_sequence(from, from[0]);
+            for sc in 0..ns {
+                let cout = od * ns + sc;
+                let (out, bits) = (&out_num[cout][..], &out_has[cout][..]);
+                let inb = &mut num[dir * ns + sc][base..base + m];
+                if dense && all_bits(bits, f0..f0 + m) {
+                    inb.copy_from_slice(&out[f0..f0 + m]);
+                    got += m as u64;
+                    continue;
+                }
+                for (v, &f) in inb.iter_mut().zip(from) {
+                    let f = f as usize;
+                    *v = if f != NO_AGENT as usize && bits[f >> 6] & (1 << (f & 63)) != 0 {
+                        got += 1;
+                        out[f]
+                    } else {
+                        0
+                    };
+                }
+            }
+            if texts {
+                for (j, &f) in from.iter().enumerate() {
+                    let f = f as usize;
+                    if f != NO_AGENT as usize && out_text_bits[f] & (1 << od) != 0 {
+                        let k = base + j;
+                        text[k * nd + dir] = out_text[f * nd + od];
+                        has[k] |= 1 << dir;
+                        got += 1;
+                    }
+                }
+            }
+        }
+        base += m;
+    }
+    got
 }
