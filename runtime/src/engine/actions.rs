@@ -292,6 +292,21 @@ impl Engine {
             }
         }
         self.count_hops();
+        self.carry_out(todo, states_before, (changed, lookups), rep);
+    }
+
+    /// Carries out the actions collected in `todo`: moves (alone, or with bonds and
+    /// groups), the new states in agent order (traced from the difference with
+    /// `states_before`), swaps. `changed`, `lookups`: states were already set at once (and
+    /// some had no known candidate list).
+    pub(super) fn carry_out(
+        &mut self,
+        mut todo: Actions,
+        states_before: Option<Vec<[u8; 5]>>,
+        (mut changed, mut lookups): (bool, bool),
+        rep: &mut StepReport,
+    ) {
+        let n = self.lat.len();
         let letters = todo
             .links
             .iter()

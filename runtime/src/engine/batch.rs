@@ -509,55 +509,13 @@ pub(super) fn run_batch(
                             }
                         }
                     }
-                    let xs = &x[..len];
-                    let keep = |j: usize| all_ok || ok[j];
-                    match target {
-                        Target::Counter(c) => {
-                            let col =
-                                &mut ch.counters[lat.counter_col[c as usize] as usize][ks.clone()];
-                            if all_ok {
-                                col.iter_mut().zip(xs).for_each(|(t, &v)| *t = v as i16);
-                            } else {
-                                for (j, (t, &v)) in col.iter_mut().zip(xs).enumerate() {
-                                    if keep(j) {
-                                        *t = v as i16;
-                                    }
-                                }
-                            }
-                        }
-                        Target::Msg { dir, slot } => {
-                            let cols = ch.send_cols(lat, dir, slot);
-                            for &c in cols.clear() {
-                                let bits = &mut *ch.out_has[c];
-                                if all_ok {
-                                    clear_bits(bits, ks.clone());
-                                } else {
-                                    for k in ks.clone().filter(|&k| keep(k - start)) {
-                                        bits[k >> 6] &= !(1 << (k & 63));
-                                    }
-                                }
-                            }
-                            for &c in cols.write() {
-                                let col = &mut ch.out_num[c][ks.clone()];
-                                let bits = &mut *ch.out_has[c];
-                                if all_ok {
-                                    col.iter_mut().zip(xs).for_each(|(t, &v)| *t = v as i16);
-                                    set_bits(bits, ks.clone());
-                                } else {
-                                    for (j, (t, &v)) in col.iter_mut().zip(xs).enumerate() {
-                                        if keep(j) {
-                                            *t = v as i16;
-                                            let k = start + j;
-                                            bits[k >> 6] |= 1 << (k & 63);
-                                        }
-                                    }
-                                }
-                            }
-                        }
-                    }
-                    if !all_ok {
-                        ok[..len].fill(true);
-                    }
+                    store_batch(
+                        ch,
+                        lat,
+                        target,
+                        ks.clone(),
+                        (&x[..len], &mut ok[..], all_ok),
+                    );
                 }
                 _ => {}
             }
@@ -566,6 +524,67 @@ pub(super) fn run_batch(
         found.sort_by_key(|f| f.0);
         issues.extend(found.drain(..).map(|(a, i)| (a, r, i)));
         start += len;
+    }
+}
+
+/// Stores the results `xs` of one calculation over agents `ks` of a chunk into its
+/// target (a counter, or an outbox column with its bits); where `all_ok` is false, only
+/// for the agents whose `ok` is set (the others divided by zero), and `ok` is set again.
+#[inline]
+fn store_batch(
+    ch: &mut CalcChunk<'_>,
+    lat: &Lattice,
+    target: Target,
+    ks: std::ops::Range<usize>,
+    (xs, ok, all_ok): (&[i32], &mut [bool], bool),
+) {
+    let (start, len) = (ks.start, ks.len());
+    let keep = |j: usize| all_ok || ok[j];
+    match target {
+        Target::Counter(c) => {
+            let col = &mut ch.counters[lat.counter_col[c as usize] as usize][ks.clone()];
+            if all_ok {
+                col.iter_mut().zip(xs).for_each(|(t, &v)| *t = v as i16);
+            } else {
+                for (j, (t, &v)) in col.iter_mut().zip(xs).enumerate() {
+                    if keep(j) {
+                        *t = v as i16;
+                    }
+                }
+            }
+        }
+        Target::Msg { dir, slot } => {
+            let cols = ch.send_cols(lat, dir, slot);
+            for &c in cols.clear() {
+                let bits = &mut *ch.out_has[c];
+                if all_ok {
+                    clear_bits(bits, ks.clone());
+                } else {
+                    for k in ks.clone().filter(|&k| keep(k - start)) {
+                        bits[k >> 6] &= !(1 << (k & 63));
+                    }
+                }
+            }
+            for &c in cols.write() {
+                let col = &mut ch.out_num[c][ks.clone()];
+                let bits = &mut *ch.out_has[c];
+                if all_ok {
+                    col.iter_mut().zip(xs).for_each(|(t, &v)| *t = v as i16);
+                    set_bits(bits, ks.clone());
+                } else {
+                    for (j, (t, &v)) in col.iter_mut().zip(xs).enumerate() {
+                        if keep(j) {
+                            *t = v as i16;
+                            let k = start + j;
+                            bits[k >> 6] |= 1 << (k & 63);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    if !all_ok {
+        ok[..len].fill(true);
     }
 }
 
