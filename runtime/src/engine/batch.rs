@@ -414,7 +414,6 @@ pub(super) fn run_batch(
 ) {
     let info = &prog.rules[r as usize];
     let code = &prog.code[info.post.start as usize..info.post.end as usize];
-    let nd = lat.dim.dirs();
     let mut found: Vec<(u32, CalcIssue)> = Vec::new();
     let CalcBufs {
         x,
@@ -445,13 +444,7 @@ pub(super) fn run_batch(
             i += 1;
             match code[i - 1] {
                 Op::Send { dir, text } => {
-                    let t = prog.texts[text as usize];
-                    for d in CalcChunk::text_dirs(lat, dir) {
-                        for k in ks.clone() {
-                            ch.out_text[k * nd + d] = t;
-                            ch.out_text_bits[k] |= 1 << d;
-                        }
-                    }
+                    send_text(ch, lat, (dir, prog.texts[text as usize]), ks.clone())
                 }
                 Op::Calc { target, op, a, b }
                     if fast_calc(lat, ch, ks.clone(), first, (target, op, a, b), buf) => {}
@@ -524,6 +517,23 @@ pub(super) fn run_batch(
         found.sort_by_key(|f| f.0);
         issues.extend(found.drain(..).map(|(a, i)| (a, r, i)));
         start += len;
+    }
+}
+
+/// Sends text `t` towards `dir` (or all directions) from agents `ks` of a chunk.
+#[inline]
+fn send_text(
+    ch: &mut CalcChunk<'_>,
+    lat: &Lattice,
+    (dir, t): (u8, [u8; 5]),
+    ks: std::ops::Range<usize>,
+) {
+    let nd = lat.dim.dirs();
+    for d in CalcChunk::text_dirs(lat, dir) {
+        for k in ks.clone() {
+            ch.out_text[k * nd + d] = t;
+            ch.out_text_bits[k] |= 1 << d;
+        }
     }
 }
 

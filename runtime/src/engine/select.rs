@@ -132,6 +132,29 @@ impl Env for SelEnv<'_> {
     }
 }
 
+/// The selection with priorities in the making: per agent its valid rules (`rule`, `tri`,
+/// from `start[a]` to `start[a + 1]`), its fixed priority ([`OPEN`] while open) and the
+/// priority it is tried at (`cur`); the open agents per level; which are queued.
+pub(super) struct Entries {
+    rule: Vec<u32>,
+    tri: Vec<Tri>,
+    start: Vec<u32>,
+    fixed: Vec<i32>,
+    cur: Vec<u16>,
+    levels: BTreeMap<u16, Vec<u32>>,
+    queued: Vec<bool>,
+}
+
+/// The message of a circle of priorities: its agents, its level and its rules.
+fn circle_message(circle: &[u32], names: &[String], p: u16) -> String {
+    let ids: Vec<String> = circle.iter().map(|a| a.to_string()).collect();
+    format!(
+        "the priorities of agents {} depend on each other in a circle at priority {p}; their rules {} are not executed",
+        ids.join(", "),
+        names.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ")
+    )
+}
+
 /// An open agent left with no rule at its level drops to its next valid priority `next`
 /// (to be resolved at that level), or, with none left, is fixed at priority 0.
 pub(super) fn drop_to(
@@ -300,6 +323,45 @@ impl Engine {
     /// unknown, then the levels from the top down (SEMANTICS section 5).
     pub(super) fn select_with_priorities(&mut self, rep: &mut StepReport) {
         let n = self.lat.len();
+        let mut entries = self.priority_entries();
+        let circles = self.resolve_levels(&mut entries);
+        let prog = &self.prog;
+        let Entries {
+            rule: ent_rule,
+            tri: ent_tri,
+            start: ent_start,
+            fixed,
+            ..
+        } = entries;
+        // Each agent executes its rules that are true at its final priority, in file order.
+        let mut sel = std::mem::take(&mut self.sel);
+        sel.reset(n);
+        let mut rules = Vec::new();
+        for a in 0..n {
+            let f = fixed[a];
+            if f > 0 {
+                rules.clear();
+                for k in ent_start[a] as usize..ent_start[a + 1] as usize {
+                    if prog.rules[ent_rule[k] as usize].priority as i32 == f && ent_tri[k] == Tri::T
+                    {
+                        rules.push(ent_rule[k]);
+                    }
+                }
+                rules.sort_unstable();
+                sel.set(a, &rules);
+            }
+        }
+        self.sel = sel;
+        for (circle, msg) in circles {
+            self.record(rep, RecordKind::CircularPriority, &circle, msg);
+        }
+    }
+
+    /// Pass 1 of the selection with priorities: every agent's valid rules with priority
+    /// terms unknown, the agents whose priority is fixed at once, and the levels of the
+    /// others.
+    fn priority_entries(&self) -> Entries {
+        let n = self.lat.len();
         let prog = &self.prog;
         let mut ent_rule: Vec<u32> = Vec::with_capacity(n);
         let mut ent_tri: Vec<Tri> = Vec::with_capacity(n);
@@ -307,7 +369,7 @@ impl Engine {
         let mut fixed = vec![OPEN; n];
         let mut cur = vec![0u16; n];
         let mut levels: BTreeMap<u16, Vec<u32>> = BTreeMap::new();
-        let mut queued = vec![false; n];
+        let queued = vec![false; n];
         ent_start.push(0);
         let (lists, of) = (&self.cand_lists, &self.cand_of);
         // Pass 1: every agent's valid rules with priority terms unknown, in chunks of
@@ -363,6 +425,67 @@ impl Engine {
                 levels.entry(p).or_default().push(a as u32);
             }
         }
+        Entries {
+            rule: ent_rule,
+            tri: ent_tri,
+            start: ent_start,
+            fixed,
+            cur,
+            levels,
+            queued,
+        }
+    }
+
+    /// Agent `a`'s rules at level `p` (its entries `range`) evaluated again with the
+    /// priorities known so far; its priority fixed at `p` when one is true. Whether any of
+    /// them may still hold.
+    #[inline]
+    fn eval_at_level(
+        &self,
+        (a, p): (u32, u16),
+        (ent_rule, ent_tri, range): (&[u32], &mut [Tri], std::ops::Range<usize>),
+        fixed: &mut [i32],
+        cur: &[u16],
+    ) -> bool {
+        let prog = &self.prog;
+        let ai = a as usize;
+        let mut alive = false;
+        for k in range {
+            if prog.rules[ent_rule[k] as usize].priority != p {
+                continue;
+            }
+            if ent_tri[k] == Tri::U {
+                let env = SelEnv {
+                    lat: &self.lat,
+                    a,
+                    prio: Some(PrioView { fixed, cur }),
+                };
+                let v = eval_pre(prog, ent_rule[k] as usize, &env);
+                if v != Tri::U {
+                    ent_tri[k] = v;
+                }
+            }
+            if ent_tri[k] == Tri::T && fixed[ai] == OPEN {
+                fixed[ai] = p as i32;
+            }
+            alive |= ent_tri[k] != Tri::F;
+        }
+        alive
+    }
+
+    /// The levels from the top down (SEMANTICS section 5): each open agent's priority
+    /// fixed; the circles of priorities found, with their messages.
+    fn resolve_levels(&self, e: &mut Entries) -> Vec<(Vec<u32>, String)> {
+        let Entries {
+            rule: ent_rule,
+            tri: ent_tri,
+            start: ent_start,
+            fixed,
+            cur,
+            levels,
+            queued,
+        } = e;
+        let (ent_rule, ent_start) = (&*ent_rule, &*ent_start);
         let prog = &self.prog;
         let prio_of = |e: usize| prog.rules[ent_rule[e] as usize].priority;
         let mut circles: Vec<(Vec<u32>, String)> = Vec::new();
@@ -387,35 +510,12 @@ impl Engine {
                 }
                 let before = (fixed[ai], cur[ai]);
                 let (s, e) = (ent_start[ai] as usize, ent_start[ai + 1] as usize);
-                let mut alive = false;
-                for k in s..e {
-                    if prio_of(k) != p {
-                        continue;
-                    }
-                    if ent_tri[k] == Tri::U {
-                        let env = SelEnv {
-                            lat: &self.lat,
-                            a,
-                            prio: Some(PrioView {
-                                fixed: &fixed,
-                                cur: &cur,
-                            }),
-                        };
-                        let v = eval_pre(prog, ent_rule[k] as usize, &env);
-                        if v != Tri::U {
-                            ent_tri[k] = v;
-                        }
-                    }
-                    if ent_tri[k] == Tri::T && fixed[ai] == OPEN {
-                        fixed[ai] = p as i32;
-                    }
-                    alive |= ent_tri[k] != Tri::F;
-                }
+                let alive = self.eval_at_level((a, p), (ent_rule, ent_tri, s..e), fixed, cur);
                 if fixed[ai] == OPEN && !alive {
                     let next = (s..e)
                         .find(|&k| prio_of(k) < p && ent_tri[k] != Tri::F)
                         .map(prio_of);
-                    drop_to(a, next, &mut fixed, &mut cur, &mut levels);
+                    drop_to(a, next, fixed, cur, levels);
                 }
                 if (fixed[ai], cur[ai]) != before {
                     let mut wake = |b: u32| {
@@ -467,41 +567,15 @@ impl Engine {
                         let next = (s..e)
                             .find(|&k| prio_of(k) < p && ent_tri[k] != Tri::F)
                             .map(prio_of);
-                        drop_to(a, next, &mut fixed, &mut cur, &mut levels);
+                        drop_to(a, next, fixed, cur, levels);
                     }
                 }
             }
             if !circle.is_empty() {
-                let ids: Vec<String> = circle.iter().map(|a| a.to_string()).collect();
-                let msg = format!(
-                    "the priorities of agents {} depend on each other in a circle at priority {p}; their rules {} are not executed",
-                    ids.join(", "),
-                    names.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ")
-                );
+                let msg = circle_message(&circle, &names, p);
                 circles.push((circle, msg));
             }
         }
-        // Each agent executes its rules that are true at its final priority, in file order.
-        let mut sel = std::mem::take(&mut self.sel);
-        sel.reset(n);
-        let mut rules = Vec::new();
-        for a in 0..n {
-            let f = fixed[a];
-            if f > 0 {
-                rules.clear();
-                for k in ent_start[a] as usize..ent_start[a + 1] as usize {
-                    if prog.rules[ent_rule[k] as usize].priority as i32 == f && ent_tri[k] == Tri::T
-                    {
-                        rules.push(ent_rule[k]);
-                    }
-                }
-                rules.sort_unstable();
-                sel.set(a, &rules);
-            }
-        }
-        self.sel = sel;
-        for (circle, msg) in circles {
-            self.record(rep, RecordKind::CircularPriority, &circle, msg);
-        }
+        circles
     }
 }
