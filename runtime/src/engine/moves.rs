@@ -108,6 +108,9 @@ impl MoveScratch {
     }
 }
 
+/// Per direction, an agent's partner before the moves.
+pub(super) type Partners = [Option<u32>; 6];
+
 pub(super) fn find(parent: &mut [u32], mut x: u32) -> u32 {
     while parent[x as usize] != x {
         parent[x as usize] = parent[parent[x as usize] as usize];
@@ -334,7 +337,37 @@ impl Engine {
                 group_off.insert(root, o);
             }
         }
-        // Blocked targets.
+        self.cancel_blocked_groups(&mut group_off, &members, rep);
+        self.cancel_group_collisions(&mut group_off, &members, &mut parent, rep);
+        let mut moves: Vec<(u32, [i32; 3])> = Vec::new();
+        for (root, o) in &group_off {
+            for &m in &members[root] {
+                let p = self.lat.pos[m as usize];
+                moves.push((m, [p[0] + o[0], p[1] + o[1], p[2] + o[2]]));
+            }
+        }
+        moves.sort_unstable();
+        self.count_moves(&moves, rep);
+        // Partners for `*` must be read before the moves.
+        let mut keep_partner: Vec<[Option<u32>; 6]> = vec![[None; 6]; n];
+        for a in 0..n {
+            for d in 0..nd {
+                keep_partner[a][d] = partner(&self.lat, a, d);
+            }
+        }
+        self.lat.relocate(&moves);
+        self.attach_after_moves(intents, (&old_attach, rigid, &keep_partner), rep);
+    }
+
+    /// Groups whose move would take an agent out of the universe stay, with a record.
+    /// `group_off`: per moving group (its root), its offset; `members`: per root, the
+    /// group's agents.
+    pub(super) fn cancel_blocked_groups(
+        &mut self,
+        group_off: &mut BTreeMap<u32, [i32; 3]>,
+        members: &BTreeMap<u32, Vec<u32>>,
+        rep: &mut StepReport,
+    ) {
         let roots: Vec<u32> = group_off.keys().copied().collect();
         for root in roots {
             let o = group_off[&root];
@@ -354,10 +387,22 @@ impl Engine {
                 self.record(rep, RecordKind::MoveBlocked, &ms, msg);
             }
         }
-        // Collisions: cancel every group involved, until none is left.
+    }
+
+    /// Groups whose moves would put two agents on a cell (or one on an agent that stays)
+    /// stay, with a record, until no collision is left (as [`Engine::cancel_blocked_groups`];
+    /// `parent`: the union-find of groups).
+    pub(super) fn cancel_group_collisions(
+        &mut self,
+        group_off: &mut BTreeMap<u32, [i32; 3]>,
+        members: &BTreeMap<u32, Vec<u32>>,
+        parent: &mut Vec<u32>,
+        rep: &mut StepReport,
+    ) {
+        // Cancel every group involved, until none is left.
         loop {
             let mut target: rustc_hash::FxHashMap<[i32; 3], Vec<u32>> = Default::default();
-            for (&root, o) in &group_off {
+            for (&root, o) in group_off.iter() {
                 for &m in &members[&root] {
                     let p = self.lat.pos[m as usize];
                     target
@@ -372,15 +417,12 @@ impl Engine {
             cells.sort();
             for cell in cells {
                 let ms = &target[cell];
-                let stay = self
-                    .lat
-                    .agent_at(*cell)
-                    .filter(|&s| !moving(s, &mut parent));
+                let stay = self.lat.agent_at(*cell).filter(|&s| !moving(s, parent));
                 if ms.len() > 1 || stay.is_some() {
                     let mut involved = ms.clone();
                     involved.extend(stay);
                     for &m in ms {
-                        let root = find(&mut parent, m);
+                        let root = find(parent, m);
                         if !cancel.iter().any(|c| c.0 == root) {
                             cancel.push((root, *cell, involved.clone()));
                         }
@@ -404,23 +446,18 @@ impl Engine {
                 self.record(rep, RecordKind::MoveCollision, &members[&root].clone(), msg);
             }
         }
-        let mut moves: Vec<(u32, [i32; 3])> = Vec::new();
-        for (root, o) in &group_off {
-            for &m in &members[root] {
-                let p = self.lat.pos[m as usize];
-                moves.push((m, [p[0] + o[0], p[1] + o[1], p[2] + o[2]]));
-            }
-        }
-        moves.sort_unstable();
-        self.count_moves(&moves, rep);
-        // Partners for `*` must be read before the moves.
-        let mut keep_partner: Vec<[Option<u32>; 6]> = vec![[None; 6]; n];
-        for a in 0..n {
-            for d in 0..nd {
-                keep_partner[a][d] = partner(&self.lat, a, d);
-            }
-        }
-        self.lat.relocate(&moves);
+    }
+
+    /// Step 4: attach after the moves: rigid bonds stay; a bond forms where one side
+    /// decided to attach and neither side said 0. `old_attach`: the bonds before the step;
+    /// `keep_partner`: per agent and direction, its partner before the moves.
+    pub(super) fn attach_after_moves(
+        &mut self,
+        intents: &[Intent],
+        (old_attach, rigid, keep_partner): (&[u8], Vec<u8>, &[Partners]),
+        rep: &mut StepReport,
+    ) {
+        let (n, nd) = (self.lat.len(), self.lat.dim.dirs());
         // 4. Attach: rigid bonds stay; a bond forms where one side decided to attach and
         // neither side said 0.
         let mut new_attach = rigid;

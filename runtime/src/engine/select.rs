@@ -505,7 +505,7 @@ impl Engine {
             while let Some(a) = queue.pop_front() {
                 let ai = a as usize;
                 queued[ai] = false;
-                if !at_level(ai, &fixed, &cur) {
+                if !at_level(ai, fixed, cur) {
                     continue;
                 }
                 let before = (fixed[ai], cur[ai]);
@@ -520,7 +520,7 @@ impl Engine {
                 if (fixed[ai], cur[ai]) != before {
                     let mut wake = |b: u32| {
                         let bi = b as usize;
-                        if b != NO_AGENT && !queued[bi] && at_level(bi, &fixed, &cur) {
+                        if b != NO_AGENT && !queued[bi] && at_level(bi, fixed, cur) {
                             queued[bi] = true;
                             queue.push_back(b);
                         }
@@ -546,7 +546,7 @@ impl Engine {
             let mut names: Vec<String> = Vec::new();
             for &a in &list {
                 let ai = a as usize;
-                if !at_level(ai, &fixed, &cur) {
+                if !at_level(ai, fixed, cur) {
                     continue;
                 }
                 let (s, e) = (ent_start[ai] as usize, ent_start[ai + 1] as usize);

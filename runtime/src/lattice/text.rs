@@ -1,0 +1,159 @@
+//! The configuration as agents.txt text, written from the columns as it is formatted.
+
+use super::*;
+
+/// Writes the decimal digits of `v` into `buf` at `at`: where they end. (Digit by digit
+/// from the end: a copy of a few bytes would be a call to `memcpy`.)
+#[inline]
+pub(super) fn put_int(buf: &mut [u8], mut at: usize, v: i64) -> usize {
+    if v < 0 {
+        buf[at] = b'-';
+        at += 1;
+    }
+    let mut u = v.unsigned_abs();
+    let end = at + u.checked_ilog10().map_or(1, |l| l as usize + 1);
+    let mut i = end;
+    loop {
+        i -= 1;
+        buf[i] = b'0' + (u % 10) as u8;
+        u /= 10;
+        if u == 0 {
+            break;
+        }
+    }
+    end
+}
+
+impl Lattice {
+    /// The configuration in agents.txt syntax: the universe line if there is one, then the
+    /// agents in id order with state, attachments (when any) and non-zero counters. It loads
+    /// again to the same lattice.
+    pub fn to_agents_text(&self) -> String {
+        let mut out = Vec::with_capacity(self.len() * 24);
+        self.write_agents_text(&mut out, 1)
+            .expect("writing to memory does not fail");
+        String::from_utf8(out).expect("states are ASCII")
+    }
+
+    /// Writes [`Lattice::to_agents_text`] into `w` as it is made, a block of agents at a
+    /// time. With `threads` above one, a second thread formats the next blocks while this
+    /// one writes (formatting itself on several threads was slower on two cores).
+    pub fn write_agents_text(
+        &self,
+        w: &mut impl std::io::Write,
+        threads: usize,
+    ) -> std::io::Result<()> {
+        /// Agents formatted at a time.
+        const BLOCK: usize = 1 << 15;
+        let c = self.dim.coords();
+        if let Some(b) = self.universe {
+            let v: Vec<String> = b[..c]
+                .iter()
+                .flat_map(|(lo, hi)| [lo.to_string(), hi.to_string()])
+                .collect();
+            writeln!(w, "U{}", v.join(","))?;
+        }
+        // Counter columns in number order, so that a line lists its counters so.
+        let cols: Vec<(u8, &[i16])> = (0..self.nc() as u8)
+            .filter(|&i| self.counter_col[i as usize] != NO_COL)
+            .map(|i| (i, &self.counters[self.counter_col[i as usize] as usize][..]))
+            .collect();
+        let n = self.len();
+        let room = BLOCK * self.longest_line(&cols);
+        if threads < 2 || n <= BLOCK {
+            let mut buf = vec![0u8; room.min(n * self.longest_line(&cols))];
+            for a in (0..n).step_by(BLOCK) {
+                let len = self.format_agents(a..(a + BLOCK).min(n), &cols, &mut buf);
+                w.write_all(&buf[..len])?;
+            }
+            return Ok(());
+        }
+        use std::sync::mpsc::sync_channel;
+        let (full_tx, full_rx) = sync_channel::<(Vec<u8>, usize)>(3);
+        let (empty_tx, empty_rx) = sync_channel::<Vec<u8>>(4);
+        for _ in 0..4 {
+            let _ = empty_tx.send(vec![0u8; room]);
+        }
+        std::thread::scope(|s| {
+            let cols = &cols;
+            s.spawn(move || {
+                for a in (0..n).step_by(BLOCK) {
+                    // The writer gave up (an error): stop.
+                    let Ok(mut buf) = empty_rx.recv() else {
+                        return;
+                    };
+                    let len = self.format_agents(a..(a + BLOCK).min(n), cols, &mut buf);
+                    if full_tx.send((buf, len)).is_err() {
+                        return;
+                    }
+                }
+            });
+            for (buf, len) in full_rx.iter() {
+                w.write_all(&buf[..len])?;
+                let _ = empty_tx.send(buf);
+            }
+            Ok(())
+        })
+    }
+
+    /// The longest line [`Lattice::format_agents`] can make with these counter columns.
+    pub(super) fn longest_line(&self, cols: &[(u8, &[i16])]) -> usize {
+        3 * 12 + 7 + 8 + cols.len() * 11 + 1
+    }
+
+    /// The lines of agents `range` (see [`Lattice::to_agents_text`]), written into `line`
+    /// (room for the longest line per agent): their length. Each line is written in place
+    /// (a copy of a line would be a call to `memcpy`).
+    pub(super) fn format_agents(
+        &self,
+        range: std::ops::Range<usize>,
+        cols: &[(u8, &[i16])],
+        line: &mut [u8],
+    ) -> usize {
+        let (three, dirs) = (self.dim == Dim::Three, self.dim.dirs());
+        let mut at = 0;
+        for a in range {
+            let p = self.pos[a];
+            at = put_int(line, at, p[0] as i64);
+            line[at] = b',';
+            at = put_int(line, at + 1, p[1] as i64);
+            if three {
+                line[at] = b',';
+                at = put_int(line, at + 1, p[2] as i64);
+            }
+            line[at] = b' ';
+            line[at + 1] = b'S';
+            let st = self.state[a];
+            line[at + 2] = st[0];
+            line[at + 3] = st[1];
+            line[at + 4] = st[2];
+            line[at + 5] = st[3];
+            line[at + 6] = st[4];
+            at += 7;
+            let bonds = self.attach[a];
+            if bonds != 0 {
+                line[at] = b' ';
+                line[at + 1] = b'A';
+                at += 2;
+                for d in 0..dirs {
+                    line[at] = b'0' + (bonds >> d & 1);
+                    at += 1;
+                }
+            }
+            for &(i, col) in cols {
+                let v = col[a];
+                if v != 0 {
+                    line[at] = b' ';
+                    line[at + 1] = b'C';
+                    line[at + 2] = b'0' + i / 10;
+                    line[at + 3] = b'0' + i % 10;
+                    line[at + 4] = b' ';
+                    at = put_int(line, at + 5, v as i64);
+                }
+            }
+            line[at] = b'\n';
+            at += 1;
+        }
+        at
+    }
+}
