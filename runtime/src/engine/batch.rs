@@ -299,6 +299,104 @@ pub(super) fn max_chain(code: &[Op]) -> usize {
     }
 }
 
+/// One step of a postcondition the column interpreter runs ([`run_batch`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum PostStep {
+    /// A text sent towards a direction (or all).
+    Send { dir: u8, text: u16 },
+    /// A chain of in-place max/min with messages ([`max_chain`]), run in one pass.
+    Chain(Chain),
+    /// A calculation on values of the agent itself.
+    Calc {
+        target: Target,
+        op: CalcOp,
+        a: ColVal,
+        b: ColVal,
+    },
+}
+
+/// A chain of two to six in-place `max` (or `min`) of a counter with messages from one
+/// direction each ([`max_chain`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) struct Chain {
+    /// The counter.
+    pub(super) counter: u8,
+    /// `max` (else `min`).
+    pub(super) max: bool,
+    /// Per link, the message's direction and slot (the first `len`).
+    pub(super) msgs: [(u8, u8); 6],
+    pub(super) len: u8,
+}
+
+/// A rule's postcondition as the column interpreter runs it: made by [`column_post`], only
+/// for postconditions whose every calculation it can run.
+pub(super) type ColumnPost = Vec<PostStep>;
+
+/// A postcondition for [`run_batch`], when it can run its calculations: none reads an
+/// external counter or a message from any direction. The actions (moves, bonds, states,
+/// swaps) are the actions phase's and are left out; an instruction of any other kind
+/// makes no column program (the rule then runs one agent at a time), so that none is
+/// passed over unseen.
+pub(super) fn column_post(code: &[Op]) -> Option<ColumnPost> {
+    let val = |v: Val| match v {
+        Val::Lit(c) => Some(ColVal::Lit(c)),
+        Val::Counter(c) => Some(ColVal::Counter(c)),
+        Val::Msg { dir, slot } if dir != ANY_DIR => Some(ColVal::Msg { dir, slot }),
+        _ => None,
+    };
+    let mut steps = Vec::new();
+    let mut i = 0;
+    while i < code.len() {
+        let chain = max_chain(&code[i..]);
+        if chain >= 2 {
+            let mut c = Chain {
+                counter: 0,
+                max: true,
+                msgs: [(0, 0); 6],
+                len: chain as u8,
+            };
+            for (k, op) in code[i..i + chain].iter().enumerate() {
+                // max_chain found only such links.
+                if let Op::Calc {
+                    target: Target::Counter(t),
+                    op,
+                    b: Val::Msg { dir, slot },
+                    ..
+                } = *op
+                {
+                    (c.counter, c.max, c.msgs[k]) = (t, op == CalcOp::Max, (dir, slot));
+                }
+            }
+            steps.push(PostStep::Chain(c));
+            i += chain;
+            continue;
+        }
+        match code[i] {
+            Op::Send { dir, text } => steps.push(PostStep::Send { dir, text }),
+            Op::Calc { target, op, a, b } => steps.push(PostStep::Calc {
+                target,
+                op,
+                a: val(a)?,
+                b: val(b)?,
+            }),
+            Op::Move { .. } | Op::Attach { .. } | Op::SetState { .. } | Op::Swap { .. } => {}
+            _ => return None,
+        }
+        i += 1;
+    }
+    Some(steps)
+}
+
+impl From<ColVal> for Val {
+    fn from(v: ColVal) -> Val {
+        match v {
+            ColVal::Lit(c) => Val::Lit(c),
+            ColVal::Counter(c) => Val::Counter(c),
+            ColVal::Msg { dir, slot } => Val::Msg { dir, slot },
+        }
+    }
+}
+
 /// Runs a chain of in-place max/min with messages ([`max_chain`]) over agents `ks` of the
 /// chunk: the messages of each link are read first (the first into `buf`, the others into
 /// `more`), then the counter is read and written once. Max and min of values within
@@ -306,35 +404,25 @@ pub(super) fn max_chain(code: &[Op]) -> usize {
 pub(super) fn chain_in_place(
     lat: &Lattice,
     (ch, more): (&mut CalcChunk<'_>, &mut Vec<[i16; BATCH]>),
-    (chain, ks): (&[Op], std::ops::Range<usize>),
+    (chain, ks): (&Chain, std::ops::Range<usize>),
     (first_buf, hint): &mut ([i16; BATCH], [usize; 6]),
 ) {
     let (len, first) = (ks.len(), ch.lo + ks.start);
-    if more.len() < chain.len() - 1 {
-        more.resize(chain.len() - 1, [0; BATCH]);
+    let links = &chain.msgs[..chain.len as usize];
+    if more.len() < links.len() - 1 {
+        more.resize(links.len() - 1, [0; BATCH]);
     }
     let mut bufs = std::iter::once(first_buf).chain(more.iter_mut());
     let mut srcs: [&[i16]; 6] = [&[]; 6];
-    let (mut c, mut max) = (0, true);
-    for (k, op) in chain.iter().enumerate() {
-        let Op::Calc {
-            target: Target::Counter(t),
-            op,
-            b: Val::Msg { dir, slot },
-            ..
-        } = *op
-        else {
-            unreachable!("a chain holds only max/min of a counter with a message");
-        };
-        (c, max) = (t, op == CalcOp::Max);
+    for (k, &(dir, slot)) in links.iter().enumerate() {
         let out = &mut bufs.next().expect("a buffer for each link")[..len];
         srcs[k] = lat.inbox_run(first, (dir, slot), out, hint);
     }
-    let col = &mut ch.counters[lat.counter_col[c as usize] as usize][ks];
-    if max {
-        fold_in_place(col, &srcs[..chain.len()], i16::max);
+    let col = &mut ch.counters[lat.counter_col[chain.counter as usize] as usize][ks];
+    if chain.max {
+        fold_in_place(col, &srcs[..links.len()], i16::max);
     } else {
-        fold_in_place(col, &srcs[..chain.len()], i16::min);
+        fold_in_place(col, &srcs[..links.len()], i16::min);
     }
 }
 
@@ -406,14 +494,12 @@ impl CalcBufs {
 /// for each agent in turn: an agent's instructions touch only its own counters and outbox.
 pub(super) fn run_batch(
     prog: &Program,
-    r: u32,
+    (r, post): (u32, &[PostStep]),
     lat: &Lattice,
     (ch, bufs): (&mut CalcChunk<'_>, &mut CalcBufs),
     range: std::ops::Range<usize>,
     issues: &mut Vec<(u32, u32, CalcIssue)>,
 ) {
-    let info = &prog.rules[r as usize];
-    let code = &prog.code[info.post.start as usize..info.post.end as usize];
     let mut found: Vec<(u32, CalcIssue)> = Vec::new();
     let CalcBufs {
         x,
@@ -427,44 +513,40 @@ pub(super) fn run_batch(
         let len = (range.end - start).min(BATCH);
         let ks = start..start + len;
         let first = ch.lo + start;
-        let mut i = 0;
-        while i < code.len() {
-            // A chain of in-place max (or min) with messages: one pass over the counter.
-            let chain = max_chain(&code[i..]);
-            if chain >= 2 {
-                chain_in_place(
-                    lat,
-                    (ch, &mut *more),
-                    (&code[i..i + chain], ks.clone()),
-                    buf,
-                );
-                i += chain;
-                continue;
-            }
-            i += 1;
-            match code[i - 1] {
-                Op::Send { dir, text } => {
+        for &step in post {
+            match step {
+                // A chain of in-place max (or min) with messages: one pass over the counter.
+                PostStep::Chain(chain) => {
+                    chain_in_place(lat, (ch, &mut *more), (&chain, ks.clone()), buf);
+                }
+                PostStep::Send { dir, text } => {
                     send_text(ch, lat, (dir, prog.texts[text as usize]), ks.clone())
                 }
-                Op::Calc { target, op, a, b }
-                    if fast_calc(lat, ch, ks.clone(), first, (target, op, a, b), buf) => {}
-                Op::Calc { target, op, a, b } => {
-                    let mut load = |v: Val, into: &mut [i32], ch: &CalcChunk<'_>| match v {
-                        Val::Lit(c) => into.fill(c as i32),
-                        Val::Counter(c) => {
+                PostStep::Calc { target, op, a, b }
+                    if fast_calc(
+                        lat,
+                        ch,
+                        ks.clone(),
+                        first,
+                        (target, op, a.into(), b.into()),
+                        buf,
+                    ) => {}
+                PostStep::Calc { target, op, a, b } => {
+                    let mut load = |v: ColVal, into: &mut [i32], ch: &CalcChunk<'_>| match v {
+                        ColVal::Lit(c) => into.fill(c as i32),
+                        ColVal::Counter(c) => {
                             let col = &ch.counters[lat.counter_col[c as usize] as usize];
                             for (t, &s) in into.iter_mut().zip(&col[ks.clone()]) {
                                 *t = s as i32;
                             }
                         }
-                        Val::Msg { dir, slot } => {
+                        ColVal::Msg { dir, slot } => {
                             let src =
                                 lat.inbox_run(first, (dir, slot), &mut buf.0[..len], &mut buf.1);
                             for (t, &s) in into.iter_mut().zip(src) {
                                 *t = s as i32;
                             }
                         }
-                        Val::Ext(_) => unreachable!("rules with external counters are not batched"),
                     };
                     load(a, &mut x[..len], ch);
                     load(b, &mut y[..len], ch);
@@ -510,7 +592,6 @@ pub(super) fn run_batch(
                         (&x[..len], &mut ok[..], all_ok),
                     );
                 }
-                _ => {}
             }
         }
         // Issues in agent order, then instruction order (the sort is stable).

@@ -157,7 +157,7 @@ impl Engine {
             })
             .collect();
         let (prog, lat, trace) = (&self.prog, &self.lat, self.opts.trace);
-        let batchable = &self.plan.batchable;
+        let post_columns = &self.plan.post_columns;
         // When every agent executes the same one rule, runs need no search.
         let uniform = sel.many.is_empty() && self.fire_counts.contains(&(n as u64));
         // The neighbour bits are made at the first delivery; until then it counts.
@@ -186,7 +186,7 @@ impl Engine {
                         k += 1;
                         continue;
                     }
-                    if batchable[r as usize] {
+                    if let Some(post) = &post_columns[r as usize] {
                         let end = if uniform {
                             ch.len
                         } else {
@@ -194,13 +194,10 @@ impl Engine {
                         };
                         // Traced, the run takes the same path; its counters before are kept
                         // to say which changed, agent by agent as the path of one agent does.
-                        let before = if trace {
-                            counters_of(&ch, lat, k..end)
-                        } else {
-                            Vec::new()
-                        };
-                        run_batch(prog, r, lat, (&mut ch, &mut bufs), k..end, &mut issues);
-                        if trace {
+                        let before = trace.then(|| counters_of(&ch, lat, k..end));
+                        let rule = (r, &post[..]);
+                        run_batch(prog, rule, lat, (&mut ch, &mut bufs), k..end, &mut issues);
+                        if let Some(before) = before {
                             counter_events(&before, &ch, lat, k..end, &mut events);
                         }
                         k = end;

@@ -13,7 +13,7 @@
 //! | plain moves (`acting` = `PlainMoves`, `plain_moves`) | every acting rule only moves by a literal, non-zero offset: movers are collected without intents (`actions.rs`), and a mover without bonds moves alone (`moves::move_free`) | intents per agent and `detach_move_attach` | `optimisations_agree_with_reference` (programs of plain moves only, single-agent moves) |
 //! | state hops (`acting` = `States`, `direct_bits`) | every acting rule only sets a state: runs of agents in one state take its hop at once (`dispatch.rs`) | `set_state_at_once` per agent | `optimisations_agree_with_reference` (chains of state-only rules taken as hops) |
 //! | literal offsets (`literal_offsets`) | an offset has no counter in it: its value is known once | the offset evaluated per agent | `engine_agrees_with_reference_*` |
-//! | calculations over runs (`batchable`) | no calculation of the rule reads an external counter: `batch::run_batch` (and `fast_calc`, chains of `max`/`min`) over runs of agents | `run_post` one agent at a time | `optimisations_agree_with_reference` (runs calculating together, chains of in-place max/min, saturation and division by zero inside runs) |
+//! | calculations over runs (`post_columns`) | no calculation of the rule reads an external counter or a message from any direction: `batch::column_post` translates the postcondition into `batch::PostStep`s (chains of in-place `max`/`min` found then), which `batch::run_batch` runs over runs of agents (with `fast_calc` for the most frequent ones); any instruction it does not know makes no column program | `run_post` one agent at a time | `optimisations_agree_with_reference` (runs calculating together, chains of in-place max/min, saturation and division by zero inside runs) |
 //! | no calculations (`any_computes`, `computes`) | no rule calculates or sends: the calculation phase is skipped; per rule, agents of rules that do not compute are passed over | `calc.rs` | `engine_agrees_with_reference_*` |
 //! | messages left with their senders (`defer`) | numeric slots are used, no text message, and no rule moves or swaps: sends stay in the outboxes and are read through the plan of senders (`Pending` in lattice.rs, `post.rs`) | copying every message into its recipient's inbox (`post::deliver`) | `optimisations_agree_with_reference` (messages left with their senders, stale outboxes, sends to all and to one direction), `threads_join_chunks_in_order` |
 
@@ -43,9 +43,9 @@ pub(super) struct Plan {
     pub(super) direct_bits: Vec<Option<(u64, u64)>>,
     /// Per entry of the program's offsets: its value when it has no counter in it.
     pub(super) literal_offsets: Vec<Option<[i32; 3]>>,
-    /// Per rule: its calculations can run on a range of agents at once (no external
-    /// counters).
-    pub(super) batchable: Vec<bool>,
+    /// Per rule: its calculations as the column interpreter runs them over a run of
+    /// agents ([`run_batch`]), when it can (no external counters).
+    pub(super) post_columns: Vec<Option<ColumnPost>>,
     /// Some rule calculates or sends.
     pub(super) any_computes: bool,
     /// Per rule: it calculates or sends.
@@ -73,14 +73,7 @@ impl Plan {
             })
             .collect();
         let pre_columns = prog.rules.iter().map(|r| column_pre(pre(r))).collect();
-        let batchable = (prog.rules.iter())
-            .map(|r| {
-                post(r).iter().all(|op| {
-                    !matches!(op, Op::Calc { a, b, .. }
-                        if matches!(a, Val::Ext(_)) || matches!(b, Val::Ext(_)))
-                })
-            })
-            .collect();
+        let post_columns = prog.rules.iter().map(|r| column_post(post(r))).collect();
         let has_actions: Vec<bool> = (prog.rules.iter())
             .map(|i| {
                 i.moves.is_some()
@@ -120,7 +113,7 @@ impl Plan {
             plain_moves,
             direct_bits,
             literal_offsets: prog.offsets.iter().map(literal).collect(),
-            batchable,
+            post_columns,
             any_computes: prog.rules.iter().any(|r| r.computes),
             computes: prog.rules.iter().map(|r| r.computes).collect(),
             defer: uses.slots != 0
