@@ -39,6 +39,18 @@ pub(super) enum ColVal {
     Msg { dir: u8, slot: u8 },
 }
 
+impl ColVal {
+    /// The value as the column interpreter reads it, when it can.
+    pub(super) fn of(v: Val) -> Option<ColVal> {
+        match v {
+            Val::Lit(c) => Some(ColVal::Lit(c)),
+            Val::Counter(c) => Some(ColVal::Counter(c)),
+            Val::Msg { dir, slot } if dir != ANY_DIR => Some(ColVal::Msg { dir, slot }),
+            _ => None,
+        }
+    }
+}
+
 /// One instruction of a precondition the column interpreter runs ([`batch_pre`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum PreStep {
@@ -61,12 +73,6 @@ pub(super) type ColumnPre = Vec<PreStep>;
 /// any direction), within its stack depth. Short-circuit jumps are left out: the terms
 /// have no side effects and a false left operand makes the conjunction false either way.
 pub(super) fn column_pre(code: &[Op]) -> Option<ColumnPre> {
-    let val = |v: Val| match v {
-        Val::Lit(c) => Some(ColVal::Lit(c)),
-        Val::Counter(c) => Some(ColVal::Counter(c)),
-        Val::Msg { dir, slot } if dir != ANY_DIR => Some(ColVal::Msg { dir, slot }),
-        _ => None,
-    };
     let mut depth = 0usize;
     let mut steps = Vec::with_capacity(code.len());
     for op in code {
@@ -77,8 +83,8 @@ pub(super) fn column_pre(code: &[Op]) -> Option<ColumnPre> {
             Op::State { pat } => PreStep::State { pat },
             Op::Cmp { op, a, b } => PreStep::Cmp {
                 op,
-                a: val(a)?,
-                b: val(b)?,
+                a: ColVal::of(a)?,
+                b: ColVal::of(b)?,
             },
             Op::Not {} => PreStep::Not,
             Op::And {} => PreStep::And,
@@ -338,12 +344,6 @@ pub(super) type ColumnPost = Vec<PostStep>;
 /// makes no column program (the rule then runs one agent at a time), so that none is
 /// passed over unseen.
 pub(super) fn column_post(code: &[Op]) -> Option<ColumnPost> {
-    let val = |v: Val| match v {
-        Val::Lit(c) => Some(ColVal::Lit(c)),
-        Val::Counter(c) => Some(ColVal::Counter(c)),
-        Val::Msg { dir, slot } if dir != ANY_DIR => Some(ColVal::Msg { dir, slot }),
-        _ => None,
-    };
     let mut steps = Vec::new();
     let mut i = 0;
     while i < code.len() {
@@ -376,8 +376,8 @@ pub(super) fn column_post(code: &[Op]) -> Option<ColumnPost> {
             Op::Calc { target, op, a, b } => steps.push(PostStep::Calc {
                 target,
                 op,
-                a: val(a)?,
-                b: val(b)?,
+                a: ColVal::of(a)?,
+                b: ColVal::of(b)?,
             }),
             Op::Move { .. } | Op::Attach { .. } | Op::SetState { .. } | Op::Swap { .. } => {}
             _ => return None,
