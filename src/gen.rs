@@ -3,7 +3,7 @@
 use crate::agents_file;
 use crate::output::{self, open_output, say};
 use clap::ValueEnum;
-use latticesim_runtime::gen::{write_agents, GenOptions, Shape};
+use latticesim_runtime::shapes::{write_agents, GenOptions, Shape};
 use std::path::PathBuf;
 use std::process::ExitCode;
 

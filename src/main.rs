@@ -227,7 +227,7 @@ fn run_check(
                 "agents": agents.as_ref().map(|_| checked.agent_count),
                 "errors": checked.errors(),
                 "warnings": checked.warnings(),
-                "diagnostics": latticesim_compiler::render::to_json(&checked.diags, &checked.sources),
+                "diagnostics": latticesim_compiler::diagnostics::to_json(&checked.diags, &checked.sources),
                 "not_shown": not_shown_json(&checked),
                 "not_checked": note,
             });

@@ -6,7 +6,7 @@ use crate::gen::AgentOptions;
 use crate::output::{open_output, say, write_output};
 use clap::ValueEnum;
 use latticesim_compiler::compile;
-use latticesim_runtime::gen::{agents_text, Shape};
+use latticesim_runtime::shapes::{agents_text, Shape};
 use latticesim_runtime::{Engine, Options};
 use plotters::prelude::*;
 use rayon::prelude::*;

@@ -7,7 +7,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use latticesim_compiler::{check, compile, Input};
-use latticesim_runtime::gen::{agents_text, GenOptions, Shape};
+use latticesim_runtime::shapes::{agents_text, GenOptions, Shape};
 use latticesim_runtime::{Engine, Lattice, Options};
 use std::collections::{HashMap, VecDeque};
 

@@ -10,16 +10,16 @@ mod check_agents;
 mod check_rules;
 pub mod checked;
 mod contradict;
+pub mod diagnostics;
 pub mod dim;
 pub mod fast_agents;
 mod lower;
-pub mod render;
 
 pub use check_agents::check_agents;
 pub use check_rules::{check_rules, VALUE_MAX};
 pub use checked::{CheckedRules, Columns, Config, Dim};
+pub use diagnostics::Sources;
 pub use lower::{compile, lower};
-pub use render::Sources;
 
 use bumpalo::Bump;
 use dim::DimSource;
@@ -86,9 +86,9 @@ impl Checked {
     /// The diagnostics as terminal text (ANSI colours when `color`), with a line for each
     /// file some of whose diagnostics are not shown.
     pub fn render(&self, color: bool) -> String {
-        let mut text = render::render_text(&self.diags, &self.sources, color);
+        let mut text = diagnostics::render_text(&self.diags, &self.sources, color);
         for n in &self.not_shown {
-            text += &render::not_shown_line(n, &self.sources);
+            text += &diagnostics::not_shown_line(n, &self.sources);
             text.push('\n');
         }
         text
@@ -236,7 +236,7 @@ pub fn check(rules: Input<'_>, agents: Option<Input<'_>>, dim: Option<Dim>) -> C
     let rule_count = ast.rules.len();
     let agent_count = agents_ast.as_ref().map_or(0, |a| a.agents.len());
     drop((ast, agents_ast));
-    render::sort(&mut diags);
+    diagnostics::sort(&mut diags);
     let ok = !diags.iter().any(|d| d.is_error());
     let not_shown = cap(&mut diags, &sources);
     Checked {

@@ -4,7 +4,7 @@
 //!
 //! Regenerate with `UPDATE_GOLDEN=1 cargo test -p latticesim-compiler --test golden`.
 
-use latticesim_compiler::render::render_plain;
+use latticesim_compiler::diagnostics::render_plain;
 use latticesim_compiler::{check, Dim, Input};
 use latticesim_grammar::Code;
 use std::fs;

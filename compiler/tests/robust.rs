@@ -38,8 +38,8 @@ fn run(rules: &[u8], agents: Option<&[u8]>, dim: Option<Dim>) -> Checked {
         assert_eq!(latticesim_compiler::lower(p).verify(), Ok(()));
     }
     // Rendering must not fail either.
-    let _ = latticesim_compiler::render::render_plain(&c.diags, &c.sources);
-    let _ = latticesim_compiler::render::to_json(&c.diags, &c.sources);
+    let _ = latticesim_compiler::diagnostics::render_plain(&c.diags, &c.sources);
+    let _ = latticesim_compiler::diagnostics::to_json(&c.diags, &c.sources);
     c
 }
 

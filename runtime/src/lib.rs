@@ -10,10 +10,10 @@ mod bits;
 mod cells;
 pub mod checkpoint;
 mod engine;
-pub mod gen;
 mod history;
 mod lattice;
 mod record;
+pub mod shapes;
 mod trace;
 
 pub use engine::{Engine, Options, Order, Stats, StepReport, AGENTS_PER_THREAD};

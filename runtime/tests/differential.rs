@@ -585,7 +585,7 @@ fn generators_reach_every_record_kind() {
 /// into chunks, run with 1 and with 3 threads, agree on everything after every step.
 #[test]
 fn threads_give_the_same_results() {
-    use latticesim_runtime::gen::{agents_text, GenOptions, Shape};
+    use latticesim_runtime::shapes::{agents_text, GenOptions, Shape};
     use proptest::strategy::ValueTree;
     use proptest::test_runner::{Config, TestRunner};
     let mut runner = TestRunner::new(Config {

@@ -6,7 +6,7 @@ use super::*;
 /// The checker's verdict: counts, dimension and every diagnostic with the editor it
 /// belongs to (`rules` or `agents`).
 pub(super) fn check_json(c: &Checked, rules_name: &str) -> Value {
-    let diags: Vec<Value> = latticesim_compiler::render::to_json(&c.diags, &c.sources)
+    let diags: Vec<Value> = latticesim_compiler::diagnostics::to_json(&c.diags, &c.sources)
         .into_iter()
         .map(|d| {
             let editor = if d.file == rules_name {
