@@ -430,10 +430,22 @@ fn serves_the_app_and_refuses_a_busy_port() {
     );
     let (s, html) = srv.request("GET", "/", b"");
     assert_eq!(s, 200);
-    assert!(html.contains("<script src=\"/app.js\">"));
-    let (s, js) = srv.request("GET", "/app.js", b"");
-    assert_eq!(s, 200);
-    assert!(js.contains("/api/frame?step="));
+    assert!(html.contains("<script type=\"module\" src=\"/app.js\">"));
+    // The script's ES modules, each imported by another and served from the asset table.
+    let mut all = String::new();
+    for m in ["app", "api", "player", "panel", "draw", "input", "editor"] {
+        let (s, js) = srv.request("GET", &format!("/{m}.js"), b"");
+        assert_eq!(s, 200, "/{m}.js");
+        if m != "app" {
+            assert!(
+                all.contains(&format!("from './{m}.js'")) || m == "input",
+                "{m}"
+            );
+        }
+        all += &js;
+    }
+    assert!(all.contains("import './input.js'"));
+    assert!(all.contains("/api/frame?step="));
     let port = srv.addr.rsplit(':').next().unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_latticesim"))
         .current_dir(ROOT)
@@ -556,7 +568,7 @@ fn only_the_viewers_own_pages_with_the_token_get_in() {
     let pair = cookie.split(';').next().unwrap();
     let (s, html) = srv.request_with("GET", "/", &format!("Cookie: a=b; {pair}\r\n"), b"");
     assert_eq!(s, 200);
-    assert!(html.contains("<script src=\"/app.js\">"));
+    assert!(html.contains("<script type=\"module\" src=\"/app.js\">"));
 }
 
 #[test]

@@ -4,29 +4,25 @@
 
 use super::*;
 
-/// The app's files: path, content type, content.
-const ASSETS: [(&str, &str, &str); 4] = [
-    (
-        "/",
-        "text/html; charset=utf-8",
-        include_str!("../../web/index.html"),
-    ),
-    (
-        "/index.html",
-        "text/html; charset=utf-8",
-        include_str!("../../web/index.html"),
-    ),
-    (
-        "/app.js",
-        "text/javascript; charset=utf-8",
-        include_str!("../../web/app.js"),
-    ),
+/// The app's files: path, content type, content (the script is ES modules, `web/*.js`).
+const ASSETS: [(&str, &str, &str); 10] = [
+    ("/", HTML, include_str!("../../web/index.html")),
+    ("/index.html", HTML, include_str!("../../web/index.html")),
     (
         "/app.css",
         "text/css; charset=utf-8",
         include_str!("../../web/app.css"),
     ),
+    ("/app.js", JS, include_str!("../../web/app.js")),
+    ("/api.js", JS, include_str!("../../web/api.js")),
+    ("/player.js", JS, include_str!("../../web/player.js")),
+    ("/panel.js", JS, include_str!("../../web/panel.js")),
+    ("/draw.js", JS, include_str!("../../web/draw.js")),
+    ("/input.js", JS, include_str!("../../web/input.js")),
+    ("/editor.js", JS, include_str!("../../web/editor.js")),
 ];
+const HTML: &str = "text/html; charset=utf-8";
+const JS: &str = "text/javascript; charset=utf-8";
 
 /// A handler of the API.
 type Handler = fn(&mut Session, &Req) -> Result<Reply, Reply>;

@@ -1,0 +1,64 @@
+// Mouse and keys on the view, and the toolbar buttons.
+
+import { $ } from './api.js';
+import { currentStep, gotoStep, player, toggleRun } from './player.js';
+import { inspect } from './panel.js';
+import { camera, canvas, draw, fit, pick, zoom } from './draw.js';
+
+// ---------------------------------------------------------------- mouse and keys
+
+let drag = null;
+canvas.addEventListener('mousedown', (e) => {
+  drag = { x: e.clientX, y: e.clientY, moved: false, rotate: e.shiftKey || e.button === 2 };
+  canvas.style.cursor = 'grabbing';
+});
+window.addEventListener('mousemove', (e) => {
+  if (!drag) return;
+  const dx = e.clientX - drag.x, dy = e.clientY - drag.y;
+  if (Math.abs(dx) + Math.abs(dy) > 3) drag.moved = true;
+  if (!drag.moved) return;
+  if (drag.rotate && player.frame && player.frame.dim === 3) camera.theta += dx * 0.01;
+  else { camera.ox += dx; camera.oy += dy; }
+  drag.x = e.clientX;
+  drag.y = e.clientY;
+  draw();
+});
+window.addEventListener('mouseup', (e) => {
+  if (!drag) return;
+  const clicked = !drag.moved;
+  drag = null;
+  canvas.style.cursor = 'grab';
+  if (!clicked) return;
+  const r = canvas.getBoundingClientRect();
+  const id = pick(e.clientX - r.left, e.clientY - r.top);
+  if (id !== null) inspect(id);
+});
+canvas.addEventListener('contextmenu', (e) => e.preventDefault());
+
+canvas.addEventListener('wheel', (e) => {
+  e.preventDefault();
+  const r = canvas.getBoundingClientRect();
+  zoom(Math.exp(-e.deltaY * 0.0015), e.clientX - r.left, e.clientY - r.top);
+}, { passive: false });
+
+document.addEventListener('keydown', (e) => {
+  if (!$('view').hidden && e.target.tagName !== 'INPUT' && e.target.tagName !== 'TEXTAREA') {
+    if (e.key === ' ') { e.preventDefault(); toggleRun(); }
+    if (e.key === 'ArrowRight') gotoStep(currentStep() + 1);
+    if (e.key === 'ArrowLeft') gotoStep(currentStep() - 1);
+    if (e.key === 'Home') gotoStep(0);
+    if (e.key === '+' || e.key === '=') zoom(1.25);
+    if (e.key === '-') zoom(0.8);
+  }
+});
+
+$('step').onclick = () => gotoStep(currentStep() + 1);
+$('back').onclick = () => gotoStep(currentStep() - 1);
+$('reset').onclick = () => { player.running = false; gotoStep(0); };
+$('run').onclick = toggleRun;
+$('go').onclick = () => gotoStep(Number($('jump').value) || 0);
+$('jump').addEventListener('keydown', (e) => { if (e.key === 'Enter') $('go').onclick(); });
+$('speed').oninput = () => { $('speed-label').textContent = $('speed').value; };
+$('fit').onclick = fit;
+$('rot-left').onclick = () => { camera.theta -= Math.PI / 12; draw(); };
+$('rot-right').onclick = () => { camera.theta += Math.PI / 12; draw(); };
