@@ -170,6 +170,26 @@ fn stats_json(e: &Engine, stop: Stop, timing: Option<&Timing>) -> serde_json::Va
     v
 }
 
+/// Prints the diagnostics of a check (only its errors when `quiet`).
+fn show_diagnostics(checked: &latticesim_compiler::Checked, quiet: bool, colour: bool) {
+    if !checked.diags.is_empty() && (checked.errors() > 0 || !quiet) {
+        output::stderr(&checked.render(colour));
+    }
+}
+
+/// Says that the files `what` were not run (with their number of errors, when it is what
+/// stopped them) and gives exit status 1.
+fn nothing_run(what: &str, errors: Option<usize>) -> ExitCode {
+    match errors {
+        Some(e) => say!(
+            "{what}: {e} error{}; nothing was run",
+            if e == 1 { "" } else { "s" }
+        ),
+        None => say!("{what}: nothing was run"),
+    }
+    ExitCode::from(1)
+}
+
 /// The checked rules compiled and verified, or the message of an internal error and exit
 /// status 2.
 pub(crate) fn compiled(
@@ -223,23 +243,16 @@ pub(crate) fn load(
         ExitCode::from(2)
     })?;
     let checked = &loaded.checked;
-    if !checked.diags.is_empty() && (checked.errors() > 0 || !quiet) {
-        output::stderr(&checked.render(colour));
-    }
+    show_diagnostics(checked, quiet, colour);
     if let Some(note) = &loaded.note {
         say!("{note}");
     }
     let (Some(program), Some(lat)) = (checked.rules.as_ref(), loaded.lattice) else {
-        if loaded.note.is_some() {
-            say!("{rules_name}, {agents_name}: nothing was run");
-        } else {
-            say!(
-                "{rules_name}, {agents_name}: {} error{}; nothing was run",
-                checked.errors(),
-                if checked.errors() == 1 { "" } else { "s" }
-            );
-        }
-        return Err(ExitCode::from(1));
+        let what = format!("{rules_name}, {agents_name}");
+        return Err(nothing_run(
+            &what,
+            loaded.note.is_none().then(|| checked.errors()),
+        ));
     };
     let t = Instant::now();
     let prog = compiled(program)?;
@@ -276,16 +289,9 @@ fn resume(
     let rules_bytes = read(rules)?;
     let rules_name = rules.display().to_string();
     let checked = crate::check_pair((&rules_name, &rules_bytes), None, Some(dim));
-    if !checked.diags.is_empty() && (checked.errors() > 0 || !quiet) {
-        output::stderr(&checked.render(colour));
-    }
+    show_diagnostics(&checked, quiet, colour);
     let Some(program) = checked.rules.as_ref() else {
-        say!(
-            "{rules_name}: {} error{}; nothing was run",
-            checked.errors(),
-            if checked.errors() == 1 { "" } else { "s" }
-        );
-        return Err(ExitCode::from(1));
+        return Err(nothing_run(&rules_name, Some(checked.errors())));
     };
     let prog = compiled(program)?;
     let check = started.elapsed();

@@ -150,7 +150,14 @@ impl CellsMut<'_> {
 impl CellIndex {
     /// An index for agents at these positions (z = 0 in 2D).
     pub fn new(pos: &[[i32; 3]], three_d: bool) -> CellIndex {
-        Self::new_checked(pos, three_d).0
+        let mut idx = CellIndex {
+            grid: CellIndex::grid_for(pos, three_d),
+            map: FxHashMap::default(),
+        };
+        for (i, p) in pos.iter().enumerate() {
+            idx.insert(*p, i as u32);
+        }
+        idx
     }
 
     /// The grid over the agents' bounding box (with a margin), when it has few enough
@@ -188,22 +195,9 @@ impl CellIndex {
         grid
     }
 
-    /// [`CellIndex::new`], and whether every agent has a cell of its own (false when a
-    /// later agent stands on an earlier one's cell, and took it in the index).
-    pub fn new_checked(pos: &[[i32; 3]], three_d: bool) -> (CellIndex, bool) {
-        let grid = CellIndex::grid_for(pos, three_d);
-        let mut idx = CellIndex {
-            grid,
-            map: FxHashMap::default(),
-        };
-        let mut one_each = true;
-        for (i, p) in pos.iter().enumerate() {
-            one_each &= idx.insert(*p, i as u32);
-        }
-        (idx, one_each)
-    }
-
-    /// [`CellIndex::new_checked`], and every agent's [`CellIndex::code`], in one pass.
+    /// [`CellIndex::new`], whether every agent has a cell of its own (false when a later
+    /// agent stands on an earlier one's cell, and took it in the index), and every agent's
+    /// [`CellIndex::code`], in one pass.
     pub fn new_coded(pos: &[[i32; 3]], three_d: bool) -> (CellIndex, bool, Vec<u32>) {
         let mut idx = CellIndex {
             grid: CellIndex::grid_for(pos, three_d),

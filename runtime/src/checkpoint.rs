@@ -191,6 +191,18 @@ fn put_column<W: Write>(
     Ok(())
 }
 
+/// Whether a checkpoint's first bytes (its magic) and format version are ones this
+/// latticesim reads.
+fn known(magic: &[u8], version: u32) -> Result<(), CheckpointError> {
+    if magic != MAGIC {
+        return Err(CheckpointError::NotACheckpoint);
+    }
+    if version != VERSION {
+        return Err(CheckpointError::Version(version));
+    }
+    Ok(())
+}
+
 /// The dimension a checkpoint was made in and its number of agents, from its first bytes
 /// (to check its rules in that dimension, and choose threads).
 pub fn peek(mut r: impl Read) -> Result<(Dim, u64), CheckpointError> {
@@ -199,13 +211,10 @@ pub fn peek(mut r: impl Read) -> Result<(Dim, u64), CheckpointError> {
         io::ErrorKind::UnexpectedEof => CheckpointError::NotACheckpoint,
         _ => CheckpointError::Io(e),
     })?;
-    if &head[..8] != MAGIC {
-        return Err(CheckpointError::NotACheckpoint);
-    }
-    let version = u32::from_le_bytes(head[8..12].try_into().expect("4 bytes"));
-    if version != VERSION {
-        return Err(CheckpointError::Version(version));
-    }
+    known(
+        &head[..8],
+        u32::from_le_bytes(head[8..12].try_into().expect("4 bytes")),
+    )?;
     let n = u64::from_le_bytes(head[48..56].try_into().expect("8 bytes"));
     match head[22] {
         3 => Ok((Dim::Three, n)),
@@ -352,13 +361,7 @@ fn read_header<R: Read>(
         CheckpointError::Truncated => CheckpointError::NotACheckpoint,
         e => e,
     })?;
-    if &magic != MAGIC {
-        return Err(CheckpointError::NotACheckpoint);
-    }
-    let version = r.u32()?;
-    if version != VERSION {
-        return Err(CheckpointError::Version(version));
-    }
+    known(&magic, r.u32()?)?;
     let hash = r.u64()?;
     let (order, static_first, coords) = (r.u8()?, r.u8()?, r.u8()?);
     let has_universe = r.u8()?;
@@ -539,21 +542,14 @@ fn check_cells(lat: &Lattice) -> Result<(), CheckpointError> {
                 "an agent outside the universe".into(),
             ));
         }
-        for d in latticesim_vm::model::Dir::ALL.iter().take(lat.dim.dirs()) {
-            if lat.attach[a] & (1 << d.index()) != 0 {
-                let back = lat
-                    .neighbour(a as u32, *d)
-                    .is_some_and(|b| lat.attach[b as usize] & (1 << d.opposite().index()) != 0);
-                if !back {
-                    return Err(CheckpointError::Invalid("a bond on one side only".into()));
-                }
-            }
-        }
         if lat.attach[a] >> lat.dim.dirs() != 0 {
             return Err(CheckpointError::Invalid(
                 "a bond towards no direction".into(),
             ));
         }
     }
-    Ok(())
+    match lat.one_sided_bond() {
+        Some(_) => Err(CheckpointError::Invalid("a bond on one side only".into())),
+        None => Ok(()),
+    }
 }

@@ -1116,6 +1116,16 @@ proptest! {
     fn resumed_runs_go_on_exactly_3d(r in prop_oneof![rules(true), themes(true)], a in agents(true)) {
         resume_and_undo(&r, &a)?;
     }
+
+    #[test]
+    fn traced_runs_take_the_untraced_paths_2d(r in prop_oneof![rules(false), themes(false)], a in agents(false)) {
+        traced_as_untraced(&r, &a)?;
+    }
+
+    #[test]
+    fn traced_runs_take_the_untraced_paths_3d(r in prop_oneof![rules(true), themes(true)], a in agents(true)) {
+        traced_as_untraced(&r, &a)?;
+    }
 }
 
 /// A traced run takes the paths of an untraced one: the same records, lattice and
@@ -1172,22 +1182,4 @@ fn traced_as_untraced(rules: &str, agents: &str) -> Result<(), TestCaseError> {
         }
     }
     Ok(())
-}
-
-proptest! {
-    #![proptest_config(ProptestConfig {
-        cases: std::env::var("PROPTEST_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(64),
-        failure_persistence: None,
-        ..ProptestConfig::default()
-    })]
-
-    #[test]
-    fn traced_runs_take_the_untraced_paths_2d(r in prop_oneof![rules(false), themes(false)], a in agents(false)) {
-        traced_as_untraced(&r, &a)?;
-    }
-
-    #[test]
-    fn traced_runs_take_the_untraced_paths_3d(r in prop_oneof![rules(true), themes(true)], a in agents(true)) {
-        traced_as_untraced(&r, &a)?;
-    }
 }

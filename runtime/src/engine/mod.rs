@@ -375,23 +375,7 @@ impl Engine {
 
     /// What a step of this program can change in the lattice (for [`Lattice::undo_point`]).
     pub fn writes(&self) -> Writes {
-        let mut w = Writes::default();
-        for r in &self.prog.rules {
-            w.positions |= r.moves.is_some() || r.swaps.is_some();
-            w.states |= r.sets_state.is_some();
-            w.bonds |= r.attaches.is_some();
-        }
-        for op in &self.prog.code {
-            match *op {
-                Op::Calc { target, .. } => match target {
-                    Target::Counter(c) => w.counters |= 1 << c,
-                    Target::Msg { .. } => w.messages = true,
-                },
-                Op::Send { .. } => w.messages = true,
-                _ => {}
-            }
-        }
-        w
+        self.plan.writes
     }
 
     /// What [`Engine::undo`] needs to go back to the state before the next step: only

@@ -55,6 +55,8 @@ pub(super) struct Plan {
     /// no rule uses texts. The outboxes then have one more column per slot, for sends to
     /// all directions.
     pub(super) defer: bool,
+    /// What a step can change in the lattice (what `--strict` keeps to undo a step).
+    pub(super) writes: Writes,
 }
 
 impl Plan {
@@ -104,6 +106,7 @@ impl Plan {
             .map(|off| literal(&prog.offsets[off as usize]))
             .collect();
         Plan {
+            writes: writes(prog),
             trivial,
             pre_columns,
             any_prio: prog.rules.iter().any(|r| r.reads_priorities),
@@ -121,4 +124,27 @@ impl Plan {
                 && (prog.rules.iter()).all(|r| r.moves.is_none() && r.swaps.is_none()),
         }
     }
+}
+
+/// What a step of `prog` can change in the lattice: positions (and bonds) when a rule moves
+/// or swaps, states and bonds when a rule sets them, the counters calculations write, and
+/// the inboxes when a rule sends.
+fn writes(prog: &Program) -> Writes {
+    let mut w = Writes::default();
+    for r in &prog.rules {
+        w.positions |= r.moves.is_some() || r.swaps.is_some();
+        w.states |= r.sets_state.is_some();
+        w.bonds |= r.attaches.is_some();
+    }
+    for op in &prog.code {
+        match *op {
+            Op::Calc { target, .. } => match target {
+                Target::Counter(c) => w.counters |= 1 << c,
+                Target::Msg { .. } => w.messages = true,
+            },
+            Op::Send { .. } => w.messages = true,
+            _ => {}
+        }
+    }
+    w
 }

@@ -199,21 +199,26 @@ impl Lattice {
                 pos,
             });
         }
-        for a in (0..n).filter(|&a| lat.attach[a] != 0) {
-            for d in Dir::ALL.iter().take(dim.dirs()) {
-                let declared = lat.attach[a] & (1 << d.index()) != 0;
-                let back = lat
-                    .neighbour(a as u32, *d)
-                    .is_some_and(|b| lat.attach[b as usize] & (1 << d.opposite().index()) != 0);
-                if declared && !back {
-                    return Err(Defect::OneSidedBond {
-                        agent: a as u32,
-                        dir: *d,
-                    });
-                }
-            }
+        match lat.one_sided_bond() {
+            Some((agent, dir)) => Err(Defect::OneSidedBond { agent, dir }),
+            None => Ok(lat),
         }
-        Ok(lat)
+    }
+
+    /// The first agent (and direction) with a bond that no agent there declares back, if
+    /// any: bonds are symmetric between neighbours everywhere else.
+    pub(crate) fn one_sided_bond(&self) -> Option<(u32, Dir)> {
+        (0..self.len())
+            .filter(|&a| self.attach[a] != 0)
+            .find_map(|a| {
+                Dir::ALL.iter().take(self.dim.dirs()).find_map(|d| {
+                    let declared = self.attach[a] & (1 << d.index()) != 0;
+                    let back = self.neighbour(a as u32, *d).is_some_and(|b| {
+                        self.attach[b as usize] & (1 << d.opposite().index()) != 0
+                    });
+                    (declared && !back).then_some((a as u32, *d))
+                })
+            })
     }
 
     /// Builds the lattice of a checked configuration.

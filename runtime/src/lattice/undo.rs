@@ -61,8 +61,8 @@ impl Lattice {
     pub fn undo(&mut self, u: Undo) {
         if let Some(p) = u.pos {
             self.pos = p;
-            self.cells = CellIndex::new(&self.pos, self.dim == Dim::Three);
-            self.code = self.pos.iter().map(|&p| self.cells.code(p)).collect();
+            let (cells, _, code) = CellIndex::new_coded(&self.pos, self.dim == Dim::Three);
+            (self.cells, self.code) = (cells, code);
             self.nbr_valid = false;
         }
         if let Some(s) = u.state {
