@@ -55,7 +55,7 @@ pub(crate) fn set_bits(bits: &mut [u64], range: std::ops::Range<usize>) {
 
 /// How many of the first values of `s` equal `v` (compared in blocks, which vectorises).
 #[inline]
-pub(crate) fn run_of(s: &[u32], v: u32) -> usize {
+pub(crate) fn run_of<T: Copy + PartialEq>(s: &[T], v: T) -> usize {
     let mut n = 0;
     for block in s.chunks(32) {
         if block.iter().fold(true, |ok, &x| ok & (x == v)) {

@@ -115,30 +115,6 @@ impl Default for Intent {
     }
 }
 
-/// Applies a state pattern (as [`pat_bits`]) to agent `a`. When the state changes: the
-/// old and new states, and whether the cache knew the new state's candidate list (the
-/// agent's list is set from it, or marked for lookup).
-#[inline(always)]
-pub(super) fn apply_state(
-    lat: &mut Lattice,
-    cand_of: &mut [u32],
-    (cache, known_states): (&[(u64, u32)], &FxHashMap<u64, u32>),
-    a: usize,
-    (mask, val): (u64, u64),
-) -> Option<([u8; 5], [u8; 5], bool)> {
-    let old = lat.state[a];
-    let o = state_key(&old);
-    let v = (o & !mask) | val;
-    if v == o {
-        return None;
-    }
-    let new: [u8; 5] = v.to_le_bytes()[..5].try_into().expect("five bytes");
-    lat.state[a] = new;
-    let idx = cached(cache, v).or_else(|| known_states.get(&v).copied());
-    cand_of[a] = idx.unwrap_or(NO_LIST);
-    Some((old, new, idx.is_some()))
-}
-
 /// A state pattern as (mask of the characters it sets, their values) over state keys.
 pub(super) fn pat_bits(pat: &TextPat) -> (u64, u64) {
     let (mut mask, mut val) = ([0u8; 8], [0u8; 8]);
@@ -164,8 +140,56 @@ pub(super) fn text(s: &[u8; 5]) -> String {
     String::from_utf8_lossy(s).into_owned()
 }
 
-impl Engine {
-    pub(super) fn all_actions(&mut self, sel: &mut Selection, rep: &mut StepReport) {
+/// What the actions phase keeps between steps: its lists (for their allocations), the
+/// moving halves of `--static-first`'s first pass, and the marks of the moves.
+#[derive(Default)]
+pub(super) struct ActionBufs {
+    /// The actions of the step being made.
+    todo: Actions,
+    /// With `--static-first`: the moving half of the combined intents of agents executing
+    /// several rules, made in the static pass (where conflicts are judged over all of
+    /// them), in agent order.
+    later: Vec<(u32, Intent)>,
+    /// Per-cell and per-agent marks for the moves (allocated at the first move).
+    pub(super) scratch: MoveScratch,
+}
+
+/// The actions phase (paper step 2) with the parts of the engine it borrows: it reads the
+/// program, its plan and the options; it writes the lattice, the agents' candidate lists
+/// (when states change), the firing counts (`counts`, `active`: when agents hop to a
+/// state's rule), the statistics and its buffers.
+pub(super) struct Act<'e> {
+    pub(super) prog: &'e Program,
+    pub(super) plan: &'e Plan,
+    pub(super) opts: Options,
+    pub(super) lat: &'e mut Lattice,
+    pub(super) dispatch: &'e mut Dispatch,
+    pub(super) counts: &'e mut [u64],
+    pub(super) active: &'e mut u64,
+    pub(super) stats: &'e mut Stats,
+    pub(super) bufs: &'e mut ActionBufs,
+    /// The selection was decided by states alone (see [`Selector::by_state`]).
+    pub(super) by_state: bool,
+}
+
+impl Act<'_> {
+    pub(super) fn record(
+        &mut self,
+        rep: &mut StepReport,
+        kind: RecordKind,
+        ids: &[u32],
+        message: String,
+    ) {
+        record((self.stats, self.lat), rep, kind, ids, message);
+    }
+
+    pub(super) fn rule_name(&self, r: u32) -> &str {
+        &self.prog.rules[r as usize].name
+    }
+
+    /// Returns whether some agent's state changed without its selection following (see
+    /// [`Dispatch::set_state_at_once`]).
+    pub(super) fn all_actions(&mut self, sel: &mut Selection, rep: &mut StepReport) -> bool {
         if self.opts.static_first {
             let prog = &self.prog;
             let still: Vec<bool> = prog
@@ -174,33 +198,33 @@ impl Engine {
                 .map(|r| r.moves.is_none() && r.swaps.is_none())
                 .collect();
             let moving: Vec<bool> = still.iter().map(|s| !s).collect();
-            self.later.clear();
-            self.actions(sel, rep, Some((&still, true)));
-            self.actions(sel, rep, Some((&moving, false)));
+            self.bufs.later.clear();
+            let first = self.actions(sel, rep, Some((&still, true)));
+            first | self.actions(sel, rep, Some((&moving, false)))
         } else {
-            self.actions(sel, rep, None);
+            self.actions(sel, rep, None)
         }
     }
 
     /// Paper step 2 for all selected rules, or with `--static-first` for the rules one
     /// pass takes (`pass`: which rules, and whether it is the first, static one). An agent
     /// executing several rules has its conflicts judged over all of them in the first pass
-    /// ([`Engine::split_intent`]), whose second half waits in `later` for the second.
+    /// ([`Act::split_intent`]), whose second half waits in `later` for the second.
     pub(super) fn actions(
         &mut self,
         sel: &mut Selection,
         rep: &mut StepReport,
         pass: Option<(&[bool], bool)>,
-    ) {
+    ) -> bool {
         let every = pass.is_none();
         let pick = |r: u32| pass.is_none_or(|p| p.0[r as usize]);
         let n = self.lat.len();
         // Rules with nothing to do in this phase (only calculations and sends) are left out;
         // only the agents with something to do get an intent.
         if self.plan.acting == Acting::Nothing {
-            return;
+            return false;
         }
-        let mut todo = std::mem::take(&mut self.todo);
+        let mut todo = std::mem::take(&mut self.bufs.todo);
         todo.clear();
         // An agent whose one rule only sets the state does so at once: no other action of
         // the step reads states. When the selection is decided by states alone, its entry
@@ -208,7 +232,7 @@ impl Engine {
         // Traced, the states before are kept, and the changes reported after the moves
         // (where the trace has them) from the difference: the same path either way.
         let states_before = self.opts.trace.then(|| self.lat.state.clone());
-        let keep = self.sel_by_state && !self.plan.any_prio && !self.opts.static_first;
+        let keep = self.by_state && !self.plan.any_prio && !self.opts.static_first;
         let (mut changed, mut lookups) = (false, false);
         let mut rs: Vec<u32> = Vec::new();
         let simple = every && sel.many.is_empty();
@@ -232,9 +256,9 @@ impl Engine {
             loop {
                 a = hop_run(
                     a,
-                    (&mut self.cand_of, &mut self.lat.state, &mut sel.one),
-                    &self.cand_hop,
-                    &mut self.cand_hopped,
+                    (&mut self.dispatch.of, &mut self.lat.state, &mut sel.one),
+                    &self.dispatch.hops,
+                    &mut self.dispatch.hopped,
                 );
                 if a >= n {
                     break;
@@ -270,11 +294,11 @@ impl Engine {
                 let it = if first {
                     rs.extend((sel.of(a).iter().copied()).filter(|&r| acts[r as usize]));
                     let (now, later) = self.split_intent(a, &rs, still, rep);
-                    self.later.push((a as u32, later));
+                    self.bufs.later.push((a as u32, later));
                     now
                 } else {
-                    match self.later.binary_search_by_key(&(a as u32), |l| l.0) {
-                        Ok(k) => self.later[k].1,
+                    match self.bufs.later.binary_search_by_key(&(a as u32), |l| l.0) {
+                        Ok(k) => self.bufs.later[k].1,
                         Err(_) => continue,
                     }
                 };
@@ -291,21 +315,21 @@ impl Engine {
                 }
             }
         }
-        self.count_hops();
-        self.carry_out(todo, states_before, (changed, lookups), rep);
+        self.dispatch.count_hops(self.counts, self.active);
+        self.carry_out(todo, states_before, (changed, lookups), rep)
     }
 
     /// Carries out the actions collected in `todo`: moves (alone, or with bonds and
     /// groups), the new states in agent order (traced from the difference with
     /// `states_before`), swaps. `changed`, `lookups`: states were already set at once (and
-    /// some had no known candidate list).
+    /// some had no known candidate list). Returns whether some state changed.
     pub(super) fn carry_out(
         &mut self,
         mut todo: Actions,
         states_before: Option<Vec<[u8; 5]>>,
         (mut changed, mut lookups): (bool, bool),
         rep: &mut StepReport,
-    ) {
+    ) -> bool {
         let n = self.lat.len();
         let letters = todo
             .links
@@ -323,13 +347,10 @@ impl Engine {
         }
         // 5. State updates, in agent order.
         for &(a, bits) in &todo.states {
-            let Some((_, _, known)) = apply_state(
-                &mut self.lat,
-                &mut self.cand_of,
-                (&self.cand_cache, &self.candidates),
-                a as usize,
-                bits,
-            ) else {
+            let Some((_, _, known)) =
+                self.dispatch
+                    .apply_state(&mut self.lat.state, a as usize, bits)
+            else {
                 continue;
             };
             changed = true;
@@ -348,12 +369,12 @@ impl Engine {
         }
         // Agents whose state changed and whose rules the cache did not know look them up
         // again; any change of state ends the reuse of the selection.
-        self.cand_dirty |= lookups;
-        self.states_changed |= changed;
+        self.dispatch.lookups(lookups);
         if todo.links.iter().any(|l| l.2.is_some()) {
             self.swaps(&todo.links, &todo.no_swap, rep);
         }
-        self.todo = todo;
+        self.bufs.todo = todo;
+        changed
     }
 
     /// The combined actions of agent `a` executing several rules `rs`: where they ask for
@@ -371,7 +392,7 @@ impl Engine {
             let info = &self.prog.rules[r as usize];
             if let Some(off) = info.moves {
                 let env = SelEnv {
-                    lat: &self.lat,
+                    lat: self.lat,
                     a: a as u32,
                     prio: None,
                 };
@@ -507,55 +528,8 @@ impl Engine {
         (now, later)
     }
 
-    /// Agent `a`, whose one rule `r` only sets the state (as [`pat_bits`] `bits`), takes its
-    /// new state now. With `keep` (the selection is decided by states alone), an agent whose
-    /// rule its state alone decides goes to the state that rule makes of it, remembered per
-    /// state, and its selection entry is set to that state's rule for the next step (when
-    /// neither rule calculates: the calculations of this step read the entry). Returns
-    /// whether the state changed without the selection following, and whether the new
-    /// state's rules must be looked up.
-    pub(super) fn set_state_at_once(
-        &mut self,
-        a: usize,
-        r: u32,
-        bits: (u64, u64),
-        keep: bool,
-        sel: &mut Selection,
-    ) -> (bool, bool) {
-        let idx = self.cand_of[a];
-        if keep && idx != NO_LIST && self.cand_single[idx as usize] == r {
-            let i = idx as usize;
-            if self.cand_hop[i].to == NO_LIST {
-                self.cand_hop[i] = self.hop(idx, r, bits);
-            }
-            let hop = self.cand_hop[i];
-            if hop.to == idx {
-                return (false, false);
-            }
-            if hop.to != NO_LIST && hop.next != EVALUATE {
-                let agent = (
-                    &mut self.cand_of[a],
-                    &mut self.lat.state[a],
-                    &mut sel.one[a],
-                );
-                hop.take(agent, &mut self.cand_hopped[i]);
-                return (false, false);
-            }
-        }
-        match apply_state(
-            &mut self.lat,
-            &mut self.cand_of,
-            (&self.cand_cache, &self.candidates),
-            a,
-            bits,
-        ) {
-            Some((_, _, known)) => (true, !known),
-            None => (false, false),
-        }
-    }
-
     /// The actions of agent `a` executing rule `r` alone: a plain move listed, a state set
-    /// at once (`keep` as for [`Engine::set_state_at_once`], whose answer is returned), or
+    /// at once (`keep` as for [`Dispatch::set_state_at_once`], whose answer is returned), or
     /// the rule's actions added to `todo`.
     #[inline(always)]
     pub(super) fn one_rule(
@@ -570,7 +544,11 @@ impl Engine {
             todo.moves.push((a as u32, o));
         } else if self.plan.has_actions[r as usize] {
             match self.plan.direct_bits[r as usize] {
-                Some(bits) => return self.set_state_at_once(a, r, bits, keep, sel),
+                Some(bits) => {
+                    let agent = (&mut self.lat.state[..], &mut sel.one[..]);
+                    let computes = &self.plan.computes;
+                    return (self.dispatch).set_state_at_once(agent, (a, r, bits), keep, computes);
+                }
                 _ => self.add_rule_actions(todo, a as u32, r),
             }
         }
@@ -586,7 +564,7 @@ impl Engine {
                 Some(o) => o,
                 None => {
                     let env = SelEnv {
-                        lat: &self.lat,
+                        lat: self.lat,
                         a,
                         prio: None,
                     };

@@ -112,7 +112,7 @@ impl SendCols {
     }
 }
 
-impl Engine {
+impl Post {
     /// Paper step 3, first half: every selected rule's calculations and sends.
     ///
     /// Each agent writes only its own counters and outbox, so the agents are split into
@@ -121,25 +121,33 @@ impl Engine {
     /// execute the same single rule runs that rule's calculations one instruction at a
     /// time over the whole run ([`run_batch`]), which amortises the dispatch and lets the
     /// compiler vectorise; other agents run the rule alone ([`run_post`]).
-    pub(super) fn calculations(&mut self, sel: &Selection, rep: &mut StepReport) {
-        if !self.plan.any_computes {
+    /// `fire_counts`: per rule, how many agents execute it.
+    pub(super) fn calculate(
+        &mut self,
+        (prog, plan, trace): (&Program, &Plan, bool),
+        (lat, th): (&mut Lattice, &Threads),
+        (sel, fire_counts): (&Selection, &[u64]),
+        stats: &mut Stats,
+        rep: &mut StepReport,
+    ) {
+        if !plan.any_computes {
             return;
         }
-        self.lat.refresh_neighbours();
-        let n = self.lat.len();
-        let nd = self.lat.dim.dirs();
+        lat.refresh_neighbours();
+        let n = lat.len();
+        let nd = lat.dim.dirs();
         // External counters read the values at the start of this phase.
-        let snapshot = if self.prog.externals.is_empty() {
+        let snapshot = if prog.externals.is_empty() {
             Vec::new()
         } else {
-            self.lat.counters.clone()
+            lat.counters.clone()
         };
-        let mut counters = std::mem::take(&mut self.lat.counters);
+        let mut counters = std::mem::take(&mut lat.counters);
         let mut out_num = std::mem::take(&mut self.out_num);
         let mut out_has = std::mem::take(&mut self.out_has);
         let mut out_text = std::mem::take(&mut self.out_text);
         let mut out_text_bits = std::mem::take(&mut self.out_text_bits);
-        let (par, size, chunks) = self.chunks(n);
+        let (par, size, chunks) = th.chunks(n);
         let mut ctr = split_columns(&mut counters, size, chunks).into_iter();
         let mut onum = split_columns(&mut out_num, size, chunks).into_iter();
         let mut ohas = split_columns(&mut out_has, size.div_ceil(64), chunks).into_iter();
@@ -156,12 +164,12 @@ impl Engine {
                 out_text_bits: otbits.next().unwrap_or_default(),
             })
             .collect();
-        let (prog, lat, trace) = (&self.prog, &self.lat, self.opts.trace);
-        let post_columns = &self.plan.post_columns;
+        let post_columns = &plan.post_columns;
         // When every agent executes the same one rule, runs need no search.
-        let uniform = sel.many.is_empty() && self.fire_counts.contains(&(n as u64));
+        let uniform = sel.many.is_empty() && fire_counts.contains(&(n as u64));
         // The neighbour bits are made at the first delivery; until then it counts.
-        let (defer, has_nbr) = (self.plan.defer, &self.has_nbr);
+        let (defer, has_nbr) = (plan.defer, &self.has_nbr);
+        let view = &*lat;
         let count = defer && has_nbr.len() == nd;
         let work = |mut ch: CalcChunk<'_>| {
             // With messages left with their senders, the outboxes come back from the
@@ -194,11 +202,11 @@ impl Engine {
                         };
                         // Traced, the run takes the same path; its counters before are kept
                         // to say which changed, agent by agent as the path of one agent does.
-                        let before = trace.then(|| counters_of(&ch, lat, k..end));
+                        let before = trace.then(|| counters_of(&ch, view, k..end));
                         let rule = (r, &post[..]);
-                        run_batch(prog, rule, lat, (&mut ch, &mut bufs), k..end, &mut issues);
+                        run_batch(prog, rule, view, (&mut ch, &mut bufs), k..end, &mut issues);
                         if let Some(before) = before {
-                            counter_events(&before, &ch, lat, k..end, &mut events);
+                            counter_events(&before, &ch, view, k..end, &mut events);
                         }
                         k = end;
                         continue;
@@ -206,7 +214,7 @@ impl Engine {
                 }
                 for &r in rs {
                     let found = (&mut issues, &mut events);
-                    run_alone(prog, lat, (&mut ch, k, &snapshot), r, trace, found);
+                    run_alone(prog, view, (&mut ch, k, &snapshot), r, trace, found);
                 }
                 k += 1;
             }
@@ -221,7 +229,7 @@ impl Engine {
             Some((pool, _)) => pool.map(items, work),
             _ => items.into_iter().map(work).collect(),
         };
-        self.lat.counters = counters;
+        lat.counters = counters;
         self.out_num = out_num;
         self.out_has = out_has;
         self.out_text = out_text;
@@ -232,16 +240,22 @@ impl Engine {
             self.counted = Some(tallies.fold(first, |t, u| t.and(u)));
         }
         for (issues, events, _) in results {
-            self.calc_records(issues, rep);
+            calc_records(prog, (stats, lat), issues, rep);
             rep.trace.extend(events);
         }
     }
+}
 
-    /// The records of the calculations' issues (agent, rule, issue), in order.
-    fn calc_records(&mut self, issues: Vec<(u32, u32, CalcIssue)>, rep: &mut StepReport) {
-        for (a, r, issue) in issues {
-            let name = self.rule_name(r).to_string();
-            let (kind, msg) = match issue {
+/// The records of the calculations' issues (agent, rule, issue), in order.
+fn calc_records(
+    prog: &Program,
+    (stats, lat): (&mut Stats, &Lattice),
+    issues: Vec<(u32, u32, CalcIssue)>,
+    rep: &mut StepReport,
+) {
+    for (a, r, issue) in issues {
+        let name = &prog.rules[r as usize].name;
+        let (kind, msg) = match issue {
                 CalcIssue::Saturated { exact } => (
                     RecordKind::Saturation,
                     format!("agent {a}, rule `{name}`: the result {exact} is saturated to the 16-bit range"),
@@ -258,8 +272,7 @@ impl Engine {
                     ),
                 ),
             };
-            self.record(rep, kind, &[a], msg);
-        }
+        record((stats, lat), rep, kind, &[a], msg);
     }
 }
 

@@ -1,8 +1,24 @@
 //! Rule dispatch by state: per state seen, the list of rules (in priority order) whose
-//! state filter it passes, found through a small direct-mapped cache; and the hops of
-//! state-only rules, taken by whole runs of agents in one state.
+//! state filter it passes, found through a small direct-mapped cache; each agent's list,
+//! kept until its state changes; and the hops of state-only rules, taken by whole runs of
+//! agents in one state. [`Dispatch`] owns all of it.
 
 use super::*;
+
+/// A candidate list: an index into [`Dispatch`]'s per-list columns, or [`ListId::NONE`]
+/// for an agent whose state changed and whose list is to be looked up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(transparent)]
+pub(super) struct ListId(pub(super) u32);
+
+impl ListId {
+    pub(super) const NONE: ListId = ListId(u32::MAX);
+
+    #[inline(always)]
+    pub(super) fn index(self) -> usize {
+        self.0 as usize
+    }
+}
 
 /// Where the one state-only rule of a candidate list takes an agent: the list of its new
 /// state (`to`, [`NO_LIST`] while unknown), that state's one rule when the agent's
@@ -11,25 +27,25 @@ use super::*;
 /// the new state.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Hop {
-    pub(super) to: u32,
+    pub(super) to: ListId,
     pub(super) next: u32,
     pub(super) state: [u8; 5],
 }
 
 impl Hop {
     const UNKNOWN: Hop = Hop {
-        to: NO_LIST,
+        to: ListId::NONE,
         next: EVALUATE,
         state: [0; 5],
     };
 
     /// An agent takes this hop: its new state, candidate list and selection entry, and
     /// the count of its old list's agents that took the hop (their firings are moved by
-    /// [`Engine::count_hops`]).
+    /// [`Dispatch::count_hops`]).
     #[inline(always)]
     pub(super) fn take(
         &self,
-        (list, state, one): (&mut u32, &mut [u8; 5], &mut u32),
+        (list, state, one): (&mut ListId, &mut [u8; 5], &mut u32),
         hopped: &mut u64,
     ) {
         *state = self.state;
@@ -45,7 +61,7 @@ impl Hop {
 #[inline(never)]
 pub(super) fn hop_run(
     from: usize,
-    (cand_of, state, one): (&mut [u32], &mut [[u8; 5]], &mut [u32]),
+    (cand_of, state, one): (&mut [ListId], &mut [[u8; 5]], &mut [u32]),
     hops: &[Hop],
     hopped: &mut [u64],
 ) -> usize {
@@ -53,12 +69,12 @@ pub(super) fn hop_run(
     let hopped = &mut hopped[..hops.len()];
     let agents = cand_of[from..].iter_mut().zip(&mut state[from..]);
     for (a, ((list, state), one)) in agents.zip(&mut one[from..]).enumerate() {
-        let idx = *list as usize;
+        let idx = list.index();
         let hop = hops[idx];
         if hop.to == *list {
             continue;
         }
-        if hop.to == NO_LIST || hop.next == EVALUATE {
+        if hop.to == ListId::NONE || hop.next == EVALUATE {
             return from + a;
         }
         hop.take((list, state, one), &mut hopped[idx]);
@@ -66,13 +82,11 @@ pub(super) fn hop_run(
     n
 }
 
-pub(super) const NO_LIST: u32 = u32::MAX;
-
 /// Entries of the direct-mapped cache of candidate lists at first (it grows with the
 /// number of distinct states, up to 65536).
 pub(super) const CAND_CACHE: usize = 1024;
 
-/// In `cand_single`: the agents of this list evaluate their rules.
+/// In [`Dispatch::single`]: the agents of this list evaluate their rules.
 pub(super) const EVALUATE: u32 = u32::MAX - 1;
 
 /// A state as a number (its five bytes, little-endian).
@@ -90,72 +104,130 @@ pub(super) fn cache_slot(key: u64, len: usize) -> usize {
 
 /// The candidate list of a state key, when the candidate cache holds it.
 #[inline]
-pub(super) fn cached(cache: &[(u64, u32)], key: u64) -> Option<u32> {
+pub(super) fn cached(cache: &[(u64, ListId)], key: u64) -> Option<ListId> {
     match cache[cache_slot(key, cache.len())] {
         (k, idx) if k == key + 1 => Some(idx),
         _ => None,
     }
 }
 
-impl Engine {
+/// Rule dispatch: the candidate lists of the states seen, each agent's list, and the hops.
+pub(super) struct Dispatch {
+    /// The rules, highest priority first.
+    by_prio: Vec<u32>,
+    /// Per state seen so far: its candidate list.
+    candidates: FxHashMap<u64, ListId>,
+    /// A small direct-mapped cache in front of `candidates`: (state key + 1, list).
+    cache: Vec<(u64, ListId)>,
+    /// The candidate lists: the rules (in `by_prio` order) whose state filter the list's
+    /// state passes.
+    pub(super) lists: Vec<Vec<u32>>,
+    /// Per candidate list: the one rule every agent with it executes, when the list's
+    /// first rule needs nothing but the state filter and no other rule shares its
+    /// priority; [`NO_RULE`] for an empty list; else [`EVALUATE`].
+    pub(super) single: Vec<u32>,
+    /// Per candidate list: its state as a key ([`state_key`]).
+    keys: Vec<u64>,
+    /// Per candidate list: where its one state-only rule takes an agent (found when first
+    /// needed).
+    pub(super) hops: Vec<Hop>,
+    /// Per candidate list: how many agents took its hop in this step's actions (their
+    /// firing counts are moved after the actions, by [`Dispatch::count_hops`]).
+    pub(super) hopped: Vec<u64>,
+    /// Per agent: its candidate list ([`ListId::NONE`] after its state changed).
+    pub(super) of: Vec<ListId>,
+    /// Some agent's state changed since the lists were looked up, and it has no list yet.
+    dirty: bool,
+}
+
+impl Dispatch {
+    /// Dispatch for `n` agents running `prog`; no list is known yet.
+    pub(super) fn new(prog: &Program, n: usize) -> Dispatch {
+        let mut by_prio: Vec<u32> = (0..prog.rules.len() as u32).collect();
+        by_prio.sort_by_key(|&r| std::cmp::Reverse(prog.rules[r as usize].priority));
+        Dispatch {
+            by_prio,
+            candidates: FxHashMap::default(),
+            cache: vec![(0, ListId(0)); CAND_CACHE],
+            lists: Vec::new(),
+            single: Vec::new(),
+            keys: Vec::new(),
+            hops: Vec::new(),
+            hopped: Vec::new(),
+            of: vec![ListId::NONE; n],
+            dirty: true,
+        }
+    }
+
+    /// Whether some agent of `n` has no candidate list (its state changed to one the
+    /// cache did not know, or the lattice grew).
+    pub(super) fn stale(&self, n: usize) -> bool {
+        self.dirty || self.of.len() != n
+    }
+
+    /// Some agents' states changed to states whose lists were not known (`lookups`):
+    /// they are looked up at the next [`Dispatch::update`].
+    pub(super) fn lookups(&mut self, lookups: bool) {
+        self.dirty |= lookups;
+    }
+
     /// Rule dispatch by state: an agent evaluates only the rules whose top-level state
     /// pattern its state matches. The list is computed once per distinct state, and each
     /// agent keeps its list until its state changes, so only those agents look it up again.
-    pub(super) fn update_candidates(&mut self) {
-        let n = self.lat.len();
-        if self.cand_lists.len() > 1 << 16 {
+    pub(super) fn update(&mut self, prog: &Program, trivial: &[bool], lat: &Lattice, th: &Threads) {
+        let n = lat.len();
+        if self.lists.len() > 1 << 16 {
             self.candidates.clear();
-            self.cand_cache.fill((0, 0));
-            self.cand_lists.clear();
-            self.cand_single.clear();
-            self.cand_keys.clear();
-            self.cand_hop.clear();
-            self.cand_hopped.clear();
-            self.cand_of.iter_mut().for_each(|c| *c = NO_LIST);
-            self.cand_dirty = true;
+            self.cache.fill((0, ListId(0)));
+            self.lists.clear();
+            self.single.clear();
+            self.keys.clear();
+            self.hops.clear();
+            self.hopped.clear();
+            self.of.iter_mut().for_each(|c| *c = ListId::NONE);
+            self.dirty = true;
         }
-        if !self.cand_dirty && self.cand_of.len() == n {
+        if !self.stale(n) {
             return;
         }
-        self.cand_of.resize(n, NO_LIST);
+        self.of.resize(n, ListId::NONE);
         // The first agents one by one (so that a cold cache learns the common states),
         // then the rest in chunks (in parallel with threads): the agents whose state the
         // cache knows get their list; of the others, the first agent of each state (in
         // agent order) makes its state's list, then the rest find theirs in a second pass.
         // Lists are made in the order of their states' first agents, whatever the chunks.
         for a in 0..n.min(1024) {
-            if self.cand_of[a] == NO_LIST {
-                self.list_state_of(a);
+            if self.of[a] == ListId::NONE {
+                self.list_state_of(prog, trivial, &lat.state, a);
             }
         }
-        let firsts = self.known_states(false);
+        let firsts = self.known_states(&lat.state, th, false);
         if firsts.iter().any(|f| !f.is_empty()) {
             for &a in firsts.iter().flatten() {
-                self.list_state_of(a as usize);
+                self.list_state_of(prog, trivial, &lat.state, a as usize);
             }
-            self.known_states(true);
+            self.known_states(&lat.state, th, true);
         }
         debug_assert!(
-            self.cand_of.iter().all(|&c| c != NO_LIST),
+            self.of.iter().all(|&c| c != ListId::NONE),
             "every agent has its candidate list"
         );
-        self.cand_dirty = false;
+        self.dirty = false;
     }
 
     /// Gives agent `a` the candidate list of its state, made if its state is new.
-    pub(super) fn list_state_of(&mut self, a: usize) {
-        let prog = &self.prog;
-        let st = &self.lat.state[a];
+    fn list_state_of(&mut self, prog: &Program, trivial: &[bool], states: &[[u8; 5]], a: usize) {
+        let st = &states[a];
         let key = state_key(st);
-        if let Some(idx) = cached(&self.cand_cache, key) {
-            self.cand_of[a] = idx;
+        if let Some(idx) = cached(&self.cache, key) {
+            self.of[a] = idx;
             return;
         }
-        let lists = &mut self.cand_lists;
-        let single = &mut self.cand_single;
-        let (keys, hops) = (&mut self.cand_keys, &mut self.cand_hop);
-        let hopped = &mut self.cand_hopped;
-        let (by_prio, trivial) = (&self.by_prio, &self.plan.trivial);
+        let lists = &mut self.lists;
+        let single = &mut self.single;
+        let (keys, hops) = (&mut self.keys, &mut self.hops);
+        let hopped = &mut self.hopped;
+        let by_prio = &self.by_prio;
         let idx = *self.candidates.entry(key).or_insert_with(|| {
             let list: Vec<u32> = by_prio
                 .iter()
@@ -180,43 +252,42 @@ impl Engine {
             keys.push(key);
             hops.push(Hop::UNKNOWN);
             hopped.push(0);
-            (lists.len() - 1) as u32
+            ListId((lists.len() - 1) as u32)
         });
-        let slot = cache_slot(key, self.cand_cache.len());
-        self.cand_cache[slot] = (key + 1, idx);
+        let slot = cache_slot(key, self.cache.len());
+        self.cache[slot] = (key + 1, idx);
         // Eight slots per known state keep collisions rare.
-        if self.candidates.len() * 8 > self.cand_cache.len() && self.cand_cache.len() < 1 << 16 {
-            let len = self.cand_cache.len() * 4;
-            let mut cache = vec![(0, 0); len];
+        if self.candidates.len() * 8 > self.cache.len() && self.cache.len() < 1 << 16 {
+            let len = self.cache.len() * 4;
+            let mut cache = vec![(0, ListId(0)); len];
             for (&k, &i) in &self.candidates {
                 cache[cache_slot(k, len)] = (k + 1, i);
             }
-            self.cand_cache = cache;
+            self.cache = cache;
         }
-        self.cand_of[a] = idx;
+        self.of[a] = idx;
     }
 
-    /// Gives each agent without a candidate list ([`NO_LIST`]) the list of its state when
-    /// the cache knows it, or (with `all`) when it is known at all. Without `all`, returns
-    /// per chunk the agents whose state is not in the cache, at least the first of each
-    /// such state (in agent order).
-    pub(super) fn known_states(&mut self, all: bool) -> Vec<Vec<u32>> {
-        let n = self.lat.len();
-        let mut of = std::mem::take(&mut self.cand_of);
-        let (par, size, _) = self.chunks(n);
-        let (cache, states, known) = (&self.cand_cache, &self.lat.state, &self.candidates);
-        let pass = |(c, of): (usize, &mut [u32])| {
+    /// Gives each agent without a candidate list ([`ListId::NONE`]) the list of its state
+    /// when the cache knows it, or (with `all`) when it is known at all. Without `all`,
+    /// returns per chunk the agents whose state is not in the cache, at least the first of
+    /// each such state (in agent order).
+    fn known_states(&mut self, states: &[[u8; 5]], th: &Threads, all: bool) -> Vec<Vec<u32>> {
+        let n = states.len();
+        let (par, size, _) = th.chunks(n);
+        let (cache, known) = (&self.cache, &self.candidates);
+        let pass = |(c, of): (usize, &mut [ListId])| {
             let mut firsts = Vec::new();
             // The states already listed by this chunk (a few may be listed twice).
             let mut listed = [0u64; 256];
             for (j, (o, st)) in of.iter_mut().zip(&states[c * size..]).enumerate() {
-                if *o != NO_LIST {
+                if *o != ListId::NONE {
                     continue;
                 }
                 let key = state_key(st);
                 match cached(cache, key) {
                     Some(idx) => *o = idx,
-                    None if all => *o = known.get(&key).copied().unwrap_or(NO_LIST),
+                    None if all => *o = known.get(&key).copied().unwrap_or(ListId::NONE),
                     None => {
                         let slot = &mut listed[cache_slot(key, 256)];
                         if *slot != key + 1 {
@@ -228,25 +299,24 @@ impl Engine {
             }
             firsts
         };
-        let firsts: Vec<Vec<u32>> = match par {
-            Some((pool, _)) => pool.map(of.chunks_mut(size).enumerate().collect(), pass),
-            None => of.chunks_mut(size).enumerate().map(pass).collect(),
-        };
-        self.cand_of = of;
-        firsts
+        match par {
+            Some((pool, _)) => pool.map(self.of.chunks_mut(size).enumerate().collect(), pass),
+            None => self.of.chunks_mut(size).enumerate().map(pass).collect(),
+        }
     }
 
     /// Moves the firing counts of the agents that took a hop in this step (see
-    /// [`Engine::set_state_at_once`]) from their old state's rule to their new one's.
-    pub(super) fn count_hops(&mut self) {
-        for (idx, m) in self.cand_hopped.iter_mut().enumerate() {
+    /// [`Dispatch::set_state_at_once`]) from their old state's rule to their new one's:
+    /// `counts` per rule, and `active`, the agents that execute any rule.
+    pub(super) fn count_hops(&mut self, counts: &mut [u64], active: &mut u64) {
+        for (idx, m) in self.hopped.iter_mut().enumerate() {
             if *m == 0 {
                 continue;
             }
-            self.fire_counts[self.cand_single[idx] as usize] -= *m;
-            match self.cand_hop[idx].next {
-                NO_RULE => self.active -= *m,
-                next => self.fire_counts[next as usize] += *m,
+            counts[self.single[idx] as usize] -= *m;
+            match self.hops[idx].next {
+                NO_RULE => *active -= *m,
+                next => counts[next as usize] += *m,
             }
             *m = 0;
         }
@@ -254,14 +324,14 @@ impl Engine {
 
     /// Where rule `r`, the one rule of candidate list `idx`, which only sets the state (as
     /// [`pat_bits`] `bits`), takes an agent: [`Hop::UNKNOWN`] while the new state has no
-    /// list yet.
-    pub(super) fn hop(&self, idx: u32, r: u32, bits: (u64, u64)) -> Hop {
-        let key = (self.cand_keys[idx as usize] & !bits.0) | bits.1;
+    /// list yet. `computes`: per rule, whether it calculates or sends.
+    fn hop(&self, idx: ListId, r: u32, bits: (u64, u64), computes: &[bool]) -> Hop {
+        let key = (self.keys[idx.index()] & !bits.0) | bits.1;
         let Some(&to) = self.candidates.get(&key) else {
             return Hop::UNKNOWN;
         };
-        let next = self.cand_single[to as usize];
-        let quiet = |q: u32| q == NO_RULE || !self.plan.computes[q as usize];
+        let next = self.single[to.index()];
+        let quiet = |q: u32| q == NO_RULE || !computes[q as usize];
         Hop {
             to,
             next: if next != EVALUATE && quiet(r) && quiet(next) {
@@ -270,6 +340,65 @@ impl Engine {
                 EVALUATE
             },
             state: key.to_le_bytes()[..5].try_into().expect("five bytes"),
+        }
+    }
+
+    /// Applies a state pattern (as [`pat_bits`]) to agent `a`. When the state changes: the
+    /// old and new states, and whether the cache knew the new state's candidate list (the
+    /// agent's list is set from it, or marked for lookup).
+    #[inline(always)]
+    pub(super) fn apply_state(
+        &mut self,
+        states: &mut [[u8; 5]],
+        a: usize,
+        (mask, val): (u64, u64),
+    ) -> Option<([u8; 5], [u8; 5], bool)> {
+        let old = states[a];
+        let o = state_key(&old);
+        let v = (o & !mask) | val;
+        if v == o {
+            return None;
+        }
+        let new: [u8; 5] = v.to_le_bytes()[..5].try_into().expect("five bytes");
+        states[a] = new;
+        let idx = cached(&self.cache, v).or_else(|| self.candidates.get(&v).copied());
+        self.of[a] = idx.unwrap_or(ListId::NONE);
+        Some((old, new, idx.is_some()))
+    }
+
+    /// Agent `a`, whose one rule `r` only sets the state (as [`pat_bits`] `bits`), takes its
+    /// new state now. With `keep` (the selection is decided by states alone), an agent whose
+    /// rule its state alone decides goes to the state that rule makes of it, remembered per
+    /// state, and its selection entry in `one` is set to that state's rule for the next
+    /// step (when neither rule calculates (`computes`): the calculations of this step read
+    /// the entry). Returns whether the state changed without the selection following, and
+    /// whether the new state's rules must be looked up.
+    pub(super) fn set_state_at_once(
+        &mut self,
+        (states, one): (&mut [[u8; 5]], &mut [u32]),
+        (a, r, bits): (usize, u32, (u64, u64)),
+        keep: bool,
+        computes: &[bool],
+    ) -> (bool, bool) {
+        let idx = self.of[a];
+        if keep && idx != ListId::NONE && self.single[idx.index()] == r {
+            let i = idx.index();
+            if self.hops[i].to == ListId::NONE {
+                self.hops[i] = self.hop(idx, r, bits, computes);
+            }
+            let hop = self.hops[i];
+            if hop.to == idx {
+                return (false, false);
+            }
+            if hop.to != ListId::NONE && hop.next != EVALUATE {
+                let agent = (&mut self.of[a], &mut states[a], &mut one[a]);
+                hop.take(agent, &mut self.hopped[i]);
+                return (false, false);
+            }
+        }
+        match self.apply_state(states, a, bits) {
+            Some((_, _, known)) => (true, !known),
+            None => (false, false),
         }
     }
 }

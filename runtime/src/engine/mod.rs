@@ -121,7 +121,8 @@ pub struct StepReport {
     pub trace: Vec<TraceEvent>,
 }
 
-/// A program running on a lattice.
+/// A program running on a lattice: the program and its plan, the lattice, the statistics,
+/// and the parts of the step, each owning its data (docs/architecture.md).
 pub struct Engine {
     /// The compiled rules.
     pub prog: Verified,
@@ -134,70 +135,16 @@ pub struct Engine {
     pub stats: Stats,
     /// What the program allows: which fast paths apply (see [`plan`]).
     plan: Plan,
-    by_prio: Vec<u32>,
-    /// Per state seen so far: the index in `cand_lists` of the rules (in `by_prio` order)
-    /// whose state filter it passes.
-    candidates: FxHashMap<u64, u32>,
-    /// A small direct-mapped cache in front of `candidates`: (state key + 1, list).
-    cand_cache: Vec<(u64, u32)>,
-    /// The candidate lists, indexed by `candidates`' values.
-    cand_lists: Vec<Vec<u32>>,
-    /// Per candidate list: the one rule every agent with it executes, when the list's
-    /// first rule needs nothing but the state filter and no other rule shares its priority.
-    cand_single: Vec<u32>,
-    /// Per candidate list: its state as a key ([`state_key`]), and where its one
-    /// state-only rule takes an agent (found when first needed).
-    cand_keys: Vec<u64>,
-    cand_hop: Vec<Hop>,
-    /// Per candidate list: how many agents took its hop in this step's actions (their
-    /// firing counts are moved after the actions).
-    cand_hopped: Vec<u64>,
-    /// Per agent: its candidate list (`NO_LIST` after its state changed).
-    cand_of: Vec<u32>,
-    /// Some agent's state changed since the candidate lists were looked up, and it has
-    /// no list yet.
-    cand_dirty: bool,
-    /// Some agent's state changed since the last selection.
-    states_changed: bool,
-    /// With `defer`: per direction, a bit per agent that has a neighbour there (to count
-    /// the messages delivered); made at the first delivery.
-    has_nbr: Vec<Vec<u64>>,
-    /// With `defer`: this step's outboxes as counted by the calculations (see
-    /// [`Tally`]).
-    counted: Option<Tally>,
-    /// The threads that share chunks of agents (see [`Workers`]), when more than one was
-    /// asked for.
-    pool: Option<Workers>,
-    /// Whether the selection, the calculations and the post office run on the pool.
-    tuner: Tuner,
-    /// The phase running now is to stay on this thread (see [`Tuner`]).
-    serial: bool,
-    sel: Selection,
-    /// The last selection was decided by the agents' states alone (no agent evaluated a
-    /// precondition): while no state changes, it holds for the next step too.
-    sel_by_state: bool,
-    /// The last selection was reused (so the firings of the last step repeat).
-    sel_reused: bool,
-    /// Per rule: how many agents execute it in the current selection; and how many agents
-    /// execute any rule. Kept up to date when the selection is reused.
-    fire_counts: Vec<u64>,
-    active: u64,
-    /// Per-cell and per-agent marks for the moves (allocated at the first move).
-    scratch: MoveScratch,
-    /// The actions of the step being made (kept for their allocations).
-    todo: Actions,
-    /// With `--static-first`: the moving half of the combined intents of agents executing
-    /// several rules, made in the static pass (where conflicts are judged over all of
-    /// them), in agent order.
-    later: Vec<(u32, Intent)>,
-    /// Numeric outboxes: a column per direction and slot in use (as the inboxes), and a
-    /// bit set per column of which agents wrote it.
-    out_num: Vec<Vec<i16>>,
-    out_has: Vec<Vec<u64>>,
-    /// Text outboxes, `dirs` per agent, and which directions were written (empty when no
-    /// rule sends texts).
-    out_text: Vec<[u8; 5]>,
-    out_text_bits: Vec<u8>,
+    /// Each agent's candidate rules by its state (see [`dispatch`]).
+    dispatch: Dispatch,
+    /// The rules each agent executes, and whether they hold for the next step.
+    selection: Selector,
+    /// What the actions phase keeps between steps.
+    actions: ActionBufs,
+    /// The outboxes and the post office.
+    post: Post,
+    /// How per-agent work is split over threads.
+    threads: Threads,
 }
 
 /// An agent's attachment letters and swap, for the agents whose rules have either.
@@ -205,13 +152,30 @@ type Link = (u32, [AttachLetter; 6], Option<Dir>);
 
 /// The opposite of each direction index.
 const OPPOSITE: [usize; 6] = [3, 2, 1, 0, 5, 4];
+
+/// Adds a record of this step (`stats.steps + 1`) of `kind` about agents `ids` (with their
+/// positions in `lat`) to `rep`, and counts it.
+fn record(
+    (stats, lat): (&mut Stats, &Lattice),
+    rep: &mut StepReport,
+    kind: RecordKind,
+    ids: &[u32],
+    message: String,
+) {
+    *stats.records.entry(kind).or_insert(0) += 1;
+    rep.records.push(Record {
+        step: stats.steps + 1,
+        kind,
+        agents: ids.iter().map(|&a| (a, lat.pos[a as usize])).collect(),
+        message,
+    });
+}
+
 impl Engine {
     /// A program ready to run on a lattice. The program must have passed `verify` and match
     /// the lattice's dimension. The lattice gets columns for every counter, message slot
     /// and text inbox the program uses.
     pub fn new(prog: Verified, mut lat: Lattice, opts: Options) -> Engine {
-        let mut by_prio: Vec<u32> = (0..prog.rules.len() as u32).collect();
-        by_prio.sort_by_key(|&r| std::cmp::Reverse(prog.rules[r as usize].priority));
         let uses = prog.uses();
         lat.settle_inbox();
         for c in 0..lat.nc() as u8 {
@@ -229,72 +193,17 @@ impl Engine {
         }
         let n = lat.len();
         let plan = Plan::of(&prog);
-        let defer = plan.defer;
-        // With `defer`, a send to all directions writes one more column per slot.
-        let cols = lat.inbox_num.len() + if defer { lat.slots as usize } else { 0 };
-        // With `defer`, only the columns some send writes hold values (the others are
-        // read only where their bits are set, which they never are).
-        let mut written = vec![!defer; cols];
-        for op in &prog.code {
-            if let Op::Calc {
-                target: Target::Msg { dir, slot },
-                ..
-            } = *op
-            {
-                let (ns, sc) = (lat.slots as usize, lat.slot_col[slot as usize] as usize);
-                let d = if dir == ANY_DIR {
-                    lat.dim.dirs()
-                } else {
-                    dir as usize
-                };
-                if let Some(w) = written.get_mut(d * ns + sc) {
-                    *w = true;
-                }
-            }
-        }
         Engine {
-            plan,
             stats: Stats {
                 firings: vec![0; prog.rules.len()],
                 ..Stats::default()
             },
-            by_prio,
-            candidates: FxHashMap::default(),
-            cand_cache: vec![(0, 0); CAND_CACHE],
-            cand_lists: Vec::new(),
-            cand_single: Vec::new(),
-            cand_keys: Vec::new(),
-            cand_hop: Vec::new(),
-            cand_hopped: Vec::new(),
-            cand_of: vec![NO_LIST; n],
-            cand_dirty: true,
-            states_changed: true,
-            has_nbr: Vec::new(),
-            counted: None,
-            pool: (opts.threads > 1 && n >= AGENTS_PER_THREAD)
-                .then(|| Workers::new(opts.threads))
-                .flatten(),
-            tuner: Tuner::default(),
-            serial: false,
-            sel: Selection::default(),
-            sel_by_state: false,
-            sel_reused: false,
-            fire_counts: vec![0; prog.rules.len()],
-            active: 0,
-            scratch: MoveScratch::default(),
-            todo: Actions::default(),
-            later: Vec::new(),
-            out_num: written
-                .iter()
-                .map(|&w| if w { vec![0; n] } else { Vec::new() })
-                .collect(),
-            out_has: vec![vec![0; n.div_ceil(64)]; cols],
-            out_text: if uses.texts {
-                vec![[0; 5]; n * lat.dim.dirs()]
-            } else {
-                Vec::new()
-            },
-            out_text_bits: if uses.texts { vec![0; n] } else { Vec::new() },
+            dispatch: Dispatch::new(&prog, n),
+            selection: Selector::new(prog.rules.len()),
+            actions: ActionBufs::default(),
+            post: Post::new(&prog, &lat, plan.defer, uses.texts),
+            threads: Threads::new(opts.threads, n),
+            plan,
             prog,
             lat,
             opts,
@@ -304,73 +213,12 @@ impl Engine {
     /// Bytes the engine holds per agent beyond the lattice's columns (outboxes, rule
     /// dispatch, the selection), for reports.
     pub fn bytes(&self) -> usize {
+        let sel = &self.selection.sel;
         self.lat.bytes()
-            + self.out_num.iter().map(|c| c.capacity() * 2).sum::<usize>()
-            + self.out_has.iter().map(|c| c.capacity() * 8).sum::<usize>()
-            + self.out_text.capacity() * 5
-            + self.out_text_bits.capacity()
-            + self.cand_of.capacity() * 4
-            + self.sel.one.capacity() * 4
-            + (self.sel.starts.capacity() + self.sel.many.capacity()) * 4
-    }
-
-    /// How per-agent work on `n` agents is split: the thread pool and the chunk size when
-    /// there are threads and enough agents (the one place that decides), else `None`.
-    /// Chunks are whole multiples of 64 agents, so that they split bit sets by words.
-    fn parallel(&self, n: usize) -> Option<(&Workers, usize)> {
-        let pool = (self.pool.as_ref()).filter(|_| n >= AGENTS_PER_THREAD && !self.serial)?;
-        Some((pool, n.div_ceil(pool.threads * 4).next_multiple_of(64)))
-    }
-
-    /// The split of `n` agents: the pool (with threads), the chunk size and the number of
-    /// chunks (one chunk of all agents without threads).
-    fn chunks(&self, n: usize) -> (Option<(&Workers, usize)>, usize, usize) {
-        let par = self.parallel(n);
-        let size = par.map_or(n.max(1), |p| p.1);
-        (par, size, n.div_ceil(size))
-    }
-
-    /// Runs `f` over the agents `0..n` in chunks, in parallel when the engine has threads,
-    /// and returns the chunks' results in agent order.
-    fn par_chunks<T: Send>(&self, n: usize, f: &(dyn Fn(usize, usize) -> T + Sync)) -> Vec<T> {
-        match self.parallel(n) {
-            Some((pool, size)) => pool.map((0..n.div_ceil(size)).collect(), |c| {
-                f(c * size, ((c + 1) * size).min(n))
-            }),
-            _ => vec![f(0, n)],
-        }
-    }
-
-    fn agents_of(&self, ids: &[u32]) -> Vec<(u32, [i32; 3])> {
-        ids.iter().map(|&a| (a, self.lat.pos[a as usize])).collect()
-    }
-
-    fn record(&mut self, rep: &mut StepReport, kind: RecordKind, ids: &[u32], message: String) {
-        *self.stats.records.entry(kind).or_insert(0) += 1;
-        rep.records.push(Record {
-            step: self.stats.steps + 1,
-            kind,
-            agents: self.agents_of(ids),
-            message,
-        });
-    }
-
-    fn rule_name(&self, r: u32) -> &str {
-        &self.prog.rules[r as usize].name
-    }
-
-    /// Runs phase `f` on the pool or on this thread, as the tuner chooses, and tells the
-    /// tuner how long it took.
-    fn tuned(&mut self, phase: Phase, f: impl FnOnce(&mut Engine)) {
-        if self.pool.is_none() {
-            return f(self);
-        }
-        let pooled = self.tuner.pooled(phase);
-        self.serial = !pooled;
-        let t = std::time::Instant::now();
-        f(self);
-        self.tuner.took(phase, t.elapsed());
-        self.serial = false;
+            + self.post.bytes()
+            + self.dispatch.of.capacity() * 4
+            + sel.one.capacity() * 4
+            + (sel.starts.capacity() + sel.many.capacity()) * 4
     }
 
     /// What a step of this program can change in the lattice (for [`Lattice::undo_point`]).
@@ -399,65 +247,106 @@ impl Engine {
         e
     }
 
-    /// One step. Returns what happened; `stats` is updated.
+    /// One step (SEMANTICS section 5): 1. every agent's rules are selected; then, in the
+    /// order the options give, 2. the actions are carried out, and 3. the calculations
+    /// run and the post office delivers. Returns what happened; `stats` is updated.
     pub fn step(&mut self) -> StepReport {
         let mut rep = StepReport::default();
         self.lat.refresh_neighbours();
         self.select(&mut rep);
-        let mut sel = std::mem::take(&mut self.sel);
-        // Firings: runs of agents with the same single rule are counted at once; a reused
-        // selection's counts were kept up to date.
-        if !self.sel_reused {
-            let counts = &mut self.fire_counts;
-            counts.fill(0);
-            self.active = 0;
-            // With few rules and no agent executing several, one vectorised count per rule
-            // (agents alternating between a rule and none would make runs of one);
-            // otherwise runs of agents with the same entry are counted at once.
-            if sel.many.is_empty() && counts.len() <= 4 {
-                for (r, c) in counts.iter_mut().enumerate() {
-                    *c = sel.one.iter().map(|&v| (v == r as u32) as u64).sum();
-                    self.active += *c;
-                }
-            } else {
-                self.active = count_runs(&sel.one, counts);
-            }
-            for &r in &sel.many {
-                counts[r as usize] += 1;
-            }
-        }
-        rep.quiescent = self.active == 0;
-        for (f, &k) in self.stats.firings.iter_mut().zip(&self.fire_counts) {
+        let mut sel = std::mem::take(&mut self.selection.sel);
+        rep.quiescent = self.selection.active == 0;
+        for (f, &k) in self
+            .stats
+            .firings
+            .iter_mut()
+            .zip(&self.selection.fire_counts)
+        {
             *f += k;
         }
         if self.opts.trace {
-            for a in 0..self.lat.len() {
-                let rs = sel.of(a);
-                if !rs.is_empty() {
-                    rep.trace.push(TraceEvent::Fire {
-                        agent: a as u32,
-                        rules: rs.iter().map(|&r| self.rule_name(r).to_string()).collect(),
-                        priority: self.prog.rules[rs[0] as usize].priority,
-                    });
-                }
-            }
+            self.trace_firings(&sel, &mut rep);
         }
         match self.opts.order {
             Order::ActionsFirst => {
-                self.all_actions(&mut sel, &mut rep);
-                self.tuned(Phase::Calculate, |e| e.calculations(&sel, &mut rep));
-                self.tuned(Phase::Deliver, |e| e.deliver(&mut rep));
+                self.act(&mut sel, &mut rep);
+                self.calculate(&sel, &mut rep);
+                self.deliver(&mut rep);
             }
             Order::MessagesFirst => {
-                self.tuned(Phase::Calculate, |e| e.calculations(&sel, &mut rep));
-                self.tuned(Phase::Deliver, |e| e.deliver(&mut rep));
-                self.all_actions(&mut sel, &mut rep);
+                self.calculate(&sel, &mut rep);
+                self.deliver(&mut rep);
+                self.act(&mut sel, &mut rep);
             }
         }
-        self.sel = sel;
+        self.selection.sel = sel;
         self.stats.steps += 1;
         self.stats.quiescent = rep.quiescent;
         rep
+    }
+
+    /// 1. Selection: the rules each agent executes, and how many execute each rule.
+    fn select(&mut self, rep: &mut StepReport) {
+        let view = (&*self.prog, &self.plan, &self.lat);
+        let circles = (self.selection).select(view, &mut self.dispatch, &mut self.threads);
+        for (circle, msg) in circles {
+            let kind = RecordKind::CircularPriority;
+            record((&mut self.stats, &self.lat), rep, kind, &circle, msg);
+        }
+        self.selection.count_firings();
+    }
+
+    /// 2. Actions: moves, bonds, states and swaps.
+    fn act(&mut self, sel: &mut Selection, rep: &mut StepReport) {
+        let mut act = Act {
+            prog: &self.prog,
+            plan: &self.plan,
+            opts: self.opts,
+            lat: &mut self.lat,
+            dispatch: &mut self.dispatch,
+            counts: &mut self.selection.fire_counts,
+            active: &mut self.selection.active,
+            stats: &mut self.stats,
+            bufs: &mut self.actions,
+            by_state: self.selection.by_state,
+        };
+        let changed = act.all_actions(sel, rep);
+        self.selection.states_changed(changed);
+    }
+
+    /// 3. (first half) Calculations and sends, into the outboxes.
+    fn calculate(&mut self, sel: &Selection, rep: &mut StepReport) {
+        let (post, stats) = (&mut self.post, &mut self.stats);
+        let cx = (&*self.prog, &self.plan, self.opts.trace);
+        let (lat, counts) = (&mut self.lat, &self.selection.fire_counts[..]);
+        (self.threads).tuned(Phase::Calculate, |th| {
+            post.calculate(cx, (lat, th), (sel, counts), stats, rep)
+        });
+    }
+
+    /// 3. (second half) The post office: the outboxes into the inboxes.
+    fn deliver(&mut self, rep: &mut StepReport) {
+        let (post, stats, lat) = (&mut self.post, &mut self.stats, &mut self.lat);
+        let how = (self.plan.defer, self.opts.trace);
+        (self.threads).tuned(Phase::Deliver, |th| {
+            post.deliver((lat, th), how, stats, rep)
+        });
+    }
+
+    /// The trace's firing events: per agent executing rules, their names and priority.
+    fn trace_firings(&self, sel: &Selection, rep: &mut StepReport) {
+        for a in 0..self.lat.len() {
+            let rs = sel.of(a);
+            if !rs.is_empty() {
+                rep.trace.push(TraceEvent::Fire {
+                    agent: a as u32,
+                    rules: (rs.iter())
+                        .map(|&r| self.prog.rules[r as usize].name.clone())
+                        .collect(),
+                    priority: self.prog.rules[rs[0] as usize].priority,
+                });
+            }
+        }
     }
 }
 

@@ -5,7 +5,7 @@
 
 use super::*;
 
-/// The common case of [`Engine::move_alone`]: every target in the grid (the
+/// The common case of [`Act::move_alone`]: every target in the grid (the
 /// targets' slot codes are in `sc.codes`), none targeted twice or held by an agent that
 /// stays. Then the moves are made and true is returned; otherwise nothing changes.
 /// `one_offset`: every mover moves by the same offset.
@@ -119,7 +119,7 @@ pub(super) fn find(parent: &mut [u32], mut x: u32) -> u32 {
     x
 }
 
-impl Engine {
+impl Act<'_> {
     /// Counts the moves about to be made (agent, target), and traces them.
     pub(super) fn count_moves(&mut self, moves: &[(u32, [i32; 3])], rep: &mut StepReport) {
         if self.opts.trace {
@@ -140,7 +140,7 @@ impl Engine {
     pub(super) fn move_alone(&mut self, live: &mut Vec<(u32, [i32; 3])>, rep: &mut StepReport) {
         // Movers in agent order, with their targets (in place of their offsets) and the
         // targets' slot codes.
-        let mut sc = std::mem::take(&mut self.scratch);
+        let mut sc = std::mem::take(&mut self.bufs.scratch);
         sc.codes.clear();
         let mut blocked = Vec::new();
         let mut kept = 0;
@@ -184,8 +184,8 @@ impl Engine {
         } else {
             Vec::new()
         };
-        if move_free(&mut self.lat, live, &mut sc, one_offset) {
-            self.scratch = sc;
+        if move_free(self.lat, live, &mut sc, one_offset) {
+            self.bufs.scratch = sc;
             rep.trace.extend(traced);
             self.stats.moves += live.len() as u64;
             return;
@@ -246,7 +246,7 @@ impl Engine {
                 self.record(rep, RecordKind::MoveCollision, &[a], msg);
             }
         }
-        self.scratch = sc;
+        self.bufs.scratch = sc;
         self.count_moves(live, rep);
         self.lat.relocate(live);
     }
@@ -266,7 +266,7 @@ impl Engine {
         let mut rigid = vec![0u8; n];
         for a in 0..n {
             for d in 0..nd {
-                let Some(b) = partner(&self.lat, a, d) else {
+                let Some(b) = partner(self.lat, a, d) else {
                     continue;
                 };
                 let od = Dir::ALL[d].opposite().index();
@@ -284,7 +284,7 @@ impl Engine {
         for a in 0..n {
             for d in 0..nd {
                 if rigid[a] & (1 << d) != 0 {
-                    if let Some(b) = partner(&self.lat, a, d) {
+                    if let Some(b) = partner(self.lat, a, d) {
                         let (x, y) = (find(&mut parent, a as u32), find(&mut parent, b));
                         if x != y {
                             parent[x.max(y) as usize] = x.min(y);
@@ -352,7 +352,7 @@ impl Engine {
         let mut keep_partner: Vec<[Option<u32>; 6]> = vec![[None; 6]; n];
         for a in 0..n {
             for d in 0..nd {
-                keep_partner[a][d] = partner(&self.lat, a, d);
+                keep_partner[a][d] = partner(self.lat, a, d);
             }
         }
         self.lat.relocate(&moves);

@@ -98,24 +98,99 @@ impl Tally {
     }
 }
 
-impl Engine {
+/// The post office: this step's outboxes (numeric, a column per direction and slot in
+/// use, with a bit set per column of the agents that wrote it; texts), filled by the
+/// calculations and emptied into the inboxes by the delivery.
+pub(super) struct Post {
+    /// Numeric outboxes: a column per direction and slot in use (as the inboxes).
+    pub(super) out_num: Vec<Vec<i16>>,
+    /// Per numeric column, which agents wrote it.
+    pub(super) out_has: Vec<Vec<u64>>,
+    /// Text outboxes, `dirs` per agent, and which directions were written (empty when no
+    /// rule sends texts).
+    pub(super) out_text: Vec<[u8; 5]>,
+    pub(super) out_text_bits: Vec<u8>,
+    /// With `defer`: per direction, a bit per agent that has a neighbour there (to count
+    /// the messages delivered); made at the first delivery.
+    pub(super) has_nbr: Vec<Vec<u64>>,
+    /// With `defer`: this step's outboxes as counted by the calculations (see [`Tally`]).
+    pub(super) counted: Option<Tally>,
+}
+
+impl Post {
+    /// Outboxes for the program's sends on `lat` (whose slot columns are made). With
+    /// `defer` (see [`Plan::defer`]), a send to all directions writes one more column per
+    /// slot, and only the columns some send writes hold values (the others are read only
+    /// where their bits are set, which they never are).
+    pub(super) fn new(prog: &Program, lat: &Lattice, defer: bool, texts: bool) -> Post {
+        let n = lat.len();
+        let cols = lat.inbox_num.len() + if defer { lat.slots as usize } else { 0 };
+        let mut written = vec![!defer; cols];
+        for op in &prog.code {
+            if let Op::Calc {
+                target: Target::Msg { dir, slot },
+                ..
+            } = *op
+            {
+                let (ns, sc) = (lat.slots as usize, lat.slot_col[slot as usize] as usize);
+                let d = if dir == ANY_DIR {
+                    lat.dim.dirs()
+                } else {
+                    dir as usize
+                };
+                if let Some(w) = written.get_mut(d * ns + sc) {
+                    *w = true;
+                }
+            }
+        }
+        Post {
+            out_num: written
+                .iter()
+                .map(|&w| if w { vec![0; n] } else { Vec::new() })
+                .collect(),
+            out_has: vec![vec![0; n.div_ceil(64)]; cols],
+            out_text: if texts {
+                vec![[0; 5]; n * lat.dim.dirs()]
+            } else {
+                Vec::new()
+            },
+            out_text_bits: if texts { vec![0; n] } else { Vec::new() },
+            has_nbr: Vec::new(),
+            counted: None,
+        }
+    }
+
+    /// Bytes the outboxes hold.
+    pub(super) fn bytes(&self) -> usize {
+        self.out_num.iter().map(|c| c.capacity() * 2).sum::<usize>()
+            + self.out_has.iter().map(|c| c.capacity() * 8).sum::<usize>()
+            + self.out_text.capacity() * 5
+            + self.out_text_bits.capacity()
+    }
+
     /// Paper step 3, second half: every inbox is emptied and filled with what this step's
     /// outboxes hold, each agent pulling from the neighbour in each direction what that
     /// neighbour sent towards it (in chunks of agents, in parallel with --threads).
-    pub(super) fn deliver(&mut self, rep: &mut StepReport) {
-        self.lat.refresh_neighbours();
-        let d = self.lat.dim;
-        let (n, nd, ns) = (self.lat.len(), d.dirs(), self.lat.slots as usize);
-        if self.opts.trace {
-            self.trace_messages(rep);
+    pub(super) fn deliver(
+        &mut self,
+        (lat, th): (&mut Lattice, &Threads),
+        (defer, trace): (bool, bool),
+        stats: &mut Stats,
+        rep: &mut StepReport,
+    ) {
+        lat.refresh_neighbours();
+        let d = lat.dim;
+        let (n, nd, ns) = (lat.len(), d.dirs(), lat.slots as usize);
+        if trace {
+            self.trace_messages(lat, rep);
         }
         let texts = !self.out_text_bits.is_empty();
         if ns == 0 && !texts {
             // No rule sends or reads messages: there is nothing to deliver.
             return;
         }
-        if self.plan.defer {
-            self.deliver_deferred();
+        if defer {
+            self.deliver_deferred(lat, th, stats);
             return;
         }
         let sent: u64 = self.out_has.iter().flatten().map(|&w| ones(w)).sum::<u64>()
@@ -124,10 +199,10 @@ impl Engine {
                 .iter()
                 .map(|t| t.count_ones() as u64)
                 .sum::<u64>();
-        let mut inbox_num = std::mem::take(&mut self.lat.inbox_num);
-        let mut inbox_text = std::mem::take(&mut self.lat.inbox_text);
-        let mut inbox_has = std::mem::take(&mut self.lat.inbox_text_has);
-        let (par, size, chunks) = self.chunks(n);
+        let mut inbox_num = std::mem::take(&mut lat.inbox_num);
+        let mut inbox_text = std::mem::take(&mut lat.inbox_text);
+        let mut inbox_has = std::mem::take(&mut lat.inbox_text_has);
+        let (par, size, chunks) = th.chunks(n);
         let mut num = split_columns(&mut inbox_num, size, chunks).into_iter();
         let mut text = parts(&mut inbox_text, size * nd, chunks).into_iter();
         let mut has = parts(&mut inbox_has, size, chunks).into_iter();
@@ -146,82 +221,77 @@ impl Engine {
             text: &self.out_text,
             text_bits: &self.out_text_bits,
         };
-        let lat = &self.lat;
-        let pull = |ch: InboxChunk<'_>| pull(ch, lat, &out, (nd, ns, texts));
+        let view = &*lat;
+        let pull = |ch: InboxChunk<'_>| pull(ch, view, &out, (nd, ns, texts));
         let delivered: u64 = match par {
             Some((pool, _)) => pool.map(items, pull).into_iter().sum(),
             None => items.into_iter().map(pull).sum(),
         };
-        self.lat.inbox_num = inbox_num;
-        self.lat.inbox_text = inbox_text;
-        self.lat.inbox_text_has = inbox_has;
+        lat.inbox_num = inbox_num;
+        lat.inbox_text = inbox_text;
+        lat.inbox_text_has = inbox_has;
         self.out_has.iter_mut().for_each(|c| c.fill(0));
         self.out_text_bits.fill(0);
-        self.stats.sent += sent;
-        self.stats.delivered += delivered;
-        self.stats.dropped += sent - delivered;
+        stats.sent += sent;
+        stats.delivered += delivered;
+        stats.dropped += sent - delivered;
     }
 
     /// Delivery without copying: this step's outboxes become the lattice's pending
     /// messages (and the last step's pending columns the next outboxes). A message is
     /// delivered when its sender has a neighbour in the direction it was sent.
-    pub(super) fn deliver_deferred(&mut self) {
+    pub(super) fn deliver_deferred(&mut self, lat: &mut Lattice, th: &Threads, stats: &mut Stats) {
         // Counted by the calculations (see [`Tally`]), but for the first time.
         let tally = match self.counted.take() {
             Some(c) => c,
             None => {
-                self.prepare_deferred();
-                let (n, nd) = (self.lat.len(), self.lat.dim.dirs());
+                self.prepare_deferred(lat, th);
+                let (n, nd) = (lat.len(), lat.dim.dirs());
                 Tally::of(&self.out_has, &self.has_nbr, 0, nd, n)
             }
         };
         let (sent, delivered) = (tally.sent, tally.delivered);
-        let p = self
-            .lat
-            .pending
-            .as_mut()
-            .expect("made at the first delivery");
+        let p = lat.pending.as_mut().expect("made at the first delivery");
         std::mem::swap(&mut p.num, &mut self.out_num);
         std::mem::swap(&mut p.has, &mut self.out_has);
         (p.full, p.empty) = (tally.full, tally.empty);
         // The inbox columns are not read while messages are pending. The outboxes' bits
         // are cleared by the next calculations.
-        self.lat.inbox_num.iter_mut().for_each(|c| *c = Vec::new());
-        self.stats.sent += sent;
-        self.stats.delivered += delivered;
-        self.stats.dropped += sent - delivered;
+        lat.inbox_num.iter_mut().for_each(|c| *c = Vec::new());
+        stats.sent += sent;
+        stats.delivered += delivered;
+        stats.dropped += sent - delivered;
     }
 
     /// With `defer`: the pending columns (and plan) and the neighbour bits, made once.
-    pub(super) fn prepare_deferred(&mut self) {
-        if self.lat.pending.is_none() {
-            let lat = &self.lat;
-            let parts = self.par_chunks(lat.len(), &|lo, hi| Pending::plan_part(lat, lo, hi));
-            self.lat.pending = Some(Pending::new(&self.lat, &self.out_num, parts));
+    pub(super) fn prepare_deferred(&mut self, lat: &mut Lattice, th: &Threads) {
+        if lat.pending.is_none() {
+            let view = &*lat;
+            let parts = th.par_chunks(view.len(), &|lo, hi| Pending::plan_part(view, lo, hi));
+            lat.pending = Some(Pending::new(lat, &self.out_num, parts));
         }
-        let nd = self.lat.dim.dirs();
+        let nd = lat.dim.dirs();
         if self.has_nbr.len() != nd {
-            let p = self.lat.pending.as_ref().expect("just made");
-            self.has_nbr = (0..nd).map(|d| p.has_sender(&self.lat, d)).collect();
+            let p = lat.pending.as_ref().expect("just made");
+            self.has_nbr = (0..nd).map(|d| p.has_sender(lat, d)).collect();
         }
     }
 
     /// One trace event per message of this step's outboxes, senders in id order.
-    pub(super) fn trace_messages(&self, rep: &mut StepReport) {
-        let d = self.lat.dim;
+    pub(super) fn trace_messages(&self, lat: &Lattice, rep: &mut StepReport) {
+        let d = lat.dim;
         let (nd, ns) = (d.dirs(), d.slots());
         let bit = |col: usize, a: usize| self.out_has[col][a >> 6] & (1 << (a & 63)) != 0;
         // With a column for sends to all directions (see `defer`), its bit counts too.
-        let cols = nd * self.lat.slots as usize;
-        let all =
-            |col: usize| (self.out_has.len() > cols).then(|| cols + col % self.lat.slots as usize);
+        let cols = nd * lat.slots as usize;
+        let all = |col: usize| (self.out_has.len() > cols).then(|| cols + col % lat.slots as usize);
         let has = |col: usize, a: usize| bit(col, a) || all(col).is_some_and(|c| bit(c, a));
-        for a in 0..self.lat.len() {
+        for a in 0..lat.len() {
             for dir in 0..nd {
                 let slots: Vec<usize> = (0..ns)
                     .filter(|&s| {
-                        let c = self.lat.slot_col[s];
-                        c != NO_COL && has(dir * self.lat.slots as usize + c as usize, a)
+                        let c = lat.slot_col[s];
+                        c != NO_COL && has(dir * lat.slots as usize + c as usize, a)
                     })
                     .collect();
                 let has_text = self
@@ -231,10 +301,10 @@ impl Engine {
                 if slots.is_empty() && !has_text {
                     continue;
                 }
-                let to = self.lat.neighbour(a as u32, Dir::ALL[dir]);
+                let to = lat.neighbour(a as u32, Dir::ALL[dir]);
                 let letter = Dir::ALL[dir].letter();
                 for s in slots {
-                    let col = dir * self.lat.slots as usize + self.lat.slot_col[s] as usize;
+                    let col = dir * lat.slots as usize + lat.slot_col[s] as usize;
                     rep.trace.push(TraceEvent::Message {
                         from: a as u32,
                         to,

@@ -55,6 +55,95 @@ impl Selection {
     }
 }
 
+/// The selection part of the engine: the selection of the last step, whether it can be
+/// reused, and the firing counts that go with it.
+#[derive(Default)]
+pub(super) struct Selector {
+    /// The rules each agent executes (taken out by the step while its phases read it).
+    pub(super) sel: Selection,
+    /// The last selection was decided by the agents' states alone (no agent evaluated a
+    /// precondition): while no state changes, it holds for the next step too.
+    pub(super) by_state: bool,
+    /// The last selection was reused (so the firings of the last step repeat).
+    reused: bool,
+    /// Some agent's state changed since the last selection.
+    states_changed: bool,
+    /// Per rule: how many agents execute it in the current selection; and how many agents
+    /// execute any rule. Kept up to date when the selection is reused.
+    pub(super) fire_counts: Vec<u64>,
+    pub(super) active: u64,
+}
+
+impl Selector {
+    /// For a program of `rules` rules.
+    pub(super) fn new(rules: usize) -> Selector {
+        Selector {
+            fire_counts: vec![0; rules],
+            ..Selector::default()
+        }
+    }
+
+    /// Some agent's state changed (`changed`): the selection is made anew.
+    pub(super) fn states_changed(&mut self, changed: bool) {
+        self.states_changed |= changed;
+    }
+
+    /// Selection: which rules each agent executes this step (into `self.sel`), after the
+    /// agents' candidate lists are brought up to date; kept from the last step when that
+    /// was decided by states alone and no state changed since. Returns the circles of
+    /// priorities found, with their messages.
+    pub(super) fn select(
+        &mut self,
+        (prog, plan, lat): (&Program, &Plan, &Lattice),
+        dispatch: &mut Dispatch,
+        threads: &mut Threads,
+    ) -> Vec<(Vec<u32>, String)> {
+        let changed = dispatch.stale(lat.len()) || self.states_changed;
+        self.states_changed = false;
+        dispatch.update(prog, &plan.trivial, lat, threads);
+        self.reused = !plan.any_prio && !changed && self.by_state;
+        if self.reused {
+            return Vec::new();
+        }
+        let dispatch = &*dispatch;
+        threads.tuned(Phase::Select, |th| {
+            if plan.any_prio {
+                let view = Prio { prog, plan, lat };
+                view.select(&mut self.sel, dispatch, th)
+            } else {
+                self.select_plain((prog, plan, lat), dispatch, th);
+                Vec::new()
+            }
+        })
+    }
+
+    /// The firing counts of the selection: runs of agents with the same single rule are
+    /// counted at once; a reused selection's counts were kept up to date.
+    pub(super) fn count_firings(&mut self) {
+        if self.reused {
+            return;
+        }
+        let (sel, counts) = (&self.sel, &mut self.fire_counts);
+        counts.fill(0);
+        // With few rules and no agent executing several, one vectorised count per rule
+        // (agents alternating between a rule and none would make runs of one); otherwise
+        // runs of agents with the same entry are counted at once.
+        self.active = if sel.many.is_empty() && counts.len() <= 4 {
+            let mut active = 0;
+            for (r, c) in counts.iter_mut().enumerate() {
+                *c = sel.one.iter().map(|&v| (v == r as u32) as u64).sum();
+                active += *c;
+            }
+            active
+        } else {
+            count_runs(&sel.one, counts)
+        };
+        for &r in &sel.many {
+            counts[r as usize] += 1;
+        }
+    }
+}
+
 pub(super) const OPEN: i32 = -1;
 
 pub(super) struct PrioView<'a> {
@@ -197,22 +286,27 @@ pub(super) fn count_runs(one: &[u32], counts: &mut [u64]) -> u64 {
     active
 }
 
-impl Engine {
+impl Selector {
     /// Selection when no rule reads priorities: each agent executes its true rules of the
     /// highest priority among its true rules. Agents whose candidate list decides alone are
     /// not evaluated at all.
-    pub(super) fn select_plain(&mut self) {
-        let n = self.lat.len();
+    fn select_plain(
+        &mut self,
+        (prog, plan, lat): (&Program, &Plan, &Lattice),
+        dispatch: &Dispatch,
+        th: &Threads,
+    ) {
+        let n = lat.len();
         let mut one = std::mem::take(&mut self.sel.one);
         // Every entry is written below (a new column is zeroed lazily by the system, and
         // its pages are touched by the chunks, in parallel).
         if one.len() != n {
             one = vec![0; n];
         }
-        let (prog, lat, trivial) = (&self.prog, &self.lat, &self.plan.trivial);
-        let (lists, single, of) = (&self.cand_lists, &self.cand_single, &self.cand_of);
-        let (par, chunk, _) = self.chunks(n);
-        let pre_columns = &self.plan.pre_columns;
+        let trivial = &plan.trivial;
+        let (lists, single, of) = (&dispatch.lists, &dispatch.single, &dispatch.of);
+        let (par, chunk, _) = th.chunks(n);
+        let pre_columns = &plan.pre_columns;
         let work = |(c, one): (usize, &mut [u32])| {
             let lo = c * chunk;
             let mut multi: Vec<(u32, Vec<u32>)> = Vec::new();
@@ -226,7 +320,7 @@ impl Engine {
                 // The agents whose candidate list decides alone, in a tight loop up to
                 // the next agent to evaluate.
                 let decided = (one[k..].iter_mut().zip(&of[lo + k..hi])).position(
-                    |(slot, &idx)| match single[idx as usize] {
+                    |(slot, &idx)| match single[idx.index()] {
                         EVALUATE => true,
                         r => {
                             *slot = r;
@@ -239,12 +333,12 @@ impl Engine {
                 };
                 k += skip;
                 let a = lo + k;
-                let idx = of[a] as usize;
+                let idx = of[a].index();
                 evaluated = true;
                 // A run of agents with the same one rule to test: evaluated together.
                 if let [r] = lists[idx][..] {
                     if let Some(pre) = &pre_columns[r as usize] {
-                        let m = run_of(&of[a..(a + BATCH).min(hi)], idx as u32);
+                        let m = run_of(&of[a..(a + BATCH).min(hi)], of[a]);
                         batch_pre(prog, (pre, a), lat, &mut bufs, &mut truth[..m]);
                         for (slot, &t) in one[k..k + m].iter_mut().zip(&truth[..m]) {
                             *slot = if t { r } else { NO_RULE };
@@ -291,39 +385,35 @@ impl Engine {
         self.sel.one = one;
         self.sel.starts.clear();
         self.sel.many.clear();
-        self.sel_by_state = true;
+        self.by_state = true;
         for (multi, evaluated) in parts {
-            self.sel_by_state &= !evaluated;
+            self.by_state &= !evaluated;
             for (a, rules) in multi {
                 self.sel.set(a as usize, &rules);
             }
         }
     }
+}
 
-    /// Selection: which rules each agent executes this step (into `self.sel`).
-    pub(super) fn select(&mut self, rep: &mut StepReport) {
-        let changed =
-            self.cand_dirty || self.states_changed || self.cand_of.len() != self.lat.len();
-        self.states_changed = false;
-        self.update_candidates();
-        self.sel_reused = !self.plan.any_prio && !changed && self.sel_by_state;
-        if self.sel_reused {
-            return;
-        }
-        self.tuned(Phase::Select, |e| {
-            if e.plan.any_prio {
-                e.select_with_priorities(rep);
-            } else {
-                e.select_plain();
-            }
-        });
-    }
+/// The program, its plan and the lattice, as the selection with priorities reads them.
+struct Prio<'a> {
+    prog: &'a Program,
+    plan: &'a Plan,
+    lat: &'a Lattice,
+}
 
+impl Prio<'_> {
     /// Selection when rules read neighbours' priorities: a first pass with priorities
     /// unknown, then the levels from the top down (SEMANTICS section 5).
-    pub(super) fn select_with_priorities(&mut self, rep: &mut StepReport) {
+    /// Returns the circles of priorities found, with their messages.
+    fn select(
+        &self,
+        sel: &mut Selection,
+        dispatch: &Dispatch,
+        th: &Threads,
+    ) -> Vec<(Vec<u32>, String)> {
         let n = self.lat.len();
-        let mut entries = self.priority_entries();
+        let mut entries = self.priority_entries(dispatch, th);
         let circles = self.resolve_levels(&mut entries);
         let prog = &self.prog;
         let Entries {
@@ -334,7 +424,6 @@ impl Engine {
             ..
         } = entries;
         // Each agent executes its rules that are true at its final priority, in file order.
-        let mut sel = std::mem::take(&mut self.sel);
         sel.reset(n);
         let mut rules = Vec::new();
         for a in 0..n {
@@ -351,16 +440,13 @@ impl Engine {
                 sel.set(a, &rules);
             }
         }
-        self.sel = sel;
-        for (circle, msg) in circles {
-            self.record(rep, RecordKind::CircularPriority, &circle, msg);
-        }
+        circles
     }
 
     /// Pass 1 of the selection with priorities: every agent's valid rules with priority
     /// terms unknown, the agents whose priority is fixed at once, and the levels of the
     /// others.
-    fn priority_entries(&self) -> Entries {
+    fn priority_entries(&self, dispatch: &Dispatch, th: &Threads) -> Entries {
         let n = self.lat.len();
         let prog = &self.prog;
         let mut ent_rule: Vec<u32> = Vec::with_capacity(n);
@@ -371,7 +457,7 @@ impl Engine {
         let mut levels: BTreeMap<u16, Vec<u32>> = BTreeMap::new();
         let queued = vec![false; n];
         ent_start.push(0);
-        let (lists, of) = (&self.cand_lists, &self.cand_of);
+        let (lists, of) = (&dispatch.lists, &dispatch.of);
         // Pass 1: every agent's valid rules with priority terms unknown, in chunks of
         // agents (in parallel with --threads), joined in agent order.
         let lat = &self.lat;
@@ -385,7 +471,7 @@ impl Engine {
                     a: a as u32,
                     prio: None,
                 };
-                for &r in &lists[of[a] as usize] {
+                for &r in &lists[of[a].index()] {
                     let t = eval_pre(prog, r as usize, &env);
                     if t != Tri::F {
                         rules_out.push(r);
@@ -396,7 +482,7 @@ impl Engine {
             }
             (rules_out, tris, ends)
         };
-        let parts = self.par_chunks(n, &pass1);
+        let parts = th.par_chunks(n, &pass1);
         for (rules_out, tris, ends) in parts {
             let base = ent_rule.len() as u32;
             ent_start.extend(ends.iter().map(|e| base + e));
@@ -456,7 +542,7 @@ impl Engine {
             }
             if ent_tri[k] == Tri::U {
                 let env = SelEnv {
-                    lat: &self.lat,
+                    lat: self.lat,
                     a,
                     prio: Some(PrioView { fixed, cur }),
                 };

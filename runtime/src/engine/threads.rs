@@ -5,6 +5,74 @@
 /// gains nothing from more threads than one per this many agents.
 pub const AGENTS_PER_THREAD: usize = 1024;
 
+/// The engine's threads: the pool of workers (when more than one thread was asked for and
+/// there are enough agents), the tuner, and whether the phase running now stays on this
+/// thread. The one place that decides how per-agent work is split.
+#[derive(Default)]
+pub(super) struct Threads {
+    pool: Option<Workers>,
+    tuner: Tuner,
+    serial: bool,
+}
+
+impl Threads {
+    /// `threads` threads for a lattice of `n` agents (a pool only from two threads and
+    /// [`AGENTS_PER_THREAD`] agents on).
+    pub(super) fn new(threads: usize, n: usize) -> Threads {
+        Threads {
+            pool: (threads > 1 && n >= AGENTS_PER_THREAD)
+                .then(|| Workers::new(threads))
+                .flatten(),
+            ..Threads::default()
+        }
+    }
+
+    /// How per-agent work on `n` agents is split: the pool and the chunk size when there
+    /// are threads and enough agents, else `None`. Chunks are whole multiples of 64 agents,
+    /// so that they split bit sets by words.
+    pub(super) fn parallel(&self, n: usize) -> Option<(&Workers, usize)> {
+        let pool = (self.pool.as_ref()).filter(|_| n >= AGENTS_PER_THREAD && !self.serial)?;
+        Some((pool, n.div_ceil(pool.threads * 4).next_multiple_of(64)))
+    }
+
+    /// The split of `n` agents: the pool (with threads), the chunk size and the number of
+    /// chunks (one chunk of all agents without threads).
+    pub(super) fn chunks(&self, n: usize) -> (Option<(&Workers, usize)>, usize, usize) {
+        let par = self.parallel(n);
+        let size = par.map_or(n.max(1), |p| p.1);
+        (par, size, n.div_ceil(size))
+    }
+
+    /// Runs `f` over the agents `0..n` in chunks, in parallel when there are threads, and
+    /// returns the chunks' results in agent order.
+    pub(super) fn par_chunks<T: Send>(
+        &self,
+        n: usize,
+        f: &(dyn Fn(usize, usize) -> T + Sync),
+    ) -> Vec<T> {
+        match self.parallel(n) {
+            Some((pool, size)) => pool.map((0..n.div_ceil(size)).collect(), |c| {
+                f(c * size, ((c + 1) * size).min(n))
+            }),
+            _ => vec![f(0, n)],
+        }
+    }
+
+    /// Runs phase `f` on the pool or on this thread, as the tuner chooses, and tells the
+    /// tuner how long it took.
+    pub(super) fn tuned<R>(&mut self, phase: Phase, f: impl FnOnce(&Threads) -> R) -> R {
+        if self.pool.is_none() {
+            return f(self);
+        }
+        self.serial = !self.tuner.pooled(phase);
+        let t = std::time::Instant::now();
+        let r = f(self);
+        self.tuner.took(phase, t.elapsed());
+        self.serial = false;
+        r
+    }
+}
+
 /// The threads that run chunks of agents: `threads - 1` workers and the thread that
 /// steps, which takes chunks too (so that a step wakes one worker fewer, and the workers
 /// are placed beside a running thread rather than beside a sleeping one: on a machine
