@@ -442,71 +442,47 @@ fn range(s: &str) -> Option<(u64, u64)> {
     (a <= b).then_some((a, b))
 }
 
-pub fn render(args: RenderArgs) -> ExitCode {
-    let ext = args
-        .out
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(|e| e.to_ascii_lowercase());
+/// The steps asked for (`--step N` or `--steps A..B`), when the output's extension
+/// `ext` can hold them.
+fn asked(args: &RenderArgs, ext: Option<&str>) -> Result<(u64, u64), ExitCode> {
     let (first, last) = match (&args.steps, args.step) {
         (Some(s), _) => match range(s) {
             Some(r) if r.1 - r.0 < MAX_FRAMES => r,
             Some(_) => {
                 say!("error: --steps {s}: at most {MAX_FRAMES} frames");
-                return ExitCode::from(2);
+                return Err(ExitCode::from(2));
             }
             None => {
                 say!("error: --steps {s}: expected A..B with A <= B, e.g. 0..40");
-                return ExitCode::from(2);
+                return Err(ExitCode::from(2));
             }
         },
         (None, n) => (n.unwrap_or(0), n.unwrap_or(0)),
     };
-    match (ext.as_deref(), first == last) {
+    match (ext, first == last) {
         (Some("png" | "svg"), true) | (Some("gif"), _) => {}
         (Some("png" | "svg"), false) => {
             say!(
                 "error: an animation (--steps) is written as .gif, not `{}`",
                 args.out.display()
             );
-            return ExitCode::from(2);
+            return Err(ExitCode::from(2));
         }
         _ => {
             say!(
                 "error: `{}`: the image must end in .png, .svg or .gif",
                 args.out.display()
             );
-            return ExitCode::from(2);
+            return Err(ExitCode::from(2));
         }
     }
-    let out_file = match open_output(&args.out) {
-        Ok(f) => f,
-        Err(c) => return c,
-    };
-    let threads = crate::run::io_threads(None);
-    let ready = match load(&args.rules, &args.agents, true, colour(args.color), threads) {
-        Ok(l) => l,
-        Err(c) => return c,
-    };
-    let dim = ready.lat.dim;
-    let universe = ready
-        .lat
-        .universe
-        .map(|b| [0, 1, 2].map(|k| (b[k].0 as i64, b[k].1 as i64)));
-    let opts = Options {
-        threads: crate::engine_threads(None, ready.lat.len()),
-        ..Options::default()
-    };
-    let mut engine = Engine::new(ready.prog, ready.lat, opts);
-    let agent_frames = engine.lat.len() as u64 * (last - first + 1);
-    if agent_frames > MAX_AGENT_FRAMES {
-        say!(
-            "error: {} agents in {} frames are more than {MAX_AGENT_FRAMES} agent-frames; draw fewer steps",
-            engine.lat.len(),
-            last - first + 1
-        );
-        return ExitCode::from(2);
-    }
+    Ok((first, last))
+}
+
+/// The frames of steps `first..=last` of the engine's run, or up to where it became
+/// quiescent (nothing changes after that), whichever comes first, with a note when the
+/// run stopped early; the states in them; the step reached.
+fn frames(engine: &mut Engine, (first, last): (u64, u64)) -> (Vec<Frame>, BTreeSet<[u8; 5]>, u64) {
     let mut frames = Vec::new();
     let mut states = BTreeSet::new();
     // The run is drawn up to `last`, or up to where it became quiescent (nothing changes
@@ -541,6 +517,48 @@ pub fn render(args: RenderArgs) -> ExitCode {
         };
         say!("note: the run is quiescent after step {reached} (no agent has a rule left to execute); {shown}");
     }
+    (frames, states, reached)
+}
+
+pub fn render(args: RenderArgs) -> ExitCode {
+    let ext = args
+        .out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase());
+    let (first, last) = match asked(&args, ext.as_deref()) {
+        Ok(r) => r,
+        Err(c) => return c,
+    };
+    let out_file = match open_output(&args.out) {
+        Ok(f) => f,
+        Err(c) => return c,
+    };
+    let threads = crate::run::io_threads(None);
+    let ready = match load(&args.rules, &args.agents, true, colour(args.color), threads) {
+        Ok(l) => l,
+        Err(c) => return c,
+    };
+    let dim = ready.lat.dim;
+    let universe = ready
+        .lat
+        .universe
+        .map(|b| [0, 1, 2].map(|k| (b[k].0 as i64, b[k].1 as i64)));
+    let opts = Options {
+        threads: crate::engine_threads(None, ready.lat.len()),
+        ..Options::default()
+    };
+    let mut engine = Engine::new(ready.prog, ready.lat, opts);
+    let agent_frames = engine.lat.len() as u64 * (last - first + 1);
+    if agent_frames > MAX_AGENT_FRAMES {
+        say!(
+            "error: {} agents in {} frames are more than {MAX_AGENT_FRAMES} agent-frames; draw fewer steps",
+            engine.lat.len(),
+            last - first + 1
+        );
+        return ExitCode::from(2);
+    }
+    let (frames, states, reached) = frames(&mut engine, (first, last));
     // A single picture is labelled with the step asked for; an animation covers the steps
     // that were run.
     let (first, last) = if first == last {

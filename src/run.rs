@@ -5,7 +5,9 @@ use crate::output::{self, open_output, say, write_output};
 use crate::{colour, read, Color, RECORDS_SHOWN_PER_KIND};
 use clap::ValueEnum;
 use latticesim_compiler::compile;
-use latticesim_runtime::{checkpoint, Engine, Lattice, Options, Order, RecordKind, Stats};
+use latticesim_runtime::{
+    checkpoint, Engine, Lattice, Options, Order, RecordKind, Stats, StepReport, Undo,
+};
 use serde_json::json;
 use std::collections::BTreeMap;
 use std::io::{IsTerminal, Write};
@@ -321,148 +323,55 @@ fn save_checkpoint(engine: &Engine, path: &Path) -> Result<(), ExitCode> {
 }
 
 pub fn run(args: RunArgs) -> ExitCode {
-    let order = match args.order {
-        OrderArg::ActionsFirst => Order::ActionsFirst,
-        OrderArg::MessagesFirst => Order::MessagesFirst,
-    };
+    match run_to_end(&args) {
+        Ok(c) | Err(c) => c,
+    }
+}
+
+/// `latticesim run`: outputs checked, the engine started, the steps to the end, then the
+/// outputs and the summary. The exit status either way.
+fn run_to_end(args: &RunArgs) -> Result<ExitCode, ExitCode> {
     let colour = colour(args.color);
     // Every output path is checked (by starting its file) before anything is read or run.
     let open = |p: &Option<PathBuf>| p.as_deref().map(open_output).transpose();
-    let (out_file, stats_file, mut trace_out) =
+    let (out_file, stats_file, trace_out) =
         match (open(&args.out), open(&args.stats), open(&args.trace)) {
             (Ok(o), Ok(s), Ok(t)) => (o, s, t),
-            (Err(c), _, _) | (_, Err(c), _) | (_, _, Err(c)) => return c,
+            (Err(c), _, _) | (_, Err(c), _) | (_, _, Err(c)) => return Err(c),
         };
     if let Some(p) = &args.checkpoint {
         // Found now when it cannot be written, not at the end of a long run.
-        if let Err(c) = open_output(p) {
-            return c;
-        }
+        open_output(p)?;
     }
     let io_threads = io_threads(args.threads);
-    let opts = Options {
-        threads: 1,
-        order,
-        static_first: args.static_first,
-        trace: trace_out.is_some(),
-    };
-    let (mut engine, ready_read, ready_check) = match (&args.resume, &args.agents) {
-        (Some(from), _) => {
-            match resume(&args.rules, from, opts, args.threads, args.quiet, colour) {
-                Ok(r) => r,
-                Err(c) => return c,
-            }
-        }
-        (None, Some(agents)) => match load(&args.rules, agents, args.quiet, colour, io_threads) {
-            Ok(r) => {
-                let opts = Options {
-                    threads: crate::engine_threads(args.threads, r.lat.len()),
-                    ..opts
-                };
-                (Engine::new(r.prog, r.lat, opts), r.read, r.check)
-            }
-            Err(c) => return c,
-        },
-        (None, None) => unreachable!("clap requires an agents file or --resume"),
-    };
-    let mut checkpoint_failed = false;
+    let (engine, ready_read, ready_check) = start(args, trace_out.is_some(), colour, io_threads)?;
     output::poll_interrupts();
     let started = Instant::now();
-    let mut bar: Option<indicatif::ProgressBar> = None;
-    let show_progress = !args.quiet && std::io::stderr().is_terminal();
-    let mut shown: BTreeMap<RecordKind, u64> = BTreeMap::new();
-    let mut stop = Stop::MaxSteps;
-    let mut trace_failed = false;
-    // A run resumed after it ended by quiescence has ended.
-    if args.resume.is_some() && engine.stats.quiescent {
-        stop = Stop::Quiescence;
-    }
-    while stop != Stop::Quiescence && engine.stats.steps < args.max_steps {
-        let before = args.strict.then(|| engine.undo_point());
-        let rep = engine.step();
-        for r in &rep.records {
-            let n = shown.entry(r.kind).or_insert(0);
-            *n += 1;
-            if !args.quiet && *n <= RECORDS_SHOWN_PER_KIND {
-                let line = format!("{r}");
-                match &bar {
-                    Some(b) => b.println(line),
-                    None => say!("{line}"),
-                }
-            }
-        }
-        if let Some(w) = trace_out.as_mut() {
-            let step = engine.stats.steps;
-            let mut ok = true;
-            for ev in &rep.trace {
-                let mut v = serde_json::to_value(ev).expect("plain data");
-                v["step"] = json!(step);
-                ok &= writeln!(w, "{v}").is_ok();
-            }
-            for r in &rep.records {
-                let v = json!({
-                    "event": "record",
-                    "step": step,
-                    "kind": r.kind.name(),
-                    "severity": if r.is_error() { "error" } else { "warning" },
-                    "agents": r.agents.iter().map(|(id, p)| json!({"id": id, "pos": p})).collect::<Vec<_>>(),
-                    "message": r.message,
-                });
-                ok &= writeln!(w, "{v}").is_ok();
-            }
-            if !ok {
-                // The trace is given up (its unfinished file removed); the run goes on and
-                // its other outputs are still written.
-                say!(
-                    "error: cannot write `{}`; the run goes on without it",
-                    w.path().display()
-                );
-                trace_out = None;
-                trace_failed = true;
-            }
-        }
-        if args.strict && rep.records.iter().any(|r| r.is_error()) {
-            engine = engine.undo(before.expect("kept when strict"));
-            stop = Stop::Strict;
-            break;
-        }
-        if rep.quiescent {
-            stop = Stop::Quiescence;
-            break;
-        }
-        if let (Some(p), Some(every)) = (&args.checkpoint, args.checkpoint_every) {
-            if engine.stats.steps % every == 0 && engine.stats.steps < args.max_steps {
-                checkpoint_failed |= save_checkpoint(&engine, p).is_err();
-            }
-        }
-        if output::interrupted() {
-            stop = Stop::Interrupted;
-            break;
-        }
-        if show_progress && bar.is_none() && started.elapsed() > Duration::from_secs(1) {
-            let b = indicatif::ProgressBar::new(args.max_steps);
-            b.set_style(
-                indicatif::ProgressStyle::with_template(
-                    "{spinner} step {pos} of at most {len} [{elapsed_precise}] {msg}",
-                )
-                .expect("valid template"),
-            );
-            bar = Some(b);
-        }
-        if let Some(b) = &bar {
-            b.set_position(engine.stats.steps);
-        }
-    }
-    if let Some(b) = bar {
-        b.finish_and_clear();
-    }
+    let steps = Steps {
+        engine,
+        undo: None,
+        console: Console::new(args.quiet, args.max_steps),
+        trace: trace_out,
+        trace_failed: false,
+        checkpoint_failed: false,
+    };
+    let (steps, stop) = steps.run(args);
+    let Steps {
+        engine,
+        undo: _,
+        console,
+        trace,
+        trace_failed,
+        checkpoint_failed,
+    } = steps;
+    let shown = console.finish();
     let wall = started.elapsed();
     // Every file asked for is written, even when an earlier one (or the terminal) failed.
     let mut failed = (trace_failed || checkpoint_failed).then(|| ExitCode::from(2));
     if let Some(p) = &args.checkpoint {
         failed = save_checkpoint(&engine, p).err().or(failed);
     }
-    if let Some(t) = trace_out {
+    if let Some(t) = trace {
         let path = t.path().to_path_buf();
         if let Err(e) = t.commit() {
             say!("error: cannot write `{}`: {e}", path.display());
@@ -494,10 +403,209 @@ pub fn run(args: RunArgs) -> ExitCode {
         failed = write_output(f, s.as_bytes()).err().or(failed);
     }
     if let Some(c) = failed {
-        return c;
+        return Err(c);
     }
     if !args.quiet {
-        for (k, n) in &shown {
+        Console::more(&shown);
+        say!("{}", summary(&engine, stop, args.max_steps, &timing));
+    }
+    Ok(match stop {
+        Stop::Strict => ExitCode::from(3),
+        Stop::Interrupted => ExitCode::from(130),
+        _ => ExitCode::SUCCESS,
+    })
+}
+
+/// The engine of a run, from the agents file or the checkpoint, with the time it took to
+/// read and to check the files.
+fn start(
+    args: &RunArgs,
+    trace: bool,
+    colour: bool,
+    io_threads: usize,
+) -> Result<(Engine, Duration, Duration), ExitCode> {
+    let opts = Options {
+        threads: 1,
+        order: match args.order {
+            OrderArg::ActionsFirst => Order::ActionsFirst,
+            OrderArg::MessagesFirst => Order::MessagesFirst,
+        },
+        static_first: args.static_first,
+        trace,
+    };
+    match (&args.resume, &args.agents) {
+        (Some(from), _) => resume(&args.rules, from, opts, args.threads, args.quiet, colour),
+        (None, Some(agents)) => {
+            let r = load(&args.rules, agents, args.quiet, colour, io_threads)?;
+            let opts = Options {
+                threads: crate::engine_threads(args.threads, r.lat.len()),
+                ..opts
+            };
+            Ok((Engine::new(r.prog, r.lat, opts), r.read, r.check))
+        }
+        (None, None) => unreachable!("clap requires an agents file or --resume"),
+    }
+}
+
+/// A run's steps and what they write as they go: the trace, the checkpoints every N steps,
+/// the records and progress on the terminal.
+struct Steps {
+    engine: Engine,
+    /// With `--strict`, after a step with an error record: the state before it.
+    undo: Option<(Undo, Stats)>,
+    console: Console,
+    trace: Option<output::AtomicFile>,
+    trace_failed: bool,
+    checkpoint_failed: bool,
+}
+
+impl Steps {
+    /// Steps to quiescence, `--max-steps`, an error record with `--strict`, or Ctrl-C;
+    /// returns which.
+    fn run(mut self, args: &RunArgs) -> (Steps, Stop) {
+        let stop = self.steps(args);
+        if let Some(before) = self.undo.take() {
+            self.engine = self.engine.undo(before);
+        }
+        (self, stop)
+    }
+
+    fn steps(&mut self, args: &RunArgs) -> Stop {
+        // A run resumed after it ended by quiescence has ended.
+        if args.resume.is_some() && self.engine.stats.quiescent {
+            return Stop::Quiescence;
+        }
+        while self.engine.stats.steps < args.max_steps {
+            let before = args.strict.then(|| self.engine.undo_point());
+            let rep = self.engine.step();
+            self.console.records(&rep);
+            self.trace_step(&rep);
+            if args.strict && rep.records.iter().any(|r| r.is_error()) {
+                self.undo = before;
+                return Stop::Strict;
+            }
+            if rep.quiescent {
+                return Stop::Quiescence;
+            }
+            let steps = self.engine.stats.steps;
+            if let (Some(p), Some(every)) = (&args.checkpoint, args.checkpoint_every) {
+                if steps % every == 0 && steps < args.max_steps {
+                    self.checkpoint_failed |= save_checkpoint(&self.engine, p).is_err();
+                }
+            }
+            if output::interrupted() {
+                return Stop::Interrupted;
+            }
+            self.console.progress(steps);
+        }
+        Stop::MaxSteps
+    }
+
+    /// The step's trace events and records as JSON lines of the trace, when there is one.
+    /// A trace that cannot be written is given up (its unfinished file removed); the run
+    /// goes on and its other outputs are still written.
+    fn trace_step(&mut self, rep: &StepReport) {
+        let Some(w) = self.trace.as_mut() else {
+            return;
+        };
+        let step = self.engine.stats.steps;
+        let mut ok = true;
+        for ev in &rep.trace {
+            let mut v = serde_json::to_value(ev).expect("plain data");
+            v["step"] = json!(step);
+            ok &= writeln!(w, "{v}").is_ok();
+        }
+        for r in &rep.records {
+            let v = json!({
+                "event": "record",
+                "step": step,
+                "kind": r.kind.name(),
+                "severity": if r.is_error() { "error" } else { "warning" },
+                "agents": r.agents.iter().map(|(id, p)| json!({"id": id, "pos": p})).collect::<Vec<_>>(),
+                "message": r.message,
+            });
+            ok &= writeln!(w, "{v}").is_ok();
+        }
+        if !ok {
+            say!(
+                "error: cannot write `{}`; the run goes on without it",
+                w.path().display()
+            );
+            self.trace = None;
+            self.trace_failed = true;
+        }
+    }
+}
+
+/// What a run shows on the terminal while it steps: the first records of each kind, and
+/// a progress bar once it has taken a second.
+struct Console {
+    quiet: bool,
+    show_progress: bool,
+    max_steps: u64,
+    started: Instant,
+    bar: Option<indicatif::ProgressBar>,
+    shown: BTreeMap<RecordKind, u64>,
+}
+
+impl Console {
+    fn new(quiet: bool, max_steps: u64) -> Console {
+        Console {
+            quiet,
+            show_progress: !quiet && std::io::stderr().is_terminal(),
+            max_steps,
+            started: Instant::now(),
+            bar: None,
+            shown: BTreeMap::new(),
+        }
+    }
+
+    /// Shows the step's records, up to [`RECORDS_SHOWN_PER_KIND`] of each kind in a run.
+    fn records(&mut self, rep: &StepReport) {
+        for r in &rep.records {
+            let n = self.shown.entry(r.kind).or_insert(0);
+            *n += 1;
+            if !self.quiet && *n <= RECORDS_SHOWN_PER_KIND {
+                let line = format!("{r}");
+                match &self.bar {
+                    Some(b) => b.println(line),
+                    None => say!("{line}"),
+                }
+            }
+        }
+    }
+
+    /// The progress bar at `steps`, started after a second.
+    fn progress(&mut self, steps: u64) {
+        if self.show_progress
+            && self.bar.is_none()
+            && self.started.elapsed() > Duration::from_secs(1)
+        {
+            let b = indicatif::ProgressBar::new(self.max_steps);
+            b.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "{spinner} step {pos} of at most {len} [{elapsed_precise}] {msg}",
+                )
+                .expect("valid template"),
+            );
+            self.bar = Some(b);
+        }
+        if let Some(b) = &self.bar {
+            b.set_position(steps);
+        }
+    }
+
+    /// Clears the bar; the records of each kind the run made.
+    fn finish(self) -> BTreeMap<RecordKind, u64> {
+        if let Some(b) = self.bar {
+            b.finish_and_clear();
+        }
+        self.shown
+    }
+
+    /// How many records of each kind were not shown.
+    fn more(shown: &BTreeMap<RecordKind, u64>) {
+        for (k, n) in shown {
             if *n > RECORDS_SHOWN_PER_KIND {
                 say!(
                     "... and {} more {} records",
@@ -506,37 +614,35 @@ pub fn run(args: RunArgs) -> ExitCode {
                 );
             }
         }
-        let s = &engine.stats;
-        let (errors, warnings) = (s.errors(), s.warnings());
-        let firings: u64 = s.firings.iter().sum();
-        let why = match stop {
-            Stop::Quiescence => "quiescent".to_string(),
-            Stop::MaxSteps => format!("stopped at --max-steps {}", args.max_steps),
-            Stop::Strict => {
-                "stopped by --strict at an error record; the state is the one before that step"
-                    .into()
-            }
-            Stop::Interrupted => "interrupted".into(),
-        };
-        say!(
-            "{} agents, {} steps, {why}: {firings} rule firings, {} moves, {} swaps, {} messages sent ({} delivered, {} dropped), {errors} error records, {warnings} warnings; read {:.3} s, check {:.3} s, steps {:.3} s, write {:.3} s, peak memory {}",
-            engine.lat.len(),
-            s.steps,
-            s.moves,
-            s.swaps,
-            s.sent,
-            s.delivered,
-            s.dropped,
-            timing.read.as_secs_f64(),
-            timing.check.as_secs_f64(),
-            timing.steps.as_secs_f64(),
-            timing.write.as_secs_f64(),
-            mb(peak_memory()),
-        );
     }
-    match stop {
-        Stop::Strict => ExitCode::from(3),
-        Stop::Interrupted => ExitCode::from(130),
-        _ => ExitCode::SUCCESS,
-    }
+}
+
+/// The summary line of a run.
+fn summary(engine: &Engine, stop: Stop, max_steps: u64, timing: &Timing) -> String {
+    let s = &engine.stats;
+    let (errors, warnings) = (s.errors(), s.warnings());
+    let firings: u64 = s.firings.iter().sum();
+    let why = match stop {
+        Stop::Quiescence => "quiescent".to_string(),
+        Stop::MaxSteps => format!("stopped at --max-steps {max_steps}"),
+        Stop::Strict => {
+            "stopped by --strict at an error record; the state is the one before that step".into()
+        }
+        Stop::Interrupted => "interrupted".into(),
+    };
+    format!(
+        "{} agents, {} steps, {why}: {firings} rule firings, {} moves, {} swaps, {} messages sent ({} delivered, {} dropped), {errors} error records, {warnings} warnings; read {:.3} s, check {:.3} s, steps {:.3} s, write {:.3} s, peak memory {}",
+        engine.lat.len(),
+        s.steps,
+        s.moves,
+        s.swaps,
+        s.sent,
+        s.delivered,
+        s.dropped,
+        timing.read.as_secs_f64(),
+        timing.check.as_secs_f64(),
+        timing.steps.as_secs_f64(),
+        timing.write.as_secs_f64(),
+        mb(peak_memory()),
+    )
 }

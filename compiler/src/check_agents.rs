@@ -4,7 +4,8 @@
 use crate::check_rules::{chars, VALUE_MAX};
 use crate::checked::{AgentInit, Bounds, Config, Dim, Dir};
 use crate::dim::DimSource;
-use latticesim_grammar::ast::AgentsFile;
+use latticesim_grammar::ast::{AgentLine, AgentsFile, Universe};
+use latticesim_grammar::span::Spanned;
 use latticesim_grammar::{Code, Diagnostic, FileId, Label, Span};
 use std::collections::HashMap;
 
@@ -34,8 +35,73 @@ pub fn check_agents(
     diags: &mut Vec<Diagnostic>,
 ) -> Config {
     let d = dim.dim;
-    let mut universe: Option<Bounds> = None;
-    if let Some(u) = &f.universe {
+    let mut ck = Checker {
+        file,
+        src,
+        dim,
+        diags,
+    };
+    let universe = f.universe.as_ref().and_then(|u| ck.universe(u));
+    let mut agents = Vec::with_capacity(f.agents.len());
+    let mut cells: HashMap<[i32; 3], usize> = HashMap::with_capacity(f.agents.len());
+    let mut spans = Vec::with_capacity(f.agents.len());
+    let mut attach_spans: Vec<Option<Span>> = Vec::with_capacity(f.agents.len());
+    for a in &f.agents {
+        let pos_span = a.pos[0].span.to(a.pos[a.pos.len() - 1].span);
+        let Some((pos, mut ok)) = ck.position(a, pos_span, universe.zip(f.universe.as_ref()))
+        else {
+            continue;
+        };
+        let state = a.state.map(|s| ck.state(s, &mut ok));
+        let attach = a.attach.map_or(0, |s| ck.attach(s, &mut ok));
+        let mut counters = ck.counters(a, &mut ok);
+        if !ok {
+            continue;
+        }
+        if let Some(&prev) = cells.get(&pos) {
+            let here = (pos_span, agents.len());
+            ck.diags
+                .push(two_agents(a, file, here, (spans[prev], prev)));
+            continue;
+        }
+        counters.sort_unstable();
+        cells.insert(pos, agents.len());
+        spans.push(pos_span);
+        attach_spans.push(a.attach.map(|s| field(s.span)));
+        agents.push(AgentInit {
+            pos,
+            state: state.unwrap_or(*b"00000"),
+            attach,
+            counters,
+        });
+    }
+    bonds(
+        &mut agents,
+        &cells,
+        (file, d),
+        (&spans, &attach_spans),
+        ck.diags,
+    );
+    Config {
+        dim: d,
+        universe,
+        agents,
+    }
+}
+
+/// What the checks of one agents file share: the file, its text, its dimension (with its
+/// source, for the labels) and where the diagnostics go.
+struct Checker<'a, 'd> {
+    file: FileId,
+    src: &'a str,
+    dim: &'a DimSource,
+    diags: &'d mut Vec<Diagnostic>,
+}
+
+impl Checker<'_, '_> {
+    /// The universe's bounds, when every one is in the 32-bit range (E406).
+    fn universe(&mut self, u: &Universe) -> Option<Bounds> {
+        let (file, src, diags) = (self.file, self.src, &mut *self.diags);
         let mut b: Bounds = [(0, 0); 3];
         let mut ok = true;
         for (i, pair) in u.bounds.chunks(2).enumerate() {
@@ -57,16 +123,19 @@ pub fn check_agents(
             }
             b[i] = (pair[0].node as i32, pair[1].node as i32);
         }
-        if ok {
-            universe = Some(b);
-        }
+        ok.then_some(b)
     }
-    let mut agents = Vec::with_capacity(f.agents.len());
-    let mut cells: HashMap<[i32; 3], usize> = HashMap::with_capacity(f.agents.len());
-    let mut spans = Vec::with_capacity(f.agents.len());
-    let mut attach_spans: Vec<Option<Span>> = Vec::with_capacity(f.agents.len());
-    for a in &f.agents {
-        let pos_span = a.pos[0].span.to(a.pos[a.pos.len() - 1].span);
+
+    /// An agent's position, and whether it is in the 32-bit range (E410) and inside the
+    /// universe (E403, with `universe` its bounds and line); `None` when it has the wrong
+    /// number of coordinates (E407).
+    fn position(
+        &mut self,
+        a: &AgentLine<'_>,
+        pos_span: Span,
+        universe: Option<(Bounds, &Universe)>,
+    ) -> Option<([i32; 3], bool)> {
+        let (file, src, d) = (self.file, self.src, self.dim.dim);
         if a.pos.len() != d.coords() {
             let msg = format!(
                 "this position has {} coordinates; the file is {} and needs {}",
@@ -74,8 +143,8 @@ pub fn check_agents(
                 d.name(),
                 d.coords()
             );
-            diags.push(
-                dim.attach(
+            self.diags.push(
+                self.dim.attach(
                     Diagnostic::new(
                         Code::E407,
                         msg,
@@ -91,8 +160,9 @@ pub fn check_agents(
                     )),
                 ),
             );
-            continue;
+            return None;
         }
+        let diags = &mut *self.diags;
         let mut pos = [0i32; 3];
         let mut ok = true;
         for (i, c) in a.pos.iter().enumerate() {
@@ -115,7 +185,7 @@ pub fn check_agents(
             }
         }
         if ok {
-            if let (Some(b), Some(u)) = (universe, &f.universe) {
+            if let Some((b, u)) = universe {
                 let outside = (0..d.coords()).find(|&i| pos[i] < b[i].0 || pos[i] > b[i].1);
                 if let Some(i) = outside {
                     let axis = ["x", "y", "z"][i];
@@ -141,8 +211,14 @@ pub fn check_agents(
                 }
             }
         }
+        Some((pos, ok))
+    }
+
+    /// An agent's state (E408 when it is not 5 printable characters other than `*`).
+    fn state(&mut self, s: Spanned<&str>, ok: &mut bool) -> [u8; 5] {
+        let (file, diags) = (self.file, &mut *self.diags);
         let mut state = *b"00000";
-        if let Some(s) = a.state {
+        {
             let n = s.node.chars().count();
             if n != 5 {
                 diags.push(
@@ -157,7 +233,7 @@ pub fn check_agents(
                     )
                     .with_help("write `S` and 5 characters, e.g. `SLEAD0`"),
                 );
-                ok = false;
+                *ok = false;
             } else {
                 for (i, (at, c)) in s.node.char_indices().enumerate() {
                     if c == '*' || !c.is_ascii_graphic() {
@@ -171,15 +247,21 @@ pub fn check_agents(
                                 "states use printable ASCII characters other than blank and `*`",
                             ),
                         );
-                        ok = false;
+                        *ok = false;
                     } else {
                         state[i] = c as u8;
                     }
                 }
             }
         }
+        state
+    }
+
+    /// An agent's attachments as bits (E409 when they are not one 0 or 1 per direction).
+    fn attach(&mut self, s: Spanned<&str>, ok: &mut bool) -> u8 {
+        let (file, d, diags) = (self.file, self.dim.dim, &mut *self.diags);
         let mut attach = 0u8;
-        if let Some(s) = a.attach {
+        {
             let n = s.node.chars().count();
             if n != d.dirs() || !s.node.bytes().all(|b| b == b'0' || b == b'1') {
                 diags.push(
@@ -202,7 +284,7 @@ pub fn check_agents(
                         }
                     )),
                 );
-                ok = false;
+                *ok = false;
             } else {
                 for (i, b) in s.node.bytes().enumerate() {
                     if b == b'1' {
@@ -211,6 +293,13 @@ pub fn check_agents(
                 }
             }
         }
+        attach
+    }
+
+    /// An agent's non-zero counters (E404 for a counter the dimension has not, or a value
+    /// out of range).
+    fn counters(&mut self, a: &AgentLine<'_>, ok: &mut bool) -> Vec<(u8, i16)> {
+        let (file, src, d, diags) = (self.file, self.src, self.dim.dim, &mut *self.diags);
         let mut counters = Vec::with_capacity(a.counters.len());
         for (c, v) in &a.counters {
             let idx: usize = c.node.parse().unwrap_or(usize::MAX);
@@ -230,7 +319,7 @@ pub fn check_agents(
                         d.counters() - 1
                     )),
                 );
-                ok = false;
+                *ok = false;
             } else if !(-VALUE_MAX..=VALUE_MAX).contains(&v.node) {
                 diags.push(
                     Diagnostic::new(
@@ -244,52 +333,52 @@ pub fn check_agents(
                     )
                     .with_help("counters hold 16-bit values from -32767 to 32767"),
                 );
-                ok = false;
+                *ok = false;
             } else if v.node != 0 {
                 counters.push((idx as u8, v.node as i16));
             }
         }
-        if ok {
-            if let Some(&prev) = cells.get(&pos) {
-                diags.push(
-                    Diagnostic::new(
-                        Code::E402,
-                        format!(
-                            "two agents on the cell {}",
-                            a.pos
-                                .iter()
-                                .map(|p| p.node.to_string())
-                                .collect::<Vec<_>>()
-                                .join(",")
-                        ),
-                        Label::new(
-                            file,
-                            pos_span,
-                            format!("agent {} would stand here", agents.len()),
-                        ),
-                    )
-                    .with_secondary(Label::new(
-                        file,
-                        spans[prev],
-                        format!("agent {prev} stands here already"),
-                    ))
-                    .with_help("move one of them, or delete the duplicate line"),
-                );
-                continue;
-            }
-            counters.sort_unstable();
-            cells.insert(pos, agents.len());
-            spans.push(pos_span);
-            attach_spans.push(a.attach.map(|s| field(s.span)));
-            agents.push(AgentInit {
-                pos,
-                state,
-                attach,
-                counters,
-            });
-        }
+        counters
     }
-    // Attachments: make them symmetric, warn where only one side declared a bond, drop
+}
+
+/// E402: agent `here.1` (at `here.0`) stands on the cell of agent `prev.1` (at `prev.0`).
+fn two_agents(
+    a: &AgentLine<'_>,
+    file: FileId,
+    here: (Span, usize),
+    prev: (Span, usize),
+) -> Diagnostic {
+    Diagnostic::new(
+        Code::E402,
+        format!(
+            "two agents on the cell {}",
+            a.pos
+                .iter()
+                .map(|p| p.node.to_string())
+                .collect::<Vec<_>>()
+                .join(",")
+        ),
+        Label::new(file, here.0, format!("agent {} would stand here", here.1)),
+    )
+    .with_secondary(Label::new(
+        file,
+        prev.0,
+        format!("agent {} stands here already", prev.1),
+    ))
+    .with_help("move one of them, or delete the duplicate line")
+}
+
+/// Attachments made symmetric: a warning where only one side declared a bond (W601, the
+/// bond is made), and bonds towards empty cells dropped (W602). `spans`: each agent's
+/// position and attachments field.
+fn bonds(
+    agents: &mut [AgentInit],
+    cells: &HashMap<[i32; 3], usize>,
+    (file, d): (FileId, Dim),
+    (spans, attach_spans): (&[Span], &[Option<Span>]),
+    diags: &mut Vec<Diagnostic>,
+) {
     // bonds towards empty cells.
     for i in 0..agents.len() {
         for dir in Dir::ALL.iter().take(d.dirs()) {
@@ -336,10 +425,5 @@ pub fn check_agents(
                 }
             }
         }
-    }
-    Config {
-        dim: d,
-        universe,
-        agents,
     }
 }

@@ -209,75 +209,22 @@ fn fill(stream: &mut TcpStream, buf: &mut Vec<u8>, want: usize, deadline: Instan
     true
 }
 
+/// Reads one request from `stream` (with what `buf` holds already; what follows it stays
+/// in `buf`), within `limits` and by `deadline`.
 fn read_request(
     stream: &mut TcpStream,
     buf: &mut Vec<u8>,
     limits: &Limits,
     deadline: Instant,
 ) -> Incoming {
-    // The head: up to the blank line, at most `limits.head` bytes.
-    let mut searched = 0;
-    let head_end = loop {
-        if let Some(i) = find_blank_line(buf, searched) {
-            break i;
-        }
-        searched = buf.len().saturating_sub(3);
-        if buf.len() > limits.head {
-            return Incoming::Fail(error(
-                431,
-                format!("the request's head is larger than {} bytes", limits.head),
-            ));
-        }
-        if !read_some(stream, buf, limits.head + 1, deadline) {
-            return if buf.iter().all(|b| b.is_ascii_whitespace()) {
-                Incoming::Gone
-            } else if Instant::now() >= deadline {
-                Incoming::Fail(error(
-                    408,
-                    format!(
-                        "the request did not arrive within {} s",
-                        limits.read.as_secs()
-                    ),
-                ))
-            } else {
-                Incoming::Gone
-            };
-        }
+    let head_end = match read_head(stream, buf, limits, deadline) {
+        Ok(end) => end,
+        Err(i) => return i,
     };
-    if head_end > limits.head {
-        return Incoming::Fail(error(
-            431,
-            format!("the request's head is larger than {} bytes", limits.head),
-        ));
-    }
-    let mut headers = vec![httparse::EMPTY_HEADER; limits.headers];
-    let mut parsed = httparse::Request::new(&mut headers);
-    match parsed.parse(&buf[..head_end]) {
-        Ok(httparse::Status::Complete(_)) => {}
-        Ok(httparse::Status::Partial) => {
-            return Incoming::Fail(error(400, "the request's head is cut short"))
-        }
-        Err(httparse::Error::TooManyHeaders) => {
-            return Incoming::Fail(error(
-                431,
-                format!("the request has more than {} headers", limits.headers),
-            ))
-        }
-        Err(e) => return Incoming::Fail(error(400, format!("malformed request: {e}"))),
-    }
-    let method = parsed.method.unwrap_or("").to_string();
-    let target = parsed.path.unwrap_or("").to_string();
-    let version = parsed.version.unwrap_or(0);
-    let headers: Vec<(String, String)> = parsed
-        .headers
-        .iter()
-        .map(|h| {
-            (
-                h.name.to_ascii_lowercase(),
-                String::from_utf8_lossy(h.value).into_owned(),
-            )
-        })
-        .collect();
+    let (method, target, version, headers) = match parse_head(&buf[..head_end], limits) {
+        Ok(head) => head,
+        Err(i) => return i,
+    };
     let get = |name: &str| {
         headers
             .iter()
@@ -335,6 +282,97 @@ fn read_request(
         },
         keep,
     )
+}
+
+/// Reads into `buf` up to the blank line that ends the request's head, at most
+/// `limits.head` bytes; where the head ends.
+fn read_head(
+    stream: &mut TcpStream,
+    buf: &mut Vec<u8>,
+    limits: &Limits,
+    deadline: Instant,
+) -> Result<usize, Incoming> {
+    // The head: up to the blank line, at most `limits.head` bytes.
+    let mut searched = 0;
+    let head_end = loop {
+        if let Some(i) = find_blank_line(buf, searched) {
+            break i;
+        }
+        searched = buf.len().saturating_sub(3);
+        if buf.len() > limits.head {
+            return Err(Incoming::Fail(error(
+                431,
+                format!("the request's head is larger than {} bytes", limits.head),
+            )));
+        }
+        if !read_some(stream, buf, limits.head + 1, deadline) {
+            return Err(if buf.iter().all(|b| b.is_ascii_whitespace()) {
+                Incoming::Gone
+            } else if Instant::now() >= deadline {
+                Incoming::Fail(error(
+                    408,
+                    format!(
+                        "the request did not arrive within {} s",
+                        limits.read.as_secs()
+                    ),
+                ))
+            } else {
+                Incoming::Gone
+            });
+        }
+    };
+    if head_end > limits.head {
+        return Err(Incoming::Fail(error(
+            431,
+            format!("the request's head is larger than {} bytes", limits.head),
+        )));
+    }
+    Ok(head_end)
+}
+
+/// The method, target, HTTP minor version and headers (names in lower case) of a head.
+#[allow(clippy::type_complexity)]
+fn parse_head(
+    head: &[u8],
+    limits: &Limits,
+) -> Result<(String, String, u8, Vec<(String, String)>), Incoming> {
+    let mut headers = vec![httparse::EMPTY_HEADER; limits.headers];
+    let mut parsed = httparse::Request::new(&mut headers);
+    match parsed.parse(head) {
+        Ok(httparse::Status::Complete(_)) => {}
+        Ok(httparse::Status::Partial) => {
+            return Err(Incoming::Fail(error(
+                400,
+                "the request's head is cut short",
+            )))
+        }
+        Err(httparse::Error::TooManyHeaders) => {
+            return Err(Incoming::Fail(error(
+                431,
+                format!("the request has more than {} headers", limits.headers),
+            )))
+        }
+        Err(e) => {
+            return Err(Incoming::Fail(error(
+                400,
+                format!("malformed request: {e}"),
+            )))
+        }
+    }
+    let method = parsed.method.unwrap_or("").to_string();
+    let target = parsed.path.unwrap_or("").to_string();
+    let version = parsed.version.unwrap_or(0);
+    let headers: Vec<(String, String)> = parsed
+        .headers
+        .iter()
+        .map(|h| {
+            (
+                h.name.to_ascii_lowercase(),
+                String::from_utf8_lossy(h.value).into_owned(),
+            )
+        })
+        .collect();
+    Ok((method, target, version, headers))
 }
 
 /// The end of the head (just past its blank line), searching from `from`.

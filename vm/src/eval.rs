@@ -125,7 +125,9 @@ fn is_any(v: Val) -> bool {
     matches!(v, Val::Msg { dir: ANY_DIR, .. })
 }
 
-/// Evaluates the precondition of rule `rule` for the agent `env` describes.
+/// Evaluates the precondition of rule `rule` for the agent `env` describes: a stack
+/// machine over the rule's terms ([`term`]), negations, conjunctions and jumps past what
+/// cannot change a false result.
 pub fn eval_pre<E: Env + ?Sized>(prog: &Program, rule: usize, env: &E) -> Tri {
     let r = &prog.rules[rule];
     let code = &prog.code[r.pre.start as usize..r.pre.end as usize];
@@ -134,137 +136,137 @@ pub fn eval_pre<E: Env + ?Sized>(prog: &Program, rule: usize, env: &E) -> Tri {
     let mut pc = 0usize;
     let known = env.priorities_known();
     while pc < code.len() {
-        let v = match code[pc] {
-            Op::True {} => Tri::T,
-            Op::Nbr { mask, want } => {
-                let mut ok = true;
-                for d in 0..env.dirs() {
-                    if mask & (1 << d) == 0 {
-                        continue;
-                    }
-                    let want_filled = want & (1 << d) != 0;
-                    ok &= match env.neighbour_cell(d) {
-                        Cell::Blocked => false,
-                        Cell::Empty => !want_filled,
-                        Cell::Agent(_) => want_filled,
-                    };
-                }
-                Tri::of(ok)
-            }
-            Op::Att { mask, want } => Tri::of(env.attach() & mask == want & mask),
-            Op::Prio { strict, leq } => {
-                if !known {
-                    Tri::U
-                } else {
-                    let mut acc = Tri::T;
-                    for d in 0..env.dirs() {
-                        let bit = 1 << d;
-                        if (strict | leq) & bit == 0 {
-                            continue;
-                        }
-                        let other = match env.neighbour_cell(d) {
-                            Cell::Agent(id) => Some(id),
-                            _ => None,
-                        };
-                        acc = acc.and(env.prio(other, r.priority, strict & bit != 0));
-                    }
-                    acc
-                }
-            }
-            Op::State { pat } => Tri::of(matches(&prog.pats[pat as usize], &env.state())),
-            Op::Msg { dir, pat } => {
-                let p = &prog.pats[pat as usize];
-                let hit = |d: u8| env.inbox_text(d).is_some_and(|t| matches(p, &t));
-                Tri::of(if dir == ANY_DIR {
-                    (0..env.dirs()).any(hit)
-                } else {
-                    hit(dir)
-                })
-            }
-            Op::Empty { off } => {
-                Tri::of(env.cell(resolve(&prog.offsets[off as usize], env)) == Cell::Empty)
-            }
-            Op::Filled { off } => Tri::of(matches!(
-                env.cell(resolve(&prog.offsets[off as usize], env)),
-                Cell::Agent(_)
-            )),
-            Op::Less { off } | Op::LessEq { off } => {
-                if !known {
-                    Tri::U
-                } else {
-                    match env.cell(resolve(&prog.offsets[off as usize], env)) {
-                        Cell::Agent(id) => {
-                            env.prio(Some(id), r.priority, matches!(code[pc], Op::Less { .. }))
-                        }
-                        _ => Tri::F,
-                    }
-                }
-            }
-            Op::RState { off, pat } => {
-                Tri::of(match env.cell(resolve(&prog.offsets[off as usize], env)) {
-                    Cell::Agent(id) => matches(&prog.pats[pat as usize], &env.agent_state(id)),
-                    _ => false,
-                })
-            }
-            Op::Cmp { op, a, b } => {
-                let holds = |d: u8| op.holds(value(a, d, env), value(b, d, env));
-                Tri::of(if is_any(a) || is_any(b) {
-                    (0..env.dirs()).any(holds)
-                } else {
-                    holds(0)
-                })
-            }
-            Op::RCmp {
-                strict,
-                off,
-                counter,
-                b,
-            } => Tri::of(match env.cell(resolve(&prog.offsets[off as usize], env)) {
-                Cell::Agent(id) => {
-                    let c = env.agent_counter(id, counter) as i32;
-                    let holds = |d: u8| {
-                        let rhs = value(b, d, env);
-                        if strict != 0 {
-                            c < rhs
-                        } else {
-                            c <= rhs
-                        }
-                    };
-                    if is_any(b) {
-                        (0..env.dirs()).any(holds)
-                    } else {
-                        holds(0)
-                    }
-                }
-                _ => false,
-            }),
-            Op::Not {} => {
-                stack[sp - 1] = !stack[sp - 1];
-                pc += 1;
-                continue;
-            }
+        match code[pc] {
+            Op::Not {} => stack[sp - 1] = !stack[sp - 1],
             Op::And {} => {
                 sp -= 1;
                 stack[sp - 1] = stack[sp - 1].and(stack[sp]);
-                pc += 1;
-                continue;
             }
             Op::Jf { to } => {
-                pc = if stack[sp - 1] == Tri::F {
-                    to as usize
-                } else {
-                    pc + 1
-                };
-                continue;
+                if stack[sp - 1] == Tri::F {
+                    pc = to as usize;
+                    continue;
+                }
             }
-            // Verified away: postcondition instructions never stand in a precondition.
-            _ => Tri::U,
-        };
-        stack[sp] = v;
-        sp += 1;
+            op => {
+                stack[sp] = term(prog, (op, r.priority, known), env);
+                sp += 1;
+            }
+        }
         pc += 1;
     }
     stack[0]
+}
+
+/// The value of one term `op` of a precondition of priority `p` (`known`: whether the
+/// neighbours' priorities are known yet; `P`, `L` and `Q` are unknown until they are).
+#[inline(always)]
+fn term<E: Env + ?Sized>(prog: &Program, (op, p, known): (Op, u16, bool), env: &E) -> Tri {
+    match op {
+        Op::True {} => Tri::T,
+        Op::Nbr { mask, want } => {
+            let mut ok = true;
+            for d in 0..env.dirs() {
+                if mask & (1 << d) == 0 {
+                    continue;
+                }
+                let want_filled = want & (1 << d) != 0;
+                ok &= match env.neighbour_cell(d) {
+                    Cell::Blocked => false,
+                    Cell::Empty => !want_filled,
+                    Cell::Agent(_) => want_filled,
+                };
+            }
+            Tri::of(ok)
+        }
+        Op::Att { mask, want } => Tri::of(env.attach() & mask == want & mask),
+        Op::Prio { strict, leq } => {
+            if !known {
+                Tri::U
+            } else {
+                let mut acc = Tri::T;
+                for d in 0..env.dirs() {
+                    let bit = 1 << d;
+                    if (strict | leq) & bit == 0 {
+                        continue;
+                    }
+                    let other = match env.neighbour_cell(d) {
+                        Cell::Agent(id) => Some(id),
+                        _ => None,
+                    };
+                    acc = acc.and(env.prio(other, p, strict & bit != 0));
+                }
+                acc
+            }
+        }
+        Op::State { pat } => Tri::of(matches(&prog.pats[pat as usize], &env.state())),
+        Op::Msg { dir, pat } => {
+            let p = &prog.pats[pat as usize];
+            let hit = |d: u8| env.inbox_text(d).is_some_and(|t| matches(p, &t));
+            Tri::of(if dir == ANY_DIR {
+                (0..env.dirs()).any(hit)
+            } else {
+                hit(dir)
+            })
+        }
+        Op::Empty { off } => {
+            Tri::of(env.cell(resolve(&prog.offsets[off as usize], env)) == Cell::Empty)
+        }
+        Op::Filled { off } => Tri::of(matches!(
+            env.cell(resolve(&prog.offsets[off as usize], env)),
+            Cell::Agent(_)
+        )),
+        Op::Less { off } | Op::LessEq { off } => {
+            if !known {
+                Tri::U
+            } else {
+                match env.cell(resolve(&prog.offsets[off as usize], env)) {
+                    Cell::Agent(id) => env.prio(Some(id), p, matches!(op, Op::Less { .. })),
+                    _ => Tri::F,
+                }
+            }
+        }
+        Op::RState { off, pat } => {
+            Tri::of(match env.cell(resolve(&prog.offsets[off as usize], env)) {
+                Cell::Agent(id) => matches(&prog.pats[pat as usize], &env.agent_state(id)),
+                _ => false,
+            })
+        }
+        Op::Cmp { op, a, b } => {
+            let holds = |d: u8| op.holds(value(a, d, env), value(b, d, env));
+            Tri::of(if is_any(a) || is_any(b) {
+                (0..env.dirs()).any(holds)
+            } else {
+                holds(0)
+            })
+        }
+        Op::RCmp {
+            strict,
+            off,
+            counter,
+            b,
+        } => Tri::of(match env.cell(resolve(&prog.offsets[off as usize], env)) {
+            Cell::Agent(id) => {
+                let c = env.agent_counter(id, counter) as i32;
+                let holds = |d: u8| {
+                    let rhs = value(b, d, env);
+                    if strict != 0 {
+                        c < rhs
+                    } else {
+                        c <= rhs
+                    }
+                };
+                if is_any(b) {
+                    (0..env.dirs()).any(holds)
+                } else {
+                    holds(0)
+                }
+            }
+            _ => false,
+        }),
+        // Verified away: postcondition instructions never stand in a precondition.
+        _ => Tri::U,
+    }
 }
 
 /// What a calculation can go wrong with; the runtime turns these into records.

@@ -41,7 +41,39 @@ pub(super) struct CalcChunk<'a> {
     pub(super) out_text_bits: &'a mut [u8],
 }
 
-impl CalcChunk<'_> {
+impl<'a> CalcChunk<'a> {
+    /// `n` agents (of `nd` directions) split into `chunks` chunks of `size`: their counter
+    /// columns and outboxes (numeric columns, their bits, texts and their bits).
+    #[allow(clippy::type_complexity)]
+    pub(super) fn split(
+        counters: &'a mut [Vec<i16>],
+        (num, has, text, text_bits): (
+            &'a mut [Vec<i16>],
+            &'a mut [Vec<u64>],
+            &'a mut [[u8; 5]],
+            &'a mut [u8],
+        ),
+        (n, nd): (usize, usize),
+        (size, chunks): (usize, usize),
+    ) -> Vec<CalcChunk<'a>> {
+        let mut ctr = split_columns(counters, size, chunks).into_iter();
+        let mut onum = split_columns(num, size, chunks).into_iter();
+        let mut ohas = split_columns(has, size.div_ceil(64), chunks).into_iter();
+        let mut otext = parts(text, size * nd, chunks).into_iter();
+        let mut otbits = parts(text_bits, size, chunks).into_iter();
+        (0..chunks)
+            .map(|c| CalcChunk {
+                lo: c * size,
+                len: size.min(n - c * size),
+                counters: ctr.next().unwrap_or_default(),
+                out_num: onum.next().unwrap_or_default(),
+                out_has: ohas.next().unwrap_or_default(),
+                out_text: otext.next().unwrap_or_default(),
+                out_text_bits: otbits.next().unwrap_or_default(),
+            })
+            .collect()
+    }
+
     /// Counter `i` of the chunk's `k`-th agent.
     pub(super) fn counter(&self, lat: &Lattice, k: usize, i: u8) -> i16 {
         match lat.counter_col[i as usize] {
@@ -148,22 +180,13 @@ impl Post {
         let mut out_text = std::mem::take(&mut self.out_text);
         let mut out_text_bits = std::mem::take(&mut self.out_text_bits);
         let (par, size, chunks) = th.chunks(n);
-        let mut ctr = split_columns(&mut counters, size, chunks).into_iter();
-        let mut onum = split_columns(&mut out_num, size, chunks).into_iter();
-        let mut ohas = split_columns(&mut out_has, size.div_ceil(64), chunks).into_iter();
-        let mut otext = parts(&mut out_text, size * nd, chunks).into_iter();
-        let mut otbits = parts(&mut out_text_bits, size, chunks).into_iter();
-        let items: Vec<CalcChunk<'_>> = (0..chunks)
-            .map(|c| CalcChunk {
-                lo: c * size,
-                len: size.min(n - c * size),
-                counters: ctr.next().unwrap_or_default(),
-                out_num: onum.next().unwrap_or_default(),
-                out_has: ohas.next().unwrap_or_default(),
-                out_text: otext.next().unwrap_or_default(),
-                out_text_bits: otbits.next().unwrap_or_default(),
-            })
-            .collect();
+        let cols = (
+            &mut out_num[..],
+            &mut out_has[..],
+            &mut out_text[..],
+            &mut out_text_bits[..],
+        );
+        let items = CalcChunk::split(&mut counters, cols, (n, nd), (size, chunks));
         let post_columns = &plan.post_columns;
         // When every agent executes the same one rule, runs need no search.
         let uniform = sel.many.is_empty() && fire_counts.contains(&(n as u64));

@@ -590,11 +590,35 @@ impl World {
     }
 
     fn actions(&mut self, sel: &[Vec<usize>], judged: &[Judged], recs: &mut Vec<Rec>, step: u64) {
-        let n = self.agents.len();
-        let nd = self.dim.dirs();
         if sel.iter().all(|s| s.is_empty()) {
             return;
         }
+        let asked = self.asked(sel, judged);
+        // Partners before anything changes.
+        let partner = self.partners();
+        // 1. Detach.
+        let rigid = self.rigid(&partner, &asked.letters);
+        // 3. Move. Groups: flood fill over rigid bonds.
+        self.move_groups(&asked, (&partner, &rigid), recs, step);
+        // 4. Attach.
+        self.attach_after(&asked.letters, &partner, rigid, recs, step);
+        // 5. State.
+        for a in 0..self.agents.len() {
+            for i in 0..5 {
+                if let Some(c) = asked.newstate[a][i] {
+                    self.agents[a].state[i] = c;
+                }
+            }
+        }
+        // 6. Swaps. A request towards an agent that takes part in no swap is cancelled
+        // (a swap-target record) but still counts when pairs are judged.
+        self.swaps(&asked, recs, step);
+    }
+
+    /// What each agent's selected rules ask for, with the conflicts `judged` left out.
+    fn asked(&self, sel: &[Vec<usize>], judged: &[Judged]) -> Asked {
+        let n = self.agents.len();
+        let nd = self.dim.dirs();
         let mut mv: Vec<Option<[i32; 3]>> = vec![None; n];
         let mut mv_bad = vec![false; n];
         let mut swap: Vec<Option<Dir>> = vec![None; n];
@@ -628,8 +652,21 @@ impl World {
                 }
             }
         }
-        // Partners before anything changes.
-        let partner: Vec<Vec<Option<usize>>> = (0..n)
+        Asked {
+            mv,
+            mv_bad,
+            swap,
+            no_swap,
+            letters,
+            newstate,
+        }
+    }
+
+    /// Per agent and direction, its bonded partner.
+    fn partners(&self) -> Vec<Vec<Option<usize>>> {
+        let n = self.agents.len();
+        let nd = self.dim.dirs();
+        (0..n)
             .map(|a| {
                 (0..nd)
                     .map(|d| {
@@ -642,8 +679,13 @@ impl World {
                     })
                     .collect()
             })
-            .collect();
-        // 1. Detach.
+            .collect()
+    }
+
+    /// The bonds kept rigid through the moves.
+    fn rigid(&self, partner: &[Vec<Option<usize>>], letters: &[Vec<AttachLetter>]) -> Vec<u8> {
+        let n = self.agents.len();
+        let nd = self.dim.dirs();
         let mut rigid = vec![0u8; n];
         for a in 0..n {
             for d in 0..nd {
@@ -658,7 +700,20 @@ impl World {
                 }
             }
         }
-        // 3. Move. Groups: flood fill over rigid bonds.
+        rigid
+    }
+
+    /// The groups of rigid bonds moved whole, or not at all (with their records).
+    fn move_groups(
+        &mut self,
+        asked: &Asked,
+        (partner, rigid): (&[Vec<Option<usize>>], &[u8]),
+        recs: &mut Vec<Rec>,
+        step: u64,
+    ) {
+        let n = self.agents.len();
+        let nd = self.dim.dirs();
+        let (mv, mv_bad) = (&asked.mv, &asked.mv_bad);
         let mut group = vec![usize::MAX; n];
         for s in 0..n {
             if group[s] != usize::MAX {
@@ -768,8 +823,20 @@ impl World {
             }
         }
         self.reindex();
-        // 4. Attach.
-        let mut att = rigid.clone();
+    }
+
+    /// Bonds made after the moves.
+    fn attach_after(
+        &mut self,
+        letters: &[Vec<AttachLetter>],
+        partner: &[Vec<Option<usize>>],
+        rigid: Vec<u8>,
+        recs: &mut Vec<Rec>,
+        step: u64,
+    ) {
+        let n = self.agents.len();
+        let nd = self.dim.dirs();
+        let mut att = rigid;
         for a in 0..n {
             for d in 0..nd {
                 if att[a] & (1 << d) != 0 {
@@ -802,16 +869,14 @@ impl World {
         for a in 0..n {
             self.agents[a].attach = att[a];
         }
-        // 5. State.
-        for a in 0..n {
-            for i in 0..5 {
-                if let Some(c) = newstate[a][i] {
-                    self.agents[a].state[i] = c;
-                }
-            }
-        }
-        // 6. Swaps. A request towards an agent that takes part in no swap is cancelled
-        // (a swap-target record) but still counts when pairs are judged.
+    }
+
+    /// The swaps asked for, those sharing an agent or towards an agent that takes none
+    /// cancelled.
+    fn swaps(&mut self, asked: &Asked, recs: &mut Vec<Rec>, step: u64) {
+        let n = self.agents.len();
+        let nd = self.dim.dirs();
+        let (swap, no_swap) = (&asked.swap, &asked.no_swap);
         let mut reqs: Vec<(usize, usize)> = Vec::new();
         let mut dead: Vec<(usize, usize)> = Vec::new();
         for a in 0..n {
@@ -1034,4 +1099,15 @@ fn cmp(op: CmpOp, a: i32, b: i32) -> bool {
         CmpOp::Gt => a > b,
         CmpOp::Eq => a == b,
     }
+}
+
+/// What each agent's rules ask of the actions, conflicts left out.
+struct Asked {
+    mv: Vec<Option<[i32; 3]>>,
+    mv_bad: Vec<bool>,
+    swap: Vec<Option<Dir>>,
+    /// Agents that take part in no swap: their rules ask for different ones.
+    no_swap: Vec<bool>,
+    letters: Vec<Vec<AttachLetter>>,
+    newstate: Vec<[Option<u8>; 5]>,
 }
