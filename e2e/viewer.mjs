@@ -122,6 +122,50 @@ async function test(browser) {
   await page.close();
 }
 
+// 3D: stepped, rotated both ways and zoomed; clicking where agents are drawn inspects
+// those agents (picking through the drawn faces), with no script error.
+async function test3d(browser) {
+  const url = await serve('examples/spanning-tree/rules-3d.txt', 'examples/spanning-tree/agents-3d.txt');
+  const page = await browser.newPage({ viewport: { width: 1100, height: 640 } });
+  const errors = [];
+  page.on('pageerror', (e) => errors.push(e.message));
+  await page.goto(url);
+  await page.waitForFunction(() => window.latticesim && window.latticesim.ready);
+  for (let i = 1; i <= 3; i++) {
+    await page.click('#step');
+    await waitStep(page, i);
+  }
+  await page.click('#rot-right');
+  await page.click('#rot-right');
+  await page.click('#rot-left');
+  await page.evaluate(() => window.latticesim.zoom(1.3));
+  // Agents of the top layer: nothing is drawn over their top faces. An agent with another
+  // directly above it: that one covers its top face, and a click there picks another.
+  const pos = await page.evaluate(() => Array.from(window.latticesim.frame().pos));
+  const zs = pos.filter((_, k) => k % 3 === 2), top = Math.max(...zs);
+  const layer = zs.map((z, i) => (z === top ? i : -1)).filter((i) => i >= 0);
+  const at = (i) => pos.slice(3 * i, 3 * i + 3).join(',');
+  const cells = new Set(zs.map((_, i) => at(i)));
+  const inner = zs.findIndex((z, i) => cells.has([pos[3 * i], pos[3 * i + 1], z + 1].join(',')));
+  assert.ok(layer.length > 0 && inner >= 0, 'a shape of several layers');
+  const picked = [...new Set([layer[0], layer[layer.length - 1]])];
+  for (const id of picked) {
+    const [x, y] = await page.evaluate((id) => window.latticesim.screenOf(id), id);
+    await page.mouse.click(x, y);
+    await page.waitForFunction((id) => document.getElementById('insp-id')?.textContent === String(id), id);
+  }
+  // The covered agent: its top face's centre picks an agent drawn over it.
+  const over = await page.evaluate((id) => {
+    const r = document.querySelector('canvas').getBoundingClientRect();
+    const [x, y] = window.latticesim.screenOf(id);
+    return window.latticesim.pick(x - r.left, y - r.top);
+  }, inner);
+  assert.ok(over !== null && over !== inner, `agent ${inner} is covered (picked ${over})`);
+  assert.deepEqual(errors, [], 'no script errors in the page');
+  console.log(`ok: 3D stepped, rotated and zoomed; top-layer agents ${picked.join(" and ")} picked where they are drawn, agent ${inner} covered by agent ${over}`);
+  await page.close();
+}
+
 async function screenshot(browser, rules, agents, steps, file, setup) {
   const url = await serve(rules, agents);
   const page = await browser.newPage({ viewport: { width: 1100, height: 640 } });
@@ -140,6 +184,7 @@ const browser = await launch();
 const guard = setTimeout(() => { console.error('e2e: timed out'); process.exit(1); }, 180_000);
 try {
   await test(browser);
+  await test3d(browser);
   if (process.env.SCREENSHOTS) {
     await screenshot(browser, 'examples/reconfigure-line/rules.txt', 'examples/reconfigure-line/agents-30.txt', 450, 'viewer-2d.png',
       async (page) => {

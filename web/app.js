@@ -1,10 +1,13 @@
-// latticesim viewer and editor: the entry point (modules: api, player, panel, draw,
-// input, editor).
+// latticesim viewer and editor: the entry point. Modules (each imports only those
+// listed before it): api (the JSON API, DOM helpers), state (the run shown, the
+// selection), camera, draw2d, draw3d, draw (the canvas), panel (legend, records,
+// inspector), player (stepping, running), editor, input.
 
 import { api } from './api.js';
-import { gotoStep, player, setNote, showFrame } from './player.js';
-import { draw, resize, screenOf, zoom } from './draw.js';
+import { draw, pick, resize, screenOf, zoom } from './draw.js';
 import { editors, showDiagnostics, showStatus, showTab } from './editor.js';
+import { gotoStep, setNote, showFrame } from './player.js';
+import { player } from './state.js';
 import './input.js';
 
 // ---------------------------------------------------------------- start
@@ -30,8 +33,8 @@ async function start() {
   window.latticesim.ready = true;
 }
 
-// For tests and measurements (e2e/): where an agent is drawn, the frame, showing a frame,
-// drawing and zooming.
-window.latticesim = { screenOf, frame: () => player.frame, show: showFrame, draw, zoom, ready: false };
+// For tests and measurements (e2e/): where an agent is drawn (page coordinates), the agent
+// drawn at a canvas point, the frame, showing a frame, drawing and zooming.
+window.latticesim = { screenOf, pick, frame: () => player.frame, show: showFrame, draw, zoom, ready: false };
 window.addEventListener('resize', resize);
 start();

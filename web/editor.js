@@ -1,9 +1,10 @@
 // The tabs and the two editors: texts, diagnostics underlined as you type, apply.
 
 import { $, api, el, escapeHtml } from './api.js';
-import { player, showFrame } from './player.js';
-import { selection } from './panel.js';
-import { camera, resize } from './draw.js';
+import { camera } from './camera.js';
+import { resize } from './draw.js';
+import { showFrame } from './player.js';
+import { player, selection } from './state.js';
 
 // ---------------------------------------------------------------- tabs
 

@@ -1,9 +1,11 @@
 // Mouse and keys on the view, and the toolbar buttons.
 
 import { $ } from './api.js';
-import { currentStep, gotoStep, player, toggleRun } from './player.js';
+import { camera } from './camera.js';
+import { canvas, draw, fit, pick, zoom } from './draw.js';
 import { inspect } from './panel.js';
-import { camera, canvas, draw, fit, pick, zoom } from './draw.js';
+import { currentStep, gotoStep, toggleRun } from './player.js';
+import { player } from './state.js';
 
 // ---------------------------------------------------------------- mouse and keys
 

@@ -2,12 +2,7 @@
 
 import { $, api, el } from './api.js';
 import { draw } from './draw.js';
-
-export const selection = {
-  selected: null,    // the inspected agent id
-  highlight: new Set(),
-  activeRecord: -1,
-};
+import { selection } from './state.js';
 
 // ---------------------------------------------------------------- side panel
 

@@ -1,16 +1,10 @@
 // Stepping: the frame shown, going to a step, running and pausing.
 
 import { $, api } from './api.js';
-import { inspect, selection, showLegend, showRecords, showStats } from './panel.js';
-import { camera, draw, fit } from './draw.js';
-
-export const player = {
-  frame: null,       // the configuration shown (see Frame in src/serve.rs)
-  running: false,
-  target: null,      // step asked for while a request is under way
-  busy: false,
-  session: null,
-};
+import { camera } from './camera.js';
+import { draw, fit } from './draw.js';
+import { inspect, showLegend, showRecords, showStats } from './panel.js';
+import { player, selection } from './state.js';
 
 // ---------------------------------------------------------------- stepping
 

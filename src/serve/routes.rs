@@ -5,7 +5,7 @@
 use super::*;
 
 /// The app's files: path, content type, content (the script is ES modules, `web/*.js`).
-const ASSETS: [(&str, &str, &str); 10] = [
+const ASSETS: [(&str, &str, &str); 14] = [
     ("/", HTML, include_str!("../../web/index.html")),
     ("/index.html", HTML, include_str!("../../web/index.html")),
     (
@@ -15,9 +15,13 @@ const ASSETS: [(&str, &str, &str); 10] = [
     ),
     ("/app.js", JS, include_str!("../../web/app.js")),
     ("/api.js", JS, include_str!("../../web/api.js")),
+    ("/state.js", JS, include_str!("../../web/state.js")),
     ("/player.js", JS, include_str!("../../web/player.js")),
     ("/panel.js", JS, include_str!("../../web/panel.js")),
+    ("/camera.js", JS, include_str!("../../web/camera.js")),
     ("/draw.js", JS, include_str!("../../web/draw.js")),
+    ("/draw2d.js", JS, include_str!("../../web/draw2d.js")),
+    ("/draw3d.js", JS, include_str!("../../web/draw3d.js")),
     ("/input.js", JS, include_str!("../../web/input.js")),
     ("/editor.js", JS, include_str!("../../web/editor.js")),
 ];

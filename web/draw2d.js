@@ -1,0 +1,116 @@
+// Drawing a 2D frame: an image of one pixel per cell scaled up (a square per agent when
+// they spread too far), the universe's outline, bonds and the marks of selected agents;
+// and which agent stands at a point.
+
+import { agentCount, bbox, camera } from './camera.js';
+import { selection } from './state.js';
+
+// The 2D frame as an image of one pixel per cell (north up), made once per frame; none
+// when the agents' bounding box has more than 16 million cells.
+function bitmap(f) {
+  if (camera.bmp && camera.bmp.frame === f) return camera.bmp;
+  const b = bbox(f);
+  const w = b.hi[0] - b.lo[0] + 1, h = b.hi[1] - b.lo[1] + 1;
+  camera.bmp = { frame: f, canvas: null, lo: b.lo, hi: b.hi };
+  if (agentCount(f) === 0 || w * h > 16e6) return camera.bmp;
+  const c = document.createElement('canvas');
+  c.width = w;
+  c.height = h;
+  const cx = c.getContext('2d');
+  const img = cx.createImageData(w, h);
+  const px = new Uint32Array(img.data.buffer);
+  // RGBA bytes in a little-endian word: 0xAABBGGRR.
+  const cols = f.states.map((st) => {
+    const v = parseInt(st.colour.slice(1), 16);
+    return (0xff000000 | ((v & 0xff) << 16) | (v & 0xff00) | (v >> 16)) >>> 0;
+  });
+  for (let i = 0; i < agentCount(f); i++) {
+    px[(b.hi[1] - f.pos[2 * i + 1]) * w + (f.pos[2 * i] - b.lo[0])] = cols[f.state[i]];
+  }
+  cx.putImageData(img, 0, 0);
+  camera.bmp.canvas = c;
+  return camera.bmp;
+}
+
+export function draw2d(ctx, f, r) {
+  const s = camera.scale, n = agentCount(f);
+  const gap = s >= 6 ? Math.max(1, s * 0.06) : 0;
+  // Cells on screen, to skip agents outside the view.
+  const x0 = Math.floor(-camera.ox / s) - 1, x1 = Math.ceil((r.width - camera.ox) / s) + 1;
+  const y0 = Math.floor((camera.oy - r.height) / s) - 1, y1 = Math.ceil(camera.oy / s) + 1;
+  if (f.universe) {
+    const u = f.universe;
+    ctx.strokeStyle = '#888';
+    ctx.lineWidth = 1;
+    const clamp = (v) => Math.max(-1e6, Math.min(1e6, v));
+    ctx.strokeRect(clamp(camera.ox + u[0][0] * s), clamp(camera.oy - (u[1][1] + 1) * s),
+      clamp((u[0][1] - u[0][0] + 1) * s), clamp((u[1][1] - u[1][0] + 1) * s));
+  }
+  const bmp = bitmap(f);
+  if (bmp.canvas) {
+    // One pixel per cell, scaled up without smoothing: one image whatever the agent count.
+    const [lo, hi] = [bmp.lo, bmp.hi];
+    ctx.imageSmoothingEnabled = false;
+    ctx.drawImage(bmp.canvas, camera.ox + lo[0] * s, camera.oy - (hi[1] + 1) * s,
+      (hi[0] - lo[0] + 1) * s, (hi[1] - lo[1] + 1) * s);
+    if (gap > 0) {
+      // The gaps between cells, as white lines over the visible part of the image.
+      ctx.fillStyle = '#fff';
+      for (let x = Math.max(x0, lo[0]); x <= Math.min(x1, hi[0] + 1); x++) {
+        ctx.fillRect(camera.ox + x * s - gap, camera.oy - (hi[1] + 1) * s, 2 * gap, (hi[1] - lo[1] + 1) * s);
+      }
+      for (let y = Math.max(y0, lo[1]); y <= Math.min(y1, hi[1] + 1); y++) {
+        ctx.fillRect(camera.ox + lo[0] * s, camera.oy - y * s - gap, (hi[0] - lo[0] + 1) * s, 2 * gap);
+      }
+    }
+  } else {
+    // Agents spread too far for an image: a square each, only those on screen.
+    const groups = f.states.map(() => []);
+    for (let i = 0; i < n; i++) {
+      const x = f.pos[2 * i], y = f.pos[2 * i + 1];
+      if (x < x0 || x > x1 || y < y0 || y > y1) continue;
+      groups[f.state[i]].push(i);
+    }
+    const w = Math.max(s - 2 * gap, 0.6);
+    groups.forEach((g, k) => {
+      ctx.fillStyle = f.states[k].colour;
+      for (const i of g) {
+        ctx.fillRect(camera.ox + f.pos[2 * i] * s + gap, camera.oy - (f.pos[2 * i + 1] + 1) * s + gap, w, w);
+      }
+    });
+  }
+  if (f.attach) {
+    ctx.strokeStyle = '#333';
+    ctx.lineWidth = Math.max(1, s * 0.1);
+    ctx.beginPath();
+    for (let i = 0; i < n; i++) {
+      const x = f.pos[2 * i], y = f.pos[2 * i + 1];
+      if (!f.attach[i] || x < x0 || x > x1 || y < y0 || y > y1) continue;
+      const cx = camera.ox + (x + 0.5) * s, cy = camera.oy - (y + 0.5) * s;
+      if (f.attach[i] & 1) { ctx.moveTo(cx, cy); ctx.lineTo(cx, cy - s); } // north
+      if (f.attach[i] & 4) { ctx.moveTo(cx, cy); ctx.lineTo(cx + s, cy); } // east
+    }
+    ctx.stroke();
+  }
+  const ring = (i, colour, width) => {
+    ctx.strokeStyle = colour;
+    ctx.lineWidth = width;
+    ctx.strokeRect(camera.ox + f.pos[2 * i] * s - 1, camera.oy - (f.pos[2 * i + 1] + 1) * s - 1, s + 2, s + 2);
+  };
+  for (const i of selection.highlight) { ring(i, '#000', 4); ring(i, '#ffd400', 2); }
+  if (selection.selected !== null && selection.selected < n) { ring(selection.selected, '#fff', 4); ring(selection.selected, '#0050ff', 2); }
+}
+
+// The agent at canvas point (x, y) of frame `f`, or null.
+export function pick2d(f, x, y) {
+  const cx = Math.floor((x - camera.ox) / camera.scale), cy = Math.floor((camera.oy - y) / camera.scale);
+  for (let i = 0; i < agentCount(f); i++) {
+    if (f.pos[2 * i] === cx && f.pos[2 * i + 1] === cy) return i;
+  }
+  return null;
+}
+
+// Where agent `id` of frame `f` is drawn, in canvas coordinates.
+export function centre2d(f, id) {
+  return [camera.ox + (f.pos[2 * id] + 0.5) * camera.scale, camera.oy - (f.pos[2 * id + 1] + 0.5) * camera.scale];
+}
