@@ -128,6 +128,12 @@ fn bits_are(bits: &[u64], range: std::ops::Range<usize>, word: u64) -> bool {
         }
 }
 
+/// The word and the bit of index `i` in a bit set.
+#[inline]
+pub(crate) fn bit(i: usize) -> (usize, u64) {
+    (i / 64, 1 << (i % 64))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

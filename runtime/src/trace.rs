@@ -2,6 +2,11 @@
 
 use serde::Serialize;
 
+/// A state or a text message as trace events write it.
+pub(crate) fn text(s: &[u8; 5]) -> String {
+    String::from_utf8_lossy(s).into_owned()
+}
+
 /// One thing that happened to an agent in a step.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
 #[serde(tag = "event", rename_all = "kebab-case")]

@@ -9,12 +9,12 @@
 // that more plainly than zipped iterators over five columns.
 #![allow(clippy::needless_range_loop)]
 
-use crate::bits::{all_bits, clear_bits, is_sequence, no_bits, ones, run_of, set_bits};
+use crate::bits::{all_bits, bit, clear_bits, is_sequence, no_bits, ones, run_of, set_bits};
 use crate::cells::{NO_SLOT, RIM};
 use crate::lattice::Lattice;
 use crate::lattice::{Pending, Undo, Writes, NO_AGENT, NO_COL};
 use crate::record::{Record, RecordKind};
-use crate::trace::TraceEvent;
+use crate::trace::{text, TraceEvent};
 use latticesim_vm::eval::{eval_pre, run_post, CalcEnv, CalcIssue, Cell, Env, Tri};
 use latticesim_vm::model::{AttachLetter, CalcOp, CmpOp, Coord, Dir, TextPat};
 use latticesim_vm::op::{Op, Target, Val, ANY_DIR};
@@ -26,20 +26,21 @@ use std::collections::BTreeMap;
 mod actions;
 mod batch;
 mod calc;
+mod chunk;
 mod dispatch;
-mod moves;
 mod plan;
 mod post;
 mod select;
+mod selection;
 mod threads;
 use actions::*;
 use batch::*;
-use calc::*;
+use chunk::*;
 use dispatch::*;
-use moves::*;
-use plan::Plan;
+use plan::*;
 use post::*;
 use select::*;
+use selection::*;
 pub use threads::AGENTS_PER_THREAD;
 use threads::*;
 

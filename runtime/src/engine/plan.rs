@@ -148,3 +148,53 @@ fn writes(prog: &Program) -> Writes {
     }
     w
 }
+
+/// What a program's actions are, taken together: none, only moves by literal offsets
+/// ([`Plan::plain_moves`]), only state changes ([`Plan::direct_bits`]), or others.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Acting {
+    Nothing,
+    PlainMoves,
+    States,
+    Mixed,
+}
+
+impl Acting {
+    pub(super) fn of(
+        acts: &[bool],
+        plain: &[Option<[i32; 3]>],
+        direct: &[Option<(u64, u64)>],
+    ) -> Acting {
+        let acting = |kind: &dyn Fn(usize) -> bool| (0..acts.len()).all(|r| !acts[r] || kind(r));
+        if !acts.contains(&true) {
+            Acting::Nothing
+        } else if acting(&|r| plain[r].is_some()) {
+            Acting::PlainMoves
+        } else if acting(&|r| direct[r].is_some()) {
+            Acting::States
+        } else {
+            Acting::Mixed
+        }
+    }
+}
+
+/// A state pattern as (mask of the characters it sets, their values) over state keys.
+pub(super) fn pat_bits(pat: &TextPat) -> (u64, u64) {
+    let (mut mask, mut val) = ([0u8; 8], [0u8; 8]);
+    for (i, p) in pat.iter().enumerate() {
+        if let Some(p) = p {
+            mask[i] = 0xff;
+            val[i] = *p;
+        }
+    }
+    (u64::from_le_bytes(mask), u64::from_le_bytes(val))
+}
+
+/// An offset's value when it has no counter in it.
+pub(super) fn literal(o: &latticesim_vm::model::Offset) -> Option<[i32; 3]> {
+    let lit = |c: &Coord| match *c {
+        Coord::Lit(v) => Some(v),
+        Coord::Counter(_) => None,
+    };
+    Some([lit(&o[0])?, lit(&o[1])?, lit(&o[2])?])
+}

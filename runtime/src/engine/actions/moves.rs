@@ -60,12 +60,6 @@ pub(super) struct MoveScratch {
     pub(super) codes: Vec<u32>,
 }
 
-/// The word and the bit of index `i` in a bit set.
-#[inline]
-pub(super) fn bit(i: usize) -> (usize, u64) {
-    (i / 64, 1 << (i % 64))
-}
-
 impl MoveScratch {
     /// Marks agent `a` as moving, and its target's grid slot `s` (if any) as claimed.
     #[inline]

@@ -1,0 +1,73 @@
+//! The selection: the rules each agent executes in a step, one entry per agent, as the
+//! rule dispatch, the selection phase, the actions and the calculations read it.
+
+/// The rules each agent executes in a step: one entry per agent, either [`NO_RULE`], a
+/// rule, or [`MANY`] with an index into `starts`/`many` (in file order).
+#[derive(Default)]
+pub(super) struct Selection {
+    pub(super) one: Vec<u32>,
+    pub(super) starts: Vec<u32>,
+    pub(super) many: Vec<u32>,
+}
+
+pub(super) const NO_RULE: u32 = u32::MAX;
+
+pub(super) const MANY: u32 = 1 << 31;
+
+impl Selection {
+    /// The rules agent `a` executes, in file order.
+    #[inline]
+    pub(super) fn of(&self, a: usize) -> &[u32] {
+        match self.one[a] {
+            NO_RULE => &[],
+            v if v & MANY == 0 => std::slice::from_ref(&self.one[a]),
+            v => {
+                let k = (v & !MANY) as usize;
+                &self.many[self.starts[k] as usize..self.starts[k + 1] as usize]
+            }
+        }
+    }
+
+    /// Sets agent `a`'s rules (agents must be set in increasing order for several rules).
+    pub(super) fn set(&mut self, a: usize, rules: &[u32]) {
+        self.one[a] = match rules {
+            [] => NO_RULE,
+            [r] => *r,
+            _ => {
+                if self.starts.is_empty() {
+                    self.starts.push(0);
+                }
+                self.many.extend_from_slice(rules);
+                self.starts.push(self.many.len() as u32);
+                MANY | (self.starts.len() - 2) as u32
+            }
+        };
+    }
+
+    pub(super) fn reset(&mut self, n: usize) {
+        self.one.clear();
+        self.one.resize(n, NO_RULE);
+        self.starts.clear();
+        self.many.clear();
+    }
+}
+
+/// Adds to `counts` how many agents of the selection `one` execute each single rule,
+/// counting runs of equal entries at once, and returns how many execute any rule.
+pub(super) fn count_runs(one: &[u32], counts: &mut [u64]) -> u64 {
+    let mut active = 0;
+    let mut run = (NO_RULE, 0u64);
+    for &v in one.iter().chain([&NO_RULE]) {
+        if v != run.0 {
+            if run.0 != NO_RULE {
+                active += run.1;
+            }
+            if run.0 & MANY == 0 {
+                counts[run.0 as usize] += run.1;
+            }
+            run = (v, 0);
+        }
+        run.1 += 1;
+    }
+    active
+}
