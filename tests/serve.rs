@@ -324,6 +324,16 @@ fn bad_requests_get_clear_errors_and_the_server_goes_on() {
     let (s, _) = srv.raw(b"NONSENSE\r\n\r\n");
     assert_eq!(s, 400);
     srv.alive();
+}
+
+#[test]
+fn files_outside_the_folder_or_with_errors_are_refused_and_the_run_goes_on() {
+    let srv = start(
+        "files",
+        "examples/leader-election/rules.txt",
+        "examples/leader-election/agents-30.txt",
+    );
+    let err = |r: (u16, Value)| (r.0, r.1["error"].as_str().unwrap_or("").to_string());
 
     // Paths outside the working folder: relative, absolute, and through a symbolic link.
     for p in [

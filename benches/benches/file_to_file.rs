@@ -153,8 +153,10 @@ fn main() {
     }
     let quick = std::env::var_os("FILE_QUICK").is_some();
     let big = std::env::var_os("FILE_BIG").is_some();
-    let exe = latticesim();
-    let native = PathBuf::from(env!("CARGO_BIN_EXE_b1f_native"));
+    let exes = (
+        latticesim(),
+        PathBuf::from(env!("CARGO_BIN_EXE_b1f_native")),
+    );
     let dir = root().join("target/b1f");
     std::fs::create_dir_all(&dir).unwrap();
     let rules = dir.join("rules.txt");
@@ -167,74 +169,95 @@ fn main() {
         sizes.push((10000, 5));
     }
     let reps = 3;
-    let mut rows = Vec::new();
-    for &(l, steps) in &sizes {
-        let input = agents_file(&dir, l);
-        let (o1, o2) = (dir.join("out-latticesim.txt"), dir.join("out-native.txt"));
-        let s = steps.to_string();
-        let mut best_ls = (Duration::MAX, 0);
-        let mut best_native = (Duration::MAX, 0);
-        let reps = if l >= 10000 { 1 } else { reps };
-        for _ in 0..reps {
-            // Each run writes a new file on a quiet disk: its output of the last run is
-            // removed and every dirty page written out first, so that neither program pays
-            // for the other's writing (or for replacing a file of gigabytes).
-            let fresh = |out: &Path| {
-                let _ = std::fs::remove_file(out);
-                // SAFETY: sync takes no arguments and cannot fail.
-                unsafe { libc::sync() };
-            };
-            fresh(&o1);
-            let a = measure(
-                Command::new(&exe)
-                    .args(["run", "-q", "--max-steps", &s, "--out"])
-                    .arg(&o1)
-                    .arg(&rules)
-                    .arg(&input),
-            );
-            fresh(&o2);
-            let b = measure(Command::new(&native).arg(&input).arg(&s).arg(&o2));
-            best_ls = (best_ls.0.min(a.0), best_ls.1.max(a.1));
-            best_native = (best_native.0.min(b.0), best_native.1.max(b.1));
-        }
-        let same = same_files(&o1, &o2);
-        assert!(
-            same,
-            "L = {l}: latticesim and the native program wrote different files"
-        );
-        let sum = checksum(&o1);
-        if (l, steps) == (1000, 50) {
-            assert_eq!(
-                sum, 32744877892,
-                "WORKLOADS.md's checksum of B1 L=1000 S=50"
-            );
-        }
-        let row = Row {
-            l,
-            n: l * l,
-            steps,
-            bytes: std::fs::metadata(&input).unwrap().len(),
-            ls: best_ls,
-            native: best_native,
-        };
-        eprintln!(
-            "L = {l}, S = {steps}: latticesim {:.3} s {:.1} B/agent, native {:.3} s {:.1} B/agent, ratio {:.2}, checksum {sum}",
-            row.ls.0.as_secs_f64(),
-            row.ls.1 as f64 / row.n as f64,
-            row.native.0.as_secs_f64(),
-            row.native.1 as f64 / row.n as f64,
-            row.ls.0.as_secs_f64() / row.native.0.as_secs_f64()
-        );
-        rows.push(row);
-    }
+    let rows: Vec<Row> = (sizes.iter())
+        .map(|&(l, steps)| one_size(&exes, (&dir, &rules), (l, steps), reps))
+        .collect();
     // Reading alone on one core, and check --agents, on the largest file but the big one.
     let (l, _) = *sizes.iter().rev().find(|s| s.0 < 10000).unwrap();
-    let input = agents_file(&dir, l);
+    let (read_rate, check_per) = read_and_check(&exes.0, (&dir, &rules), l, reps);
+    // The .zst form of the biggest file, in and out.
+    let (zl, zs) = *sizes.last().unwrap();
+    let z = compressed(&exes.0, (&dir, &rules), zl, zs);
+    report(&rows);
+    println!("\nreading on one core: {read_rate:.0} MB/s; check --agents at n = {}: {check_per:.1} B/agent; L = {zl} .zst to .zst: {:.3} s, {:.1} B/agent", l * l, z.0.as_secs_f64(), z.1 as f64 / (zl * zl) as f64);
+}
+
+/// B1 on an L x L block for `steps` steps from file to file, by latticesim and by the
+/// plain program, each the best of `reps` runs; both outputs equal.
+fn one_size(
+    (exe, native): &(PathBuf, PathBuf),
+    (dir, rules): (&Path, &Path),
+    (l, steps): (u64, u64),
+    reps: usize,
+) -> Row {
+    let input = agents_file(dir, l);
+    let (o1, o2) = (dir.join("out-latticesim.txt"), dir.join("out-native.txt"));
+    let s = steps.to_string();
+    let mut best_ls = (Duration::MAX, 0);
+    let mut best_native = (Duration::MAX, 0);
+    let reps = if l >= 10000 { 1 } else { reps };
+    for _ in 0..reps {
+        // Each run writes a new file on a quiet disk: its output of the last run is
+        // removed and every dirty page written out first, so that neither program pays
+        // for the other's writing (or for replacing a file of gigabytes).
+        let fresh = |out: &Path| {
+            let _ = std::fs::remove_file(out);
+            // SAFETY: sync takes no arguments and cannot fail.
+            unsafe { libc::sync() };
+        };
+        fresh(&o1);
+        let a = measure(
+            Command::new(exe)
+                .args(["run", "-q", "--max-steps", &s, "--out"])
+                .arg(&o1)
+                .arg(rules)
+                .arg(&input),
+        );
+        fresh(&o2);
+        let b = measure(Command::new(native).arg(&input).arg(&s).arg(&o2));
+        best_ls = (best_ls.0.min(a.0), best_ls.1.max(a.1));
+        best_native = (best_native.0.min(b.0), best_native.1.max(b.1));
+    }
+    let same = same_files(&o1, &o2);
+    assert!(
+        same,
+        "L = {l}: latticesim and the native program wrote different files"
+    );
+    let sum = checksum(&o1);
+    if (l, steps) == (1000, 50) {
+        assert_eq!(
+            sum, 32744877892,
+            "WORKLOADS.md's checksum of B1 L=1000 S=50"
+        );
+    }
+    let row = Row {
+        l,
+        n: l * l,
+        steps,
+        bytes: std::fs::metadata(&input).unwrap().len(),
+        ls: best_ls,
+        native: best_native,
+    };
+    eprintln!(
+        "L = {l}, S = {steps}: latticesim {:.3} s {:.1} B/agent, native {:.3} s {:.1} B/agent, ratio {:.2}, checksum {sum}",
+        row.ls.0.as_secs_f64(),
+        row.ls.1 as f64 / row.n as f64,
+        row.native.0.as_secs_f64(),
+        row.native.1 as f64 / row.n as f64,
+        row.ls.0.as_secs_f64() / row.native.0.as_secs_f64()
+    );
+    row
+}
+
+/// The rate of reading on one core (MB/s) and the peak memory of `check --agents` per
+/// agent, on the L x L file.
+fn read_and_check(exe: &Path, (dir, rules): (&Path, &Path), l: u64, reps: usize) -> (f64, f64) {
+    let input = agents_file(dir, l);
     let stats = dir.join("read-stats.json");
     let mut read_best = f64::MAX;
     for _ in 0..reps {
         measure(
-            Command::new(&exe)
+            Command::new(exe)
                 .args([
                     "run",
                     "-q",
@@ -247,7 +270,7 @@ fn main() {
                     "--stats",
                 ])
                 .arg(&stats)
-                .arg(&rules)
+                .arg(rules)
                 .arg(&input),
         );
         let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
@@ -256,23 +279,26 @@ fn main() {
     let mb = std::fs::metadata(&input).unwrap().len() as f64 / 1e6;
     let read_rate = mb / read_best;
     let check = measure(
-        Command::new(&exe)
+        Command::new(exe)
             .args(["check", "--color", "never"])
-            .arg(&rules)
+            .arg(rules)
             .arg("--agents")
             .arg(&input),
     );
     let check_per = check.1 as f64 / (l * l) as f64;
     eprintln!("reading on one core: {read_rate:.0} MB/s ({mb:.1} MB in {read_best:.3} s); check --agents: {check_per:.1} B/agent");
-    // The .zst form of the biggest file, in and out.
-    let (zl, zs) = *sizes.last().unwrap();
+    (read_rate, check_per)
+}
+
+/// L x L for `zs` steps from a .zst file to a .zst file: the time and peak memory.
+fn compressed(exe: &Path, (dir, rules): (&Path, &Path), zl: u64, zs: u64) -> (Duration, u64) {
     let zin = dir.join(format!("b1_{zl}.txt.zst"));
     if !zin.exists() {
-        let ok = Command::new(&exe)
+        let ok = Command::new(exe)
             .args(["run", "-q", "--max-steps", "0", "--out"])
             .arg(&zin)
-            .arg(&rules)
-            .arg(agents_file(&dir, zl))
+            .arg(rules)
+            .arg(agents_file(dir, zl))
             .status()
             .unwrap()
             .success();
@@ -283,10 +309,10 @@ fn main() {
     // SAFETY: as above.
     unsafe { libc::sync() };
     let z = measure(
-        Command::new(&exe)
+        Command::new(exe)
             .args(["run", "-q", "--max-steps", &zs.to_string(), "--out"])
             .arg(&zout)
-            .arg(&rules)
+            .arg(rules)
             .arg(&zin),
     );
     eprintln!(
@@ -295,8 +321,11 @@ fn main() {
         z.1 as f64 / (zl * zl) as f64,
         std::fs::metadata(&zin).unwrap().len() as f64 / 1e6
     );
+    z
+}
 
-    // Report.
+/// The CSV in docs/data, the plots in docs/img, and the table of docs/performance.md.
+fn report(rows: &[Row]) {
     let data = root().join("docs/data");
     let img = root().join("docs/img");
     std::fs::create_dir_all(&data).unwrap();
@@ -304,7 +333,7 @@ fn main() {
     let mut csv = String::from(
         "l,n,steps,file_bytes,latticesim_s,latticesim_peak_bytes,native_s,native_peak_bytes\n",
     );
-    for r in &rows {
+    for r in rows {
         csv += &format!(
             "{},{},{},{},{:.4},{},{:.4},{}\n",
             r.l,
@@ -365,7 +394,7 @@ fn main() {
     .expect("plot");
     println!("| n | steps | file | latticesim | native | latticesim / native | latticesim peak per agent | native peak per agent |");
     println!("|---:|---:|---:|---:|---:|---:|---:|---:|");
-    for r in &rows {
+    for r in rows {
         println!(
             "| {} | {} | {:.1} MB | {:.3} s | {:.3} s | {:.2} | {:.1} B | {:.1} B |",
             r.n,
@@ -378,5 +407,4 @@ fn main() {
             r.native.1 as f64 / r.n as f64
         );
     }
-    println!("\nreading on one core: {read_rate:.0} MB/s; check --agents at n = {}: {check_per:.1} B/agent; L = {zl} .zst to .zst: {:.3} s, {:.1} B/agent", l * l, z.0.as_secs_f64(), z.1 as f64 / (zl * zl) as f64);
 }

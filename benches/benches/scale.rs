@@ -411,38 +411,15 @@ fn main() {
         (&[100, 316, 1000, 3162], 1000, &[316, 1000], 1000)
     };
     if std::env::var("SCALE_PLOT_ONLY").is_err() {
-        b1_by_n(&mut out, b1_sizes);
-        b3_by_k(&mut out, b3_l, &[1, 2, 4, 16, 64, 256]);
-        b2_ratio(&mut out, b2_sizes);
-        threads(&mut out, big_l);
-        let mut cases = vec![
-            (format!("B1 L={big_l}, 50 steps"), format!("b1 {big_l} 50")),
-            (
-                "1,000,000 agents scattered in 1,000,000 x 1,000,000, B1 rules, 10 steps"
-                    .to_string(),
-                "sparse 1000000 1000000 10".to_string(),
-            ),
-            (
-                "1,000,000 agents scattered in 10,000 x 10,000, B1 rules, 10 steps".to_string(),
-                "sparse 1000000 10000 10".to_string(),
-            ),
-        ];
-        if quick {
-            cases.truncate(1);
-        } else {
-            cases.insert(1, ("B1 L=3162, 50 steps".into(), "b1 3162 50".into()));
-        }
-        if std::env::var("SCALE_BIG").is_ok() {
-            cases.push((
-                "B1 L=10000, 50 steps, 2 threads".into(),
-                "b1 10000 50 2".into(),
-            ));
-        }
-        let refs: Vec<(&str, String)> =
-            cases.iter().map(|(a, b)| (a.as_str(), b.clone())).collect();
-        memory(&mut out, &refs);
+        measure(&mut out, quick, (b1_sizes, big_l, b2_sizes, b3_l));
     }
     // The plots are drawn from the CSV files (SCALE_PLOT_ONLY=1 redraws them alone).
+    plots(&out);
+    println!("{}", out.md);
+}
+
+/// The plots of docs/performance.md, from the CSV files of docs/data.
+fn plots(out: &Out) {
     let table = |name: &str| -> Vec<Vec<f64>> {
         std::fs::read_to_string(out.data.join(name))
             .unwrap_or_default()
@@ -525,5 +502,40 @@ fn main() {
             eprintln!("plot: {e}");
         }
     }
-    println!("{}", out.md);
+}
+
+/// Every measurement of the report: B1 by n, B3 by k, B2, threads, memory.
+fn measure(
+    out: &mut Out,
+    quick: bool,
+    (b1_sizes, big_l, b2_sizes, b3_l): (&[u64], u64, &[u64], u64),
+) {
+    b1_by_n(out, b1_sizes);
+    b3_by_k(out, b3_l, &[1, 2, 4, 16, 64, 256]);
+    b2_ratio(out, b2_sizes);
+    threads(out, big_l);
+    let mut cases = vec![
+        (format!("B1 L={big_l}, 50 steps"), format!("b1 {big_l} 50")),
+        (
+            "1,000,000 agents scattered in 1,000,000 x 1,000,000, B1 rules, 10 steps".to_string(),
+            "sparse 1000000 1000000 10".to_string(),
+        ),
+        (
+            "1,000,000 agents scattered in 10,000 x 10,000, B1 rules, 10 steps".to_string(),
+            "sparse 1000000 10000 10".to_string(),
+        ),
+    ];
+    if quick {
+        cases.truncate(1);
+    } else {
+        cases.insert(1, ("B1 L=3162, 50 steps".into(), "b1 3162 50".into()));
+    }
+    if std::env::var("SCALE_BIG").is_ok() {
+        cases.push((
+            "B1 L=10000, 50 steps, 2 threads".into(),
+            "b1 10000 50 2".into(),
+        ));
+    }
+    let refs: Vec<(&str, String)> = cases.iter().map(|(a, b)| (a.as_str(), b.clone())).collect();
+    memory(out, &refs);
 }

@@ -706,6 +706,53 @@ fn block(w: i32, h: i32, extra: impl Fn(i32, i32, usize) -> String) -> String {
     s
 }
 
+const FLOOD: &str = "flood\n1\nS*****\nC00 A C00 #N01 C00 A C00 #W01 C00 A C00 #E01 C00 A C00 #S01 #*01 + C00 0000\n";
+const FALL: &str = "fall\n1\nN***0 >C00 0000\nP0,-1 C00 - C00 0001\n";
+const CHAIN: &str = "even\n2\nP**<*\nC00 + C00 0001\n\nodd\n1\nS*****\nC01 + C01 0001\n";
+const MIXED: &str = "grow\n2\nSA****\nC00 I C00 #N01 C01 * C00 C00 C02 / C01 C03 #*01 + C00 0000 SB****\n\nshrink\n1\nSB****\nC00 I C00 #S01 C02 M C00 C03 #E02 + C02 0000 SA****\n";
+const PLAIN: &str = "east\n1\nSE****\nP1,0\n\nwest\n1\nSW****\nP-1,0\n\nnorth\n1\nSN****\nP0,1\n\nbehind\n1\nN*1**\nC01 + C01 0001\n";
+
+/// `k` rules stepping states R0000, R0001, ... round a cycle.
+fn cycle(k: usize) -> String {
+    (0..k)
+        .map(|i| format!("r{i}\n1\nSR{i:04}\nSR{:04}\n\n", (i + 1) % k))
+        .collect()
+}
+
+fn hash(x: i32, y: i32) -> i64 {
+    ((x * 31 + y * 17) % 23) as i64
+}
+
+/// The plain moves, and a jump by a counter.
+fn crowd() -> String {
+    format!("{PLAIN}\njump\n1\nSJ****\nPC00,0 C00 * C00 -0001\n")
+}
+
+/// Agents in rows of letters (`.` leaves a cell empty), each row repeated with gaps.
+fn rows(rows: &[&str]) -> String {
+    let mut s = String::new();
+    for (y, row) in rows.iter().cycle().take(12).enumerate() {
+        for (x, c) in row.chars().enumerate().filter(|c| c.1 != '.') {
+            s += &format!("{},{} S{c}AAAA\n", x + (y % 3) * 2, y * 2);
+        }
+    }
+    s
+}
+
+/// A block of movers of `kinds` kinds (of E, W, N, S, E, W, J), with gaps.
+fn crowd_agents(kinds: usize) -> String {
+    block(14, 14, |x, y, _| {
+        let h = hash(x, y);
+        let s = ["E", "W", "N", "S", "E", "W", "J"][h as usize % kinds];
+        format!(" S{s}AAAA C00 {}", 25 + h)
+    })
+    .lines()
+    .enumerate()
+    .filter(|(k, _)| (k * 7919) % 10 < 6)
+    .map(|(_, l)| format!("{l}\n"))
+    .collect()
+}
+
 /// The engine's optimisations, each on a configuration shaped to trigger it, against the
 /// reference in both orders, with and without static-first (which also switches tracing,
 /// which turns the in-place state updates off): runs of agents executing one rule
@@ -716,48 +763,33 @@ fn block(w: i32, h: i32, extra: impl Fn(i32, i32, usize) -> String) -> String {
 /// saturation and division by zero inside runs.
 #[test]
 fn optimisations_agree_with_reference() {
-    let flood = "flood\n1\nS*****\nC00 A C00 #N01 C00 A C00 #W01 C00 A C00 #E01 C00 A C00 #S01 #*01 + C00 0000\n";
-    let fall = "fall\n1\nN***0 >C00 0000\nP0,-1 C00 - C00 0001\n";
-    let cycle = |k: usize| {
-        (0..k)
-            .map(|i| format!("r{i}\n1\nSR{i:04}\nSR{:04}\n\n", (i + 1) % k))
-            .collect::<String>()
-    };
-    let chain = "even\n2\nP**<*\nC00 + C00 0001\n\nodd\n1\nS*****\nC01 + C01 0001\n";
-    let mixed = "grow\n2\nSA****\nC00 I C00 #N01 C01 * C00 C00 C02 / C01 C03 #*01 + C00 0000 SB****\n\nshrink\n1\nSB****\nC00 I C00 #S01 C02 M C00 C03 #E02 + C02 0000 SA****\n";
-    let hash = |x: i32, y: i32| ((x * 31 + y * 17) % 23) as i64;
-    let plain = "east\n1\nSE****\nP1,0\n\nwest\n1\nSW****\nP-1,0\n\nnorth\n1\nSN****\nP0,1\n\nbehind\n1\nN*1**\nC01 + C01 0001\n";
-    let crowd = format!("{plain}\njump\n1\nSJ****\nPC00,0 C00 * C00 -0001\n");
-    let crowd = crowd.as_str();
-    // Agents in rows of letters (`.` leaves a cell empty), each row repeated with gaps.
-    let rows = |rows: &[&str]| -> String {
-        let mut s = String::new();
-        for (y, row) in rows.iter().cycle().take(12).enumerate() {
-            for (x, c) in row.chars().enumerate().filter(|c| c.1 != '.') {
-                s += &format!("{},{} S{c}AAAA\n", x + (y % 3) * 2, y * 2);
+    let cases = [
+        counter_and_message_cases(),
+        move_cases(),
+        state_and_calc_cases(),
+    ]
+    .concat();
+    for (i, (rules, agents)) in cases.iter().enumerate() {
+        for order in [Order::ActionsFirst, Order::MessagesFirst] {
+            for static_first in [false, true] {
+                if let Err(e) = differential(rules, agents, order, static_first) {
+                    panic!("case {i}, {order:?}, static-first {static_first}: {e}");
+                }
             }
         }
-        s
-    };
-    let crowd_agents = |kinds: usize| -> String {
-        block(14, 14, |x, y, _| {
-            let h = hash(x, y);
-            let s = ["E", "W", "N", "S", "E", "W", "J"][h as usize % kinds];
-            format!(" S{s}AAAA C00 {}", 25 + h)
-        })
-        .lines()
-        .enumerate()
-        .filter(|(k, _)| (k * 7919) % 10 < 6)
-        .map(|(_, l)| format!("{l}\n"))
-        .collect()
-    };
-    let cases: Vec<(String, String)> = vec![
+    }
+}
+
+/// Flooding, falling, cycles of states, priority chains, messages left with their senders,
+/// sends to all directions and to one, bounded and sparse universes.
+fn counter_and_message_cases() -> Vec<(String, String)> {
+    vec![
         (
-            flood.into(),
+            FLOOD.into(),
             block(24, 24, |x, y, _| format!(" C00 {}", hash(x, y) * 100)),
         ),
         (
-            flood.into(),
+            FLOOD.into(),
             // Holes break the runs.
             block(20, 20, |x, y, _| format!(" C00 {}", hash(x, y)))
                 .lines()
@@ -766,7 +798,7 @@ fn optimisations_agree_with_reference() {
                 .collect(),
         ),
         (
-            fall.into(),
+            FALL.into(),
             block(18, 18, |_, y, _| format!(" C00 {y}"))
                 .lines()
                 .enumerate()
@@ -782,7 +814,7 @@ fn optimisations_agree_with_reference() {
             cycle(1200),
             block(40, 40, |x, y, _| format!(" SR{:04}", (x * 40 + y) % 1200)),
         ),
-        (chain.into(), block(12, 12, |_, _, _| String::new())),
+        (CHAIN.into(), block(12, 12, |_, _, _| String::new())),
         // (Columns of 30 or more agents, so that the plan of senders is kept: a plan
         // of more than one segment per eight agents is given up for single reads.)
         // Messages left with their senders (rules without moves), sent every third step,
@@ -842,7 +874,7 @@ fn optimisations_agree_with_reference() {
         // In a bounded universe
         // with most cells empty, and in pairs far apart (a hash-indexed lattice).
         (
-            flood.into(),
+            FLOOD.into(),
             "U0,29,0,29\n".to_string()
                 + &block(30, 30, |x, y, _| format!(" C00 {}", hash(x, y)))
                     .lines()
@@ -852,7 +884,7 @@ fn optimisations_agree_with_reference() {
                     .collect::<String>(),
         ),
         (
-            flood.into(),
+            FLOOD.into(),
             (0..40)
                 .map(|k| {
                     let (x, y) = (k % 8 * 1000, k / 8 * 7);
@@ -860,25 +892,39 @@ fn optimisations_agree_with_reference() {
                 })
                 .collect(),
         ),
+    ]
+}
+
+/// Single agents moving every step, trains, targets claimed twice, plain moves.
+fn move_cases() -> Vec<(String, String)> {
+    vec![
         // Single agents moving every step: into the same cell, into cells of agents that
         // stay or that leave, in trains; then also out of the grid into the hash map and
         // back.
-        (crowd.into(), crowd_agents(6)),
-        (crowd.into(), crowd_agents(7)),
+        (crowd(), crowd_agents(6)),
+        (crowd(), crowd_agents(7)),
         // Only trains and free movers; only two movers targeting one cell (the rest move
         // freely); only movers into cells of agents that stay.
-        (crowd.into(), rows(&["EEE", "N.EE", "W..WW", "NNE"])),
-        (crowd.into(), rows(&["E.W", "EEE", "N..W", ".WW"])),
-        (crowd.into(), rows(&["ES", "EEES", "SW..E", "N"])),
+        (crowd(), rows(&["EEE", "N.EE", "W..WW", "NNE"])),
+        (crowd(), rows(&["E.W", "EEE", "N..W", ".WW"])),
+        (crowd(), rows(&["ES", "EEES", "SW..E", "N"])),
         // Only empty targets, two of them claimed twice by movers of different offsets.
-        (crowd.into(), rows(&["E.W", "N", "E..W"])),
+        (crowd(), rows(&["E.W", "N", "E..W"])),
         // Movers all by one offset: into empty cells only; and in trains and into agents
         // that stay.
-        (crowd.into(), rows(&["E.E", ".E", "E..E.S"])),
-        (crowd.into(), rows(&["EEE", "E.ES", "..E"])),
+        (crowd(), rows(&["E.E", ".E", "E..E.S"])),
+        (crowd(), rows(&["EEE", "E.ES", "..E"])),
         // Programs whose only actions are moves by literal offsets (collected in one loop).
-        (plain.into(), rows(&["EEE", "N.EE", "W..WW", "NNE"])),
-        (plain.into(), rows(&["E.E", ".E", "E..E.S"])),
+        (PLAIN.into(), rows(&["EEE", "N.EE", "W..WW", "NNE"])),
+        (PLAIN.into(), rows(&["E.E", ".E", "E..E.S"])),
+    ]
+}
+
+/// States changed at once along chains, calculations over runs (division by zero,
+/// saturation, comparisons, in-place steps and chains of min and max), runs longer than a
+/// batch, 3D chains, falling in a crowd.
+fn state_and_calc_cases() -> Vec<(String, String)> {
+    vec![
         // States changed at once along chains of state-only rules: into a state without
         // rules, into one whose rule calculates, into one whose rule tests a neighbour (the
         // selection is then evaluated again).
@@ -922,7 +968,7 @@ fn optimisations_agree_with_reference() {
             }),
         ),
         (
-            mixed.into(),
+            MIXED.into(),
             block(16, 16, |x, y, k| {
                 format!(
                     " S{} C00 {} C03 {}",
@@ -936,7 +982,7 @@ fn optimisations_agree_with_reference() {
         // the post office and the preconditions go on to the next batch within one run
         // (with their working space as the last batch left it).
         (
-            flood.into(),
+            FLOOD.into(),
             block(34, 34, |x, y, _| format!(" C00 {}", hash(x, y) * 100 + x as i64))
                 .lines()
                 .filter(|l| !l.starts_with("31,"))
@@ -972,7 +1018,7 @@ fn optimisations_agree_with_reference() {
                 .collect(),
         ),
         (
-            fall.into(),
+            FALL.into(),
             block(36, 36, |x, y, _| format!(" C00 {}", (y + x) % 5))
                 .lines()
                 .enumerate()
@@ -980,16 +1026,7 @@ fn optimisations_agree_with_reference() {
                 .map(|(_, l)| format!("{l}\n"))
                 .collect(),
         ),
-    ];
-    for (i, (rules, agents)) in cases.iter().enumerate() {
-        for order in [Order::ActionsFirst, Order::MessagesFirst] {
-            for static_first in [false, true] {
-                if let Err(e) = differential(rules, agents, order, static_first) {
-                    panic!("case {i}, {order:?}, static-first {static_first}: {e}");
-                }
-            }
-        }
-    }
+    ]
 }
 
 /// The trace's messages carry the values sent, also where a send to all directions is kept

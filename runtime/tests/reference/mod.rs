@@ -6,7 +6,7 @@
 
 use latticesim_compiler::checked::{
     Action, AttachLetter, CalcOp, CheckedRules, CmpOp, Cond, Config, Coord, Dim, Dir, Offset,
-    Operand, Target, TextPat, Val,
+    Operand, Rule, Target, TextPat, Val,
 };
 use std::collections::BTreeMap;
 
@@ -333,12 +333,7 @@ impl World {
                 }
             }
         }
-        let top = |vs: &Vec<(usize, T3)>, below: u16| {
-            vs.iter()
-                .map(|(r, _)| rules[*r].priority)
-                .filter(|&p| p < below)
-                .max()
-        };
+        let top = |vs: &Vec<(usize, T3)>, below: u16| top_below(rules, vs, below);
         let mut status: Vec<Status> = (0..n)
             .map(|a| match top(&valid[a], u16::MAX) {
                 None => Status::Fixed(0),
@@ -364,53 +359,7 @@ impl World {
             let at_level = |a: usize, status: &[Status]| {
                 status[a] == Status::Open(p) || status[a] == Status::Fixed(p)
             };
-            loop {
-                // Step 1, for all at once against the same status.
-                let snapshot = status.clone();
-                let mut changed = false;
-                let mut new_valid = valid.clone();
-                for a in 0..n {
-                    if !at_level(a, &snapshot) {
-                        continue;
-                    }
-                    for (r, v) in new_valid[a].iter_mut() {
-                        if rules[*r].priority == p && *v == T3::U {
-                            let nv = self.eval(a, &rules[*r].pre, p, Some(&snapshot));
-                            if nv != T3::U {
-                                *v = nv;
-                                changed = true;
-                            }
-                        }
-                    }
-                    new_valid[a].retain(|(_, v)| *v != T3::F);
-                }
-                valid = new_valid;
-                // Step 2.
-                for a in 0..n {
-                    if !at_level(a, &snapshot) {
-                        continue;
-                    }
-                    let has_true = valid[a]
-                        .iter()
-                        .any(|(r, v)| rules[*r].priority == p && *v == T3::T);
-                    let has_any = valid[a].iter().any(|(r, _)| rules[*r].priority == p);
-                    if status[a] == Status::Open(p) {
-                        if has_true {
-                            status[a] = Status::Fixed(p);
-                            changed = true;
-                        } else if !has_any {
-                            status[a] = match top(&valid[a], p) {
-                                Some(q) => Status::Open(q),
-                                None => Status::Fixed(0),
-                            };
-                            changed = true;
-                        }
-                    }
-                }
-                if !changed {
-                    break;
-                }
-            }
+            self.resolve_level(p, &mut valid, &mut status);
             // Circles.
             let mut circle = Vec::new();
             for a in 0..n {
@@ -447,6 +396,64 @@ impl World {
                 _ => Vec::new(),
             })
             .collect()
+    }
+
+    /// Level `p` resolved to its fixpoint (SEMANTICS section 5): the rules of its agents
+    /// evaluated again, all at once, against the priorities fixed so far, and each open
+    /// agent fixed at `p` or dropped to its next valid priority, until nothing changes.
+    fn resolve_level(&self, p: u16, valid: &mut Vec<Vec<(usize, T3)>>, status: &mut [Status]) {
+        let (n, rules) = (self.agents.len(), &self.prog.rules);
+        let top = |vs: &Vec<(usize, T3)>, below: u16| top_below(rules, vs, below);
+        let at_level = |a: usize, status: &[Status]| {
+            status[a] == Status::Open(p) || status[a] == Status::Fixed(p)
+        };
+        loop {
+            // Step 1, for all at once against the same status.
+            let snapshot = status.to_vec();
+            let mut changed = false;
+            let mut new_valid = valid.clone();
+            for a in 0..n {
+                if !at_level(a, &snapshot) {
+                    continue;
+                }
+                for (r, v) in new_valid[a].iter_mut() {
+                    if rules[*r].priority == p && *v == T3::U {
+                        let nv = self.eval(a, &rules[*r].pre, p, Some(&snapshot));
+                        if nv != T3::U {
+                            *v = nv;
+                            changed = true;
+                        }
+                    }
+                }
+                new_valid[a].retain(|(_, v)| *v != T3::F);
+            }
+            *valid = new_valid;
+            // Step 2.
+            for a in 0..n {
+                if !at_level(a, &snapshot) {
+                    continue;
+                }
+                let has_true = valid[a]
+                    .iter()
+                    .any(|(r, v)| rules[*r].priority == p && *v == T3::T);
+                let has_any = valid[a].iter().any(|(r, _)| rules[*r].priority == p);
+                if status[a] == Status::Open(p) {
+                    if has_true {
+                        status[a] = Status::Fixed(p);
+                        changed = true;
+                    } else if !has_any {
+                        status[a] = match top(&valid[a], p) {
+                            Some(q) => Status::Open(q),
+                            None => Status::Fixed(0),
+                        };
+                        changed = true;
+                    }
+                }
+            }
+            if !changed {
+                break;
+            }
+        }
     }
 
     pub fn step(&mut self) -> (bool, Vec<Rec>) {
@@ -1110,4 +1117,12 @@ struct Asked {
     no_swap: Vec<bool>,
     letters: Vec<Vec<AttachLetter>>,
     newstate: Vec<[Option<u8>; 5]>,
+}
+
+/// The highest priority below `below` among an agent's valid rules `vs`.
+fn top_below(rules: &[Rule], vs: &[(usize, T3)], below: u16) -> Option<u16> {
+    vs.iter()
+        .map(|(r, _)| rules[*r].priority)
+        .filter(|&p| p < below)
+        .max()
 }
