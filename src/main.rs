@@ -14,6 +14,7 @@ mod gen;
 mod output;
 mod render;
 mod run;
+mod series;
 mod serve;
 mod sweep;
 

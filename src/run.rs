@@ -2,11 +2,12 @@
 
 use crate::agents_file;
 use crate::output::{self, open_output, say, write_output};
+use crate::series::{Series, SeriesFile};
 use crate::{colour, read, Color, RECORDS_SHOWN_PER_KIND};
 use clap::ValueEnum;
 use latticesim_compiler::compile;
 use latticesim_runtime::{
-    checkpoint, Engine, Lattice, Options, Order, RecordKind, Stats, StepReport, Undo,
+    checkpoint, Engine, Lattice, Options, Order, RecordKind, Stats, StepCost, StepReport, Undo,
 };
 use serde_json::json;
 use std::collections::BTreeMap;
@@ -47,6 +48,11 @@ pub struct RunArgs {
     /// Write every action and record of every step here (JSON Lines).
     #[arg(long)]
     trace: Option<PathBuf>,
+    /// Write what each step cost here, one row per step (firings per rule, agents
+    /// executing, moves, carried agents, swaps, messages, records by kind, step time): CSV
+    /// for a name ending in .csv, Parquet for .parquet.
+    #[arg(long)]
+    series: Option<PathBuf>,
     /// Which comes first in a step.
     #[arg(long, value_enum, default_value_t = OrderArg::ActionsFirst)]
     order: OrderArg,
@@ -160,6 +166,7 @@ fn stats_json(e: &Engine, stop: Stop, timing: Option<&Timing>) -> serde_json::Va
         "rules": e.prog.rules.len(),
         "firings": firings,
         "moves": s.moves,
+        "carried": s.carried,
         "swaps": s.swaps,
         "messages": { "sent": s.sent, "delivered": s.delivered, "dropped": s.dropped },
         "records": { "errors": errors, "warnings": warnings, "by_kind": by_kind },
@@ -343,8 +350,20 @@ fn run_to_end(args: &RunArgs) -> Result<ExitCode, ExitCode> {
         // Found now when it cannot be written, not at the end of a long run.
         open_output(p)?;
     }
+    let series_file = args.series.as_deref().map(SeriesFile::open).transpose()?;
     let io_threads = io_threads(args.threads);
     let (engine, ready_read, ready_check) = start(args, trace_out.is_some(), colour, io_threads)?;
+    let series = match series_file {
+        Some(f) => {
+            let names: Vec<&str> = engine.prog.rules.iter().map(|r| r.name.as_str()).collect();
+            let path = args.series.as_deref().expect("opened");
+            Some(f.start(&names, !args.no_timing).map_err(|e| {
+                say!("error: cannot write `{}`: {e}", path.display());
+                ExitCode::from(2)
+            })?)
+        }
+        None => None,
+    };
     output::poll_interrupts();
     let started = Instant::now();
     let steps = Steps {
@@ -353,6 +372,8 @@ fn run_to_end(args: &RunArgs) -> Result<ExitCode, ExitCode> {
         console: Console::new(args.quiet, args.max_steps),
         trace: trace_out,
         trace_failed: false,
+        series,
+        series_failed: false,
         checkpoint_failed: false,
     };
     let (steps, stop) = steps.run(args);
@@ -362,12 +383,22 @@ fn run_to_end(args: &RunArgs) -> Result<ExitCode, ExitCode> {
         console,
         trace,
         trace_failed,
+        series,
+        series_failed,
         checkpoint_failed,
     } = steps;
     let shown = console.finish();
     let wall = started.elapsed();
     // Every file asked for is written, even when an earlier one (or the terminal) failed.
-    let mut failed = (trace_failed || checkpoint_failed).then(|| ExitCode::from(2));
+    let mut failed =
+        (trace_failed || series_failed || checkpoint_failed).then(|| ExitCode::from(2));
+    if let Some(s) = series {
+        let path = args.series.as_deref().expect("asked for");
+        if let Err(e) = s.finish() {
+            say!("error: cannot write `{}`: {e}", path.display());
+            failed = Some(ExitCode::from(2));
+        }
+    }
     if let Some(p) = &args.checkpoint {
         failed = save_checkpoint(&engine, p).err().or(failed);
     }
@@ -456,6 +487,9 @@ struct Steps {
     console: Console,
     trace: Option<output::AtomicFile>,
     trace_failed: bool,
+    /// The per-step series, when asked for (given up when it cannot be written).
+    series: Option<Series>,
+    series_failed: bool,
     checkpoint_failed: bool,
 }
 
@@ -477,19 +511,26 @@ impl Steps {
         }
         while self.engine.stats.steps < args.max_steps {
             let before = args.strict.then(|| self.engine.undo_point());
+            let stats_before = self.series.is_some().then(|| self.engine.stats.clone());
+            let t = Instant::now();
             let rep = self.engine.step();
+            let secs = t.elapsed().as_secs_f64();
             self.console.records(&rep);
             self.trace_step(&rep);
             if args.strict && rep.records.iter().any(|r| r.is_error()) {
                 self.undo = before;
                 return Stop::Strict;
             }
+            if let Some(b) = stats_before {
+                let cost = StepCost::of(&b, &self.engine.stats, &rep);
+                self.series_row(&cost, (!args.no_timing).then_some(secs), args);
+            }
             if rep.quiescent {
                 return Stop::Quiescence;
             }
             let steps = self.engine.stats.steps;
             if let (Some(p), Some(every)) = (&args.checkpoint, args.checkpoint_every) {
-                if steps % every == 0 && steps < args.max_steps {
+                if steps.is_multiple_of(every) && steps < args.max_steps {
                     self.checkpoint_failed |= save_checkpoint(&self.engine, p).is_err();
                 }
             }
@@ -499,6 +540,23 @@ impl Steps {
             self.console.progress(steps);
         }
         Stop::MaxSteps
+    }
+
+    /// The step's row of the series. A series that cannot be written is given up (its
+    /// unfinished file removed); the run goes on and its other outputs are still written.
+    fn series_row(&mut self, cost: &StepCost, secs: Option<f64>, args: &RunArgs) {
+        let Some(s) = self.series.as_mut() else {
+            return;
+        };
+        if let Err(e) = s.push(cost, secs) {
+            let path = args.series.as_deref().expect("asked for");
+            say!(
+                "error: cannot write `{}`: {e}; the run goes on without it",
+                path.display()
+            );
+            self.series = None;
+            self.series_failed = true;
+        }
     }
 
     /// The step's trace events and records as JSON lines of the trace, when there is one.

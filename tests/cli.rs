@@ -1282,3 +1282,207 @@ fn a_file_too_large_for_the_checker_is_checked_up_to_its_defect() {
     ]);
     assert!(stderr(&o).contains("error[E402]: two agents on the cell 3,4"));
 }
+
+/// A line of A and B agents: each A swaps with a B east of it until the Bs stand west.
+const SWAPS: &str = "east\n1\nSA**** T1,0,B****\nXE\n";
+const SWAPS_AGENTS: &str = "0,0 SAAAAA\n1,0 SBBBBB\n2,0 SAAAAA\n3,0 SBBBBB\n4,0 SBBBBB\n";
+
+/// The rows of a CSV series as (column names, rows of numbers).
+fn csv_series(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let names = lines.next().unwrap().split(',').map(String::from).collect();
+    let rows = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    (names, rows)
+}
+
+/// The rows of a Parquet series, read with the parquet crate's own reader.
+fn parquet_series(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
+    use parquet::file::reader::{FileReader, SerializedFileReader};
+    use parquet::record::Field;
+    let r = SerializedFileReader::new(std::fs::File::open(path).unwrap()).unwrap();
+    let names = (r.metadata().file_metadata().schema_descr().columns().iter())
+        .map(|c| c.name().to_string())
+        .collect();
+    let rows = (r.get_row_iter(None).unwrap())
+        .map(|row| {
+            (row.unwrap().get_column_iter())
+                .map(|(_, f)| match f {
+                    Field::Long(v) => *v as f64,
+                    Field::Double(v) => *v,
+                    other => panic!("unexpected field {other:?}"),
+                })
+                .collect()
+        })
+        .collect();
+    (names, rows)
+}
+
+/// `run --series` as CSV and Parquet: every column summed over the steps equals the
+/// `--stats` total, and step by step the counts agree with the trace's events (fire events
+/// = agents executing, move events = moves, swap events = swaps, message events = sent,
+/// record lines by kind); the Parquet file holds the CSV's rows.
+#[test]
+fn series_sum_to_the_stats_and_follow_the_trace() {
+    let examples = [
+        (
+            "reconfigure-line/rules.txt",
+            "reconfigure-line/agents-30.txt",
+        ),
+        ("leader-election/rules.txt", "leader-election/agents-30.txt"),
+        ("tour/rules.txt", "tour/agents.txt"),
+        ("bouncing/rules.txt", "bouncing/agents.txt"),
+    ];
+    let mut cases: Vec<(String, String, String)> = examples
+        .iter()
+        .map(|(r, a)| {
+            let read = |f: &str| std::fs::read_to_string(format!("examples/{f}")).unwrap();
+            (r.to_string(), read(r), read(a))
+        })
+        .collect();
+    cases.push(("swaps".into(), SWAPS.into(), SWAPS_AGENTS.into()));
+    let mut carried = 0;
+    for (i, (name, rules, agents)) in cases.iter().enumerate() {
+        let tag = format!("series{i}");
+        let dir = std::env::temp_dir().join(format!("latticesim-cli-{}", std::process::id()));
+        let (csv, pq) = (
+            dir.join(format!("{tag}.csv")),
+            dir.join(format!("{tag}.parquet")),
+        );
+        let extra = ["--max-steps", "300", "--series"];
+        let (o, d) = run_files(
+            rules,
+            agents,
+            &tag,
+            &[&extra[..], &[csv.to_str().unwrap()]].concat(),
+        );
+        assert_eq!(o.status.code(), Some(0), "{name}: {}", stderr(&o));
+        let (o2, _) = run_files(
+            rules,
+            agents,
+            &format!("{tag}p"),
+            &[&extra[..], &[pq.to_str().unwrap()]].concat(),
+        );
+        assert_eq!(o2.status.code(), Some(0), "{name}: {}", stderr(&o2));
+        let (names, rows) = csv_series(&csv);
+        let (pnames, prows) = parquet_series(&pq);
+        assert_eq!(names, pnames, "{name}: the same columns in CSV and Parquet");
+        let counts = names.len() - 1; // the last is the step time
+        assert_eq!(names[counts], "step_s");
+        let strip = |rows: &[Vec<f64>]| -> Vec<Vec<f64>> {
+            rows.iter().map(|r| r[..counts].to_vec()).collect()
+        };
+        assert_eq!(
+            strip(&rows),
+            strip(&prows),
+            "{name}: the same rows in CSV and Parquet"
+        );
+        let col = |c: &str| {
+            names
+                .iter()
+                .position(|n| n == c)
+                .unwrap_or_else(|| panic!("{c}"))
+        };
+        let total = |c: &str| rows.iter().map(|r| r[col(c)]).sum::<f64>() as u64;
+        let stats: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(d.join("stats.json")).unwrap()).unwrap();
+        assert_eq!(
+            rows.len() as u64,
+            stats["steps"].as_u64().unwrap(),
+            "{name}: a row per step"
+        );
+        for f in stats["firings"].as_array().unwrap() {
+            let rule = f["rule"].as_str().unwrap();
+            assert_eq!(
+                total(&format!("firings:{rule}")),
+                f["firings"].as_u64().unwrap(),
+                "{name}: {rule}"
+            );
+        }
+        for (c, v) in [
+            ("moves", &stats["moves"]),
+            ("carried", &stats["carried"]),
+            ("swaps", &stats["swaps"]),
+            ("sent", &stats["messages"]["sent"]),
+            ("delivered", &stats["messages"]["delivered"]),
+            ("dropped", &stats["messages"]["dropped"]),
+        ] {
+            assert_eq!(total(c), v.as_u64().unwrap(), "{name}: {c}");
+        }
+        let by_kind = stats["records"]["by_kind"].as_object().unwrap();
+        for n in names.iter().filter_map(|n| n.strip_prefix("records:")) {
+            let want = by_kind.get(n).map_or(0, |v| v.as_u64().unwrap());
+            assert_eq!(
+                total(&format!("records:{n}")),
+                want,
+                "{name}: records of {n}"
+            );
+        }
+        // Step by step against the trace.
+        let trace = std::fs::read_to_string(d.join("trace.jsonl")).unwrap();
+        let mut events: std::collections::BTreeMap<(u64, String), f64> = Default::default();
+        for line in trace.lines() {
+            let v: serde_json::Value = serde_json::from_str(line).unwrap();
+            let mut key = v["event"].as_str().unwrap().to_string();
+            if key == "record" {
+                key = format!("records:{}", v["kind"].as_str().unwrap());
+            }
+            *events
+                .entry((v["step"].as_u64().unwrap(), key))
+                .or_default() += 1.0;
+        }
+        for row in &rows {
+            let step = row[col("step")] as u64;
+            let ev = |k: &str| events.get(&(step, k.to_string())).copied().unwrap_or(0.0);
+            for (c, e) in [
+                ("executing", "fire"),
+                ("moves", "move"),
+                ("swaps", "swap"),
+                ("sent", "message"),
+            ] {
+                assert_eq!(
+                    row[col(c)],
+                    ev(e),
+                    "{name}, step {step}: {c} against the trace's {e} events"
+                );
+            }
+            for n in names.iter().filter(|n| n.starts_with("records:")) {
+                assert_eq!(row[col(n)], ev(n), "{name}, step {step}: {n}");
+            }
+        }
+        carried += total("carried");
+        if name == "swaps" {
+            assert_eq!(total("swaps"), 5, "the swaps of the A-B line");
+        }
+    }
+    assert!(carried > 0, "some example carries agents");
+}
+
+/// A series file's name says its format; any other name is refused before the run.
+#[test]
+fn a_series_is_csv_or_parquet() {
+    let out = tmp("series-bad-out.txt", b"untouched");
+    let o = run(&[
+        "run",
+        "examples/gravity/rules.txt",
+        "examples/gravity/agents.txt",
+        "--out",
+        out.to_str().unwrap(),
+        "--series",
+        tmp("series.xlsx", b"").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o)
+            .contains("a series is written as CSV (a name ending in .csv) or Parquet (.parquet)"),
+        "{}",
+        stderr(&o)
+    );
+    assert_eq!(
+        std::fs::read(&out).unwrap(),
+        b"untouched",
+        "nothing was run"
+    );
+}

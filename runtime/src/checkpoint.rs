@@ -16,7 +16,7 @@
 //! inboxes (u8 count, per slot its number (u8) and per direction a value per agent, i16);
 //! text inboxes (u8 flag, then per agent a byte of directions received and 5 bytes per
 //! direction); the statistics (steps u64, quiescent u8, firings per rule u64 after a u32
-//! count, moves, swaps, sent, delivered, dropped u64, records as a u32 count of (kind name
+//! count, moves, carried, swaps, sent, delivered, dropped u64, records as a u32 count of (kind name
 //! length u8, name, count u64)); and last a CRC-32 of every byte before it.
 
 use crate::engine::{Engine, Options, Order, Stats};
@@ -29,8 +29,8 @@ use std::io::{self, Read, Write};
 
 /// The first bytes of every checkpoint.
 const MAGIC: &[u8; 8] = b"LSIMCKPT";
-/// The format written; only it is read.
-pub const VERSION: u32 = 1;
+/// The format written; only it is read (version 2 added the carried agents).
+pub const VERSION: u32 = 2;
 /// Agents handled at a time.
 const BLOCK: usize = 1 << 16;
 
@@ -295,7 +295,7 @@ impl Engine {
         for f in &s.firings {
             w.write_all(&f.to_le_bytes())?;
         }
-        for v in [s.moves, s.swaps, s.sent, s.delivered, s.dropped] {
+        for v in [s.moves, s.carried, s.swaps, s.sent, s.delivered, s.dropped] {
             w.write_all(&v.to_le_bytes())?;
         }
         w.write_all(&(s.records.len() as u32).to_le_bytes())?;
@@ -507,6 +507,7 @@ fn read_stats<R: Read>(
         stats.firings.push(r.u64()?);
     }
     stats.moves = r.u64()?;
+    stats.carried = r.u64()?;
     stats.swaps = r.u64()?;
     stats.sent = r.u64()?;
     stats.delivered = r.u64()?;

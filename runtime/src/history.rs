@@ -64,7 +64,7 @@ impl History {
     pub fn step(&mut self) -> &StepReport {
         let rep = self.engine.step();
         let s = self.engine.stats.steps;
-        if s % self.every == 0 && self.keyframes.last().is_some_and(|k| k.0 < s) {
+        if s.is_multiple_of(self.every) && self.keyframes.last().is_some_and(|k| k.0 < s) {
             self.keyframes
                 .push((s, self.engine.lat.clone(), self.engine.stats.clone()));
             if self.keyframes.len() > self.max_keyframes {

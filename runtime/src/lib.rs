@@ -3,7 +3,8 @@
 //! [`Engine`] runs a compiled [`latticesim_vm::Program`] on a [`Lattice`] one [`Engine::step`]
 //! at a time; each step returns its [`Record`]s (errors and warnings) and, when tracing, its
 //! [`TraceEvent`]s, and updates the [`Stats`]. [`History`] keeps keyframes so that a run
-//! can go back to any earlier step exactly, in bounded memory. The runtime does no I/O.
+//! can go back to any earlier step exactly, in bounded memory. [`StepCost`] is what one
+//! step cost, for per-step series. The runtime does no I/O.
 #![warn(missing_docs)]
 
 mod bits;
@@ -13,6 +14,7 @@ mod engine;
 mod history;
 mod lattice;
 mod record;
+mod series;
 pub mod shapes;
 mod trace;
 
@@ -20,4 +22,5 @@ pub use engine::{Engine, Options, Order, Stats, StepReport, AGENTS_PER_THREAD};
 pub use history::History;
 pub use lattice::{Defect, Lattice, LatticeBuilder, Undo, Writes};
 pub use record::{Record, RecordKind};
+pub use series::StepCost;
 pub use trace::TraceEvent;

@@ -204,7 +204,7 @@ fn agents(d3: bool) -> impl Strategy<Value = String> {
                     let nb = at((x + o[0], y + o[1], z + o[2]));
                     let on = nb.is_some_and(|j| {
                         let pair = (i.min(j) * 7 + i.max(j) * 3) as u8;
-                        (bits ^ attrs[j].3) & 1 == 0 && pair % 3 != 0
+                        (bits ^ attrs[j].3) & 1 == 0 && !pair.is_multiple_of(3)
                     });
                     a.push(if on { '1' } else { '0' });
                 }
@@ -380,7 +380,7 @@ fn differential_on(
     let r = &w.stats;
     prop_assert_eq!(s.steps, r.steps);
     prop_assert_eq!(&s.firings, &r.firings);
-    prop_assert_eq!((s.moves, s.swaps), (r.moves, r.swaps));
+    prop_assert_eq!((s.moves, s.carried, s.swaps), (r.moves, r.carried, r.swaps));
     prop_assert_eq!(
         (s.sent, s.delivered, s.dropped),
         (r.sent, r.delivered, r.dropped)

@@ -79,6 +79,9 @@ pub struct Stats {
     pub firings: Vec<u64>,
     /// Agent moves (each agent of a moved group counts).
     pub moves: u64,
+    /// Of the moves, those of agents carried by their group (not asked to move by a rule
+    /// of their own).
+    pub carried: u64,
     /// Swaps done.
     pub swaps: u64,
     /// Messages sent (each direction of a numeric slot or text counts).
@@ -116,6 +119,8 @@ impl Stats {
 pub struct StepReport {
     /// No agent had a selected rule.
     pub quiescent: bool,
+    /// How many agents executed a rule.
+    pub executing: u64,
     /// The records of this step.
     pub records: Vec<Record>,
     /// The trace events of this step (when tracing).
@@ -256,7 +261,8 @@ impl Engine {
         self.lat.refresh_neighbours();
         self.select(&mut rep);
         let mut sel = std::mem::take(&mut self.selection.sel);
-        rep.quiescent = self.selection.active == 0;
+        rep.executing = self.selection.active;
+        rep.quiescent = rep.executing == 0;
         for (f, &k) in self
             .stats
             .firings

@@ -32,6 +32,7 @@ pub struct RefStats {
     pub steps: u64,
     pub firings: Vec<u64>,
     pub moves: u64,
+    pub carried: u64,
     pub swaps: u64,
     pub sent: u64,
     pub delivered: u64,
@@ -827,6 +828,9 @@ impl World {
                 let p = self.agents[a].pos;
                 self.agents[a].pos = [p[0] + o[0], p[1] + o[1], p[2] + o[2]];
                 self.stats.moves += 1;
+                if mv[a].is_none() {
+                    self.stats.carried += 1;
+                }
             }
         }
         self.reindex();

@@ -342,6 +342,8 @@ impl Act<'_> {
         }
         moves.sort_unstable();
         self.count_moves(&moves, rep);
+        let carried = moves.iter().filter(|m| intents[m.0 as usize].mv.is_none());
+        self.stats.carried += carried.count() as u64;
         // Partners for `*` must be read before the moves.
         let mut keep_partner: Vec<[Option<u32>; 6]> = vec![[None; 6]; n];
         for a in 0..n {
