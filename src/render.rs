@@ -32,6 +32,12 @@ pub struct RenderArgs {
     /// Pixels per lattice cell (made smaller if the image would be wider than 8192 pixels).
     #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=256))]
     cell: u32,
+    /// Which comes first in a step (as `run --order`).
+    #[arg(long, value_enum, default_value_t = crate::run::OrderArg::ActionsFirst)]
+    order: crate::run::OrderArg,
+    /// Rules without a move or swap act before the rules with one (as `run --static-first`).
+    #[arg(long)]
+    static_first: bool,
     /// Frames per second of an animation.
     #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=100))]
     fps: u32,
@@ -546,7 +552,9 @@ pub fn render(args: RenderArgs) -> ExitCode {
         .map(|b| [0, 1, 2].map(|k| (b[k].0 as i64, b[k].1 as i64)));
     let opts = Options {
         threads: crate::engine_threads(None, ready.lat.len()),
-        ..Options::default()
+        order: args.order.into(),
+        static_first: args.static_first,
+        trace: false,
     };
     let mut engine = Engine::new(ready.prog, ready.lat, opts);
     let agent_frames = engine.lat.len() as u64 * (last - first + 1);

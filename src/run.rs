@@ -78,11 +78,20 @@ pub struct RunArgs {
 }
 
 #[derive(Clone, Copy, ValueEnum)]
-enum OrderArg {
+pub(crate) enum OrderArg {
     /// Actions, then calculations and messages (the paper's order).
     ActionsFirst,
     /// Calculations and messages, then actions.
     MessagesFirst,
+}
+
+impl From<OrderArg> for Order {
+    fn from(o: OrderArg) -> Order {
+        match o {
+            OrderArg::ActionsFirst => Order::ActionsFirst,
+            OrderArg::MessagesFirst => Order::MessagesFirst,
+        }
+    }
 }
 
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -457,10 +466,7 @@ fn start(
 ) -> Result<(Engine, Duration, Duration), ExitCode> {
     let opts = Options {
         threads: 1,
-        order: match args.order {
-            OrderArg::ActionsFirst => Order::ActionsFirst,
-            OrderArg::MessagesFirst => Order::MessagesFirst,
-        },
+        order: args.order.into(),
         static_first: args.static_first,
         trace,
     };

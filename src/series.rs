@@ -43,7 +43,7 @@ fn format_of(path: &Path) -> Option<&'static str> {
 }
 
 /// A CSV field: quoted when it holds a comma, a quote or a line break (RFC 4180).
-fn csv_field(s: &str) -> String {
+pub(crate) fn csv_field(s: &str) -> String {
     if s.contains([',', '"', '\n', '\r']) {
         format!("\"{}\"", s.replace('"', "\"\""))
     } else {

@@ -1,13 +1,16 @@
 //! `latticesim sweep`: run rules over generated shapes of growing n, several runs at once,
-//! and write one CSV row per run (and, with --plot, an SVG of steps and moves against n with
-//! fitted power laws).
+//! and write one CSV row per run with every total of a run (the columns of `run --series`,
+//! summed) and how it stopped; with --plot, an SVG of steps, moves, swaps and messages
+//! against n with fitted power laws.
 
 use crate::gen::AgentOptions;
 use crate::output::{open_output, say, write_output};
+use crate::run::OrderArg;
+use crate::series::csv_field;
 use clap::ValueEnum;
 use latticesim_compiler::compile;
 use latticesim_runtime::shapes::{agents_text, Shape};
-use latticesim_runtime::{Engine, Options};
+use latticesim_runtime::{Engine, Options, StepCost};
 use plotters::prelude::*;
 use rayon::prelude::*;
 use std::path::PathBuf;
@@ -45,13 +48,19 @@ pub struct SweepArgs {
     /// Stop a run after this many steps.
     #[arg(long, default_value_t = 100_000)]
     max_steps: u64,
+    /// Which comes first in a step (as `run --order`).
+    #[arg(long, value_enum, default_value_t = OrderArg::ActionsFirst)]
+    order: OrderArg,
+    /// Rules without a move or swap act before the rules with one (as `run --static-first`).
+    #[arg(long)]
+    static_first: bool,
     /// Runs at once (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
     /// The CSV file.
     #[arg(long)]
     out: PathBuf,
-    /// Also draw steps and moves against n into this SVG file.
+    /// Also draw steps, moves, swaps and messages against n into this SVG file.
     #[arg(long)]
     plot: Option<PathBuf>,
     /// Title of the plot.
@@ -62,12 +71,27 @@ pub struct SweepArgs {
 struct Row {
     n: usize,
     seed: u64,
-    steps: u64,
     quiescent: bool,
-    moves: u64,
-    messages: u64,
+    /// The run's totals (`step`: the steps).
+    cost: StepCost,
+    /// The rules' names, for the header.
+    rules: Vec<String>,
     secs: f64,
 }
+
+/// A metric fitted and plotted against n: name, value of a row, marker colour.
+type Metric = (&'static str, fn(&Row) -> u64, RGBColor);
+
+/// A metric's points (n, value), and its fit (a, b) of log y = a + b log n.
+type Points = (Vec<(f64, f64)>, Option<(f64, f64)>);
+
+/// The metrics fitted and plotted against n.
+const METRICS: [Metric; 4] = [
+    ("steps", |r| r.cost.step, BLUE),
+    ("moves", |r| r.cost.moves, RED),
+    ("swaps", |r| r.cost.swaps, GREEN),
+    ("messages", |r| r.cost.sent, MAGENTA),
+];
 
 /// Least-squares fit of log y = a + b log x; returns (a, b).
 pub fn fit_power(points: &[(f64, f64)]) -> Option<(f64, f64)> {
@@ -139,10 +163,17 @@ fn run_one(rules: &[u8], a: &SweepArgs, n: u32, seed: u64) -> Result<Row, String
     let started = Instant::now();
     let prog = compile(p)
         .map_err(|e| format!("internal error: the compiled program does not verify: {e}"))?;
-    let mut e = Engine::new(prog, lat, Options::default());
-    let mut quiescent = false;
+    let opts = Options {
+        order: a.order.into(),
+        static_first: a.static_first,
+        ..Options::default()
+    };
+    let mut e = Engine::new(prog, lat, opts);
+    let (mut quiescent, mut executing) = (false, 0);
     while e.stats.steps < a.max_steps {
-        if e.step().quiescent {
+        let rep = e.step();
+        executing += rep.executing;
+        if rep.quiescent {
             quiescent = true;
             break;
         }
@@ -150,25 +181,26 @@ fn run_one(rules: &[u8], a: &SweepArgs, n: u32, seed: u64) -> Result<Row, String
     Ok(Row {
         n: e.lat.len(),
         seed,
-        steps: e.stats.steps,
         quiescent,
-        moves: e.stats.moves,
-        messages: e.stats.sent,
+        cost: StepCost::total(&e.stats, executing),
+        rules: e.prog.rules.iter().map(|r| r.name.clone()).collect(),
         secs: started.elapsed().as_secs_f64(),
     })
 }
 
-/// The log-log plot of steps and moves against n, as SVG text.
+/// The points (n, value) of a metric, and its fit when it has two points above zero.
+fn points(rows: &[Row], f: fn(&Row) -> u64) -> Points {
+    let pts: Vec<(f64, f64)> = rows.iter().map(|r| (r.n as f64, f(r) as f64)).collect();
+    let fit = fit_power(&pts);
+    (pts, fit)
+}
+
+/// The log-log plot of the metrics that occur against n, with their fits, as SVG text.
 fn plot(title: &str, rows: &[Row]) -> Result<String, String> {
-    let steps: Vec<(f64, f64)> = rows.iter().map(|r| (r.n as f64, r.steps as f64)).collect();
-    let moves: Vec<(f64, f64)> = rows.iter().map(|r| (r.n as f64, r.moves as f64)).collect();
-    let fs = fit_power(&steps).ok_or("too few points to fit the steps")?;
-    let fm = fit_power(&moves);
     let xmin = rows.iter().map(|r| r.n).min().unwrap_or(1).max(1) as f64;
     let xmax = rows.iter().map(|r| r.n).max().unwrap_or(2).max(2) as f64;
-    let ymax = rows
-        .iter()
-        .map(|r| r.steps.max(r.moves))
+    let ymax = (METRICS.iter())
+        .flat_map(|m| rows.iter().map(m.1))
         .max()
         .unwrap_or(2)
         .max(2) as f64;
@@ -198,27 +230,20 @@ fn plot(title: &str, rows: &[Row]) -> Result<String, String> {
             (x, (a + b * x.ln()).exp())
         })
     };
-    chart
-        .draw_series(steps.iter().map(|&p| Circle::new(p, 3, BLUE.filled())))
-        .map_err(e)?
-        .label(format!("steps (fit: n^{:.2})", fs.1))
-        .legend(|(x, y)| Circle::new((x + 10, y), 3, BLUE.filled()));
-    chart
-        .draw_series(LineSeries::new(curve(fs), BLUE))
-        .map_err(e)?;
-    if let Some(fm) = fm {
+    for (name, f, colour) in METRICS {
+        let (pts, fit) = points(rows, f);
+        let Some(fit) = fit else { continue };
         chart
             .draw_series(
-                moves
-                    .iter()
+                (pts.iter())
                     .filter(|p| p.1 > 0.0)
-                    .map(|&p| TriangleMarker::new(p, 4, RED.filled())),
+                    .map(|&p| Circle::new(p, 3, colour.filled())),
             )
             .map_err(e)?
-            .label(format!("moves (fit: n^{:.2})", fm.1))
-            .legend(|(x, y)| TriangleMarker::new((x + 10, y), 4, RED.filled()));
+            .label(format!("{name} (fit: n^{:.2})", fit.1))
+            .legend(move |(x, y)| Circle::new((x + 10, y), 3, colour.filled()));
         chart
-            .draw_series(LineSeries::new(curve(fm), RED))
+            .draw_series(LineSeries::new(curve(fit), colour))
             .map_err(e)?;
     }
     chart
@@ -234,11 +259,57 @@ fn plot(title: &str, rows: &[Row]) -> Result<String, String> {
     Ok(svg)
 }
 
+/// The CSV of the rows: n, seed, steps, how the run stopped, every other column of
+/// `run --series` as the run's total, and the wall time.
+fn csv(rows: &[Row]) -> String {
+    let rules: Vec<&str> = rows
+        .first()
+        .map_or(Vec::new(), |r| r.rules.iter().map(String::as_str).collect());
+    let cols = StepCost::columns(&rules);
+    let mut head = vec![
+        "n".to_string(),
+        "seed".into(),
+        "steps".into(),
+        "stopped_by".into(),
+    ];
+    head.extend(cols.iter().skip(1).map(|c| csv_field(c)));
+    head.push("wall_time_s".into());
+    let mut out = head.join(",") + "\n";
+    for r in rows {
+        let stop = if r.quiescent {
+            "quiescence"
+        } else {
+            "max-steps"
+        };
+        let mut line = vec![
+            r.n.to_string(),
+            r.seed.to_string(),
+            r.cost.step.to_string(),
+            stop.into(),
+        ];
+        line.extend(r.cost.values().iter().skip(1).map(u64::to_string));
+        line.push(format!("{:.6}", r.secs));
+        out += &(line.join(",") + "\n");
+    }
+    out
+}
+
 pub fn sweep(a: SweepArgs) -> ExitCode {
     let out_file = match open_output(&a.out) {
         Ok(f) => f,
         Err(c) => return c,
     };
+    if let Some(p) = a
+        .plot
+        .as_deref()
+        .filter(|p| !p.to_string_lossy().to_ascii_lowercase().ends_with(".svg"))
+    {
+        say!(
+            "error: --plot `{}`: the plot is written as SVG (a name ending in .svg)",
+            p.display()
+        );
+        return ExitCode::from(2);
+    }
     let plot_file = match a.plot.as_deref().map(open_output).transpose() {
         Ok(f) => f,
         Err(c) => return c,
@@ -285,43 +356,24 @@ pub fn sweep(a: SweepArgs) -> ExitCode {
             }
         }
     }
-    let mut csv = String::from("n,seed,steps,stopped_by,moves,messages,wall_time_s\n");
-    for r in &rows {
-        csv += &format!(
-            "{},{},{},{},{},{},{:.6}\n",
-            r.n,
-            r.seed,
-            r.steps,
-            if r.quiescent {
-                "quiescence"
-            } else {
-                "max-steps"
-            },
-            r.moves,
-            r.messages,
-            r.secs
-        );
-    }
-    if let Err(c) = write_output(out_file, csv.as_bytes()) {
+    if let Err(c) = write_output(out_file, csv(&rows).as_bytes()) {
         return c;
     }
-    let fs = fit_power(
-        &rows
-            .iter()
-            .map(|r| (r.n as f64, r.steps as f64))
-            .collect::<Vec<_>>(),
-    );
-    let fm = fit_power(
-        &rows
-            .iter()
-            .map(|r| (r.n as f64, r.moves as f64))
-            .collect::<Vec<_>>(),
-    );
+    // The growth of each metric that occurs.
+    let fits: Vec<String> = (METRICS.iter())
+        .filter_map(|&(name, f, _)| {
+            let (_, fit) = points(&rows, f);
+            fit.map(|(_, b)| format!("{name} ~ n^{b:.2}"))
+        })
+        .collect();
     say!(
-        "{} runs; steps ~ n^{}, moves ~ n^{}; wrote {}",
+        "{} runs; {}; wrote {}",
         rows.len(),
-        fs.map_or("?".into(), |f| format!("{:.2}", f.1)),
-        fm.map_or("-".into(), |f| format!("{:.2}", f.1)),
+        if fits.is_empty() {
+            "nothing to fit (too few sizes, or no metric above zero)".to_string()
+        } else {
+            fits.join(", ")
+        },
         a.out.display()
     );
     if let Some(f) = plot_file {

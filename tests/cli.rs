@@ -437,15 +437,45 @@ fn sweep_writes_csv_and_plot() {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let text = std::fs::read_to_string(&csv).unwrap();
     let lines: Vec<&str> = text.lines().collect();
-    assert_eq!(
-        lines[0],
-        "n,seed,steps,stopped_by,moves,messages,wall_time_s"
+    assert!(
+        lines[0].starts_with("n,seed,steps,stopped_by,firings,firings:start,firings:adopt,"),
+        "{}",
+        lines[0]
     );
+    for c in [
+        ",executing,moves,carried,swaps,sent,delivered,dropped,records,records:move-conflict,",
+        ",wall_time_s",
+    ] {
+        assert!(lines[0].contains(c), "{c} in {}", lines[0]);
+    }
     assert_eq!(lines.len(), 5);
     assert!(lines[1].starts_with("5,1,"), "{}", lines[1]);
     assert!(lines.iter().skip(1).all(|l| l.contains(",quiescence,")));
     assert!(std::fs::read_to_string(&svg).unwrap().starts_with("<svg"));
-    assert!(stderr(&o).contains("steps ~ n^"));
+    assert!(stderr(&o).contains("steps ~ n^"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("messages ~ n^"), "{}", stderr(&o));
+    assert!(
+        !stderr(&o).contains("moves ~"),
+        "no moves to fit: {}",
+        stderr(&o)
+    );
+    // A plot is SVG: another name is refused before any run.
+    let o = run(&[
+        "sweep",
+        "examples/leader-election/rules.txt",
+        "--sizes",
+        "5",
+        "--out",
+        csv.to_str().unwrap(),
+        "--plot",
+        dir.join("r.png").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("the plot is written as SVG"),
+        "{}",
+        stderr(&o)
+    );
     // Rules that do not fit the generated agents: exit 1.
     let o = run(&[
         "sweep",
@@ -1485,4 +1515,63 @@ fn a_series_is_csv_or_parquet() {
         b"untouched",
         "nothing was run"
     );
+}
+
+/// `sweep --order` reaches the engine: the first agent of a line moves north and sends
+/// east; with actions first its message goes to an empty cell (dropped every step), with
+/// messages first the first one reaches its neighbour (derived by hand: 0 and 1 delivered
+/// in 3 steps).
+#[test]
+fn sweep_and_render_take_the_order_of_a_step() {
+    let rules = tmp("order-rules.txt", b"m\n1\nSM****\nP0,1 #E01 + 0001 0000\n");
+    let dir = std::env::temp_dir().join(format!("latticesim-order-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for (order, delivered) in [("actions-first", "0"), ("messages-first", "1")] {
+        let csv = dir.join(format!("{order}.csv"));
+        let o = run(&[
+            "sweep",
+            rules.to_str().unwrap(),
+            "--shape",
+            "line",
+            "--sizes",
+            "3",
+            "--seeds",
+            "1",
+            "--state",
+            "S0000",
+            "--first-state",
+            "M0000",
+            "--max-steps",
+            "3",
+            "--order",
+            order,
+            "--out",
+            csv.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let text = std::fs::read_to_string(&csv).unwrap();
+        let mut lines = text.lines();
+        let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let row: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let at = |c: &str| row[head.iter().position(|h| *h == c).unwrap()];
+        assert_eq!((at("steps"), at("stopped_by")), ("3", "max-steps"));
+        assert_eq!((at("sent"), at("delivered")), ("3", delivered), "{order}");
+    }
+    let agents = tmp("order-agents.txt", b"0,0 SM0000\n1,0 SS0000\n");
+    for order in ["actions-first", "messages-first"] {
+        let png = dir.join(format!("{order}.svg"));
+        let o = run(&[
+            "render",
+            rules.to_str().unwrap(),
+            agents.to_str().unwrap(),
+            "--step",
+            "1",
+            "--order",
+            order,
+            "--static-first",
+            "--out",
+            png.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    }
 }

@@ -55,6 +55,25 @@ impl StepCost {
         }
     }
 
+    /// The totals of a whole run: its statistics, and `executing` summed over its steps
+    /// (`step` is then the number of steps).
+    pub fn total(stats: &Stats, executing: u64) -> StepCost {
+        StepCost {
+            step: stats.steps,
+            firings: stats.firings.clone(),
+            executing,
+            moves: stats.moves,
+            carried: stats.carried,
+            swaps: stats.swaps,
+            sent: stats.sent,
+            delivered: stats.delivered,
+            dropped: stats.dropped,
+            records: (RecordKind::ALL.iter())
+                .map(|k| stats.records.get(k).copied().unwrap_or(0))
+                .collect(),
+        }
+    }
+
     /// All firings of the step.
     pub fn all_firings(&self) -> u64 {
         self.firings.iter().sum()
