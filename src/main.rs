@@ -16,6 +16,7 @@ mod render;
 mod run;
 mod series;
 mod serve;
+mod set;
 mod sweep;
 
 #[global_allocator]

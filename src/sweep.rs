@@ -7,6 +7,7 @@ use crate::gen::AgentOptions;
 use crate::output::{open_output, say, write_output};
 use crate::run::OrderArg;
 use crate::series::csv_field;
+use crate::set::Setting;
 use clap::ValueEnum;
 use latticesim_compiler::compile;
 use latticesim_runtime::shapes::{agents_text, Shape};
@@ -37,14 +38,28 @@ pub struct SweepArgs {
     /// The shapes to generate.
     #[arg(long, value_enum, default_value_t = SweepShape::Connected)]
     shape: SweepShape,
-    /// The sizes n, comma-separated.
+    /// The sizes n, comma-separated (of --shape, or given to --agents-cmd as {n}).
     #[arg(long, value_delimiter = ',', default_values_t = vec![10, 30, 100, 300, 1000])]
     sizes: Vec<u32>,
-    /// Runs (seeds 1..=K) per size.
-    #[arg(long, default_value_t = 3)]
-    seeds: u64,
+    /// Runs (seeds 1..=K) per size, or per file of --agents (default: 3 per size, 1 per
+    /// file).
+    #[arg(long)]
+    seeds: Option<u64>,
+    /// Run these agents files instead of generated shapes: a folder (every file in it) or
+    /// a pattern such as `inputs/*.txt` (quote it for the shell); n is each file's agents.
+    #[arg(long, conflicts_with_all = ["agents_cmd", "shape", "sizes"])]
+    agents: Option<String>,
+    /// Make each run's agents file with this command (run by `sh -c`), which writes it to
+    /// standard output; `{n}` and `{seed}` in it are replaced by the size and the seed,
+    /// e.g. `python3 make.py {n} {seed}`.
+    #[arg(long, conflicts_with = "shape")]
+    agents_cmd: Option<String>,
+    /// Set a counter of every agent from an expression over n, x, y, z, id (the agent's
+    /// line) and seed, e.g. `C00=id+1`, `C01=n`, `C02=(x+y)%2` (repeatable).
+    #[arg(long, value_name = "Cnn=EXPR")]
+    set: Vec<Setting>,
     #[command(flatten)]
-    agents: AgentOptions,
+    gen: AgentOptions,
     /// Stop a run after this many steps.
     #[arg(long, default_value_t = 100_000)]
     max_steps: u64,
@@ -71,6 +86,8 @@ pub struct SweepArgs {
 struct Row {
     n: usize,
     seed: u64,
+    /// What the agents were: the shape, the file or the command.
+    input: String,
     quiescent: bool,
     /// The run's totals (`step`: the steps).
     cost: StepCost,
@@ -115,9 +132,20 @@ pub fn fit_power(points: &[(f64, f64)]) -> Option<(f64, f64)> {
     Some((my - b * mx, b))
 }
 
-fn run_one(rules: &[u8], a: &SweepArgs, n: u32, seed: u64) -> Result<Row, String> {
-    let three_d = a.agents.three_d();
-    let shape = match a.shape {
+/// One run of a sweep: its agents and its seed.
+enum Job {
+    /// A generated shape of about n agents.
+    Shape(u32),
+    /// An agents file.
+    File(std::path::PathBuf),
+    /// The output of `--agents-cmd` for size n.
+    Cmd(u32),
+}
+
+/// The shape of about `n` agents that `--shape` asks for.
+fn shape(a: &SweepArgs, n: u32) -> Shape {
+    let three_d = a.gen.three_d();
+    match a.shape {
         SweepShape::Line => Shape::Line { n },
         SweepShape::Connected => Shape::Connected { n },
         SweepShape::Block => {
@@ -132,18 +160,63 @@ fn run_one(rules: &[u8], a: &SweepArgs, n: u32, seed: u64) -> Result<Row, String
                 d: if three_d { side.max(1) } else { 1 },
             }
         }
+    }
+}
+
+/// The output of `--agents-cmd` `template` for size `n` and `seed` (its standard output),
+/// and the command run.
+fn command_output(template: &str, n: u32, seed: u64) -> Result<(Vec<u8>, String), String> {
+    let cmd = template
+        .replace("{n}", &n.to_string())
+        .replace("{seed}", &seed.to_string());
+    let out = std::process::Command::new("sh")
+        .args(["-c", &cmd])
+        .stdin(std::process::Stdio::null())
+        .output()
+        .map_err(|e| format!("--agents-cmd `{cmd}`: cannot run it: {e}"))?;
+    if !out.status.success() {
+        let err = String::from_utf8_lossy(&out.stderr);
+        let last = err
+            .lines()
+            .rev()
+            .find(|l| !l.trim().is_empty())
+            .unwrap_or("");
+        return Err(format!(
+            "--agents-cmd `{cmd}` failed ({}){}",
+            out.status,
+            if last.is_empty() {
+                String::new()
+            } else {
+                format!(": {last}")
+            }
+        ));
+    }
+    Ok((out.stdout, cmd))
+}
+
+fn run_one(rules: &[u8], a: &SweepArgs, job: &Job, seed: u64) -> Result<Row, String> {
+    let rules_name = a.rules.display().to_string();
+    let (text, input): (Vec<u8>, String) = match job {
+        Job::Shape(n) => (
+            agents_text(&shape(a, *n), &a.gen.gen_options(seed)?)?.into_bytes(),
+            format!(
+                "{} n={n}",
+                a.shape.to_possible_value().expect("named").get_name()
+            ),
+        ),
+        Job::Cmd(n) => command_output(a.agents_cmd.as_deref().expect("asked for"), *n, seed)?,
+        Job::File(p) => (Vec::new(), p.display().to_string()),
     };
-    let agents = agents_text(&shape, &a.agents.gen_options(seed)?)?;
-    let loaded = crate::agents_file::load(
-        (&a.rules.display().to_string(), rules),
-        "generated agents",
-        crate::agents_file::Source::Bytes(agents.as_bytes()),
-        1,
-    )
-    .map_err(|e| format!("n = {n}, seed {seed}: cannot read the generated agents: {e}"))?;
-    drop(agents);
+    let source = match job {
+        Job::File(p) => crate::agents_file::Source::File(p),
+        _ => crate::agents_file::Source::Bytes(&text),
+    };
+    let what = format!("{input}, seed {seed}");
+    let loaded = crate::agents_file::load((&rules_name, rules), &input, source, 1)
+        .map_err(|e| format!("{what}: cannot read the agents: {e}"))?;
+    drop(text);
     let c = &loaded.checked;
-    let (Some(p), Some(lat)) = (&c.rules, loaded.lattice) else {
+    let (Some(p), Some(mut lat)) = (&c.rules, loaded.lattice) else {
         let first = c
             .diags
             .iter()
@@ -153,13 +226,17 @@ fn run_one(rules: &[u8], a: &SweepArgs, n: u32, seed: u64) -> Result<Row, String
             .sources
             .line_col(first.primary.file, first.primary.span.start);
         return Err(format!(
-            "n = {n}, seed {seed}: {}:{line}:{col}: error[{}]: {} ({} errors in all; `latticesim check` shows them)",
+            "{what}: {}:{line}:{col}: error[{}]: {} ({} errors in all; `latticesim check` shows them)",
             c.sources.name(first.primary.file),
             first.code.as_str(),
             first.message,
             c.errors()
         ));
     };
+    for set in &a.set {
+        set.apply(&mut lat, seed)
+            .map_err(|e| format!("{what}: {e}"))?;
+    }
     let started = Instant::now();
     let prog = compile(p)
         .map_err(|e| format!("internal error: the compiled program does not verify: {e}"))?;
@@ -181,6 +258,7 @@ fn run_one(rules: &[u8], a: &SweepArgs, n: u32, seed: u64) -> Result<Row, String
     Ok(Row {
         n: e.lat.len(),
         seed,
+        input,
         quiescent,
         cost: StepCost::total(&e.stats, executing),
         rules: e.prog.rules.iter().map(|r| r.name.clone()).collect(),
@@ -259,7 +337,8 @@ fn plot(title: &str, rows: &[Row]) -> Result<String, String> {
     Ok(svg)
 }
 
-/// The CSV of the rows: n, seed, steps, how the run stopped, every other column of
+/// The CSV of the rows: n, seed, the input (shape, file or command), steps, how the run
+/// stopped, every other column of
 /// `run --series` as the run's total, and the wall time.
 fn csv(rows: &[Row]) -> String {
     let rules: Vec<&str> = rows
@@ -269,6 +348,7 @@ fn csv(rows: &[Row]) -> String {
     let mut head = vec![
         "n".to_string(),
         "seed".into(),
+        "input".into(),
         "steps".into(),
         "stopped_by".into(),
     ];
@@ -284,6 +364,7 @@ fn csv(rows: &[Row]) -> String {
         let mut line = vec![
             r.n.to_string(),
             r.seed.to_string(),
+            csv_field(&r.input),
             r.cost.step.to_string(),
             stop.into(),
         ];
@@ -292,6 +373,45 @@ fn csv(rows: &[Row]) -> String {
         out += &(line.join(",") + "\n");
     }
     out
+}
+
+/// The runs of a sweep: per size (or file) and seed.
+fn jobs(a: &SweepArgs) -> Result<Vec<(Job, u64)>, String> {
+    let Some(pattern) = &a.agents else {
+        let seeds = a.seeds.unwrap_or(3);
+        let job = |n| {
+            if a.agents_cmd.is_some() {
+                Job::Cmd(n)
+            } else {
+                Job::Shape(n)
+            }
+        };
+        return Ok((a.sizes.iter())
+            .flat_map(|&n| (1..=seeds).map(move |s| (job(n), s)))
+            .collect());
+    };
+    let path = std::path::Path::new(pattern);
+    let mut files: Vec<std::path::PathBuf> = if path.is_dir() {
+        std::fs::read_dir(path)
+            .map_err(|e| format!("--agents `{pattern}`: {e}"))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.is_file())
+            .collect()
+    } else {
+        glob::glob(pattern)
+            .map_err(|e| format!("--agents `{pattern}`: {e}"))?
+            .filter_map(Result::ok)
+            .filter(|p| p.is_file())
+            .collect()
+    };
+    files.sort();
+    if files.is_empty() {
+        return Err(format!("--agents `{pattern}`: no agents files there"));
+    }
+    let seeds = a.seeds.unwrap_or(1);
+    Ok((files.into_iter())
+        .flat_map(|f| (1..=seeds).map(move |s| (Job::File(f.clone()), s)))
+        .collect())
 }
 
 pub fn sweep(a: SweepArgs) -> ExitCode {
@@ -318,15 +438,17 @@ pub fn sweep(a: SweepArgs) -> ExitCode {
         Ok(b) => b,
         Err(c) => return c,
     };
-    if let Err(e) = a.agents.gen_options(0) {
+    if let Err(e) = a.gen.gen_options(0) {
         say!("error: {e}");
         return ExitCode::from(2);
     }
-    let jobs: Vec<(u32, u64)> = a
-        .sizes
-        .iter()
-        .flat_map(|&n| (1..=a.seeds).map(move |s| (n, s)))
-        .collect();
+    let jobs = match jobs(&a) {
+        Ok(j) => j,
+        Err(e) => {
+            say!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
     let pool = match rayon::ThreadPoolBuilder::new()
         .num_threads(crate::threads(
             a.threads,
@@ -343,7 +465,7 @@ pub fn sweep(a: SweepArgs) -> ExitCode {
     };
     let results: Vec<Result<Row, String>> = pool.install(|| {
         jobs.par_iter()
-            .map(|&(n, s)| run_one(&rules, &a, n, s))
+            .map(|(job, s)| run_one(&rules, &a, job, *s))
             .collect()
     });
     let mut rows = Vec::with_capacity(results.len());

@@ -438,7 +438,7 @@ fn sweep_writes_csv_and_plot() {
     let text = std::fs::read_to_string(&csv).unwrap();
     let lines: Vec<&str> = text.lines().collect();
     assert!(
-        lines[0].starts_with("n,seed,steps,stopped_by,firings,firings:start,firings:adopt,"),
+        lines[0].starts_with("n,seed,input,steps,stopped_by,firings,firings:start,firings:adopt,"),
         "{}",
         lines[0]
     );
@@ -1574,4 +1574,129 @@ fn sweep_and_render_take_the_order_of_a_step() {
         ]);
         assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     }
+}
+
+/// The fields of a CSV line (RFC 4180 quotes).
+fn csv_fields(line: &str) -> Vec<String> {
+    let (mut fields, mut cur, mut quoted, mut chars) =
+        (Vec::new(), String::new(), false, line.chars().peekable());
+    while let Some(c) = chars.next() {
+        match (c, quoted) {
+            ('"', true) if chars.peek() == Some(&'"') => {
+                cur.push('"');
+                chars.next();
+            }
+            ('"', _) => quoted = !quoted,
+            (',', false) => fields.push(std::mem::take(&mut cur)),
+            _ => cur.push(c),
+        }
+    }
+    fields.push(cur);
+    fields
+}
+
+/// `sweep` over agents files (a folder, a pattern), over a generator command's output, and
+/// with counters set by expressions: leader election on a line whose ids grow eastwards
+/// (`--set C00=id+1`) takes n + 1 steps (e + 2, e = n - 1); each input is named in the
+/// CSV; bad settings, failing commands and empty patterns are clear errors.
+#[test]
+fn sweep_runs_files_commands_and_set_counters() {
+    let dir = std::env::temp_dir().join(format!("latticesim-sweep-in-{}", std::process::id()));
+    let inputs = dir.join("in");
+    std::fs::create_dir_all(&inputs).unwrap();
+    for n in [6, 15] {
+        let line: String = (0..n).map(|i| format!("{i},0 SINIT0\n")).collect();
+        std::fs::write(inputs.join(format!("line-{n}.txt")), line).unwrap();
+    }
+    let rules = "examples/leader-election/rules.txt";
+    let csv = dir.join("out.csv");
+    let rows = |csv: &Path| -> Vec<(String, String, String)> {
+        let text = std::fs::read_to_string(csv).unwrap();
+        let mut lines = text.lines();
+        let head = csv_fields(lines.next().unwrap());
+        let at = |row: &[String], c: &str| row[head.iter().position(|h| h == c).unwrap()].clone();
+        lines
+            .map(|l| {
+                let row = csv_fields(l);
+                (at(&row, "n"), at(&row, "input"), at(&row, "steps"))
+            })
+            .collect()
+    };
+    let sweep = |extra: &[&str]| {
+        let mut args = vec!["sweep", rules, "--out", csv.to_str().unwrap()];
+        args.extend(extra);
+        run(&args)
+    };
+    let folder = inputs.to_str().unwrap().to_string();
+    let o = sweep(&["--agents", &folder, "--set", "C00=id+1"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let got = rows(&csv);
+    assert_eq!(got.len(), 2);
+    for (n, input, steps) in &got {
+        assert!(input.ends_with(&format!("line-{n}.txt")), "{input}");
+        assert_eq!(
+            steps.parse::<u64>().unwrap(),
+            n.parse::<u64>().unwrap() + 1,
+            "{input}"
+        );
+    }
+    let pattern = format!("{folder}/line-1*.txt");
+    let o = sweep(&["--agents", &pattern, "--set", "C00 = n - id"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(rows(&csv).len(), 1, "the pattern picks one file");
+    // A command writes each run's agents: a line of {n} agents.
+    let cmd = "i=0; while [ $i -lt {n} ]; do echo \"$i,0 SINIT0\"; i=$((i+1)); done";
+    let o = sweep(&[
+        "--agents-cmd",
+        cmd,
+        "--sizes",
+        "4,9",
+        "--seeds",
+        "2",
+        "--set",
+        "C00=id+seed",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let got = rows(&csv);
+    assert_eq!(got.len(), 4);
+    for (n, input, steps) in &got {
+        assert!(
+            input.contains(&format!("-lt {n} ]")),
+            "the command run: {input}"
+        );
+        assert_eq!(
+            steps,
+            &(n.parse::<u64>().unwrap() + 1).to_string(),
+            "{input}"
+        );
+    }
+    // Errors.
+    let o = sweep(&["--agents", &folder, "--set", "C0=id"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("`C0` is not a counter"),
+        "{}",
+        stderr(&o)
+    );
+    let o = sweep(&["--agents", &folder, "--set", "C00=id*10000"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("agent 4 gets 40000, outside a counter's -32767..32767"),
+        "{}",
+        stderr(&o)
+    );
+    let o = sweep(&["--agents-cmd", "echo oops >&2; exit 3", "--sizes", "4"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("failed (exit status: 3): oops"),
+        "{}",
+        stderr(&o)
+    );
+    let o = sweep(&["--agents", &format!("{folder}/none-*.txt")]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("no agents files there"),
+        "{}",
+        stderr(&o)
+    );
 }
