@@ -633,3 +633,54 @@ fn reconfiguration_by_walking_along_the_surface() {
         reconfiguration_case("reconfigure-walk/rules.txt", &name, &shape, seed, r);
     }
 }
+
+/// Odd-even transposition sort on reversed lines and random permutations: the line ends
+/// sorted (smallest in the west), with one swap per inversion of the input (counted here,
+/// pair by pair) in n + 1 steps, and every agent's parity counter is its x's parity.
+#[test]
+fn odd_even_sort() {
+    let mut seed = 12345u64;
+    let mut random = move |k: usize| {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (seed >> 33) as usize % k
+    };
+    for n in [1usize, 2, 3, 8, 17, 40, 101] {
+        let reversed: Vec<usize> = (1..=n).rev().collect();
+        let mut shuffled: Vec<usize> = (1..=n).collect();
+        for i in (1..n).rev() {
+            shuffled.swap(i, random(i + 1));
+        }
+        for values in [reversed, shuffled] {
+            let agents: String = (values.iter().enumerate())
+                .map(|(x, v)| format!("{x},0 S0SORT C00 {v} C01 {} C03 {n}\n", x % 2))
+                .collect();
+            let mut e = engine("odd-even-sort/rules.txt", &agents);
+            let steps = run(&mut e, 10_000, |_| {});
+            let inversions = (0..n)
+                .flat_map(|i| (i + 1..n).map(move |j| (i, j)))
+                .filter(|&(i, j)| values[i] > values[j])
+                .count() as u64;
+            let mut by_x: Vec<(i32, i16, i16)> = (0..n)
+                .map(|a| (e.lat.pos[a][0], ctr(&e, a, 0), ctr(&e, a, 1)))
+                .collect();
+            by_x.sort();
+            let sorted: Vec<i16> = by_x.iter().map(|t| t.1).collect();
+            assert_eq!(
+                sorted,
+                (1..=n as i16).collect::<Vec<_>>(),
+                "{values:?}: sorted"
+            );
+            assert!(
+                by_x.iter().all(|t| t.2 as i32 == t.0 % 2),
+                "{values:?}: parities"
+            );
+            assert_eq!(
+                e.stats.swaps, inversions,
+                "{values:?}: one swap per inversion"
+            );
+            assert_eq!(steps, n as u64 + 1, "{values:?}: n + 1 steps");
+        }
+    }
+}
