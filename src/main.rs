@@ -12,6 +12,7 @@ mod agents_file;
 mod alloc;
 mod gen;
 mod output;
+mod plot;
 mod render;
 mod run;
 mod series;

@@ -5,6 +5,7 @@
 
 use crate::gen::AgentOptions;
 use crate::output::{open_output, say, write_output};
+use crate::plot::{fit, Panel, Reference};
 use crate::run::OrderArg;
 use crate::series::csv_field;
 use crate::set::Setting;
@@ -12,7 +13,6 @@ use clap::ValueEnum;
 use latticesim_compiler::compile;
 use latticesim_runtime::shapes::{agents_text, Shape};
 use latticesim_runtime::{Engine, Options, StepCost};
-use plotters::prelude::*;
 use rayon::prelude::*;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -75,9 +75,20 @@ pub struct SweepArgs {
     /// The CSV file.
     #[arg(long)]
     out: PathBuf,
-    /// Also draw steps, moves, swaps and messages against n into this SVG file.
+    /// Also draw the metrics against n into this figure: SVG, PNG or PDF by its name (a
+    /// panel per metric: every run, the mean and spread per n, the fitted power law with
+    /// the 95 % interval of its exponent).
     #[arg(long)]
     plot: Option<PathBuf>,
+    /// The metrics to plot and fit, comma-separated, of steps, firings, executing, moves,
+    /// carried, swaps, messages, delivered, dropped, records (default: each of steps,
+    /// moves, swaps and messages that occurs).
+    #[arg(long, value_delimiter = ',', value_parser = ["steps", "firings", "executing", "moves", "carried", "swaps", "messages", "delivered", "dropped", "records"])]
+    metrics: Option<Vec<String>>,
+    /// Reference slopes to draw in every panel, comma-separated, e.g. `n,n^0.5,n log n`
+    /// (through the mean of the smallest n).
+    #[arg(long, value_delimiter = ',')]
+    reference: Vec<Reference>,
     /// Title of the plot.
     #[arg(long, default_value = "")]
     title: String,
@@ -96,41 +107,8 @@ struct Row {
     secs: f64,
 }
 
-/// A metric fitted and plotted against n: name, value of a row, marker colour.
-type Metric = (&'static str, fn(&Row) -> u64, RGBColor);
-
-/// A metric's points (n, value), and its fit (a, b) of log y = a + b log n.
-type Points = (Vec<(f64, f64)>, Option<(f64, f64)>);
-
-/// The metrics fitted and plotted against n.
-const METRICS: [Metric; 4] = [
-    ("steps", |r| r.cost.step, BLUE),
-    ("moves", |r| r.cost.moves, RED),
-    ("swaps", |r| r.cost.swaps, GREEN),
-    ("messages", |r| r.cost.sent, MAGENTA),
-];
-
-/// Least-squares fit of log y = a + b log x; returns (a, b).
-pub fn fit_power(points: &[(f64, f64)]) -> Option<(f64, f64)> {
-    let pts: Vec<(f64, f64)> = points
-        .iter()
-        .filter(|p| p.0 > 0.0 && p.1 > 0.0)
-        .map(|p| (p.0.ln(), p.1.ln()))
-        .collect();
-    let k = pts.len() as f64;
-    if pts.len() < 2 {
-        return None;
-    }
-    let (sx, sy) = pts.iter().fold((0.0, 0.0), |a, p| (a.0 + p.0, a.1 + p.1));
-    let (mx, my) = (sx / k, sy / k);
-    let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
-    let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
-    if sxx == 0.0 {
-        return None;
-    }
-    let b = sxy / sxx;
-    Some((my - b * mx, b))
-}
+/// A metric fitted and plotted against n: its name and its value in a row.
+type Metric = (&'static str, fn(&Row) -> u64);
 
 /// One run of a sweep: its agents and its seed.
 enum Job {
@@ -266,75 +244,38 @@ fn run_one(rules: &[u8], a: &SweepArgs, job: &Job, seed: u64) -> Result<Row, Str
     })
 }
 
-/// The points (n, value) of a metric, and its fit when it has two points above zero.
-fn points(rows: &[Row], f: fn(&Row) -> u64) -> Points {
-    let pts: Vec<(f64, f64)> = rows.iter().map(|r| (r.n as f64, f(r) as f64)).collect();
-    let fit = fit_power(&pts);
-    (pts, fit)
+/// The metrics `--metrics` may name: name, value of a row.
+const METRIC_NAMES: [Metric; 10] = [
+    ("steps", |r| r.cost.step),
+    ("firings", |r| r.cost.all_firings()),
+    ("executing", |r| r.cost.executing),
+    ("moves", |r| r.cost.moves),
+    ("carried", |r| r.cost.carried),
+    ("swaps", |r| r.cost.swaps),
+    ("messages", |r| r.cost.sent),
+    ("delivered", |r| r.cost.delivered),
+    ("dropped", |r| r.cost.dropped),
+    ("records", |r| r.cost.all_records()),
+];
+
+/// The points (n, value) of a metric, one per run.
+fn points(rows: &[Row], f: fn(&Row) -> u64) -> Vec<(f64, f64)> {
+    rows.iter().map(|r| (r.n as f64, f(r) as f64)).collect()
 }
 
-/// The log-log plot of the metrics that occur against n, with their fits, as SVG text.
-fn plot(title: &str, rows: &[Row]) -> Result<String, String> {
-    let xmin = rows.iter().map(|r| r.n).min().unwrap_or(1).max(1) as f64;
-    let xmax = rows.iter().map(|r| r.n).max().unwrap_or(2).max(2) as f64;
-    let ymax = (METRICS.iter())
-        .flat_map(|m| rows.iter().map(m.1))
-        .max()
-        .unwrap_or(2)
-        .max(2) as f64;
-    let e = |e: DrawingAreaErrorKind<std::io::Error>| e.to_string();
-    let mut svg = String::new();
-    let root = SVGBackend::with_string(&mut svg, (720, 450)).into_drawing_area();
-    root.fill(&WHITE).map_err(e)?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 20))
-        .margin(15)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
-        .build_cartesian_2d(
-            (xmin * 0.8..xmax * 1.25).log_scale(),
-            (1.0..ymax * 2.0).log_scale(),
-        )
-        .map_err(e)?;
-    chart
-        .configure_mesh()
-        .x_desc("agents n")
-        .y_desc("count")
-        .draw()
-        .map_err(e)?;
-    let curve = |(a, b): (f64, f64)| {
-        (0..=50).map(move |i| {
-            let x = xmin * (xmax / xmin).powf(i as f64 / 50.0);
-            (x, (a + b * x.ln()).exp())
-        })
-    };
-    for (name, f, colour) in METRICS {
-        let (pts, fit) = points(rows, f);
-        let Some(fit) = fit else { continue };
-        chart
-            .draw_series(
-                (pts.iter())
-                    .filter(|p| p.1 > 0.0)
-                    .map(|&p| Circle::new(p, 3, colour.filled())),
-            )
-            .map_err(e)?
-            .label(format!("{name} (fit: n^{:.2})", fit.1))
-            .legend(move |(x, y)| Circle::new((x + 10, y), 3, colour.filled()));
-        chart
-            .draw_series(LineSeries::new(curve(fit), colour))
-            .map_err(e)?;
+/// The metrics to plot and summarise: those `--metrics` names, else each of steps,
+/// moves, swaps and messages that is above zero in some run.
+fn chosen(a: &SweepArgs, rows: &[Row]) -> Vec<Metric> {
+    match &a.metrics {
+        Some(names) => (names.iter())
+            .filter_map(|n| METRIC_NAMES.iter().find(|m| m.0 == n).copied())
+            .collect(),
+        None => (METRIC_NAMES.iter())
+            .filter(|m| ["steps", "moves", "swaps", "messages"].contains(&m.0))
+            .filter(|m| rows.iter().any(|r| m.1(r) > 0))
+            .copied()
+            .collect(),
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperLeft)
-        .draw()
-        .map_err(e)?;
-    root.present().map_err(e)?;
-    drop(chart);
-    drop(root);
-    Ok(svg)
 }
 
 /// The CSV of the rows: n, seed, the input (shape, file or command), steps, how the run
@@ -419,13 +360,9 @@ pub fn sweep(a: SweepArgs) -> ExitCode {
         Ok(f) => f,
         Err(c) => return c,
     };
-    if let Some(p) = a
-        .plot
-        .as_deref()
-        .filter(|p| !p.to_string_lossy().to_ascii_lowercase().ends_with(".svg"))
-    {
+    if let Some(p) = (a.plot.as_deref()).filter(|p| crate::plot::format_of(p).is_none()) {
         say!(
-            "error: --plot `{}`: the plot is written as SVG (a name ending in .svg)",
+            "error: --plot `{}`: a plot is written as SVG, PNG or PDF (a name ending in .svg, .png or .pdf)",
             p.display()
         );
         return ExitCode::from(2);
@@ -481,12 +418,10 @@ pub fn sweep(a: SweepArgs) -> ExitCode {
     if let Err(c) = write_output(out_file, csv(&rows).as_bytes()) {
         return c;
     }
-    // The growth of each metric that occurs.
-    let fits: Vec<String> = (METRICS.iter())
-        .filter_map(|&(name, f, _)| {
-            let (_, fit) = points(&rows, f);
-            fit.map(|(_, b)| format!("{name} ~ n^{b:.2}"))
-        })
+    // The growth of each metric chosen.
+    let metrics = chosen(&a, &rows);
+    let fits: Vec<String> = (metrics.iter())
+        .filter_map(|&(name, f)| fit(&points(&rows, f)).map(|f| format!("{name} ~ {}", f.text())))
         .collect();
     say!(
         "{} runs; {}; wrote {}",
@@ -499,9 +434,18 @@ pub fn sweep(a: SweepArgs) -> ExitCode {
         a.out.display()
     );
     if let Some(f) = plot_file {
-        match plot(&a.title, &rows) {
-            Ok(svg) => {
-                if let Err(c) = write_output(f, svg.as_bytes()) {
+        let panels: Vec<Panel> = (metrics.iter())
+            .map(|&(name, v)| Panel {
+                name,
+                points: points(&rows, v),
+            })
+            .collect();
+        let format = crate::plot::format_of(f.path()).expect("checked before the runs");
+        let drawn = crate::plot::svg(&a.title, &panels, &a.reference)
+            .and_then(|svg| crate::plot::encode(&svg, format));
+        match drawn {
+            Ok(bytes) => {
+                if let Err(c) = write_output(f, &bytes) {
                     return c;
                 }
             }
@@ -518,21 +462,4 @@ pub fn sweep(a: SweepArgs) -> ExitCode {
         );
     }
     ExitCode::SUCCESS
-}
-
-#[cfg(test)]
-mod tests {
-    use super::fit_power;
-
-    #[test]
-    fn fits_a_power_law() {
-        let pts: Vec<(f64, f64)> = [10.0, 100.0, 1000.0]
-            .iter()
-            .map(|&n: &f64| (n, 3.0 * n.powf(0.5)))
-            .collect();
-        let (a, b) = fit_power(&pts).unwrap();
-        assert!((b - 0.5).abs() < 1e-9);
-        assert!((a.exp() - 3.0).abs() < 1e-9);
-        assert!(fit_power(&[(1.0, 1.0)]).is_none());
-    }
 }

@@ -459,7 +459,57 @@ fn sweep_writes_csv_and_plot() {
         "no moves to fit: {}",
         stderr(&o)
     );
-    // A plot is SVG: another name is refused before any run.
+    // PNG and PDF too, by the name, with reference slopes; each file decodes.
+    for (ext, refs) in [("png", "n,n^0.5"), ("pdf", "n log n")] {
+        let file = dir.join(format!("r.{ext}"));
+        let o = run(&[
+            "sweep",
+            "examples/leader-election/rules.txt",
+            "--sizes",
+            "5,20",
+            "--seeds",
+            "2",
+            "--state",
+            "INIT0",
+            "--ids",
+            "C00",
+            "--out",
+            csv.to_str().unwrap(),
+            "--plot",
+            file.to_str().unwrap(),
+            "--metrics",
+            "steps,messages,firings",
+            "--reference",
+            refs,
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let bytes = std::fs::read(&file).unwrap();
+        if ext == "png" {
+            let d = png::Decoder::new(std::io::Cursor::new(&bytes))
+                .read_info()
+                .unwrap();
+            let (w, h) = (d.info().width, d.info().height);
+            assert!(
+                w >= 1000 && h >= 800,
+                "two columns, two rows of panels: {w} x {h}"
+            );
+        } else {
+            assert!(bytes.starts_with(b"%PDF-"), "a PDF");
+            assert!(
+                bytes.windows(5).rev().take(64).any(|w| w == b"%%EOF"),
+                "a whole PDF"
+            );
+        }
+    }
+    let svg_text = std::fs::read_to_string(&svg).unwrap();
+    resvg::usvg::Tree::from_str(&svg_text, &resvg::usvg::Options::default())
+        .expect("the SVG parses");
+    assert!(
+        svg_text.contains("fit: n^"),
+        "the fit and its exponent are labelled"
+    );
+    assert!(svg_text.contains("agents n"), "the axis is labelled");
+    // Another name is refused before any run.
     let o = run(&[
         "sweep",
         "examples/leader-election/rules.txt",
@@ -468,11 +518,11 @@ fn sweep_writes_csv_and_plot() {
         "--out",
         csv.to_str().unwrap(),
         "--plot",
-        dir.join("r.png").to_str().unwrap(),
+        dir.join("r.jpg").to_str().unwrap(),
     ]);
     assert_eq!(o.status.code(), Some(2));
     assert!(
-        stderr(&o).contains("the plot is written as SVG"),
+        stderr(&o).contains("a plot is written as SVG, PNG or PDF"),
         "{}",
         stderr(&o)
     );

@@ -1,0 +1,395 @@
+//! The plots of `sweep --plot`: one log-log panel per metric against n, with every run as
+//! a faint point, the mean per n with its spread (min to max), the least-squares power
+//! law fitted to all runs with the 95 % interval of its exponent, and optional reference
+//! slopes (`--reference n,n^0.5,n log n`), anchored at the first mean. Drawn as SVG with
+//! plotters; PNG (resvg) and PDF (svg2pdf) are made from the SVG, chosen by the file's name.
+
+use plotters::prelude::*;
+use statrs::distribution::{ContinuousCDF, StudentsT};
+use std::path::Path;
+
+/// A fit of log y = a + b log n to k points: the exponent `b`, `a`, and the half-width of
+/// the 95 % interval of `b` (None with fewer than three points).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Fit {
+    pub a: f64,
+    pub b: f64,
+    pub ci: Option<f64>,
+    pub k: usize,
+}
+
+/// The least-squares fit of log y against log n over the points with both above zero
+/// (None with fewer than two distinct n).
+pub(crate) fn fit(points: &[(f64, f64)]) -> Option<Fit> {
+    let pts: Vec<(f64, f64)> = (points.iter())
+        .filter(|p| p.0 > 0.0 && p.1 > 0.0)
+        .map(|p| (p.0.ln(), p.1.ln()))
+        .collect();
+    let k = pts.len();
+    if k < 2 {
+        return None;
+    }
+    let (sx, sy) = pts.iter().fold((0.0, 0.0), |a, p| (a.0 + p.0, a.1 + p.1));
+    let (mx, my) = (sx / k as f64, sy / k as f64);
+    let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    if sxx == 0.0 {
+        return None;
+    }
+    let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    let b = sxy / sxx;
+    let a = my - b * mx;
+    // The standard error of the slope, and Student's t with k - 2 degrees of freedom.
+    let ci = (k > 2).then(|| {
+        let sse: f64 = pts.iter().map(|p| (p.1 - a - b * p.0).powi(2)).sum();
+        let se = (sse / (k - 2) as f64 / sxx).sqrt();
+        let t = StudentsT::new(0.0, 1.0, (k - 2) as f64)
+            .expect("positive degrees of freedom")
+            .inverse_cdf(0.975);
+        t * se
+    });
+    Some(Fit { a, b, ci, k })
+}
+
+impl Fit {
+    /// `n^1.02 ± 0.03` (the interval when known).
+    pub(crate) fn text(&self) -> String {
+        match self.ci {
+            Some(ci) => format!("n^{:.2} ± {ci:.2}", self.b),
+            None => format!("n^{:.2}", self.b),
+        }
+    }
+}
+
+/// A reference slope: its label and its shape as a function of n.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Reference {
+    pub label: String,
+    power: f64,
+    log: bool,
+}
+
+impl std::str::FromStr for Reference {
+    type Err = String;
+
+    /// `1`, `n`, `n^P`, `log n`, `n log n` or `n^P log n`.
+    fn from_str(s: &str) -> Result<Reference, String> {
+        let t = s.trim();
+        let (head, log) = match t.strip_suffix("log n") {
+            Some(h) => (h.trim().trim_end_matches('*').trim(), true),
+            None => (t, false),
+        };
+        let power = match head {
+            "" if log => 0.0,
+            "1" => 0.0,
+            "n" => 1.0,
+            h => h
+                .strip_prefix("n^")
+                .and_then(|p| p.parse::<f64>().ok())
+                .filter(|p| p.is_finite())
+                .ok_or_else(|| {
+                    format!("`{t}` is not a reference slope: write 1, n, n^P, log n, n log n or n^P log n")
+                })?,
+        };
+        Ok(Reference {
+            label: t.to_string(),
+            power,
+            log,
+        })
+    }
+}
+
+impl Reference {
+    fn at(&self, n: f64) -> f64 {
+        n.powf(self.power) * if self.log { n.ln().max(1e-9) } else { 1.0 }
+    }
+}
+
+/// One panel: a metric's name and its points (n, value), one per run.
+pub(crate) struct Panel<'a> {
+    pub name: &'a str,
+    pub points: Vec<(f64, f64)>,
+}
+
+/// An integer with thin spaces between thousands (`12 345`), for tick labels.
+fn integer(v: &f64) -> String {
+    let s = format!("{}", v.round() as i64);
+    let (sign, digits) = s.strip_prefix('-').map_or(("", s.as_str()), |d| ("-", d));
+    let mut out = String::new();
+    for (i, c) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i) % 3 == 0 {
+            out.push('\u{2009}');
+        }
+        out.push(c);
+    }
+    format!("{sign}{out}")
+}
+
+/// A log axis's label: only 1, 2 and 5 times a power of ten are written (10, 20, 50,
+/// 100, ...), so that labels never crowd; the other grid lines stay unlabelled.
+fn tick(v: &f64) -> String {
+    let r = v.round() as i64;
+    let d = r.unsigned_abs().to_string();
+    let round = d[1..].bytes().all(|b| b == b'0');
+    if r != 0 && round && matches!(d.as_bytes()[0], b'1' | b'2' | b'5') {
+        integer(v)
+    } else {
+        String::new()
+    }
+}
+
+/// Panel size in pixels.
+const PANEL: (u32, u32) = (560, 400);
+
+/// The panels as one SVG figure: panels side by side in rows of two, under the title.
+pub(crate) fn svg(title: &str, panels: &[Panel], refs: &[Reference]) -> Result<String, String> {
+    let cols = panels.len().clamp(1, 2) as u32;
+    let rows = panels.len().div_ceil(2).max(1) as u32;
+    let top = if title.is_empty() { 0 } else { 40 };
+    let size = (PANEL.0 * cols, PANEL.1 * rows + top);
+    let e = |e: DrawingAreaErrorKind<std::io::Error>| e.to_string();
+    let mut out = String::new();
+    {
+        let root = SVGBackend::with_string(&mut out, size).into_drawing_area();
+        root.fill(&WHITE).map_err(e)?;
+        let body = if title.is_empty() {
+            root.clone()
+        } else {
+            let (head, body) = root.split_vertically(top);
+            head.titled(title, ("sans-serif", 24)).map_err(e)?;
+            body
+        };
+        let areas = body.split_evenly((rows as usize, cols as usize));
+        for (panel, area) in panels.iter().zip(areas) {
+            draw_panel(&area, panel, refs).map_err(e)?;
+        }
+        root.present().map_err(e)?;
+    }
+    Ok(out)
+}
+
+type Area<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;
+
+fn draw_panel(
+    area: &Area<'_>,
+    p: &Panel,
+    refs: &[Reference],
+) -> Result<(), DrawingAreaErrorKind<std::io::Error>> {
+    let ns: Vec<f64> = p.points.iter().map(|q| q.0).filter(|n| *n > 0.0).collect();
+    let ys: Vec<f64> = p.points.iter().map(|q| q.1).filter(|y| *y > 0.0).collect();
+    let (xmin, xmax) = (
+        ns.iter().copied().fold(f64::MAX, f64::min),
+        ns.iter().copied().fold(0.0, f64::max),
+    );
+    let (ymin, ymax) = (
+        ys.iter().copied().fold(f64::MAX, f64::min),
+        ys.iter().copied().fold(0.0, f64::max),
+    );
+    let (xmin, xmax) = if ns.is_empty() {
+        (1.0, 10.0)
+    } else {
+        (xmin, xmax.max(xmin * 1.5))
+    };
+    let (ymin, ymax) = if ys.is_empty() {
+        (1.0, 10.0)
+    } else {
+        (ymin, ymax.max(ymin * 1.5))
+    };
+    let mut chart = ChartBuilder::on(area)
+        .caption(p.name, ("sans-serif", 18))
+        .margin(12)
+        .x_label_area_size(42)
+        .y_label_area_size(70)
+        .build_cartesian_2d(
+            (xmin / 1.3..xmax * 1.3).log_scale(),
+            (ymin / 2.0..ymax * 2.0).log_scale(),
+        )?;
+    chart
+        .configure_mesh()
+        .x_desc("agents n")
+        .y_desc(p.name)
+        .x_labels(12)
+        .y_labels(12)
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
+        .light_line_style(TRANSPARENT)
+        .draw()?;
+    let blue = RGBColor(31, 94, 168);
+    // Every run, faint.
+    chart.draw_series(
+        (p.points.iter())
+            .filter(|q| q.0 > 0.0 && q.1 > 0.0)
+            .map(|&q| Circle::new(q, 2, blue.mix(0.3).filled())),
+    )?;
+    // The mean per n and the spread (min to max) of its runs.
+    let mut by_n: std::collections::BTreeMap<u64, Vec<f64>> = Default::default();
+    for &(n, y) in p.points.iter().filter(|q| q.0 > 0.0 && q.1 > 0.0) {
+        by_n.entry(n as u64).or_default().push(y);
+    }
+    let stats: Vec<(f64, f64, f64, f64)> = by_n
+        .iter()
+        .map(|(&n, v)| {
+            let mean = v.iter().sum::<f64>() / v.len() as f64;
+            let (lo, hi) = v
+                .iter()
+                .fold((f64::MAX, 0.0f64), |a, &y| (a.0.min(y), a.1.max(y)));
+            (n as f64, lo, mean, hi)
+        })
+        .collect();
+    chart.draw_series(
+        stats
+            .iter()
+            .map(|&(n, lo, m, hi)| ErrorBar::new_vertical(n, lo, m, hi, blue.stroke_width(1), 8)),
+    )?;
+    chart
+        .draw_series(
+            stats
+                .iter()
+                .map(|&(n, _, m, _)| Circle::new((n, m), 4, blue.filled())),
+        )?
+        .label("mean of the runs (bars: min to max)")
+        .legend(move |(x, y)| Circle::new((x + 10, y), 4, blue.filled()));
+    // The fit, a straight line on these axes.
+    if let Some(f) = fit(&p.points) {
+        let red = RGBColor(200, 40, 40);
+        let line = [xmin, xmax].map(|x| (x, (f.a + f.b * x.ln()).exp()));
+        chart
+            .draw_series(LineSeries::new(line, red.stroke_width(2)))?
+            .label(format!("fit: {} (95 %, {} runs)", f.text(), f.k))
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], red.stroke_width(2)));
+    }
+    // Reference slopes through the first mean.
+    if let Some(&(n0, _, m0, _)) = stats.first() {
+        let greys = [
+            RGBColor(90, 90, 90),
+            RGBColor(140, 140, 140),
+            RGBColor(60, 140, 60),
+        ];
+        for (r, &grey) in refs.iter().zip(greys.iter().cycle()) {
+            let scale = m0 / r.at(n0);
+            let pts: Vec<(f64, f64)> = (0..=40)
+                .map(|i| {
+                    let x = xmin * (xmax / xmin).powf(i as f64 / 40.0);
+                    (x, scale * r.at(x))
+                })
+                .filter(|q| q.1 >= ymin / 2.0 && q.1 <= ymax * 2.0)
+                .collect();
+            chart
+                .draw_series(DashedLineSeries::new(pts, 6, 4, grey.stroke_width(1)))?
+                .label(format!("∝ {}", r.label))
+                .legend(move |(x, y)| {
+                    PathElement::new([(x, y), (x + 20, y)], grey.stroke_width(1))
+                });
+        }
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(RGBColor(180, 180, 180))
+        .position(SeriesLabelPosition::UpperLeft)
+        .draw()?;
+    Ok(())
+}
+
+/// The format of a plot file, by its name: `svg`, `png` or `pdf`.
+pub(crate) fn format_of(path: &Path) -> Option<&'static str> {
+    let name = path.file_name()?.to_str()?.to_ascii_lowercase();
+    ["svg", "png", "pdf"]
+        .into_iter()
+        .find(|e| name.ends_with(&format!(".{e}")))
+}
+
+/// The figure in the format `format` (`svg`, `png` at twice the SVG's size, or `pdf`),
+/// text set in the system's fonts.
+pub(crate) fn encode(svg: &str, format: &str) -> Result<Vec<u8>, String> {
+    if format == "svg" {
+        return Ok(svg.as_bytes().to_vec());
+    }
+    let mut opt = resvg::usvg::Options::default();
+    let db = opt.fontdb_mut();
+    db.load_system_fonts();
+    // The figure's text asks for `sans-serif`: the first of these the system has, else
+    // any family it has.
+    let families: Vec<String> = (db.faces())
+        .flat_map(|f| f.families.iter().map(|(name, _)| name.clone()))
+        .collect();
+    let sans = ["DejaVu Sans", "Liberation Sans", "Noto Sans", "FreeSans", "Arial"]
+        .iter()
+        .map(|s| s.to_string())
+        .find(|f| families.contains(f))
+        .or_else(|| families.first().cloned())
+        .ok_or("no fonts on this system to set the figure's text in; install some (e.g. Debian's fonts-dejavu-core) or write .svg")?;
+    db.set_sans_serif_family(sans);
+    let tree = resvg::usvg::Tree::from_str(svg, &opt).map_err(|e| e.to_string())?;
+    if format == "pdf" {
+        let (c, p) = (
+            svg2pdf::ConversionOptions::default(),
+            svg2pdf::PageOptions::default(),
+        );
+        return svg2pdf::to_pdf(&tree, c, p).map_err(|e| e.to_string());
+    }
+    let size = tree.size().to_int_size();
+    let (w, h) = (size.width() * 2, size.height() * 2);
+    let mut pixmap = resvg::tiny_skia::Pixmap::new(w, h).ok_or("the figure is empty")?;
+    pixmap.fill(resvg::tiny_skia::Color::WHITE);
+    let scale = resvg::tiny_skia::Transform::from_scale(2.0, 2.0);
+    resvg::render(&tree, scale, &mut pixmap.as_mut());
+    pixmap.encode_png().map_err(|e| e.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The exponent, intercept and 95 % interval against a fit computed independently
+    /// (scipy.stats.linregress on the natural logarithms, and t = stats.t.ppf(0.975, 1)):
+    /// the points (10, 20), (100, 150), (1000, 2500) give slope 1.048455, intercept
+    /// 0.448491, SSE 0.106269 with Sxx 10.603796, and with one degree of freedom
+    /// (t = 12.706205) the interval 12.706205 * sqrt(0.106269 / 10.603796) = 1.272004.
+    #[test]
+    fn fits_a_power_law_with_its_interval() {
+        let f = fit(&[(10.0, 20.0), (100.0, 150.0), (1000.0, 2500.0)]).unwrap();
+        assert!((f.b - 1.048_455).abs() < 1e-6, "{f:?}");
+        assert!((f.a - 0.448_491).abs() < 1e-6, "{f:?}");
+        assert!((f.ci.unwrap() - 1.272_004).abs() < 1e-5, "{f:?}");
+        assert_eq!(f.k, 3);
+        // Exact data: the interval is zero; two points: no interval; one: no fit.
+        let exact: Vec<(f64, f64)> = [1.0, 10.0, 100.0, 1000.0]
+            .iter()
+            .map(|&n: &f64| (n, 3.0 * n.powf(0.5)))
+            .collect();
+        let f = fit(&exact).unwrap();
+        assert!(
+            (f.b - 0.5).abs() < 1e-12 && f.ci.unwrap() < 1e-9 && (f.a.exp() - 3.0).abs() < 1e-9
+        );
+        assert!(fit(&[(1.0, 1.0), (2.0, 2.0)]).unwrap().ci.is_none());
+        assert!(fit(&[(1.0, 1.0)]).is_none());
+        assert!(
+            fit(&[(5.0, 1.0), (5.0, 2.0)]).is_none(),
+            "one n: nothing to fit"
+        );
+    }
+
+    #[test]
+    fn reference_slopes_and_ticks() {
+        let r = |s: &str| s.parse::<Reference>();
+        assert_eq!(r("n").unwrap().at(8.0), 8.0);
+        assert_eq!(r("n^0.5").unwrap().at(16.0), 4.0);
+        assert!(
+            (r("n log n").unwrap().at(std::f64::consts::E) - std::f64::consts::E).abs() < 1e-12
+        );
+        assert!((r("log n").unwrap().at(std::f64::consts::E) - 1.0).abs() < 1e-12);
+        assert_eq!(r("1").unwrap().at(50.0), 1.0);
+        assert!(r("n^x").unwrap_err().contains("not a reference slope"));
+        assert_eq!(integer(&1234567.0), "1\u{2009}234\u{2009}567");
+        assert_eq!(integer(&10.0), "10");
+        let ticks: Vec<String> = [10.0, 20.0, 30.0, 50.0, 90.0, 100.0, 250.0, 5000.0]
+            .iter()
+            .map(tick)
+            .collect();
+        assert_eq!(ticks, ["10", "20", "", "50", "", "100", "", "5\u{2009}000"]);
+        assert_eq!(integer(&-1000.0), "-1\u{2009}000");
+        assert_eq!(format_of(Path::new("a/b.PDF")), Some("pdf"));
+        assert_eq!(format_of(Path::new("b.png")), Some("png"));
+        assert_eq!(format_of(Path::new("b.jpg")), None);
+    }
+}
