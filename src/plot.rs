@@ -167,6 +167,24 @@ pub(crate) fn svg(title: &str, panels: &[Panel], refs: &[Reference]) -> Result<S
     Ok(out)
 }
 
+/// Per n (ascending) of the points above zero: n, the smallest value, the mean, the
+/// largest value.
+fn per_n(points: &[(f64, f64)]) -> Vec<(f64, f64, f64, f64)> {
+    let mut by_n: std::collections::BTreeMap<u64, Vec<f64>> = Default::default();
+    for &(n, y) in points.iter().filter(|q| q.0 > 0.0 && q.1 > 0.0) {
+        by_n.entry(n as u64).or_default().push(y);
+    }
+    (by_n.iter())
+        .map(|(&n, v)| {
+            let mean = v.iter().sum::<f64>() / v.len() as f64;
+            let (lo, hi) = v
+                .iter()
+                .fold((f64::MAX, 0.0f64), |a, &y| (a.0.min(y), a.1.max(y)));
+            (n as f64, lo, mean, hi)
+        })
+        .collect()
+}
+
 type Area<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;
 
 fn draw_panel(
@@ -221,20 +239,7 @@ fn draw_panel(
             .map(|&q| Circle::new(q, 2, blue.mix(0.3).filled())),
     )?;
     // The mean per n and the spread (min to max) of its runs.
-    let mut by_n: std::collections::BTreeMap<u64, Vec<f64>> = Default::default();
-    for &(n, y) in p.points.iter().filter(|q| q.0 > 0.0 && q.1 > 0.0) {
-        by_n.entry(n as u64).or_default().push(y);
-    }
-    let stats: Vec<(f64, f64, f64, f64)> = by_n
-        .iter()
-        .map(|(&n, v)| {
-            let mean = v.iter().sum::<f64>() / v.len() as f64;
-            let (lo, hi) = v
-                .iter()
-                .fold((f64::MAX, 0.0f64), |a, &y| (a.0.min(y), a.1.max(y)));
-            (n as f64, lo, mean, hi)
-        })
-        .collect();
+    let stats = per_n(&p.points);
     chart.draw_series(
         stats
             .iter()
@@ -382,6 +387,14 @@ mod tests {
         assert!(r("n^x").unwrap_err().contains("not a reference slope"));
         assert_eq!(integer(&1234567.0), "1\u{2009}234\u{2009}567");
         assert_eq!(integer(&10.0), "10");
+        let pts = [
+            (20.0, 4.0),
+            (10.0, 1.0),
+            (20.0, 8.0),
+            (10.0, 3.0),
+            (10.0, 0.0),
+        ];
+        assert_eq!(per_n(&pts), [(10.0, 1.0, 2.0, 3.0), (20.0, 4.0, 6.0, 8.0)]);
         let ticks: Vec<String> = [10.0, 20.0, 30.0, 50.0, 90.0, 100.0, 250.0, 5000.0]
             .iter()
             .map(tick)

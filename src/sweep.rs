@@ -355,6 +355,49 @@ fn jobs(a: &SweepArgs) -> Result<Vec<(Job, u64)>, String> {
         .collect())
 }
 
+/// The CSV of the rows, the fitted growth of the metrics chosen, and the plot.
+fn outputs(
+    a: &SweepArgs,
+    rows: &[Row],
+    out_file: crate::output::AtomicFile,
+    plot_file: Option<crate::output::AtomicFile>,
+) -> Result<(), ExitCode> {
+    write_output(out_file, csv(rows).as_bytes())?;
+    let metrics = chosen(a, rows);
+    let fits: Vec<String> = (metrics.iter())
+        .filter_map(|&(name, f)| fit(&points(rows, f)).map(|f| format!("{name} ~ {}", f.text())))
+        .collect();
+    say!(
+        "{} runs; {}; wrote {}",
+        rows.len(),
+        if fits.is_empty() {
+            "nothing to fit (too few sizes, or no metric above zero)".to_string()
+        } else {
+            fits.join(", ")
+        },
+        a.out.display()
+    );
+    let Some(f) = plot_file else {
+        return Ok(());
+    };
+    let panels: Vec<Panel> = (metrics.iter())
+        .map(|&(name, v)| Panel {
+            name,
+            points: points(rows, v),
+        })
+        .collect();
+    let format = crate::plot::format_of(f.path()).expect("checked before the runs");
+    match crate::plot::svg(&a.title, &panels, &a.reference)
+        .and_then(|svg| crate::plot::encode(&svg, format))
+    {
+        Ok(bytes) => write_output(f, &bytes),
+        Err(e) => {
+            say!("error: cannot draw `{}`: {e}", f.path().display());
+            Err(ExitCode::from(2))
+        }
+    }
+}
+
 pub fn sweep(a: SweepArgs) -> ExitCode {
     let out_file = match open_output(&a.out) {
         Ok(f) => f,
@@ -405,55 +448,27 @@ pub fn sweep(a: SweepArgs) -> ExitCode {
             .map(|(job, s)| run_one(&rules, &a, job, *s))
             .collect()
     });
-    let mut rows = Vec::with_capacity(results.len());
+    // The runs that failed are named; the others are written all the same.
+    let (mut rows, mut failed) = (Vec::with_capacity(results.len()), 0);
     for r in results {
         match r {
             Ok(row) => rows.push(row),
             Err(e) => {
                 say!("error: {e}");
-                return ExitCode::from(1);
+                failed += 1;
             }
         }
     }
-    if let Err(c) = write_output(out_file, csv(&rows).as_bytes()) {
+    if let Err(c) = outputs(&a, &rows, out_file, plot_file) {
         return c;
     }
-    // The growth of each metric chosen.
-    let metrics = chosen(&a, &rows);
-    let fits: Vec<String> = (metrics.iter())
-        .filter_map(|&(name, f)| fit(&points(&rows, f)).map(|f| format!("{name} ~ {}", f.text())))
-        .collect();
-    say!(
-        "{} runs; {}; wrote {}",
-        rows.len(),
-        if fits.is_empty() {
-            "nothing to fit (too few sizes, or no metric above zero)".to_string()
-        } else {
-            fits.join(", ")
-        },
-        a.out.display()
-    );
-    if let Some(f) = plot_file {
-        let panels: Vec<Panel> = (metrics.iter())
-            .map(|&(name, v)| Panel {
-                name,
-                points: points(&rows, v),
-            })
-            .collect();
-        let format = crate::plot::format_of(f.path()).expect("checked before the runs");
-        let drawn = crate::plot::svg(&a.title, &panels, &a.reference)
-            .and_then(|svg| crate::plot::encode(&svg, format));
-        match drawn {
-            Ok(bytes) => {
-                if let Err(c) = write_output(f, &bytes) {
-                    return c;
-                }
-            }
-            Err(e) => {
-                say!("error: cannot draw `{}`: {e}", f.path().display());
-                return ExitCode::from(2);
-            }
-        }
+    if failed > 0 {
+        say!(
+            "{failed} of {} runs failed; `{}` holds the others",
+            failed + rows.len(),
+            a.out.display()
+        );
+        return ExitCode::from(1);
     }
     if rows.iter().any(|r| !r.quiescent) {
         say!(

@@ -1735,6 +1735,15 @@ fn sweep_runs_files_commands_and_set_counters() {
         "{}",
         stderr(&o)
     );
+    // A run that fails does not take the others with it: here only the line of 15
+    // (agent 11 gets 33000) fails, and the CSV holds the line of 6.
+    let o = sweep(&["--agents", &folder, "--set", "C00=id*3000"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("agent 11 gets 33000"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("1 of 2 runs failed"), "{}", stderr(&o));
+    let got = rows(&csv);
+    assert_eq!(got.len(), 1, "{got:?}");
+    assert_eq!((got[0].0.as_str(), got[0].2.as_str()), ("6", "7"));
     let o = sweep(&["--agents-cmd", "echo oops >&2; exit 3", "--sizes", "4"]);
     assert_eq!(o.status.code(), Some(1));
     assert!(
