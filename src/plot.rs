@@ -303,17 +303,14 @@ pub(crate) fn format_of(path: &Path) -> Option<&'static str> {
         .find(|e| name.ends_with(&format!(".{e}")))
 }
 
-/// The figure in the format `format` (`svg`, `png` at twice the SVG's size, or `pdf`),
-/// text set in the system's fonts.
-pub(crate) fn encode(svg: &str, format: &str) -> Result<Vec<u8>, String> {
-    if format == "svg" {
-        return Ok(svg.as_bytes().to_vec());
-    }
+/// Options for reading SVG with text: the system's fonts, `sans-serif` set to the first
+/// of DejaVu Sans, Liberation Sans, Noto Sans, FreeSans and Arial the system has (else any
+/// family it has), `monospace` to DejaVu Sans Mono, Liberation Mono, Noto Sans Mono or
+/// FreeMono (else the sans-serif one); an error when it has no fonts.
+pub(crate) fn svg_options() -> Result<resvg::usvg::Options<'static>, String> {
     let mut opt = resvg::usvg::Options::default();
     let db = opt.fontdb_mut();
     db.load_system_fonts();
-    // The figure's text asks for `sans-serif`: the first of these the system has, else
-    // any family it has.
     let families: Vec<String> = (db.faces())
         .flat_map(|f| f.families.iter().map(|(name, _)| name.clone()))
         .collect();
@@ -323,7 +320,28 @@ pub(crate) fn encode(svg: &str, format: &str) -> Result<Vec<u8>, String> {
         .find(|f| families.contains(f))
         .or_else(|| families.first().cloned())
         .ok_or("no fonts on this system to set the figure's text in; install some (e.g. Debian's fonts-dejavu-core) or write .svg")?;
+    let mono = [
+        "DejaVu Sans Mono",
+        "Liberation Mono",
+        "Noto Sans Mono",
+        "FreeMono",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .find(|f| families.contains(f))
+    .unwrap_or_else(|| sans.clone());
     db.set_sans_serif_family(sans);
+    db.set_monospace_family(mono);
+    Ok(opt)
+}
+
+/// The figure in the format `format` (`svg`, `png` at twice the SVG's size, or `pdf`),
+/// text set in the system's fonts.
+pub(crate) fn encode(svg: &str, format: &str) -> Result<Vec<u8>, String> {
+    if format == "svg" {
+        return Ok(svg.as_bytes().to_vec());
+    }
+    let opt = svg_options()?;
     let tree = resvg::usvg::Tree::from_str(svg, &opt).map_err(|e| e.to_string())?;
     if format == "pdf" {
         let (c, p) = (

@@ -1,7 +1,7 @@
 //! `latticesim render`: a frame (PNG or SVG) or an animation (GIF) of a run, for papers
 //! and talks. Agents are squares (2D) or isometric cubes (3D) in their state's colour
 //! ([`state_colour`]), bonds are bars between attached agents, a bounded universe is
-//! outlined. The SVG carries a legend of the states.
+//! outlined. Every format carries the step and a legend of the states on the right.
 
 use crate::output::{open_output, say, write_output};
 use crate::run::load;
@@ -347,37 +347,16 @@ fn hex(c: [u8; 3]) -> String {
     format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2])
 }
 
-/// The frame as SVG, with a legend of the states on the right.
-fn svg(view: &View, shapes: &[Shape], states: &BTreeSet<[u8; 5]>, step: u64) -> String {
-    let legend_w = 140;
-    let (w, h) = (
-        view.size.0 + legend_w,
-        view.size.1.max(24 + 18 * states.len() as u32),
-    );
-    let mut s = format!(
-        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" viewBox=\"0 0 {w} {h}\">\n<rect width=\"{w}\" height=\"{h}\" fill=\"white\"/>\n"
-    );
-    for sh in shapes {
-        match sh {
-            Shape::Poly(pts, c) => {
-                let p: Vec<String> = pts.iter().map(|(x, y)| format!("{x:.2},{y:.2}")).collect();
-                let _ = writeln!(
-                    s,
-                    "<polygon points=\"{}\" fill=\"{}\"/>",
-                    p.join(" "),
-                    hex(*c)
-                );
-            }
-            Shape::Line(a, b, width, c) => {
-                let _ = writeln!(
-                    s,
-                    "<line x1=\"{:.2}\" y1=\"{:.2}\" x2=\"{:.2}\" y2=\"{:.2}\" stroke=\"{}\" stroke-width=\"{width:.2}\"/>",
-                    a.0, a.1, b.0, b.1, hex(*c)
-                );
-            }
-        }
-    }
-    let x = view.size.0 + 10;
+/// The width of the legend beside a picture, in pixels.
+const LEGEND_W: u32 = 140;
+
+/// The height the legend of `states` needs.
+fn legend_h(states: &BTreeSet<[u8; 5]>) -> u32 {
+    24 + 18 * states.len() as u32
+}
+
+/// The legend's SVG elements, from `x`: the step, then a swatch and the name per state.
+fn legend(s: &mut String, x: u32, states: &BTreeSet<[u8; 5]>, step: u64) {
     let _ = writeln!(
         s,
         "<text x=\"{x}\" y=\"16\" font-family=\"sans-serif\" font-size=\"12\">step {step}</text>"
@@ -401,13 +380,94 @@ fn svg(view: &View, shapes: &[Shape], states: &BTreeSet<[u8; 5]>, step: u64) -> 
             y + 12
         );
     }
+}
+
+fn svg_head(w: u32, h: u32) -> String {
+    format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" viewBox=\"0 0 {w} {h}\">\n<rect width=\"{w}\" height=\"{h}\" fill=\"white\"/>\n"
+    )
+}
+
+/// The frame as SVG, with the legend on the right.
+fn svg(view: &View, shapes: &[Shape], states: &BTreeSet<[u8; 5]>, step: u64) -> String {
+    let (w, h) = (view.size.0 + LEGEND_W, view.size.1.max(legend_h(states)));
+    let mut s = svg_head(w, h);
+    for sh in shapes {
+        match sh {
+            Shape::Poly(pts, c) => {
+                let p: Vec<String> = pts.iter().map(|(x, y)| format!("{x:.2},{y:.2}")).collect();
+                let _ = writeln!(
+                    s,
+                    "<polygon points=\"{}\" fill=\"{}\"/>",
+                    p.join(" "),
+                    hex(*c)
+                );
+            }
+            Shape::Line(a, b, width, c) => {
+                let _ = writeln!(
+                    s,
+                    "<line x1=\"{:.2}\" y1=\"{:.2}\" x2=\"{:.2}\" y2=\"{:.2}\" stroke=\"{}\" stroke-width=\"{width:.2}\"/>",
+                    a.0, a.1, b.0, b.1, hex(*c)
+                );
+            }
+        }
+    }
+    legend(&mut s, view.size.0 + 10, states, step);
     s.push_str("</svg>\n");
     s
 }
 
-fn png(view: &View, rgb: &[u8]) -> Result<Vec<u8>, String> {
+/// Pictures with the legend beside them, as PNG and GIF write them: the legend is the
+/// SVG's, drawn with resvg in the system's fonts.
+struct Legended<'a> {
+    states: &'a BTreeSet<[u8; 5]>,
+    opt: resvg::usvg::Options<'static>,
+    /// The size of the whole image.
+    size: (u32, u32),
+}
+
+impl<'a> Legended<'a> {
+    fn new(view: &View, states: &'a BTreeSet<[u8; 5]>) -> Result<Legended<'a>, String> {
+        Ok(Legended {
+            states,
+            opt: crate::plot::svg_options()?,
+            size: (view.size.0 + LEGEND_W, view.size.1.max(legend_h(states))),
+        })
+    }
+
+    /// The picture `rgb` (of `view`'s size) with the legend of step `step` on its right,
+    /// padded with white below when the legend is taller: RGB rows of `self.size`.
+    fn image(&self, view: &View, rgb: &[u8], step: u64) -> Result<Vec<u8>, String> {
+        let (w, h) = self.size;
+        let mut s = svg_head(LEGEND_W, h);
+        legend(&mut s, 10, self.states, step);
+        s.push_str("</svg>\n");
+        let tree = resvg::usvg::Tree::from_str(&s, &self.opt).map_err(|e| e.to_string())?;
+        let mut pix = resvg::tiny_skia::Pixmap::new(LEGEND_W, h).ok_or("an empty legend")?;
+        pix.fill(resvg::tiny_skia::Color::WHITE);
+        resvg::render(
+            &tree,
+            resvg::tiny_skia::Transform::identity(),
+            &mut pix.as_mut(),
+        );
+        let (vw, vh) = (view.size.0 as usize, view.size.1 as usize);
+        let mut out = Vec::with_capacity(w as usize * h as usize * 3);
+        for y in 0..h as usize {
+            match rgb.get(y * vw * 3..(y + 1) * vw * 3).filter(|_| y < vh) {
+                Some(row) => out.extend_from_slice(row),
+                None => out.resize(out.len() + vw * 3, 255),
+            }
+            // The legend is opaque (on white): its premultiplied RGBA is its RGB.
+            let l = &pix.data()[y * LEGEND_W as usize * 4..(y + 1) * LEGEND_W as usize * 4];
+            out.extend(l.chunks(4).flat_map(|p| [p[0], p[1], p[2]]));
+        }
+        Ok(out)
+    }
+}
+
+fn png(size: (u32, u32), rgb: &[u8]) -> Result<Vec<u8>, String> {
     let mut out = Vec::new();
-    let mut enc = png::Encoder::new(&mut out, view.size.0, view.size.1);
+    let mut enc = png::Encoder::new(&mut out, size.0, size.1);
     enc.set_color(png::ColorType::Rgb);
     enc.set_depth(png::BitDepth::Eight);
     let mut w = enc.write_header().map_err(|e| e.to_string())?;
@@ -416,10 +476,15 @@ fn png(view: &View, rgb: &[u8]) -> Result<Vec<u8>, String> {
     Ok(out)
 }
 
-/// The frames as an animated GIF, each rasterised only when it is encoded (one frame in
-/// memory at a time).
-fn gif(view: &View, frames: &[Frame], fps: u32) -> Result<Vec<u8>, String> {
-    let (w, h) = (view.size.0, view.size.1);
+/// The frames (of steps `first`, `first + 1`, ...) as an animated GIF, each with the
+/// legend and its step, rasterised only when it is encoded (one frame in memory at a time).
+fn gif(
+    view: &View,
+    frames: &[Frame],
+    lg: &Legended,
+    (first, fps): (u64, u32),
+) -> Result<Vec<u8>, String> {
+    let (w, h) = lg.size;
     if w > u16::MAX as u32 || h > u16::MAX as u32 {
         return Err(format!(
             "a GIF is at most 65535 pixels a side; this one is {w} x {h}"
@@ -431,8 +496,8 @@ fn gif(view: &View, frames: &[Frame], fps: u32) -> Result<Vec<u8>, String> {
             gif::Encoder::new(&mut out, w as u16, h as u16, &[]).map_err(|e| e.to_string())?;
         enc.set_repeat(gif::Repeat::Infinite)
             .map_err(|e| e.to_string())?;
-        for frame in frames {
-            let rgb = raster(view, &view.shapes(frame));
+        for (i, frame) in frames.iter().enumerate() {
+            let rgb = lg.image(view, &raster(view, &view.shapes(frame)), first + i as u64)?;
             let mut f = gif::Frame::from_rgb_speed(w as u16, h as u16, &rgb, 10);
             f.delay = (100 / fps).max(1) as u16;
             enc.write_frame(&f).map_err(|e| e.to_string())?;
@@ -586,8 +651,13 @@ pub fn render(args: RenderArgs) -> ExitCode {
     }
     let bytes = match ext.as_deref() {
         Some("svg") => Ok(svg(&view, &view.shapes(&frames[0]), &states, first).into_bytes()),
-        Some("png") => png(&view, &raster(&view, &view.shapes(&frames[0]))),
-        _ => gif(&view, &frames, args.fps),
+        Some("png") => Legended::new(&view, &states).and_then(|lg| {
+            let rgb = lg.image(&view, &raster(&view, &view.shapes(&frames[0])), first)?;
+            png(lg.size, &rgb)
+        }),
+        _ => {
+            Legended::new(&view, &states).and_then(|lg| gif(&view, &frames, &lg, (first, args.fps)))
+        }
     };
     let bytes = match bytes {
         Ok(b) => b,
@@ -609,8 +679,8 @@ pub fn render(args: RenderArgs) -> ExitCode {
         args.out.display(),
         frames.len(),
         if frames.len() == 1 { "" } else { "s" },
-        view.size.0,
-        view.size.1,
+        view.size.0 + LEGEND_W,
+        view.size.1.max(legend_h(&states)),
         engine.lat.len()
     );
     ExitCode::SUCCESS

@@ -411,6 +411,52 @@ fn gen_writes_agents_files_that_check() {
     assert_eq!(o.status.code(), Some(2));
 }
 
+/// `sweep --plot` as PNG and as PDF (with reference slopes and chosen metrics) into
+/// `dir`: the PNG decodes at the size of two rows of two panels, the PDF is whole.
+fn plots_decode(dir: &Path, csv: &Path) {
+    for (ext, refs) in [("png", "n,n^0.5"), ("pdf", "n log n")] {
+        let file = dir.join(format!("r.{ext}"));
+        let o = run(&[
+            "sweep",
+            "examples/leader-election/rules.txt",
+            "--sizes",
+            "5,20",
+            "--seeds",
+            "2",
+            "--state",
+            "INIT0",
+            "--ids",
+            "C00",
+            "--out",
+            csv.to_str().unwrap(),
+            "--plot",
+            file.to_str().unwrap(),
+            "--metrics",
+            "steps,messages,firings",
+            "--reference",
+            refs,
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let bytes = std::fs::read(&file).unwrap();
+        if ext == "png" {
+            let d = png::Decoder::new(std::io::Cursor::new(&bytes))
+                .read_info()
+                .unwrap();
+            let (w, h) = (d.info().width, d.info().height);
+            assert!(
+                w >= 1000 && h >= 800,
+                "two columns, two rows of panels: {w} x {h}"
+            );
+        } else {
+            assert!(bytes.starts_with(b"%PDF-"), "a PDF");
+            assert!(
+                bytes.windows(5).rev().take(64).any(|w| w == b"%%EOF"),
+                "a whole PDF"
+            );
+        }
+    }
+}
+
 #[test]
 fn sweep_writes_csv_and_plot() {
     let dir = std::env::temp_dir().join(format!("latticesim-sweep-{}", std::process::id()));
@@ -460,47 +506,7 @@ fn sweep_writes_csv_and_plot() {
         stderr(&o)
     );
     // PNG and PDF too, by the name, with reference slopes; each file decodes.
-    for (ext, refs) in [("png", "n,n^0.5"), ("pdf", "n log n")] {
-        let file = dir.join(format!("r.{ext}"));
-        let o = run(&[
-            "sweep",
-            "examples/leader-election/rules.txt",
-            "--sizes",
-            "5,20",
-            "--seeds",
-            "2",
-            "--state",
-            "INIT0",
-            "--ids",
-            "C00",
-            "--out",
-            csv.to_str().unwrap(),
-            "--plot",
-            file.to_str().unwrap(),
-            "--metrics",
-            "steps,messages,firings",
-            "--reference",
-            refs,
-        ]);
-        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-        let bytes = std::fs::read(&file).unwrap();
-        if ext == "png" {
-            let d = png::Decoder::new(std::io::Cursor::new(&bytes))
-                .read_info()
-                .unwrap();
-            let (w, h) = (d.info().width, d.info().height);
-            assert!(
-                w >= 1000 && h >= 800,
-                "two columns, two rows of panels: {w} x {h}"
-            );
-        } else {
-            assert!(bytes.starts_with(b"%PDF-"), "a PDF");
-            assert!(
-                bytes.windows(5).rev().take(64).any(|w| w == b"%%EOF"),
-                "a whole PDF"
-            );
-        }
-    }
+    plots_decode(&dir, &csv);
     let svg_text = std::fs::read_to_string(&svg).unwrap();
     resvg::usvg::Tree::from_str(&svg_text, &resvg::usvg::Options::default())
         .expect("the SVG parses");
@@ -626,8 +632,30 @@ fn render_png_shows_each_agent_in_its_state_colour() {
         cells.iter().map(|c| c.1).min().unwrap(),
         cells.iter().map(|c| c.1).max().unwrap(),
     );
-    // Ten pixels a cell and a margin of one cell; north is up.
-    assert_eq!((w, h), ((x1 - x0 + 3) * 10, (y1 - y0 + 3) * 10));
+    // Ten pixels a cell and a margin of one cell, north up; the legend (140 pixels wide,
+    // 24 + 18 per state high) on the right.
+    let states: std::collections::BTreeSet<&str> = cells.iter().map(|c| c.2.as_str()).collect();
+    let view_w = (x1 - x0 + 3) * 10;
+    let legend_h = 24 + 18 * states.len() as i64;
+    assert_eq!((w, h), (view_w + 140, ((y1 - y0 + 3) * 10).max(legend_h)));
+    for (i, st) in states.iter().enumerate() {
+        let (px, py) = (view_w + 17, 24 + 18 * i as i64 + 7);
+        let k = ((py * w + px) * 3) as usize;
+        assert_eq!(
+            [buf[k], buf[k + 1], buf[k + 2]],
+            documented_colour(st.as_bytes()),
+            "the legend's swatch of {st}"
+        );
+    }
+    // The step's line of text above the swatches: dark pixels in the legend's first rows.
+    let dark = (4..20).flat_map(|y| (view_w + 10..view_w + 60).map(move |x| (x, y)));
+    let dark = dark
+        .filter(|&(x, y)| buf[((y * w + x) * 3) as usize] < 100)
+        .count();
+    assert!(
+        dark > 10,
+        "the step is written in the legend ({dark} dark pixels)"
+    );
     let pixel = |x: i64, y: i64| {
         let (px, py) = ((x - x0 + 1) * 10 + 5, (y1 - y + 1) * 10 + 5);
         let i = ((py * w + px) * 3) as usize;
@@ -1400,6 +1428,47 @@ fn parquet_series(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
     (names, rows)
 }
 
+/// Each row of a series against the events of the same step in the trace `trace`.
+fn trace_agrees(name: &str, trace: &Path, names: &[String], rows: &[Vec<f64>]) {
+    let col = |c: &str| {
+        names
+            .iter()
+            .position(|n| n == c)
+            .unwrap_or_else(|| panic!("{c}"))
+    };
+    let trace = std::fs::read_to_string(trace).unwrap();
+    let mut events: std::collections::BTreeMap<(u64, String), f64> = Default::default();
+    for line in trace.lines() {
+        let v: serde_json::Value = serde_json::from_str(line).unwrap();
+        let mut key = v["event"].as_str().unwrap().to_string();
+        if key == "record" {
+            key = format!("records:{}", v["kind"].as_str().unwrap());
+        }
+        *events
+            .entry((v["step"].as_u64().unwrap(), key))
+            .or_default() += 1.0;
+    }
+    for row in rows {
+        let step = row[col("step")] as u64;
+        let ev = |k: &str| events.get(&(step, k.to_string())).copied().unwrap_or(0.0);
+        for (c, e) in [
+            ("executing", "fire"),
+            ("moves", "move"),
+            ("swaps", "swap"),
+            ("sent", "message"),
+        ] {
+            assert_eq!(
+                row[col(c)],
+                ev(e),
+                "{name}, step {step}: {c} against the trace's {e} events"
+            );
+        }
+        for n in names.iter().filter(|n| n.starts_with("records:")) {
+            assert_eq!(row[col(n)], ev(n), "{name}, step {step}: {n}");
+        }
+    }
+}
+
 /// `run --series` as CSV and Parquet: every column summed over the steps equals the
 /// `--stats` total, and step by step the counts agree with the trace's events (fire events
 /// = agents executing, move events = moves, swap events = swaps, message events = sent,
@@ -1501,37 +1570,7 @@ fn series_sum_to_the_stats_and_follow_the_trace() {
             );
         }
         // Step by step against the trace.
-        let trace = std::fs::read_to_string(d.join("trace.jsonl")).unwrap();
-        let mut events: std::collections::BTreeMap<(u64, String), f64> = Default::default();
-        for line in trace.lines() {
-            let v: serde_json::Value = serde_json::from_str(line).unwrap();
-            let mut key = v["event"].as_str().unwrap().to_string();
-            if key == "record" {
-                key = format!("records:{}", v["kind"].as_str().unwrap());
-            }
-            *events
-                .entry((v["step"].as_u64().unwrap(), key))
-                .or_default() += 1.0;
-        }
-        for row in &rows {
-            let step = row[col("step")] as u64;
-            let ev = |k: &str| events.get(&(step, k.to_string())).copied().unwrap_or(0.0);
-            for (c, e) in [
-                ("executing", "fire"),
-                ("moves", "move"),
-                ("swaps", "swap"),
-                ("sent", "message"),
-            ] {
-                assert_eq!(
-                    row[col(c)],
-                    ev(e),
-                    "{name}, step {step}: {c} against the trace's {e} events"
-                );
-            }
-            for n in names.iter().filter(|n| n.starts_with("records:")) {
-                assert_eq!(row[col(n)], ev(n), "{name}, step {step}: {n}");
-            }
-        }
+        trace_agrees(name, &d.join("trace.jsonl"), &names, &rows);
         carried += total("carried");
         if name == "swaps" {
             assert_eq!(total("swaps"), 5, "the swaps of the A-B line");

@@ -787,6 +787,30 @@ impl World {
             }
             goff.insert(g, o);
         }
+        self.cancel_collisions(&mut goff, &group, recs, step);
+        for a in 0..n {
+            if let Some(o) = goff.get(&group[a]) {
+                let p = self.agents[a].pos;
+                self.agents[a].pos = [p[0] + o[0], p[1] + o[1], p[2] + o[2]];
+                self.stats.moves += 1;
+                if mv[a].is_none() {
+                    self.stats.carried += 1;
+                }
+            }
+        }
+        self.reindex();
+    }
+
+    /// Groups whose targets meet another agent's (moving or not) are cancelled with a
+    /// record, again until no two agents would share a cell.
+    fn cancel_collisions(
+        &self,
+        goff: &mut BTreeMap<usize, [i32; 3]>,
+        group: &[usize],
+        recs: &mut Vec<Rec>,
+        step: u64,
+    ) {
+        let n = self.agents.len();
         loop {
             let target = |a: usize, goff: &BTreeMap<usize, [i32; 3]>| {
                 let p = self.agents[a].pos;
@@ -798,7 +822,7 @@ impl World {
             let mut cancel: Vec<usize> = Vec::new();
             for a in 0..n {
                 for b in 0..n {
-                    if a != b && target(a, &goff) == target(b, &goff) {
+                    if a != b && target(a, goff) == target(b, goff) {
                         for x in [a, b] {
                             if goff.contains_key(&group[x]) && !cancel.contains(&group[x]) {
                                 cancel.push(group[x]);
@@ -823,17 +847,6 @@ impl World {
                 });
             }
         }
-        for a in 0..n {
-            if let Some(o) = goff.get(&group[a]) {
-                let p = self.agents[a].pos;
-                self.agents[a].pos = [p[0] + o[0], p[1] + o[1], p[2] + o[2]];
-                self.stats.moves += 1;
-                if mv[a].is_none() {
-                    self.stats.carried += 1;
-                }
-            }
-        }
-        self.reindex();
     }
 
     /// Bonds made after the moves.
