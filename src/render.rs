@@ -32,6 +32,10 @@ pub struct RenderArgs {
     /// Pixels per lattice cell (made smaller if the image would be wider than 8192 pixels).
     #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=256))]
     cell: u32,
+    /// Colour the agents by this counter (e.g. C00) on a continuous scale, from its
+    /// smallest to its largest value in the frames drawn, instead of by state.
+    #[arg(long, value_name = "Cnn")]
+    color_by: Option<String>,
     /// Which comes first in a step (as `run --order`).
     #[arg(long, value_enum, default_value_t = crate::run::OrderArg::ActionsFirst)]
     order: crate::run::OrderArg,
@@ -90,12 +94,14 @@ const WALL: [u8; 3] = [150, 150, 150];
 struct Frame {
     pos: Vec<[i32; 3]>,
     state: Vec<[u8; 5]>,
+    /// With `--color-by`: each agent's value of that counter.
+    value: Vec<i16>,
     /// Bonds as pairs of agent indices, each once.
     bonds: Vec<(usize, usize)>,
 }
 
 impl Frame {
-    fn of(lat: &Lattice) -> Frame {
+    fn of(lat: &Lattice, counter: Option<u8>) -> Frame {
         let mut bonds = Vec::new();
         for a in 0..lat.len() {
             for d in Dir::ALL.iter().take(lat.dim.dirs()) {
@@ -109,6 +115,9 @@ impl Frame {
         Frame {
             pos: lat.pos.clone(),
             state: lat.state.clone(),
+            value: counter.map_or(Vec::new(), |c| {
+                (0..lat.len()).map(|a| lat.counter(a as u32, c)).collect()
+            }),
             bonds,
         }
     }
@@ -199,7 +208,7 @@ impl View {
     }
 
     /// The shapes of a frame, back to front.
-    fn shapes(&self, f: &Frame) -> Vec<Shape> {
+    fn shapes(&self, f: &Frame, key: &Key) -> Vec<Shape> {
         let mut out = Vec::new();
         if let Some(u) = self.universe {
             let (x0, y0, x1, y1) = (
@@ -229,7 +238,7 @@ impl View {
             });
             for a in order {
                 let [x, y, z] = f.pos[a].map(|c| c as f64);
-                let c = state_colour(&f.state[a]);
+                let c = key.colour(f, a);
                 let q = |pts: [(f64, f64, f64); 4]| pts.map(|(x, y, z)| self.at(x, y, z)).to_vec();
                 out.push(Shape::Poly(
                     q([
@@ -265,9 +274,9 @@ impl View {
             } else {
                 0.0
             };
-            for (p, s) in f.pos.iter().zip(&f.state) {
+            for (a, p) in f.pos.iter().enumerate() {
                 let (x, y) = (p[0] as f64, p[1] as f64);
-                let c = state_colour(s);
+                let c = key.colour(f, a);
                 let sq = |d: f64| {
                     vec![
                         self.at(x + d, y + d, 0.0),
@@ -350,35 +359,110 @@ fn hex(c: [u8; 3]) -> String {
 /// The width of the legend beside a picture, in pixels.
 const LEGEND_W: u32 = 140;
 
-/// The height the legend of `states` needs.
-fn legend_h(states: &BTreeSet<[u8; 5]>) -> u32 {
-    24 + 18 * states.len() as u32
+/// How agents are coloured, and the legend that says so: by state (each state its
+/// colour, [`state_colour`]), or by a counter on a continuous scale from its smallest to
+/// its largest value in the frames drawn.
+enum Key {
+    States(BTreeSet<[u8; 5]>),
+    Counter { name: String, lo: i16, hi: i16 },
 }
 
-/// The legend's SVG elements, from `x`: the step, then a swatch and the name per state.
-fn legend(s: &mut String, x: u32, states: &BTreeSet<[u8; 5]>, step: u64) {
-    let _ = writeln!(
-        s,
-        "<text x=\"{x}\" y=\"16\" font-family=\"sans-serif\" font-size=\"12\">step {step}</text>"
+/// The scale of `--color-by`: viridis, from dark purple (smallest) to yellow (largest),
+/// as five stops interpolated in RGB.
+const SCALE: [[u8; 3]; 5] = [
+    [68, 1, 84],
+    [59, 82, 139],
+    [33, 145, 140],
+    [94, 201, 98],
+    [253, 231, 37],
+];
+
+/// The scale's colour at `t` in 0..=1.
+fn scale(t: f64) -> [u8; 3] {
+    let t = t.clamp(0.0, 1.0) * (SCALE.len() - 1) as f64;
+    let (i, f) = (
+        (t.floor() as usize).min(SCALE.len() - 2),
+        t - t.floor().min((SCALE.len() - 2) as f64),
     );
-    for (i, st) in states.iter().enumerate() {
-        let y = 24 + 18 * i as u32;
-        let name: String = String::from_utf8_lossy(st)
-            .chars()
-            .map(|c| match c {
-                '<' => '‹',
-                '>' => '›',
-                '&' => '+',
-                c => c,
-            })
-            .collect();
+    let (a, b) = (SCALE[i], SCALE[i + 1]);
+    [0, 1, 2].map(|k| (a[k] as f64 + (b[k] as f64 - a[k] as f64) * f).round() as u8)
+}
+
+/// Height of the colour bar of a counter's legend.
+const BAR_H: u32 = 120;
+
+impl Key {
+    fn colour(&self, f: &Frame, a: usize) -> [u8; 3] {
+        match self {
+            Key::States(_) => state_colour(&f.state[a]),
+            Key::Counter { lo, hi, .. } => {
+                let span = (*hi as f64 - *lo as f64).max(1.0);
+                scale((f.value[a] as f64 - *lo as f64) / span)
+            }
+        }
+    }
+
+    /// The height the legend needs.
+    fn height(&self) -> u32 {
+        match self {
+            Key::States(states) => 24 + 18 * states.len() as u32,
+            Key::Counter { .. } => 40 + BAR_H + 20,
+        }
+    }
+
+    /// The legend's SVG elements, from `x`: the step, then a swatch and the name per
+    /// state, or the counter's name and its colour bar from the largest value (top) to
+    /// the smallest.
+    fn legend(&self, s: &mut String, x: u32, step: u64) {
         let _ = writeln!(
             s,
-            "<rect x=\"{x}\" y=\"{y}\" width=\"14\" height=\"14\" fill=\"{}\"/><text x=\"{}\" y=\"{}\" font-family=\"monospace\" font-size=\"12\">{name}</text>",
-            hex(state_colour(st)),
-            x + 20,
-            y + 12
+            "<text x=\"{x}\" y=\"16\" font-family=\"sans-serif\" font-size=\"12\">step {step}</text>"
         );
+        let states = match self {
+            Key::States(states) => states,
+            Key::Counter { name, lo, hi } => {
+                let _ = writeln!(
+                    s,
+                    "<text x=\"{x}\" y=\"36\" font-family=\"monospace\" font-size=\"12\">{name}</text>"
+                );
+                for i in 0..BAR_H {
+                    let c = scale(1.0 - i as f64 / (BAR_H - 1) as f64);
+                    let _ = writeln!(
+                        s,
+                        "<rect x=\"{x}\" y=\"{}\" width=\"14\" height=\"1\" fill=\"{}\"/>",
+                        44 + i,
+                        hex(c)
+                    );
+                }
+                for (v, y) in [(hi, 44 + 10), (lo, 44 + BAR_H)] {
+                    let _ = writeln!(
+                        s,
+                        "<text x=\"{}\" y=\"{y}\" font-family=\"sans-serif\" font-size=\"12\">{v}</text>",
+                        x + 20
+                    );
+                }
+                return;
+            }
+        };
+        for (i, st) in states.iter().enumerate() {
+            let y = 24 + 18 * i as u32;
+            let name: String = String::from_utf8_lossy(st)
+                .chars()
+                .map(|c| match c {
+                    '<' => '‹',
+                    '>' => '›',
+                    '&' => '+',
+                    c => c,
+                })
+                .collect();
+            let _ = writeln!(
+                s,
+                "<rect x=\"{x}\" y=\"{y}\" width=\"14\" height=\"14\" fill=\"{}\"/><text x=\"{}\" y=\"{}\" font-family=\"monospace\" font-size=\"12\">{name}</text>",
+                hex(state_colour(st)),
+                x + 20,
+                y + 12
+            );
+        }
     }
 }
 
@@ -389,8 +473,8 @@ fn svg_head(w: u32, h: u32) -> String {
 }
 
 /// The frame as SVG, with the legend on the right.
-fn svg(view: &View, shapes: &[Shape], states: &BTreeSet<[u8; 5]>, step: u64) -> String {
-    let (w, h) = (view.size.0 + LEGEND_W, view.size.1.max(legend_h(states)));
+fn svg(view: &View, shapes: &[Shape], key: &Key, step: u64) -> String {
+    let (w, h) = (view.size.0 + LEGEND_W, view.size.1.max(key.height()));
     let mut s = svg_head(w, h);
     for sh in shapes {
         match sh {
@@ -412,7 +496,7 @@ fn svg(view: &View, shapes: &[Shape], states: &BTreeSet<[u8; 5]>, step: u64) -> 
             }
         }
     }
-    legend(&mut s, view.size.0 + 10, states, step);
+    key.legend(&mut s, view.size.0 + 10, step);
     s.push_str("</svg>\n");
     s
 }
@@ -420,18 +504,18 @@ fn svg(view: &View, shapes: &[Shape], states: &BTreeSet<[u8; 5]>, step: u64) -> 
 /// Pictures with the legend beside them, as PNG and GIF write them: the legend is the
 /// SVG's, drawn with resvg in the system's fonts.
 struct Legended<'a> {
-    states: &'a BTreeSet<[u8; 5]>,
+    key: &'a Key,
     opt: resvg::usvg::Options<'static>,
     /// The size of the whole image.
     size: (u32, u32),
 }
 
 impl<'a> Legended<'a> {
-    fn new(view: &View, states: &'a BTreeSet<[u8; 5]>) -> Result<Legended<'a>, String> {
+    fn new(view: &View, key: &'a Key) -> Result<Legended<'a>, String> {
         Ok(Legended {
-            states,
+            key,
             opt: crate::plot::svg_options()?,
-            size: (view.size.0 + LEGEND_W, view.size.1.max(legend_h(states))),
+            size: (view.size.0 + LEGEND_W, view.size.1.max(key.height())),
         })
     }
 
@@ -440,7 +524,7 @@ impl<'a> Legended<'a> {
     fn image(&self, view: &View, rgb: &[u8], step: u64) -> Result<Vec<u8>, String> {
         let (w, h) = self.size;
         let mut s = svg_head(LEGEND_W, h);
-        legend(&mut s, 10, self.states, step);
+        self.key.legend(&mut s, 10, step);
         s.push_str("</svg>\n");
         let tree = resvg::usvg::Tree::from_str(&s, &self.opt).map_err(|e| e.to_string())?;
         let mut pix = resvg::tiny_skia::Pixmap::new(LEGEND_W, h).ok_or("an empty legend")?;
@@ -497,13 +581,26 @@ fn gif(
         enc.set_repeat(gif::Repeat::Infinite)
             .map_err(|e| e.to_string())?;
         for (i, frame) in frames.iter().enumerate() {
-            let rgb = lg.image(view, &raster(view, &view.shapes(frame)), first + i as u64)?;
+            let rgb = lg.image(
+                view,
+                &raster(view, &view.shapes(frame, lg.key)),
+                first + i as u64,
+            )?;
             let mut f = gif::Frame::from_rgb_speed(w as u16, h as u16, &rgb, 10);
             f.delay = (100 / fps).max(1) as u16;
             enc.write_frame(&f).map_err(|e| e.to_string())?;
         }
     }
     Ok(out)
+}
+
+/// The counter `Cnn` names, when the lattice (of `nc` counters) has it.
+fn counter_of(s: &str, nc: usize) -> Result<u8, String> {
+    s.strip_prefix('C')
+        .filter(|d| d.len() == 2 && d.bytes().all(|b| b.is_ascii_digit()))
+        .and_then(|d| d.parse::<u8>().ok())
+        .filter(|&c| (c as usize) < nc)
+        .ok_or_else(|| format!("`{s}`: name a counter of the run, C00 to C{:02}", nc - 1))
 }
 
 /// Parses `A..B` (inclusive).
@@ -553,14 +650,18 @@ fn asked(args: &RenderArgs, ext: Option<&str>) -> Result<(u64, u64), ExitCode> {
 /// The frames of steps `first..=last` of the engine's run, or up to where it became
 /// quiescent (nothing changes after that), whichever comes first, with a note when the
 /// run stopped early; the states in them; the step reached.
-fn frames(engine: &mut Engine, (first, last): (u64, u64)) -> (Vec<Frame>, BTreeSet<[u8; 5]>, u64) {
+fn frames(
+    engine: &mut Engine,
+    (first, last): (u64, u64),
+    counter: Option<u8>,
+) -> (Vec<Frame>, BTreeSet<[u8; 5]>, u64) {
     let mut frames = Vec::new();
     let mut states = BTreeSet::new();
     // The run is drawn up to `last`, or up to where it became quiescent (nothing changes
     // after that), whichever comes first.
     while engine.stats.steps <= last {
         if engine.stats.steps >= first {
-            let f = Frame::of(&engine.lat);
+            let f = Frame::of(&engine.lat, counter);
             states.extend(f.state.iter().copied());
             frames.push(f);
         }
@@ -572,7 +673,7 @@ fn frames(engine: &mut Engine, (first, last): (u64, u64)) -> (Vec<Frame>, BTreeS
     let reached = engine.stats.steps;
     if frames.is_empty() {
         // Quiescent before `first`: the configuration it stopped in is the one asked for.
-        let f = Frame::of(&engine.lat);
+        let f = Frame::of(&engine.lat, counter);
         states.extend(f.state.iter().copied());
         frames.push(f);
     }
@@ -631,7 +732,32 @@ pub fn render(args: RenderArgs) -> ExitCode {
         );
         return ExitCode::from(2);
     }
-    let (frames, states, reached) = frames(&mut engine, (first, last));
+    let counter = match args
+        .color_by
+        .as_deref()
+        .map(|c| counter_of(c, engine.lat.nc()))
+    {
+        Some(Err(e)) => {
+            say!("error: --color-by {e}");
+            return ExitCode::from(2);
+        }
+        Some(Ok(c)) => Some(c),
+        None => None,
+    };
+    let (frames, states, reached) = frames(&mut engine, (first, last), counter);
+    let key = match counter {
+        None => Key::States(states),
+        Some(c) => {
+            let values = frames.iter().flat_map(|f| f.value.iter().copied());
+            let (lo, hi) = values.fold((i16::MAX, i16::MIN), |a, v| (a.0.min(v), a.1.max(v)));
+            let (lo, hi) = if lo > hi { (0, 0) } else { (lo, hi) };
+            Key::Counter {
+                name: format!("C{c:02}"),
+                lo,
+                hi,
+            }
+        }
+    };
     // A single picture is labelled with the step asked for; an animation covers the steps
     // that were run.
     let (first, last) = if first == last {
@@ -650,14 +776,12 @@ pub fn render(args: RenderArgs) -> ExitCode {
         return ExitCode::from(2);
     }
     let bytes = match ext.as_deref() {
-        Some("svg") => Ok(svg(&view, &view.shapes(&frames[0]), &states, first).into_bytes()),
-        Some("png") => Legended::new(&view, &states).and_then(|lg| {
-            let rgb = lg.image(&view, &raster(&view, &view.shapes(&frames[0])), first)?;
+        Some("svg") => Ok(svg(&view, &view.shapes(&frames[0], &key), &key, first).into_bytes()),
+        Some("png") => Legended::new(&view, &key).and_then(|lg| {
+            let rgb = lg.image(&view, &raster(&view, &view.shapes(&frames[0], &key)), first)?;
             png(lg.size, &rgb)
         }),
-        _ => {
-            Legended::new(&view, &states).and_then(|lg| gif(&view, &frames, &lg, (first, args.fps)))
-        }
+        _ => Legended::new(&view, &key).and_then(|lg| gif(&view, &frames, &lg, (first, args.fps))),
     };
     let bytes = match bytes {
         Ok(b) => b,
@@ -680,8 +804,24 @@ pub fn render(args: RenderArgs) -> ExitCode {
         frames.len(),
         if frames.len() == 1 { "" } else { "s" },
         view.size.0 + LEGEND_W,
-        view.size.1.max(legend_h(&states)),
+        view.size.1.max(key.height()),
         engine.lat.len()
     );
     ExitCode::SUCCESS
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The scale meets its stops at 0, 1/4, 1/2, 3/4 and 1, halfway between them in
+    /// between, and holds its ends outside 0..=1.
+    #[test]
+    fn the_counter_scale_interpolates_its_stops() {
+        for (k, stop) in SCALE.iter().enumerate() {
+            assert_eq!(scale(k as f64 / 4.0), *stop);
+        }
+        assert_eq!(scale(0.125), [64, 42, 112], "halfway between the first two stops");
+        assert_eq!((scale(-1.0), scale(2.0)), (SCALE[0], SCALE[4]));
+    }
 }

@@ -1798,3 +1798,92 @@ fn sweep_runs_files_commands_and_set_counters() {
         stderr(&o)
     );
 }
+
+/// `render --color-by C01`: the agents with the smallest and the largest value after three
+/// steps of leader election (from `latticesim run`) are drawn in the scale's two ends
+/// (viridis: #440154 and #fde725, docs/running.md), and the legend names the counter and
+/// both values.
+#[test]
+fn render_colours_agents_by_a_counter() {
+    let (rules, agents) = (
+        "examples/leader-election/rules.txt",
+        "examples/leader-election/agents-30.txt",
+    );
+    let o = run(&["run", rules, agents, "--max-steps", "3", "--quiet"]);
+    let cells: Vec<(i64, i64, i64)> = String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .map(|l| {
+            let f: Vec<&str> = l.split_whitespace().collect();
+            let p: Vec<i64> = f[0].split(',').map(|v| v.parse().unwrap()).collect();
+            let c01 = f
+                .iter()
+                .position(|w| *w == "C01")
+                .map_or(0, |k| f[k + 1].parse().unwrap());
+            (p[0], p[1], c01)
+        })
+        .collect();
+    let (lo, hi) = (
+        cells.iter().map(|c| c.2).min().unwrap(),
+        cells.iter().map(|c| c.2).max().unwrap(),
+    );
+    assert!(lo < hi);
+    let png_path = render_ok(
+        rules,
+        agents,
+        &["--step", "3", "--cell", "10", "--color-by", "C01"],
+        "by-counter.png",
+    );
+    let mut reader = png::Decoder::new(std::io::BufReader::new(
+        std::fs::File::open(&png_path).unwrap(),
+    ))
+    .read_info()
+    .unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let w = reader.next_frame(&mut buf).unwrap().width as i64;
+    let (x0, y1) = (
+        cells.iter().map(|c| c.0).min().unwrap(),
+        cells.iter().map(|c| c.1).max().unwrap(),
+    );
+    let pixel = |x: i64, y: i64| {
+        let (px, py) = ((x - x0 + 1) * 10 + 5, (y1 - y + 1) * 10 + 5);
+        let i = ((py * w + px) * 3) as usize;
+        [buf[i], buf[i + 1], buf[i + 2]]
+    };
+    for (x, y, v) in &cells {
+        if *v == lo {
+            assert_eq!(pixel(*x, *y), [68, 1, 84], "the smallest value, at {x},{y}");
+        }
+        if *v == hi {
+            assert_eq!(
+                pixel(*x, *y),
+                [253, 231, 37],
+                "the largest value, at {x},{y}"
+            );
+        }
+    }
+    let svg = render_ok(
+        rules,
+        agents,
+        &["--step", "3", "--color-by", "C01"],
+        "by-counter.svg",
+    );
+    let svg = std::fs::read_to_string(svg).unwrap();
+    for label in [
+        ">C01</text>".to_string(),
+        format!(">{lo}</text>"),
+        format!(">{hi}</text>"),
+    ] {
+        assert!(svg.contains(&label), "the legend has {label}");
+    }
+    let o = run(&[
+        "render",
+        rules,
+        agents,
+        "--color-by",
+        "C25",
+        "--out",
+        tmp("x.png", b"").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("C00 to C24"), "{}", stderr(&o));
+}
