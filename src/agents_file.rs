@@ -313,7 +313,7 @@ fn too_large(
         )
     };
     let (checked, note) = match declined {
-        Declined::Head | Declined::Line(_) => {
+        Declined::Head | Declined::Line(_) | Declined::Idle => {
             let at = match declined {
                 Declined::Line(at) => at,
                 _ => 0,
@@ -515,6 +515,23 @@ enum Declined {
     Line(u64),
     /// Its agents, read, do not make a lattice as they are.
     Lattice(Defect),
+    /// Some agents start in a state no rule tests or sets (W603, said with its lines by
+    /// the checker).
+    Idle,
+}
+
+/// The distinct states of `states`, in order of first appearance.
+fn distinct(states: &[[u8; 5]]) -> Vec<[u8; 5]> {
+    let mut seen = std::collections::HashSet::new();
+    let mut out = Vec::new();
+    let mut last = None;
+    for s in states {
+        if last != Some(s) && seen.insert(*s) {
+            out.push(*s);
+        }
+        last = Some(s);
+    }
+    out
 }
 
 /// The fast path: `Err` when the checker must read the file.
@@ -587,6 +604,10 @@ fn fast(
         Ok(lat) => lat,
         Err(d) => return Ok(Err(Declined::Lattice(d))),
     };
+    let rules_checked = checked.rules.as_ref().expect("a clean head has rules");
+    if !latticesim_compiler::idle_states(rules_checked, &distinct(&lat.state)).is_empty() {
+        return Ok(Err(Declined::Idle));
+    }
     checked.agent_count = n;
     checked.config = None;
     Ok(Ok(Loaded {

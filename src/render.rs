@@ -821,7 +821,11 @@ mod tests {
         for (k, stop) in SCALE.iter().enumerate() {
             assert_eq!(scale(k as f64 / 4.0), *stop);
         }
-        assert_eq!(scale(0.125), [64, 42, 112], "halfway between the first two stops");
+        assert_eq!(
+            scale(0.125),
+            [64, 42, 112],
+            "halfway between the first two stops"
+        );
         assert_eq!((scale(-1.0), scale(2.0)), (SCALE[0], SCALE[4]));
     }
 }

@@ -522,6 +522,9 @@ impl Steps {
             let rep = self.engine.step();
             let secs = t.elapsed().as_secs_f64();
             self.console.records(&rep);
+            if rep.executing == 0 && self.engine.stats.steps == 1 && !args.quiet {
+                say!("warning: no rule fired in the first step (no agent's precondition held), so the run ends at once");
+            }
             self.trace_step(&rep);
             if args.strict && rep.records.iter().any(|r| r.is_error()) {
                 self.undo = before;

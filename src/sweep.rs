@@ -470,6 +470,13 @@ pub fn sweep(a: SweepArgs) -> ExitCode {
         );
         return ExitCode::from(1);
     }
+    let idle = rows.iter().filter(|r| r.cost.all_firings() == 0).count();
+    if idle > 0 {
+        say!(
+            "warning: {idle} of {} runs fired no rule at all (none in their first step); do the agents start in states the rules test (--state, --first-state)?",
+            rows.len()
+        );
+    }
     if rows.iter().any(|r| !r.quiescent) {
         say!(
             "warning: some runs stopped at --max-steps {} before quiescence",

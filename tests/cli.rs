@@ -1887,3 +1887,53 @@ fn render_colours_agents_by_a_counter() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("C00 to C24"), "{}", stderr(&o));
 }
+
+/// Agents that start in a state no rule accepts, reads or sets (a typo) get W603 in
+/// `check` and in `run` (whose fast reader hands such a file to the checker), on the first
+/// such agent's line, with the state meant; a run whose first step fires no rule, and a
+/// sweep without `--state`, say so.
+#[test]
+fn idle_start_states_and_runs_that_fire_nothing_are_warned_of() {
+    let rules = tmp("idle-rules.txt", b"go\n1\nSINIT0\nSDONE0\n");
+    let agents = tmp("idle-agents.txt", b"0,0 SINIT0\n1,0 SINTI0\n2,0 SINTI0\n");
+    let (r, a) = (rules.to_str().unwrap(), agents.to_str().unwrap());
+    for args in [
+        vec!["check", r, "--agents", a, "--color", "never"],
+        vec!["run", r, a, "--out", "/dev/null", "--color", "never"],
+    ] {
+        let o = run(&args);
+        assert_eq!(o.status.code(), Some(0), "a warning only: {}", stderr(&o));
+        let e = stderr(&o);
+        assert!(
+            e.contains("warning[W603]: 2 agents start in state `INTI0`"),
+            "{args:?}: {e}"
+        );
+        assert!(e.contains("idle-agents.txt:2:5"), "{e}");
+        assert!(e.contains("did you mean `SINIT0`?"), "{e}");
+    }
+    let quiet = tmp("quiet-rules.txt", b"go\n1\nSINIT0 N1***\nSDONE0\n");
+    let o = run(&["run", quiet.to_str().unwrap(), a, "--out", "/dev/null"]);
+    assert_eq!(o.status.code(), Some(0));
+    assert!(
+        stderr(&o).contains("warning: no rule fired in the first step"),
+        "{}",
+        stderr(&o)
+    );
+    let csv = tmp("idle-sweep.csv", b"");
+    let o = run(&[
+        "sweep",
+        "examples/leader-election/rules.txt",
+        "--sizes",
+        "5,10",
+        "--seeds",
+        "1",
+        "--out",
+        csv.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0));
+    assert!(
+        stderr(&o).contains("2 of 2 runs fired no rule at all"),
+        "{}",
+        stderr(&o)
+    );
+}

@@ -10,6 +10,8 @@ mod check_agents;
 mod check_rules;
 pub mod checked;
 mod contradict;
+mod idle;
+pub use idle::{idle_states, Idle};
 pub mod diagnostics;
 pub mod dim;
 pub mod fast_agents;
@@ -228,6 +230,11 @@ pub fn check(rules: Input<'_>, agents: Option<Input<'_>>, dim: Option<Dim>) -> C
         let own = agents_dim.clone().unwrap_or_else(|| dim_src.clone());
         check_agents(a, id, sources.text(id), &own, &mut diags)
     });
+    if let (Some(a), Some(id), Some(_)) = (&agents_ast, agents_id, &config) {
+        if !diags.iter().any(|d| d.is_error()) {
+            diags.extend(idle::diagnostics(&rules, a, id));
+        }
+    }
     if !diags.iter().any(|d| d.is_error()) {
         if let Some((i, why)) = lower::too_large(&rules) {
             diags.push(too_large(&ast.rules[i], rid, why));

@@ -123,6 +123,7 @@ codes! {
     W502 Warning "contradictory-precondition" "a precondition that can never hold";
     W601 Warning "one-sided-attachment" "an attachment declared by only one of two agents";
     W602 Warning "attachment-to-empty-cell" "an attachment towards an empty cell";
+    W603 Warning "idle-start-state" "agents that start in a state no rule tests or sets";
 }
 
 /// A place in a file with a short message.
