@@ -411,31 +411,39 @@ fn gen_writes_agents_files_that_check() {
     assert_eq!(o.status.code(), Some(2));
 }
 
+/// `sweep` of leader election on polyominoes of 5 and 20 agents, two seeds each, into
+/// `csv`, with `extra` arguments.
+fn sweep_leader_election(csv: &Path, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "sweep",
+        "examples/leader-election/rules.txt",
+        "--sizes",
+        "5,20",
+        "--seeds",
+        "2",
+        "--state",
+        "INIT0",
+        "--ids",
+        "C00",
+        "--out",
+        csv.to_str().unwrap(),
+    ];
+    args.extend(extra);
+    run(&args)
+}
+
 /// `sweep --plot` as PNG and as PDF (with reference slopes and chosen metrics) into
 /// `dir`: the PNG decodes at the size of two rows of two panels, the PDF is whole.
 fn plots_decode(dir: &Path, csv: &Path) {
     for (ext, refs) in [("png", "n,n^0.5"), ("pdf", "n log n")] {
         let file = dir.join(format!("r.{ext}"));
-        let o = run(&[
-            "sweep",
-            "examples/leader-election/rules.txt",
-            "--sizes",
-            "5,20",
-            "--seeds",
-            "2",
-            "--state",
-            "INIT0",
-            "--ids",
-            "C00",
-            "--out",
-            csv.to_str().unwrap(),
+        let plot = [
             "--plot",
             file.to_str().unwrap(),
             "--metrics",
             "steps,messages,firings",
-            "--reference",
-            refs,
-        ]);
+        ];
+        let o = sweep_leader_election(csv, &[&plot[..], &["--reference", refs]].concat());
         assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
         let bytes = std::fs::read(&file).unwrap();
         if ext == "png" {
@@ -462,24 +470,7 @@ fn sweep_writes_csv_and_plot() {
     let dir = std::env::temp_dir().join(format!("latticesim-sweep-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let (csv, svg) = (dir.join("r.csv"), dir.join("r.svg"));
-    let o = run(&[
-        "sweep",
-        "examples/leader-election/rules.txt",
-        "--sizes",
-        "5,20",
-        "--seeds",
-        "2",
-        "--state",
-        "INIT0",
-        "--ids",
-        "C00",
-        "--out",
-        csv.to_str().unwrap(),
-        "--plot",
-        svg.to_str().unwrap(),
-        "--threads",
-        "2",
-    ]);
+    let o = sweep_leader_election(&csv, &["--plot", svg.to_str().unwrap(), "--threads", "2"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let text = std::fs::read_to_string(&csv).unwrap();
     let lines: Vec<&str> = text.lines().collect();
