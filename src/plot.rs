@@ -314,21 +314,20 @@ pub(crate) fn svg_options() -> Result<resvg::usvg::Options<'static>, String> {
     let families: Vec<String> = (db.faces())
         .flat_map(|f| f.families.iter().map(|(name, _)| name.clone()))
         .collect();
-    let sans = ["DejaVu Sans", "Liberation Sans", "Noto Sans", "FreeSans", "Arial"]
-        .iter()
-        .map(|s| s.to_string())
-        .find(|f| families.contains(f))
+    let first_of = |names: &[&str]| {
+        (names.iter())
+            .find(|n| families.iter().any(|f| f == *n))
+            .map(|n| n.to_string())
+    };
+    let sans = first_of(&["DejaVu Sans", "Liberation Sans", "Noto Sans", "FreeSans", "Arial"])
         .or_else(|| families.first().cloned())
         .ok_or("no fonts on this system to set the figure's text in; install some (e.g. Debian's fonts-dejavu-core) or write .svg")?;
-    let mono = [
+    let mono = first_of(&[
         "DejaVu Sans Mono",
         "Liberation Mono",
         "Noto Sans Mono",
         "FreeMono",
-    ]
-    .iter()
-    .map(|s| s.to_string())
-    .find(|f| families.contains(f))
+    ])
     .unwrap_or_else(|| sans.clone());
     db.set_sans_serif_family(sans);
     db.set_monospace_family(mono);

@@ -596,9 +596,8 @@ fn gif(
 
 /// The counter `Cnn` names, when the lattice (of `nc` counters) has it.
 fn counter_of(s: &str, nc: usize) -> Result<u8, String> {
-    s.strip_prefix('C')
-        .filter(|d| d.len() == 2 && d.bytes().all(|b| b.is_ascii_digit()))
-        .and_then(|d| d.parse::<u8>().ok())
+    crate::gen::parse_counter(s)
+        .ok()
         .filter(|&c| (c as usize) < nc)
         .ok_or_else(|| format!("`{s}`: name a counter of the run, C00 to C{:02}", nc - 1))
 }

@@ -39,12 +39,7 @@ impl std::str::FromStr for Setting {
         let (lhs, rhs) = s.split_once('=').ok_or_else(|| {
             format!("`{s}`: write a counter, `=` and an expression, e.g. C00=id+1")
         })?;
-        let c = lhs.trim();
-        let counter = c
-            .strip_prefix('C')
-            .filter(|d| d.len() == 2 && d.bytes().all(|b| b.is_ascii_digit()))
-            .and_then(|d| d.parse::<u8>().ok())
-            .ok_or_else(|| format!("`{c}` is not a counter: write C and two digits, e.g. C00"))?;
+        let counter = crate::gen::parse_counter(lhs.trim())?;
         let mut p = Parser {
             s: rhs.as_bytes(),
             at: 0,
