@@ -126,21 +126,30 @@ pub(crate) fn write_lattice(
     threads: usize,
 ) -> Result<(), ExitCode> {
     let path = f.path().to_path_buf();
-    let packing = Packing::of(&path);
+    commit_lattice(f, lat, threads).map_err(|e| {
+        say!("error: cannot write `{}`: {e}", path.display());
+        ExitCode::from(2)
+    })
+}
+
+/// Writes the lattice as agents.txt text into an output file (compressed by its name:
+/// `.zst`, `.gz`) and commits it (`run --out`).
+pub fn commit_lattice(
+    f: crate::output::AtomicFile,
+    lat: &Lattice,
+    threads: usize,
+) -> io::Result<()> {
+    let packing = Packing::of(f.path());
     Packed::new(f, packing)
         .and_then(|mut w| {
             lat.write_agents_text(&mut w, threads)?;
             w.finish()
         })
         .and_then(|f| f.commit())
-        .map_err(|e| {
-            say!("error: cannot write `{}`: {e}", path.display());
-            ExitCode::from(2)
-        })
 }
 
 /// An agents file read and checked with its rules.
-pub(crate) struct Loaded {
+pub struct Loaded {
     /// The verdict: diagnostics, counts, the program when there are no errors.
     pub checked: Checked,
     /// The lattice, when there are no errors.
@@ -156,7 +165,7 @@ pub(crate) struct Loaded {
 
 /// Where an agents file comes from (opened again for the diagnostic path).
 #[derive(Clone, Copy)]
-pub(crate) enum Source<'a> {
+pub enum Source<'a> {
     /// A file on disk, decompressed by its name.
     File(&'a Path),
     /// Text in memory.
@@ -210,7 +219,7 @@ fn available_memory() -> Option<u64> {
 /// described with their spans) is checked as far as its first defect and a megabyte past
 /// it, with a note that says so (`Loaded::note`); agents on one cell, or a bond declared on
 /// one side only, in such a file are an error that names the agents and their lines.
-pub(crate) fn load(
+pub fn load(
     rules: (&str, &[u8]),
     agents_name: &str,
     open: Source<'_>,

@@ -11,7 +11,7 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 
 /// See the module's text.
-pub(crate) struct HugePages;
+pub struct HugePages;
 
 /// The size of a huge page; also the alignment of large blocks.
 #[cfg(target_os = "linux")]

@@ -167,7 +167,7 @@ pub fn gen(a: GenArgs) -> ExitCode {
 
 /// The counter a name such as `C07` gives (C00 to C44, the most a dimension has); the one
 /// parser of counter names in the command line.
-pub(crate) fn parse_counter(s: &str) -> Result<u8, String> {
+pub fn parse_counter(s: &str) -> Result<u8, String> {
     let d = s
         .strip_prefix('C')
         .ok_or(format!("`{s}` is not a counter such as C00"))?;

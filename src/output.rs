@@ -140,7 +140,7 @@ pub(crate) fn interrupted() -> bool {
 
 /// A file written whole or not at all: a temporary file beside the target until
 /// [`AtomicFile::commit`] renames it; dropped uncommitted, it is removed.
-pub(crate) struct AtomicFile {
+pub struct AtomicFile {
     path: PathBuf,
     /// The temporary file; `None` when the target is not a regular file (a device such as
     /// `/dev/null`, a pipe), which is written directly.
@@ -177,7 +177,7 @@ pub(crate) fn open_no_follow(path: &Path) -> std::io::Result<File> {
 impl AtomicFile {
     /// Starts writing `path`: fails now when its folder cannot take a new file or the path
     /// is a folder.
-    pub(crate) fn create(path: &Path) -> std::io::Result<AtomicFile> {
+    pub fn create(path: &Path) -> std::io::Result<AtomicFile> {
         static NEXT: AtomicU64 = AtomicU64::new(0);
         if path.is_dir() {
             return Err(std::io::Error::new(

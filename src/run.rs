@@ -78,7 +78,7 @@ pub struct RunArgs {
 }
 
 #[derive(Clone, Copy, ValueEnum)]
-pub(crate) enum OrderArg {
+pub enum OrderArg {
     /// Actions, then calculations and messages (the paper's order).
     ActionsFirst,
     /// Calculations and messages, then actions.
@@ -157,6 +157,19 @@ fn mb(b: u64) -> String {
 }
 
 fn stats_json(e: &Engine, stop: Stop, timing: Option<&Timing>) -> serde_json::Value {
+    let mut v = stats_document(e, stop.name());
+    if let Some(t) = timing {
+        v["wall_time_s"] = json!(t.steps.as_secs_f64());
+        v["times"] = t.json();
+        v["peak_memory_bytes"] = json!(peak_memory());
+    }
+    v
+}
+
+/// The statistics of a run (`run --stats`, without the times) that stopped by
+/// `stopped_by` (`quiescence`, `max-steps`, `strict`, `interrupted`, or another word of
+/// the caller's).
+pub fn stats_document(e: &Engine, stopped_by: &str) -> serde_json::Value {
     let s: &Stats = &e.stats;
     let firings: Vec<serde_json::Value> = e
         .prog
@@ -167,10 +180,10 @@ fn stats_json(e: &Engine, stop: Stop, timing: Option<&Timing>) -> serde_json::Va
         .collect();
     let by_kind: BTreeMap<&str, u64> = s.records.iter().map(|(k, n)| (k.name(), *n)).collect();
     let (errors, warnings) = (s.errors(), s.warnings());
-    let mut v = json!({
+    json!({
         "steps": s.steps,
-        "stopped_by": stop.name(),
-        "quiescent": stop == Stop::Quiescence,
+        "stopped_by": stopped_by,
+        "quiescent": stopped_by == Stop::Quiescence.name(),
         "agents": e.lat.len(),
         "rules": e.prog.rules.len(),
         "firings": firings,
@@ -179,13 +192,7 @@ fn stats_json(e: &Engine, stop: Stop, timing: Option<&Timing>) -> serde_json::Va
         "swaps": s.swaps,
         "messages": { "sent": s.sent, "delivered": s.delivered, "dropped": s.dropped },
         "records": { "errors": errors, "warnings": warnings, "by_kind": by_kind },
-    });
-    if let Some(t) = timing {
-        v["wall_time_s"] = json!(t.steps.as_secs_f64());
-        v["times"] = t.json();
-        v["peak_memory_bytes"] = json!(peak_memory());
-    }
-    v
+    })
 }
 
 /// Prints the diagnostics of a check (only its errors when `quiet`).
@@ -232,7 +239,7 @@ pub(crate) struct Ready {
 }
 
 /// The threads that read and write agents files (all cores, or fewer when asked).
-pub(crate) fn io_threads(requested: Option<usize>) -> usize {
+pub fn io_threads(requested: Option<usize>) -> usize {
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     requested.unwrap_or(cores).clamp(1, cores)
 }
@@ -297,9 +304,7 @@ fn resume(
         say!("error: cannot resume from `{}`: {e}", from.display());
         ExitCode::from(2)
     };
-    let (dim, agents) = agents_file::open_read(from)
-        .map_err(|e| cannot(&e))
-        .and_then(|r| checkpoint::peek(r).map_err(|e| cannot(&e)))?;
+    let (dim, agents) = peek_checkpoint_file(from).map_err(|e| cannot(&e))?;
     let opts = Options {
         threads: crate::engine_threads(threads, agents.min(u32::MAX as u64) as usize),
         ..opts
@@ -314,14 +319,13 @@ fn resume(
     let prog = compiled(program)?;
     let check = started.elapsed();
     let t = Instant::now();
-    let engine = agents_file::open_read(from)
-        .map_err(|e| cannot(&e))
-        .and_then(|r| Engine::read_checkpoint(prog, opts, r).map_err(|e| cannot(&e)))?;
+    let engine = read_checkpoint_file(prog, opts, from).map_err(|e| cannot(&e))?;
     Ok((engine, t.elapsed(), check))
 }
 
-/// Writes a checkpoint of the engine (compressed by the file's name) whole or not at all.
-fn save_checkpoint(engine: &Engine, path: &Path) -> Result<(), ExitCode> {
+/// Writes a checkpoint of the engine (compressed by the file's name: `.zst`, `.gz`) whole
+/// or not at all.
+pub fn write_checkpoint_file(engine: &Engine, path: &Path) -> std::io::Result<()> {
     output::AtomicFile::create(path)
         .and_then(|f| {
             let mut w = agents_file::Packed::new(f.durable(), agents_file::Packing::of(path))?;
@@ -329,13 +333,36 @@ fn save_checkpoint(engine: &Engine, path: &Path) -> Result<(), ExitCode> {
             w.finish()
         })
         .and_then(|f| f.commit())
-        .map_err(|e| {
-            say!(
-                "error: cannot write the checkpoint `{}`: {e}",
-                path.display()
-            );
-            ExitCode::from(2)
-        })
+}
+
+/// An engine in the state of the checkpoint file `path` (compressed by its name), of a run
+/// of the program `prog` with the order of `opts`.
+pub fn read_checkpoint_file(
+    prog: latticesim_vm::Verified,
+    opts: Options,
+    path: &Path,
+) -> Result<Engine, String> {
+    agents_file::open_read(path)
+        .map_err(|e| e.to_string())
+        .and_then(|r| Engine::read_checkpoint(prog, opts, r).map_err(|e| e.to_string()))
+}
+
+/// The dimension and number of agents of the checkpoint file `path`.
+pub fn peek_checkpoint_file(path: &Path) -> Result<(latticesim_vm::model::Dim, u64), String> {
+    agents_file::open_read(path)
+        .map_err(|e| e.to_string())
+        .and_then(|r| checkpoint::peek(r).map_err(|e| e.to_string()))
+}
+
+/// Writes a checkpoint of the engine (compressed by the file's name) whole or not at all.
+fn save_checkpoint(engine: &Engine, path: &Path) -> Result<(), ExitCode> {
+    write_checkpoint_file(engine, path).map_err(|e| {
+        say!(
+            "error: cannot write the checkpoint `{}`: {e}",
+            path.display()
+        );
+        ExitCode::from(2)
+    })
 }
 
 pub fn run(args: RunArgs) -> ExitCode {

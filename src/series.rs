@@ -4,6 +4,7 @@
 //! Either way the file appears whole when the run ends (it is an [`AtomicFile`]).
 
 use crate::output::{open_output, say, AtomicFile};
+use crate::table::csv_field;
 use latticesim_runtime::StepCost;
 use parquet::basic::{Repetition, Type as Physical};
 use parquet::data_type::{DoubleType, Int64Type};
@@ -39,15 +40,6 @@ fn format_of(path: &Path) -> Option<&'static str> {
         Some("parquet")
     } else {
         None
-    }
-}
-
-/// A CSV field: quoted when it holds a comma, a quote or a line break (RFC 4180).
-pub(crate) fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_string()
     }
 }
 

@@ -26,7 +26,7 @@ enum Expr {
 
 /// One `--set`: the counter and its expression (as written, for messages).
 #[derive(Debug, Clone)]
-pub(crate) struct Setting {
+pub struct Setting {
     counter: u8,
     expr: Expr,
     text: String,
@@ -188,7 +188,7 @@ impl Setting {
     /// Sets the counter of every agent of `lat` (a run of seed `seed`). An error names the
     /// setting and the first agent whose value is not a counter's (-32767..32767), or a
     /// counter the lattice's dimension does not have.
-    pub(crate) fn apply(&self, lat: &mut Lattice, seed: u64) -> Result<(), String> {
+    pub fn apply(&self, lat: &mut Lattice, seed: u64) -> Result<(), String> {
         if self.counter as usize >= lat.nc() {
             return Err(format!(
                 "--set {}: {} has counters C00 to C{:02}",

@@ -7,8 +7,8 @@ use crate::gen::AgentOptions;
 use crate::output::{open_output, say, write_output};
 use crate::plot::{fit, Panel, Reference};
 use crate::run::OrderArg;
-use crate::series::csv_field;
 use crate::set::Setting;
+use crate::table::{Column, Table};
 use clap::ValueEnum;
 use latticesim_compiler::compile;
 use latticesim_runtime::shapes::{agents_text, Shape};
@@ -18,8 +18,9 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
+/// The shapes a sweep generates.
 #[derive(Clone, Copy, ValueEnum)]
-enum SweepShape {
+pub enum SweepShape {
     /// A row of n agents.
     Line,
     /// A square (2D) or cube (3D) of about n agents.
@@ -28,6 +29,42 @@ enum SweepShape {
     /// A random connected polyomino or polycube of n cells.
     #[value(alias = "polyomino", alias = "polycube")]
     Connected,
+}
+
+/// Part `index` (from 1) of `count` of a sweep's runs (`--shard I/N`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    /// Which part, from 1.
+    pub index: usize,
+    /// Of how many.
+    pub count: usize,
+}
+
+impl std::str::FromStr for Shard {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Shard, String> {
+        let bad =
+            || format!("`{s}`: write the part and the number of parts, e.g. 3/10 (parts from 1)");
+        let (i, n) = s.split_once('/').ok_or_else(bad)?;
+        let (index, count): (usize, usize) = (
+            i.trim().parse().map_err(|_| bad())?,
+            n.trim().parse().map_err(|_| bad())?,
+        );
+        if count == 0 || index == 0 || index > count {
+            return Err(format!(
+                "`{s}`: the part must be from 1 to the number of parts ({count})"
+            ));
+        }
+        Ok(Shard { index, count })
+    }
+}
+
+impl Shard {
+    /// Run number `run` (from 1) belongs to this part.
+    pub fn has(self, run: usize) -> bool {
+        (run - 1) % self.count == self.index - 1
+    }
 }
 
 /// The arguments of `latticesim sweep`.
@@ -72,7 +109,11 @@ pub struct SweepArgs {
     /// Runs at once (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
-    /// The CSV file.
+    /// Run only part I of N of the runs (I from 1): runs I, I+N, I+2N, ... of the sweep,
+    /// for a job array (Slurm, GNU parallel); `latticesim merge` joins the parts.
+    #[arg(long, value_name = "I/N")]
+    shard: Option<Shard>,
+    /// The table of the runs: Parquet for a name ending in .parquet, else CSV.
     #[arg(long)]
     out: PathBuf,
     /// Also draw the metrics against n into this figure: SVG, PNG or PDF by its name (a
@@ -94,17 +135,39 @@ pub struct SweepArgs {
     title: String,
 }
 
-struct Row {
-    n: usize,
-    seed: u64,
+/// The result of one run of a sweep.
+pub struct Row {
+    /// The run's number in the sweep (from 1), whatever shard ran it.
+    pub run: usize,
+    /// Agents.
+    pub n: usize,
+    /// The seed.
+    pub seed: u64,
     /// What the agents were: the shape, the file or the command.
-    input: String,
-    quiescent: bool,
+    pub input: String,
+    /// It stopped at quiescence (else at the step limit).
+    pub quiescent: bool,
     /// The run's totals (`step`: the steps).
-    cost: StepCost,
+    pub cost: StepCost,
     /// The rules' names, for the header.
-    rules: Vec<String>,
-    secs: f64,
+    pub rules: Vec<String>,
+    /// Wall time of the steps, in seconds.
+    pub secs: f64,
+}
+
+/// What every run of a sweep shares: the rules, the counters set, how a run steps and
+/// when it stops.
+pub struct Setup {
+    /// The rules file's name, for messages.
+    pub rules_name: String,
+    /// Its text.
+    pub rules: Vec<u8>,
+    /// Counters set in every agent before the run (`--set`).
+    pub set: Vec<Setting>,
+    /// A run stops after this many steps.
+    pub max_steps: u64,
+    /// The order of a step and which rules act first.
+    pub opts: Options,
 }
 
 /// A metric fitted and plotted against n: its name and its value in a row.
@@ -120,23 +183,33 @@ enum Job {
     Cmd(u32),
 }
 
-/// The shape of about `n` agents that `--shape` asks for.
-fn shape(a: &SweepArgs, n: u32) -> Shape {
-    let three_d = a.gen.three_d();
-    match a.shape {
-        SweepShape::Line => Shape::Line { n },
-        SweepShape::Connected => Shape::Connected { n },
-        SweepShape::Block => {
-            let side = if three_d {
-                (n as f64).cbrt().round() as u32
-            } else {
-                (n as f64).sqrt().round() as u32
-            };
-            Shape::Block {
-                w: side.max(1),
-                h: side.max(1),
-                d: if three_d { side.max(1) } else { 1 },
+impl SweepShape {
+    /// The shape of about `n` agents, in 3D when `three_d`.
+    pub fn of(self, n: u32, three_d: bool) -> Shape {
+        match self {
+            SweepShape::Line => Shape::Line { n },
+            SweepShape::Connected => Shape::Connected { n },
+            SweepShape::Block => {
+                let side = if three_d {
+                    (n as f64).cbrt().round() as u32
+                } else {
+                    (n as f64).sqrt().round() as u32
+                };
+                Shape::Block {
+                    w: side.max(1),
+                    h: side.max(1),
+                    d: if three_d { side.max(1) } else { 1 },
+                }
             }
+        }
+    }
+
+    /// Its name, as `--shape` takes it.
+    pub fn name(self) -> &'static str {
+        match self {
+            SweepShape::Line => "line",
+            SweepShape::Block => "block",
+            SweepShape::Connected => "connected",
         }
     }
 }
@@ -172,27 +245,20 @@ fn command_output(template: &str, n: u32, seed: u64) -> Result<(Vec<u8>, String)
     Ok((out.stdout, cmd))
 }
 
-fn run_one(rules: &[u8], a: &SweepArgs, job: &Job, seed: u64) -> Result<Row, String> {
-    let rules_name = a.rules.display().to_string();
-    let (text, input): (Vec<u8>, String) = match job {
-        Job::Shape(n) => (
-            agents_text(&shape(a, *n), &a.gen.gen_options(seed)?)?.into_bytes(),
-            format!(
-                "{} n={n}",
-                a.shape.to_possible_value().expect("named").get_name()
-            ),
-        ),
-        Job::Cmd(n) => command_output(a.agents_cmd.as_deref().expect("asked for"), *n, seed)?,
-        Job::File(p) => (Vec::new(), p.display().to_string()),
-    };
-    let source = match job {
-        Job::File(p) => crate::agents_file::Source::File(p),
-        _ => crate::agents_file::Source::Bytes(&text),
-    };
+/// Run number `run` of a sweep on the agents `source` (named `input`): read and checked
+/// with the rules, counters set, stepped to quiescence or the step limit. A failure is a
+/// message that names the input and the seed.
+pub fn run_agents(
+    setup: &Setup,
+    run: usize,
+    seed: u64,
+    input: String,
+    source: crate::agents_file::Source<'_>,
+) -> Result<Row, String> {
     let what = format!("{input}, seed {seed}");
-    let loaded = crate::agents_file::load((&rules_name, rules), &input, source, 1)
+    let rules = (setup.rules_name.as_str(), setup.rules.as_slice());
+    let loaded = crate::agents_file::load(rules, &input, source, 1)
         .map_err(|e| format!("{what}: cannot read the agents: {e}"))?;
-    drop(text);
     let c = &loaded.checked;
     let (Some(p), Some(mut lat)) = (&c.rules, loaded.lattice) else {
         let first = c
@@ -211,21 +277,16 @@ fn run_one(rules: &[u8], a: &SweepArgs, job: &Job, seed: u64) -> Result<Row, Str
             c.errors()
         ));
     };
-    for set in &a.set {
+    for set in &setup.set {
         set.apply(&mut lat, seed)
             .map_err(|e| format!("{what}: {e}"))?;
     }
     let started = Instant::now();
     let prog = compile(p)
         .map_err(|e| format!("internal error: the compiled program does not verify: {e}"))?;
-    let opts = Options {
-        order: a.order.into(),
-        static_first: a.static_first,
-        ..Options::default()
-    };
-    let mut e = Engine::new(prog, lat, opts);
+    let mut e = Engine::new(prog, lat, setup.opts);
     let (mut quiescent, mut executing) = (false, 0);
-    while e.stats.steps < a.max_steps {
+    while e.stats.steps < setup.max_steps {
         let rep = e.step();
         executing += rep.executing;
         if rep.quiescent {
@@ -234,6 +295,7 @@ fn run_one(rules: &[u8], a: &SweepArgs, job: &Job, seed: u64) -> Result<Row, Str
         }
     }
     Ok(Row {
+        run,
         n: e.lat.len(),
         seed,
         input,
@@ -242,6 +304,24 @@ fn run_one(rules: &[u8], a: &SweepArgs, job: &Job, seed: u64) -> Result<Row, Str
         rules: e.prog.rules.iter().map(|r| r.name.clone()).collect(),
         secs: started.elapsed().as_secs_f64(),
     })
+}
+
+/// One run of the command line's sweep: its agents made (a shape, a command's output or a
+/// file), then run.
+fn run_one(setup: &Setup, a: &SweepArgs, run: usize, job: &Job, seed: u64) -> Result<Row, String> {
+    let (text, input): (Vec<u8>, String) = match job {
+        Job::Shape(n) => (
+            agents_text(&a.shape.of(*n, a.gen.three_d()), &a.gen.gen_options(seed)?)?.into_bytes(),
+            format!("{} n={n}", a.shape.name()),
+        ),
+        Job::Cmd(n) => command_output(a.agents_cmd.as_deref().expect("asked for"), *n, seed)?,
+        Job::File(p) => (Vec::new(), p.display().to_string()),
+    };
+    let source = match job {
+        Job::File(p) => crate::agents_file::Source::File(p),
+        _ => crate::agents_file::Source::Bytes(&text),
+    };
+    run_agents(setup, run, seed, input, source)
 }
 
 /// The metrics `--metrics` may name: name, value of a row.
@@ -278,42 +358,47 @@ fn chosen(a: &SweepArgs, rows: &[Row]) -> Vec<Metric> {
     }
 }
 
-/// The CSV of the rows: n, seed, the input (shape, file or command), steps, how the run
-/// stopped, every other column of
+/// The table of the rows, in the order of their run numbers: the run, n, seed, the input
+/// (shape, file or command), steps, how the run stopped, every other column of
 /// `run --series` as the run's total, and the wall time.
-fn csv(rows: &[Row]) -> String {
+pub fn table(rows: &[Row]) -> Table {
+    let mut rows: Vec<&Row> = rows.iter().collect();
+    rows.sort_by_key(|r| r.run);
     let rules: Vec<&str> = rows
         .first()
         .map_or(Vec::new(), |r| r.rules.iter().map(String::as_str).collect());
     let cols = StepCost::columns(&rules);
-    let mut head = vec![
-        "n".to_string(),
-        "seed".into(),
-        "input".into(),
-        "steps".into(),
-        "stopped_by".into(),
+    let mut names: Vec<String> = ["run", "n", "seed", "input", "steps", "stopped_by"]
+        .map(String::from)
+        .into();
+    names.extend(cols.iter().skip(1).cloned());
+    names.push("wall_time_s".into());
+    let ints = |f: &dyn Fn(&Row) -> u64| Column::Int(rows.iter().map(|r| f(r)).collect());
+    let mut columns = vec![
+        ints(&|r| r.run as u64),
+        ints(&|r| r.n as u64),
+        ints(&|r| r.seed),
+        Column::Text(rows.iter().map(|r| r.input.clone()).collect()),
+        ints(&|r| r.cost.step),
+        Column::Text(
+            (rows.iter())
+                .map(|r| {
+                    if r.quiescent {
+                        "quiescence"
+                    } else {
+                        "max-steps"
+                    }
+                    .to_string()
+                })
+                .collect(),
+        ),
     ];
-    head.extend(cols.iter().skip(1).map(|c| csv_field(c)));
-    head.push("wall_time_s".into());
-    let mut out = head.join(",") + "\n";
-    for r in rows {
-        let stop = if r.quiescent {
-            "quiescence"
-        } else {
-            "max-steps"
-        };
-        let mut line = vec![
-            r.n.to_string(),
-            r.seed.to_string(),
-            csv_field(&r.input),
-            r.cost.step.to_string(),
-            stop.into(),
-        ];
-        line.extend(r.cost.values().iter().skip(1).map(u64::to_string));
-        line.push(format!("{:.6}", r.secs));
-        out += &(line.join(",") + "\n");
+    let values: Vec<Vec<u64>> = rows.iter().map(|r| r.cost.values()).collect();
+    for i in 1..cols.len() {
+        columns.push(Column::Int(values.iter().map(|v| v[i]).collect()));
     }
-    out
+    columns.push(Column::Float(rows.iter().map(|r| r.secs).collect()));
+    Table { names, columns }
 }
 
 /// The runs of a sweep: per size (or file) and seed.
@@ -355,14 +440,29 @@ fn jobs(a: &SweepArgs) -> Result<Vec<(Job, u64)>, String> {
         .collect())
 }
 
-/// The CSV of the rows, the fitted growth of the metrics chosen, and the plot.
+/// The name ends in `.parquet`.
+pub fn is_parquet(path: &std::path::Path) -> bool {
+    (path.file_name().and_then(|n| n.to_str()))
+        .is_some_and(|n| n.to_ascii_lowercase().ends_with(".parquet"))
+}
+
+/// The table of the rows, the fitted growth of the metrics chosen, and the plot.
 fn outputs(
     a: &SweepArgs,
     rows: &[Row],
     out_file: crate::output::AtomicFile,
     plot_file: Option<crate::output::AtomicFile>,
 ) -> Result<(), ExitCode> {
-    write_output(out_file, csv(rows).as_bytes())?;
+    let t = table(rows);
+    if is_parquet(&a.out) {
+        let committed = t.write_parquet(out_file).and_then(|f| f.commit());
+        if let Err(e) = committed {
+            say!("error: cannot write `{}`: {e}", a.out.display());
+            return Err(ExitCode::from(2));
+        }
+    } else {
+        write_output(out_file, t.to_csv().as_bytes())?;
+    }
     let metrics = chosen(a, rows);
     let fits: Vec<String> = (metrics.iter())
         .filter_map(|&(name, f)| fit(&points(rows, f)).map(|f| format!("{name} ~ {}", f.text())))
@@ -398,6 +498,31 @@ fn outputs(
     }
 }
 
+/// Runs the jobs (run number, agents, seed) on `--threads` threads.
+fn run_all(
+    a: &SweepArgs,
+    setup: &Setup,
+    jobs: &[(usize, Job, u64)],
+) -> Result<Vec<Result<Row, String>>, ExitCode> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(crate::threads(
+            a.threads,
+            jobs.len(),
+            &format!("the sweep has {} runs", jobs.len()),
+        ))
+        .build()
+        .map_err(|e| {
+            say!("error: cannot start threads: {e}");
+            ExitCode::from(2)
+        })?;
+    Ok(pool.install(|| {
+        jobs.par_iter()
+            .map(|(run, job, seed)| run_one(setup, a, *run, job, *seed))
+            .collect()
+    }))
+}
+
+/// `latticesim sweep`.
 pub fn sweep(a: SweepArgs) -> ExitCode {
     let out_file = match open_output(&a.out) {
         Ok(f) => f,
@@ -422,32 +547,31 @@ pub fn sweep(a: SweepArgs) -> ExitCode {
         say!("error: {e}");
         return ExitCode::from(2);
     }
-    let jobs = match jobs(&a) {
-        Ok(j) => j,
+    let jobs: Vec<(usize, Job, u64)> = match jobs(&a) {
+        Ok(j) => (j.into_iter().enumerate())
+            .map(|(i, (job, seed))| (i + 1, job, seed))
+            .filter(|(run, ..)| a.shard.is_none_or(|s| s.has(*run)))
+            .collect(),
         Err(e) => {
             say!("error: {e}");
             return ExitCode::from(2);
         }
     };
-    let pool = match rayon::ThreadPoolBuilder::new()
-        .num_threads(crate::threads(
-            a.threads,
-            jobs.len(),
-            &format!("the sweep has {} runs", jobs.len()),
-        ))
-        .build()
-    {
-        Ok(p) => p,
-        Err(e) => {
-            say!("error: cannot start threads: {e}");
-            return ExitCode::from(2);
-        }
+    let setup = Setup {
+        rules_name: a.rules.display().to_string(),
+        rules,
+        set: a.set.clone(),
+        max_steps: a.max_steps,
+        opts: Options {
+            order: a.order.into(),
+            static_first: a.static_first,
+            ..Options::default()
+        },
     };
-    let results: Vec<Result<Row, String>> = pool.install(|| {
-        jobs.par_iter()
-            .map(|(job, s)| run_one(&rules, &a, job, *s))
-            .collect()
-    });
+    let results = match run_all(&a, &setup, &jobs) {
+        Ok(r) => r,
+        Err(c) => return c,
+    };
     // The runs that failed are named; the others are written all the same.
     let (mut rows, mut failed) = (Vec::with_capacity(results.len()), 0);
     for r in results {

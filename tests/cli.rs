@@ -475,7 +475,8 @@ fn sweep_writes_csv_and_plot() {
     let text = std::fs::read_to_string(&csv).unwrap();
     let lines: Vec<&str> = text.lines().collect();
     assert!(
-        lines[0].starts_with("n,seed,input,steps,stopped_by,firings,firings:start,firings:adopt,"),
+        lines[0]
+            .starts_with("run,n,seed,input,steps,stopped_by,firings,firings:start,firings:adopt,"),
         "{}",
         lines[0]
     );
@@ -486,7 +487,7 @@ fn sweep_writes_csv_and_plot() {
         assert!(lines[0].contains(c), "{c} in {}", lines[0]);
     }
     assert_eq!(lines.len(), 5);
-    assert!(lines[1].starts_with("5,1,"), "{}", lines[1]);
+    assert!(lines[1].starts_with("1,5,1,"), "{}", lines[1]);
     assert!(lines.iter().skip(1).all(|l| l.contains(",quiescence,")));
     assert!(std::fs::read_to_string(&svg).unwrap().starts_with("<svg"));
     assert!(stderr(&o).contains("steps ~ n^"), "{}", stderr(&o));
@@ -1601,6 +1602,105 @@ fn a_series_is_csv_or_parquet() {
 /// east; with actions first its message goes to an empty cell (dropped every step), with
 /// messages first the first one reaches its neighbour (derived by hand: 0 and 1 delivered
 /// in 3 steps).
+/// The CSV lines of a sweep table without its last column (the wall time).
+fn without_wall_time(text: &str) -> Vec<String> {
+    text.lines()
+        .map(|l| l.rsplit_once(',').unwrap().0.to_string())
+        .collect()
+}
+
+#[test]
+fn sweep_shards_merged_equal_the_whole_sweep() {
+    let dir = std::env::temp_dir().join(format!("latticesim-shard-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let whole = dir.join("whole.csv");
+    let o = sweep_leader_election(&whole, &[]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // Three parts, one of them Parquet, given to merge in another order.
+    let parts = ["p1.csv", "p2.parquet", "p3.csv"].map(|p| dir.join(p));
+    for (i, p) in parts.iter().enumerate() {
+        let shard = format!("{}/3", i + 1);
+        let o = sweep_leader_election(p, &["--shard", &shard]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    }
+    let p1 = std::fs::read_to_string(&parts[0]).unwrap();
+    let runs: Vec<&str> = p1
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').next().unwrap())
+        .collect();
+    assert_eq!(runs, ["1", "4"], "part 1 of 3 holds runs 1, 4 of 4");
+    for out in ["merged.csv", "merged.parquet"] {
+        let merged = dir.join(out);
+        let o = run(&[
+            "merge",
+            parts[2].to_str().unwrap(),
+            parts[0].to_str().unwrap(),
+            parts[1].to_str().unwrap(),
+            "--out",
+            merged.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        assert!(stderr(&o).contains("4 runs from 3 parts"), "{}", stderr(&o));
+        let back = dir.join("back.csv");
+        let o = run(&[
+            "merge",
+            merged.to_str().unwrap(),
+            "--out",
+            back.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        assert_eq!(
+            without_wall_time(&std::fs::read_to_string(&back).unwrap()),
+            without_wall_time(&std::fs::read_to_string(&whole).unwrap()),
+            "{out}"
+        );
+    }
+    // A part given twice, a missing part, a file that is no part, a bad --shard.
+    let o = run(&[
+        "merge",
+        parts[0].to_str().unwrap(),
+        parts[0].to_str().unwrap(),
+        "--out",
+        dir.join("x.csv").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("run 1 is in"), "{}", stderr(&o));
+    let o = run(&[
+        "merge",
+        parts[0].to_str().unwrap(),
+        parts[2].to_str().unwrap(),
+        "--out",
+        dir.join("x.csv").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0));
+    assert!(
+        stderr(&o).contains("1 run is missing below the last (2)"),
+        "{}",
+        stderr(&o)
+    );
+    let o = run(&[
+        "merge",
+        "examples/tour/rules.txt",
+        "--out",
+        dir.join("x.csv").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("examples/tour/rules.txt"),
+        "{}",
+        stderr(&o)
+    );
+    let o = sweep_leader_election(&dir.join("x.csv"), &["--shard", "0/3"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("from 1 to the number of parts"),
+        "{}",
+        stderr(&o)
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn sweep_and_render_take_the_order_of_a_step() {
     let rules = tmp("order-rules.txt", b"m\n1\nSM****\nP0,1 #E01 + 0001 0000\n");

@@ -298,6 +298,15 @@ impl Lattice {
         }
     }
 
+    /// The values of counter `i`, one per agent, when it has a column (see
+    /// [`Lattice::counter_numbers`]). The column stays in place for the lattice's life.
+    pub fn counter_column(&self, i: u8) -> Option<&[i16]> {
+        match self.counter_col.get(i as usize) {
+            None | Some(&NO_COL) => None,
+            Some(&c) => Some(&self.counters[c as usize]),
+        }
+    }
+
     /// Sets counter `i` of agent `a`.
     pub fn set_counter(&mut self, a: u32, i: u8, v: i16) {
         let c = self.ensure_counter(i);

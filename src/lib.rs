@@ -1,0 +1,322 @@
+//! The `latticesim` command-line program as a library: reads files, calls the library
+//! crates, prints. All I/O of the project lives here. `src/main.rs` calls [`main`]; the
+//! Python package (`python/`) calls the same loading, writing, statistics and sweep code.
+
+use clap::{Parser, Subcommand, ValueEnum};
+use latticesim_compiler::{check, Checked, Dim, Input};
+use output::say;
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+pub mod agents_file;
+pub mod alloc;
+pub mod gen;
+pub mod merge;
+pub mod output;
+mod plot;
+mod render;
+pub mod run;
+pub mod series;
+mod serve;
+pub mod set;
+pub mod sweep;
+pub mod table;
+
+#[derive(Parser)]
+#[command(
+    name = "latticesim",
+    version,
+    about = "Simulator for synchronized distributed algorithms on 2D and 3D lattice agents"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum Format {
+    /// Rendered with source excerpts (stderr).
+    Human,
+    /// One JSON document (stdout).
+    Json,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub(crate) enum Color {
+    /// Colour when stderr is a terminal.
+    Auto,
+    /// Always colour.
+    Always,
+    /// Never colour.
+    Never,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run rules on agents, step by step, until quiescence or --max-steps.
+    ///
+    /// Exit status: 0 done, 1 errors in the input files, 2 usage or I/O failure, 3 stopped by
+    /// --strict at an error record, 130 interrupted (Ctrl-C). --out and --stats are written
+    /// in every case but 1 and 2 (and also when only another output failed, with 2); an
+    /// output path that cannot be written is found before anything runs.
+    Run(run::RunArgs),
+    /// Generate an agents file: a line, a block, a random connected shape or a cloud.
+    Gen(gen::GenArgs),
+    /// Run rules over generated shapes of growing n and write CSV (and a plot) of the cost.
+    Sweep(sweep::SweepArgs),
+    /// Join the parts of a sharded sweep (`sweep --shard I/N`) into one table, in run order.
+    ///
+    /// Exit status: 0 written, 2 when a part cannot be read, parts disagree (other
+    /// columns, a run twice) or the output cannot be written.
+    Merge(merge::MergeArgs),
+    /// Draw a step of a run as PNG or SVG, or a range of steps as an animated GIF.
+    ///
+    /// Exit status: 0 written, 1 errors in the input files, 2 usage or I/O failure.
+    Render(render::RenderArgs),
+    /// Serve the viewer and editor in the browser, on 127.0.0.1 (prints the URL).
+    ///
+    /// Exit status: 2 when the files cannot be read or the port cannot be opened; errors in
+    /// the files are shown in the editor.
+    Serve(serve::ServeArgs),
+    /// Check a rules file (and an agents file) and report every problem.
+    ///
+    /// Exit status: 0 no errors (warnings allowed), 1 errors, 2 usage or I/O failure.
+    Check {
+        /// The rules file.
+        rules: PathBuf,
+        /// The agents file; it also decides the dimension.
+        #[arg(long, short)]
+        agents: Option<PathBuf>,
+        /// The dimension, when no agents file decides it.
+        #[arg(long, value_parser = ["2", "3"])]
+        dim: Option<String>,
+        /// Output format.
+        #[arg(long, value_enum, default_value_t = Format::Human)]
+        format: Format,
+        /// Colour in human output.
+        #[arg(long, value_enum, default_value_t = Color::Auto)]
+        color: Color,
+        /// When there are no errors, print the compiled bytecode to stdout.
+        #[arg(long)]
+        dump_bytecode: bool,
+    },
+}
+
+pub(crate) fn read(path: &PathBuf) -> Result<Vec<u8>, ExitCode> {
+    std::fs::read(path).map_err(|e| {
+        say!("error: cannot read `{}`: {e}", path.display());
+        ExitCode::from(2)
+    })
+}
+
+/// Checks a rules file and, when given, an agents file, each as (name, bytes).
+pub fn check_pair(
+    rules: (&str, &[u8]),
+    agents: Option<(&str, &[u8])>,
+    dim: Option<Dim>,
+) -> Checked {
+    check(
+        Input {
+            name: rules.0,
+            bytes: rules.1,
+        },
+        agents.map(|(name, bytes)| Input { name, bytes }),
+        dim,
+    )
+}
+
+/// The diagnostics found but not listed, per file, for JSON documents.
+pub(crate) fn not_shown_json(c: &Checked) -> serde_json::Value {
+    c.not_shown
+        .iter()
+        .map(|n| {
+            serde_json::json!({
+                "file": c.sources.name(n.file),
+                "errors": n.errors,
+                "warnings": n.warnings,
+            })
+        })
+        .collect()
+}
+
+fn summary(c: &Checked, agents: bool) -> String {
+    let rules = c.sources.name(latticesim_grammar::FileId(0));
+    let mut s = format!(
+        "{rules}: {} rule{}, {} ({})",
+        c.rule_count,
+        if c.rule_count == 1 { "" } else { "s" },
+        c.dim.dim.name(),
+        c.dim.why
+    );
+    if agents {
+        let name = c.sources.name(latticesim_grammar::FileId(1));
+        s += &format!(
+            "; {name}: {} agent{}",
+            c.agent_count,
+            if c.agent_count == 1 { "" } else { "s" }
+        );
+    }
+    let (e, w) = (c.errors(), c.warnings());
+    s += &format!(
+        "; {e} error{}, {w} warning{}",
+        if e == 1 { "" } else { "s" },
+        if w == 1 { "" } else { "s" }
+    );
+    s
+}
+
+fn run_check(
+    rules: PathBuf,
+    agents: Option<PathBuf>,
+    dim: Option<String>,
+    format: Format,
+    color: Color,
+    dump_bytecode: bool,
+) -> ExitCode {
+    let rules_bytes = match read(&rules) {
+        Ok(b) => b,
+        Err(c) => return c,
+    };
+    let dim = dim.map(|d| if d == "3" { Dim::Three } else { Dim::Two });
+    let rules_name = rules.display().to_string();
+    // What the checker could not do, for a file too large for it.
+    let mut note = None;
+    let checked = match (&agents, dim) {
+        // The fast path of agents files, unless --dim is to be reconciled with the file's.
+        (Some(path), None) => {
+            let name = path.display().to_string();
+            let threads = run::io_threads(None);
+            match agents_file::load(
+                (&rules_name, &rules_bytes),
+                &name,
+                agents_file::Source::File(path),
+                threads,
+            ) {
+                Ok(l) => {
+                    note = l.note;
+                    l.checked
+                }
+                Err(e) => {
+                    say!("error: cannot read `{name}`: {e}");
+                    return ExitCode::from(2);
+                }
+            }
+        }
+        _ => {
+            let agents_bytes = match agents.as_deref().map(agents_file::read_all).transpose() {
+                Ok(b) => b,
+                Err(c) => return c,
+            };
+            let agents_name = agents.as_ref().map(|p| p.display().to_string());
+            check_pair(
+                (&rules_name, &rules_bytes),
+                agents_name.as_deref().zip(agents_bytes.as_deref()),
+                dim,
+            )
+        }
+    };
+    match format {
+        Format::Human => {
+            let mut text = checked.render(colour(color));
+            if let Some(n) = &note {
+                text += n;
+                text.push('\n');
+            }
+            text += &summary(&checked, agents.is_some());
+            text.push('\n');
+            output::stderr(&text);
+        }
+        Format::Json => {
+            let doc = serde_json::json!({
+                "dimension": checked.dim.dim.name(),
+                "dimension_reason": checked.dim.why,
+                "rules": checked.rule_count,
+                "agents": agents.as_ref().map(|_| checked.agent_count),
+                "errors": checked.errors(),
+                "warnings": checked.warnings(),
+                "diagnostics": latticesim_compiler::diagnostics::to_json(&checked.diags, &checked.sources),
+                "not_shown": not_shown_json(&checked),
+                "not_checked": note,
+            });
+            let mut text = serde_json::to_string_pretty(&doc).expect("JSON of plain data");
+            text.push('\n');
+            output::stdout(text.as_bytes());
+        }
+    }
+    if checked.errors() > 0 || note.is_some() {
+        return ExitCode::from(1);
+    }
+    if dump_bytecode {
+        if let Some(p) = &checked.rules {
+            output::stdout(latticesim_compiler::lower(p).disassemble().as_bytes());
+        }
+    }
+    ExitCode::SUCCESS
+}
+
+pub(crate) fn colour(color: Color) -> bool {
+    match color {
+        Color::Always => true,
+        Color::Never => false,
+        Color::Auto => std::io::stderr().is_terminal() && std::env::var_os("NO_COLOR").is_none(),
+    }
+}
+
+/// The threads to use when `requested` (default: every core) are asked for work that can
+/// keep at most `most` busy (`why_most` says why, for the note): never more than the
+/// machine's cores nor than `most`; a note says so when fewer than asked are used.
+pub fn threads(requested: Option<usize>, most: usize, why_most: &str) -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let used = requested.unwrap_or(cores).clamp(1, cores.min(most.max(1)));
+    if let Some(r) = requested.filter(|&r| r > used) {
+        let why = if used == cores && cores <= most {
+            format!(
+                "this machine has {cores} core{}",
+                if cores == 1 { "" } else { "s" }
+            )
+        } else {
+            why_most.to_string()
+        };
+        say!("note: --threads {r}: using {used}, because {why}");
+    }
+    used
+}
+
+/// The threads of an engine on `agents` agents (see [`threads`]).
+pub fn engine_threads(requested: Option<usize>, agents: usize) -> usize {
+    let per = latticesim_runtime::AGENTS_PER_THREAD;
+    let most = agents.div_ceil(per);
+    let why = format!(
+        "{agents} agent{} keep at most {} busy (one per {per} agents)",
+        if agents == 1 { "" } else { "s" },
+        most.max(1)
+    );
+    threads(requested, most, &why)
+}
+
+/// How many records of one kind are printed before the rest are only counted.
+pub(crate) const RECORDS_SHOWN_PER_KIND: u64 = 5;
+
+/// The command line: parses the arguments, runs the command, gives its exit status.
+pub fn main() -> ExitCode {
+    output::on_interrupt();
+    let cli = Cli::parse();
+    let code = match cli.command {
+        Command::Check {
+            rules,
+            agents,
+            dim,
+            format,
+            color,
+            dump_bytecode,
+        } => run_check(rules, agents, dim, format, color, dump_bytecode),
+        Command::Run(args) => run::run(args),
+        Command::Gen(args) => gen::gen(args),
+        Command::Sweep(args) => sweep::sweep(args),
+        Command::Merge(args) => merge::merge(args),
+        Command::Render(args) => render::render(args),
+        Command::Serve(args) => serve::serve(args),
+    };
+    output::finish(code)
+}
