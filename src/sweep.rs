@@ -168,6 +168,9 @@ pub struct Setup {
     pub max_steps: u64,
     /// The order of a step and which rules act first.
     pub opts: Options,
+    /// Set from another thread to stop every run at its next step (a run stopped so
+    /// fails, with a message that says so).
+    pub cancel: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
 }
 
 /// A metric fitted and plotted against n: its name and its value in a row.
@@ -286,7 +289,13 @@ pub fn run_agents(
         .map_err(|e| format!("internal error: the compiled program does not verify: {e}"))?;
     let mut e = Engine::new(prog, lat, setup.opts);
     let (mut quiescent, mut executing) = (false, 0);
+    let cancelled = || {
+        (setup.cancel.as_ref()).is_some_and(|c| c.load(std::sync::atomic::Ordering::Relaxed))
+    };
     while e.stats.steps < setup.max_steps {
+        if cancelled() {
+            return Err(format!("{what}: interrupted at step {}", e.stats.steps));
+        }
         let rep = e.step();
         executing += rep.executing;
         if rep.quiescent {
@@ -567,6 +576,7 @@ pub fn sweep(a: SweepArgs) -> ExitCode {
             static_first: a.static_first,
             ..Options::default()
         },
+        cancel: None,
     };
     let results = match run_all(&a, &setup, &jobs) {
         Ok(r) => r,

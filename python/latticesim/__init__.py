@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from typing import Any, Callable, Iterable, Mapping, Optional, Sequence, Union
 import os
+import uuid
 import warnings
 
 from ._latticesim import (
@@ -131,8 +132,8 @@ def sweep(
     if errors not in ("warn", "raise"):
         raise ValueError('errors must be "warn" or "raise"')
     path = os.fspath(rules)
-    with open(path, encoding="utf-8", errors="surrogateescape") as f:
-        rules_text = f.read()
+    with open(path, "rb") as f:
+        rules_bytes = f.read()
     runs = _runs(sizes, seeds)
     options = dict(
         shape=shape,
@@ -150,10 +151,13 @@ def sweep(
         static_first=static_first,
     )
     if client is None:
-        cols, failures = _sweep_runs(rules_text, path, runs, threads=threads, **options)
+        cols, failures = _sweep_runs(rules_bytes, path, runs, threads=threads, **options)
         return _frame([cols], failures, errors)
+    sweep_id = uuid.uuid4().hex[:12]
     futures = [
-        client.submit(_one_run, rules_text, path, run, options, pure=False, key=f"latticesim-run-{run[0]}-{id(runs)}")
+        client.submit(
+            _one_run, rules_bytes, path, run, options, key=f"latticesim-{sweep_id}-run-{run[0]}"
+        )
         for run in runs
     ]
     parts, failures = [], []
@@ -168,8 +172,8 @@ def sweep(
     return _frame(parts, failures, errors)
 
 
-def _one_run(rules_text: str, path: str, run: tuple, options: dict):
+def _one_run(rules: bytes, path: str, run: tuple, options: dict):
     """One run of a sweep on a Dask worker (one thread: Dask gives the parallelism)."""
     from latticesim._latticesim import sweep_runs
 
-    return sweep_runs(rules_text, path, [tuple(run)], threads=1, **options)
+    return sweep_runs(rules, path, [tuple(run)], threads=1, **options)

@@ -137,7 +137,7 @@ class Simulation:
     def to_arrow(self) -> Any: ...
 
 def sweep_runs(
-    rules_text: str,
+    rules: bytes,
     rules_name: str,
     runs: list[tuple[int, int, int]],
     *,

@@ -6,23 +6,29 @@ use latticesim::sweep::{run_agents, table, Row, Setup, SweepShape};
 use latticesim::table::Column;
 use latticesim_runtime::shapes::{agents_text, GenOptions};
 use numpy::PyArray1;
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+/// How often a sweep looks for Ctrl-C while its runs go on.
+const POLL: Duration = Duration::from_millis(20);
 
 /// A run that failed: its number, n, seed and why.
 type Failure = (usize, u32, u64, String);
 
-/// Runs the sweep's runs `runs` (run number, n, seed) and gives the table's columns (name
+/// Runs the sweep's runs `runs` (run number, n, seed) of the rules file's bytes `rules` and gives the table's columns (name
 /// -> array or list, the rows in run order) and the failures (run, n, seed, message).
 /// Called by `latticesim.sweep`, once for a threaded sweep or once per run on Dask.
 #[pyfunction]
-#[pyo3(signature = (rules_text, rules_name, runs, *, shape = "connected", agents_fn = None, dim = 2, state = None, first_state = None, first_east = false, ids = None, universe = false, fill_holes = false, set = Vec::new(), max_steps = 100_000, order = "actions-first", static_first = false, threads = None))]
+#[pyo3(signature = (rules, rules_name, runs, *, shape = "connected", agents_fn = None, dim = 2, state = None, first_state = None, first_east = false, ids = None, universe = false, fill_holes = false, set = Vec::new(), max_steps = 100_000, order = "actions-first", static_first = false, threads = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn sweep_runs<'py>(
     py: Python<'py>,
-    rules_text: &str,
+    rules: Vec<u8>,
     rules_name: &str,
     runs: Vec<(usize, u32, u64)>,
     shape: &str,
@@ -64,13 +70,14 @@ pub fn sweep_runs<'py>(
     };
     let setup = Setup {
         rules_name: rules_name.to_string(),
-        rules: rules_text.as_bytes().to_vec(),
+        rules,
         set: (set.iter())
             .map(|s| s.parse())
             .collect::<Result<_, String>>()
             .map_err(|e| PyValueError::new_err(format!("set: {e}")))?,
         max_steps,
         opts: crate::options(order, static_first)?,
+        cancel: Some(Arc::new(AtomicBool::new(false))),
     };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(latticesim::threads(
@@ -97,8 +104,22 @@ pub fn sweep_runs<'py>(
         let source = latticesim::agents_file::Source::Bytes(text.as_bytes());
         run_agents(&setup, run, seed, input, source)
     };
-    let results: Vec<Result<Row, String>> =
-        py.detach(|| pool.install(|| runs.par_iter().map(one).collect()));
+    let results = std::thread::scope(|s| -> PyResult<Vec<Result<Row, String>>> {
+        let worker = s.spawn(|| pool.install(|| runs.par_iter().map(one).collect()));
+        // Ctrl-C stops every run at its next step.
+        while !worker.is_finished() {
+            py.detach(|| std::thread::sleep(POLL));
+            if let Err(e) = py.check_signals() {
+                let cancel = setup.cancel.as_ref().expect("set above");
+                cancel.store(true, Ordering::Relaxed);
+                py.detach(|| worker.join()).ok();
+                return Err(e);
+            }
+        }
+        worker
+            .join()
+            .map_err(|_| PyRuntimeError::new_err("a run of the sweep panicked"))
+    })?;
     let (mut rows, mut failed) = (Vec::new(), Vec::new());
     for (r, &(run, n, seed)) in results.into_iter().zip(&runs) {
         match r {

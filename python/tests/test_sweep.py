@@ -90,3 +90,22 @@ def test_shards_merged_equal_the_whole_sweep(cli, tmp_path):
         cli("merge", *reversed(parts), "--out", merged)
         got = pd.read_parquet(merged) if out.endswith("parquet") else pd.read_csv(merged)
         same(got, pd.read_csv(whole))
+
+
+def test_ctrl_c_stops_a_threaded_sweep():
+    import os
+    import signal
+    import threading
+    import time
+
+    def long_line(n, seed):
+        return "".join(f"{x},0 SINIT0 C00 {x + 1}\n" for x in range(n))
+
+    timer = threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT))
+    start = time.perf_counter()
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        latticesim.sweep(RULES, sizes=[3000, 3000], seeds=2, agents_fn=long_line, threads=2)
+    timer.join()
+    took = time.perf_counter() - start
+    assert took < 5, f"the sweep stopped {took:.1f} s after it started"
