@@ -289,9 +289,8 @@ pub fn run_agents(
         .map_err(|e| format!("internal error: the compiled program does not verify: {e}"))?;
     let mut e = Engine::new(prog, lat, setup.opts);
     let (mut quiescent, mut executing) = (false, 0);
-    let cancelled = || {
-        (setup.cancel.as_ref()).is_some_and(|c| c.load(std::sync::atomic::Ordering::Relaxed))
-    };
+    let cancelled =
+        || (setup.cancel.as_ref()).is_some_and(|c| c.load(std::sync::atomic::Ordering::Relaxed));
     while e.stats.steps < setup.max_steps {
         if cancelled() {
             return Err(format!("{what}: interrupted at step {}", e.stats.steps));

@@ -182,6 +182,12 @@ impl Simulation {
     }
 }
 
+/// The bytes of a rules file, or OSError naming it.
+fn read_rules(path: &std::path::Path) -> PyResult<Vec<u8>> {
+    std::fs::read(path)
+        .map_err(|e| PyIOError::new_err(format!("cannot read `{}`: {e}", path.display())))
+}
+
 /// Marks a NumPy array read-only (it views the engine's memory).
 fn read_only<'py, T>(a: Bound<'py, T>) -> PyResult<Bound<'py, T>> {
     a.as_any().getattr("flags")?.setattr("writeable", false)?;
@@ -210,8 +216,7 @@ impl Simulation {
         series: bool,
     ) -> PyResult<Simulation> {
         let opts = crate::options(order, static_first)?;
-        let rules_bytes = std::fs::read(&rules)
-            .map_err(|e| PyIOError::new_err(format!("cannot read `{}`: {e}", rules.display())))?;
+        let rules_bytes = read_rules(&rules)?;
         let names = (rules.display().to_string(), agents.display().to_string());
         let io = latticesim::run::io_threads(threads);
         let loaded = py
@@ -245,13 +250,16 @@ impl Simulation {
     ) -> PyResult<Simulation> {
         let opts = crate::options(order, static_first)?;
         let io = latticesim::run::io_threads(threads);
-        let loaded = agents_file::load(
-            (rules_name, rules_text.as_bytes()),
-            agents_name,
-            Source::Bytes(agents_text.as_bytes()),
-            io,
-        )
-        .map_err(|e| PyIOError::new_err(e.to_string()))?;
+        let loaded = py
+            .detach(|| {
+                agents_file::load(
+                    (rules_name, rules_text.as_bytes()),
+                    agents_name,
+                    Source::Bytes(agents_text.as_bytes()),
+                    io,
+                )
+            })
+            .map_err(|e| PyIOError::new_err(e.to_string()))?;
         let names = (rules_name.to_string(), agents_name.to_string());
         Simulation::from_loaded(py, loaded, opts, threads, series, names)
     }
@@ -277,8 +285,7 @@ impl Simulation {
             ))
         };
         let (dim, agents) = latticesim::run::peek_checkpoint_file(&checkpoint).map_err(cannot)?;
-        let rules_bytes = std::fs::read(&rules)
-            .map_err(|e| PyIOError::new_err(format!("cannot read `{}`: {e}", rules.display())))?;
+        let rules_bytes = read_rules(&rules)?;
         let rules_name = rules.display().to_string();
         let c = latticesim::check_pair((&rules_name, &rules_bytes), None, Some(dim));
         let Some(program) = c.rules.as_ref() else {
