@@ -166,6 +166,61 @@ async function test3d(browser) {
   await page.close();
 }
 
+// The controls: every key press counts, one run loop whatever the clicks, Back and Go
+// pause a run, the keys step after the slider was touched, the achieved rate is shown.
+async function testControls(browser) {
+  const url = await serve('examples/bouncing/rules.txt', 'examples/bouncing/agents.txt');
+  const page = await browser.newPage({ viewport: { width: 1100, height: 640 } });
+  const errors = [];
+  page.on('pageerror', (e) => errors.push(e.message));
+  await page.goto(url);
+  await page.waitForFunction(() => window.latticesim && window.latticesim.ready);
+  await page.click('#stage');
+  for (let i = 0; i < 30; i++) await page.keyboard.press('ArrowRight');
+  await waitStep(page, 30);
+  await page.waitForTimeout(300);
+  assert.equal(await stepNumber(page), 30, '30 presses of the right arrow are 30 steps');
+  console.log('ok: 30 quick presses of the right arrow land on step 30');
+
+  // Touch the slider, then the arrows step and leave the speed alone.
+  await page.fill('#jump', '0');
+  await page.click('#go');
+  await waitStep(page, 0);
+  await page.$eval('#speed', (s) => { s.value = '5'; s.dispatchEvent(new Event('input')); });
+  await page.click('#speed');
+  const speed = await page.inputValue('#speed');
+  await page.keyboard.press('ArrowRight');
+  await waitStep(page, 1);
+  assert.equal(await page.inputValue('#speed'), speed, 'the arrow keys do not change the speed');
+  await page.$eval('#speed', (s) => { s.value = '5'; s.dispatchEvent(new Event('input')); });
+
+  // Run, then Pause and Run at once, twice: one loop, at 5 steps/s, not two.
+  await page.click('#run');
+  await page.waitForTimeout(300);
+  for (let k = 0; k < 2; k++) {
+    await page.click('#run');
+    await page.click('#run');
+  }
+  const s0 = await stepNumber(page);
+  await page.waitForTimeout(3000);
+  const s1 = await stepNumber(page);
+  const rate = (s1 - s0) / 3;
+  assert.ok(rate >= 3 && rate <= 6.5, `one loop at speed 5: ${rate.toFixed(1)} steps/s`);
+  assert.match(await page.textContent('#rate'), /\(\d+\.\d achieved\)/);
+  assert.match(await page.textContent('#run'), /Pause/);
+  // Back while running pauses, one step back from where the run was.
+  await page.click('#back');
+  await page.waitForFunction(() => document.getElementById('run').textContent.includes('Run'));
+  await page.waitForTimeout(500);
+  const back = await stepNumber(page);
+  await page.waitForTimeout(600);
+  assert.equal(await stepNumber(page), back, 'the run is paused after Back');
+  assert.ok(back >= s1 - 1, `Back went one step back (${s1} -> ${back})`);
+  assert.deepEqual(errors, [], 'no script errors in the page');
+  console.log(`ok: Pause/Run races give one loop (${rate.toFixed(1)} steps/s at speed 5); Back pauses; the slider keeps no arrow keys`);
+  await page.close();
+}
+
 async function screenshot(browser, rules, agents, steps, file, setup) {
   const url = await serve(rules, agents);
   const page = await browser.newPage({ viewport: { width: 1100, height: 640 } });
@@ -185,6 +240,7 @@ const guard = setTimeout(() => { console.error('e2e: timed out'); process.exit(1
 try {
   await test(browser);
   await test3d(browser);
+  await testControls(browser);
   if (process.env.SCREENSHOTS) {
     await screenshot(browser, 'examples/reconfigure-line/rules.txt', 'examples/reconfigure-line/agents-30.txt', 450, 'viewer-2d.png',
       async (page) => {

@@ -14,6 +14,7 @@ pub mod alloc;
 pub mod gen;
 pub mod merge;
 pub mod output;
+pub mod palette;
 mod plot;
 mod render;
 pub mod run;

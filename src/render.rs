@@ -4,6 +4,7 @@
 //! outlined. Every format carries the step and a legend of the states on the right.
 
 use crate::output::{open_output, say, write_output};
+use crate::palette::{hex, Palette};
 use crate::run::load;
 use crate::{colour, Color};
 use latticesim_runtime::{Engine, Lattice, Options};
@@ -36,6 +37,10 @@ pub struct RenderArgs {
     /// smallest to its largest value in the frames drawn, instead of by state.
     #[arg(long, value_name = "Cnn")]
     color_by: Option<String>,
+    /// The colours of the states: a file of `#rrggbb` lines (the colours handed out in
+    /// order of first appearance) and `STATE #rrggbb` lines (a state's own colour).
+    #[arg(long, value_name = "FILE")]
+    palette: Option<PathBuf>,
     /// Which comes first in a step (as `run --order`).
     #[arg(long, value_enum, default_value_t = crate::run::OrderArg::ActionsFirst)]
     order: crate::run::OrderArg,
@@ -56,31 +61,6 @@ const MAX_FRAMES: u64 = 2000;
 const MAX_AGENT_FRAMES: u64 = 50_000_000;
 /// The widest or highest image, in pixels.
 const MAX_SIDE: u64 = 8192;
-
-/// The colour of a state, the same in every picture and run: the FNV-1a hash (32 bits)
-/// of its five bytes picks the hue (hash mod 360); saturation 65 %, lightness 55 %.
-pub fn state_colour(state: &[u8; 5]) -> [u8; 3] {
-    let mut h: u32 = 0x811c_9dc5;
-    for &b in state {
-        h = (h ^ b as u32).wrapping_mul(0x0100_0193);
-    }
-    hsl((h % 360) as f64, 0.65, 0.55)
-}
-
-fn hsl(h: f64, s: f64, l: f64) -> [u8; 3] {
-    let c = (1.0 - (2.0 * l - 1.0).abs()) * s;
-    let x = c * (1.0 - ((h / 60.0) % 2.0 - 1.0).abs());
-    let (r, g, b) = match (h / 60.0) as u32 {
-        0 => (c, x, 0.0),
-        1 => (x, c, 0.0),
-        2 => (0.0, c, x),
-        3 => (0.0, x, c),
-        4 => (x, 0.0, c),
-        _ => (c, 0.0, x),
-    };
-    let m = l - c / 2.0;
-    [r, g, b].map(|v| ((v + m) * 255.0).round() as u8)
-}
 
 fn shade(c: [u8; 3], f: f64) -> [u8; 3] {
     c.map(|v| (v as f64 * f).round() as u8)
@@ -352,10 +332,6 @@ fn raster(view: &View, shapes: &[Shape]) -> Vec<u8> {
     img
 }
 
-fn hex(c: [u8; 3]) -> String {
-    format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2])
-}
-
 /// The width of the legend beside a picture, in pixels.
 const LEGEND_W: u32 = 140;
 
@@ -363,8 +339,13 @@ const LEGEND_W: u32 = 140;
 /// colour, [`state_colour`]), or by a counter on a continuous scale from its smallest to
 /// its largest value in the frames drawn.
 enum Key {
-    States(BTreeSet<[u8; 5]>),
-    Counter { name: String, lo: i16, hi: i16 },
+    /// The states drawn, in order of first appearance, and their colours.
+    States(Vec<[u8; 5]>, Palette),
+    Counter {
+        name: String,
+        lo: i16,
+        hi: i16,
+    },
 }
 
 /// The scale of `--color-by`: viridis, from dark purple (smallest) to yellow (largest),
@@ -394,7 +375,7 @@ const BAR_H: u32 = 120;
 impl Key {
     fn colour(&self, f: &Frame, a: usize) -> [u8; 3] {
         match self {
-            Key::States(_) => state_colour(&f.state[a]),
+            Key::States(_, p) => p.get(&f.state[a]),
             Key::Counter { lo, hi, .. } => {
                 let span = (*hi as f64 - *lo as f64).max(1.0);
                 scale((f.value[a] as f64 - *lo as f64) / span)
@@ -405,7 +386,7 @@ impl Key {
     /// The height the legend needs.
     fn height(&self) -> u32 {
         match self {
-            Key::States(states) => 24 + 18 * states.len() as u32,
+            Key::States(states, _) => 24 + 18 * states.len() as u32,
             Key::Counter { .. } => 40 + BAR_H + 20,
         }
     }
@@ -418,8 +399,8 @@ impl Key {
             s,
             "<text x=\"{x}\" y=\"16\" font-family=\"sans-serif\" font-size=\"12\">step {step}</text>"
         );
-        let states = match self {
-            Key::States(states) => states,
+        let (states, palette) = match self {
+            Key::States(states, p) => (states, p),
             Key::Counter { name, lo, hi } => {
                 let _ = writeln!(
                     s,
@@ -458,7 +439,7 @@ impl Key {
             let _ = writeln!(
                 s,
                 "<rect x=\"{x}\" y=\"{y}\" width=\"14\" height=\"14\" fill=\"{}\"/><text x=\"{}\" y=\"{}\" font-family=\"monospace\" font-size=\"12\">{name}</text>",
-                hex(state_colour(st)),
+                hex(palette.get(st)),
                 x + 20,
                 y + 12
             );
@@ -653,12 +634,16 @@ fn frames(
     engine: &mut Engine,
     (first, last): (u64, u64),
     counter: Option<u8>,
+    palette: &mut Palette,
 ) -> (Vec<Frame>, BTreeSet<[u8; 5]>, u64) {
     let mut frames = Vec::new();
     let mut states = BTreeSet::new();
     // The run is drawn up to `last`, or up to where it became quiescent (nothing changes
     // after that), whichever comes first.
     while engine.stats.steps <= last {
+        // Every step's states take their colours in order of first appearance, drawn or
+        // not, as in the viewer.
+        palette.observe(&engine.lat.state);
         if engine.stats.steps >= first {
             let f = Frame::of(&engine.lat, counter);
             states.extend(f.state.iter().copied());
@@ -705,6 +690,13 @@ pub fn render(args: RenderArgs) -> ExitCode {
         Ok(f) => f,
         Err(c) => return c,
     };
+    let mut palette = match args.palette.as_deref().map(Palette::read).transpose() {
+        Ok(p) => p.unwrap_or_default(),
+        Err(e) => {
+            say!("error: --palette {e}");
+            return ExitCode::from(2);
+        }
+    };
     let threads = crate::run::io_threads(None);
     let ready = match load(&args.rules, &args.agents, true, colour(args.color), threads) {
         Ok(l) => l,
@@ -743,9 +735,15 @@ pub fn render(args: RenderArgs) -> ExitCode {
         Some(Ok(c)) => Some(c),
         None => None,
     };
-    let (frames, states, reached) = frames(&mut engine, (first, last), counter);
+    let (frames, states, reached) = frames(&mut engine, (first, last), counter, &mut palette);
     let key = match counter {
-        None => Key::States(states),
+        None => {
+            let order = (palette.order().iter())
+                .filter(|s| states.contains(*s))
+                .copied()
+                .collect();
+            Key::States(order, palette)
+        }
         Some(c) => {
             let values = frames.iter().flat_map(|f| f.value.iter().copied());
             let (lo, hi) = values.fold((i16::MAX, i16::MIN), |a, v| (a.0.min(v), a.1.max(v)));

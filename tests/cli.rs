@@ -536,27 +536,34 @@ fn sweep_writes_csv_and_plot() {
     assert_eq!(o.status.code(), Some(1));
 }
 
-/// The documented colour of a state (docs/running.md): FNV-1a of its bytes picks the hue;
-/// saturation 65 %, lightness 55 %. Computed here from the formula, not taken from the
-/// program.
-fn documented_colour(state: &[u8]) -> [u8; 3] {
-    let mut h: u32 = 0x811c9dc5;
-    for &b in state {
-        h = (h ^ b as u32).wrapping_mul(16777619);
+/// The documented colours of states (docs/running.md): the first eight of the palette,
+/// Okabe and Ito's seven and Tol's indigo, handed out in order of first appearance, in
+/// agent order at step 0 and after each step up to `steps` (written here from the
+/// document, not taken from the program). The states in that order, with their colours.
+fn documented_colours(rules: &str, agents: &str, steps: u64) -> Vec<(String, [u8; 3])> {
+    const FIRST: [[u8; 3]; 8] = [
+        [0xe6, 0x9f, 0x00],
+        [0x56, 0xb4, 0xe9],
+        [0x00, 0x9e, 0x73],
+        [0xf0, 0xe4, 0x42],
+        [0x00, 0x72, 0xb2],
+        [0xd5, 0x5e, 0x00],
+        [0xcc, 0x79, 0xa7],
+        [0x33, 0x22, 0x88],
+    ];
+    let mut order: Vec<String> = Vec::new();
+    for step in 0..=steps {
+        for (_, _, st) in agents_after(rules, agents, &step.to_string()) {
+            if !order.contains(&st) {
+                order.push(st);
+            }
+        }
     }
-    let (hue, s, l) = ((h % 360) as f64, 0.65, 0.55);
-    let c = (1.0 - (2.0 * l - 1.0f64).abs()) * s;
-    let x = c * (1.0 - ((hue / 60.0) % 2.0 - 1.0).abs());
-    let rgb = [
-        (c, x, 0.0),
-        (x, c, 0.0),
-        (0.0, c, x),
-        (0.0, x, c),
-        (x, 0.0, c),
-        (c, 0.0, x),
-    ][((hue / 60.0) as usize).min(5)];
-    let m = l - c / 2.0;
-    [rgb.0, rgb.1, rgb.2].map(|v| ((v + m) * 255.0).round() as u8)
+    assert!(
+        order.len() <= 8,
+        "more states than the test knows colours of"
+    );
+    order.into_iter().zip(FIRST).collect()
 }
 
 /// Runs `latticesim render RULES AGENTS ARGS --out <tmp file named NAME>`, which must
@@ -625,8 +632,13 @@ fn render_png_shows_each_agent_in_its_state_colour() {
         cells.iter().map(|c| c.1).max().unwrap(),
     );
     // Ten pixels a cell and a margin of one cell, north up; the legend (140 pixels wide,
-    // 24 + 18 per state high) on the right.
-    let states: std::collections::BTreeSet<&str> = cells.iter().map(|c| c.2.as_str()).collect();
+    // 24 + 18 per state high) on the right, its states in order of first appearance.
+    let colours = documented_colours(rules, agents, 3);
+    let colour = |st: &str| colours.iter().find(|c| c.0 == st).unwrap().1;
+    let states: Vec<&str> = (colours.iter())
+        .map(|c| c.0.as_str())
+        .filter(|st| cells.iter().any(|c| c.2 == *st))
+        .collect();
     let view_w = (x1 - x0 + 3) * 10;
     let legend_h = 24 + 18 * states.len() as i64;
     assert_eq!((w, h), (view_w + 140, ((y1 - y0 + 3) * 10).max(legend_h)));
@@ -635,7 +647,7 @@ fn render_png_shows_each_agent_in_its_state_colour() {
         let k = ((py * w + px) * 3) as usize;
         assert_eq!(
             [buf[k], buf[k + 1], buf[k + 2]],
-            documented_colour(st.as_bytes()),
+            colour(st),
             "the legend's swatch of {st}"
         );
     }
@@ -654,11 +666,7 @@ fn render_png_shows_each_agent_in_its_state_colour() {
         [buf[i], buf[i + 1], buf[i + 2]]
     };
     for (x, y, state) in &cells {
-        assert_eq!(
-            pixel(*x, *y),
-            documented_colour(state.as_bytes()),
-            "agent at {x},{y}"
-        );
+        assert_eq!(pixel(*x, *y), colour(state), "agent at {x},{y}");
     }
     let taken: std::collections::HashSet<(i64, i64)> = cells.iter().map(|c| (c.0, c.1)).collect();
     let empty = (x0..=x1)
@@ -666,6 +674,49 @@ fn render_png_shows_each_agent_in_its_state_colour() {
         .find(|c| !taken.contains(c))
         .unwrap();
     assert_eq!(pixel(empty.0, empty.1), [255, 255, 255]);
+}
+
+#[test]
+fn render_takes_a_user_palette() {
+    let (rules, agents) = ("examples/gravity/rules.txt", "examples/gravity/agents.txt");
+    let states: Vec<String> = documented_colours(rules, agents, 0)
+        .into_iter()
+        .map(|c| c.0)
+        .collect();
+    let pal = tmp(
+        "palette.txt",
+        format!("// mine\n#102030\n{} #ff0000 // pinned\n", states[0]).as_bytes(),
+    );
+    let svg = render_ok(
+        rules,
+        agents,
+        &["--step", "0", "--palette", pal.to_str().unwrap()],
+        "palette.svg",
+    );
+    let svg = std::fs::read_to_string(svg).unwrap();
+    assert!(svg.contains("#ff0000"), "the pinned state's colour");
+    if states.len() > 1 {
+        assert!(svg.contains("#102030"), "the sequence's first colour");
+    }
+    let bad = tmp("bad-palette.txt", b"#102030\nLEAD #ff0000\n");
+    let out = tmp("bad-palette.svg", b"");
+    let o = run(&[
+        "render",
+        rules,
+        agents,
+        "--step",
+        "0",
+        "--palette",
+        bad.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("bad-palette.txt:2:1: `LEAD` is not a state"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 #[test]

@@ -3,15 +3,15 @@
 // and which agent stands at a point.
 
 import { agentCount, bbox, camera } from './camera.js';
-import { selection } from './state.js';
+import { selection, stateColours } from './state.js';
 
 // The 2D frame as an image of one pixel per cell (north up), made once per frame; none
 // when the agents' bounding box has more than 16 million cells.
 function bitmap(f) {
-  if (camera.bmp && camera.bmp.frame === f) return camera.bmp;
+  if (camera.bmp && camera.bmp.frame === f && camera.bmp.looks === selection.looksVersion) return camera.bmp;
   const b = bbox(f);
   const w = b.hi[0] - b.lo[0] + 1, h = b.hi[1] - b.lo[1] + 1;
-  camera.bmp = { frame: f, canvas: null, lo: b.lo, hi: b.hi };
+  camera.bmp = { frame: f, canvas: null, lo: b.lo, hi: b.hi, looks: selection.looksVersion };
   if (agentCount(f) === 0 || w * h > 16e6) return camera.bmp;
   const c = document.createElement('canvas');
   c.width = w;
@@ -20,8 +20,9 @@ function bitmap(f) {
   const img = cx.createImageData(w, h);
   const px = new Uint32Array(img.data.buffer);
   // RGBA bytes in a little-endian word: 0xAABBGGRR.
-  const cols = f.states.map((st) => {
-    const v = parseInt(st.colour.slice(1), 16);
+  const cols = stateColours(f).map((c) => {
+    if (c === null) return 0; // hidden: transparent
+    const v = parseInt(c.slice(1), 16);
     return (0xff000000 | ((v & 0xff) << 16) | (v & 0xff00) | (v >> 16)) >>> 0;
   });
   for (let i = 0; i < agentCount(f); i++) {
@@ -38,14 +39,6 @@ export function draw2d(ctx, f, r) {
   // Cells on screen, to skip agents outside the view.
   const x0 = Math.floor(-camera.ox / s) - 1, x1 = Math.ceil((r.width - camera.ox) / s) + 1;
   const y0 = Math.floor((camera.oy - r.height) / s) - 1, y1 = Math.ceil(camera.oy / s) + 1;
-  if (f.universe) {
-    const u = f.universe;
-    ctx.strokeStyle = '#888';
-    ctx.lineWidth = 1;
-    const clamp = (v) => Math.max(-1e6, Math.min(1e6, v));
-    ctx.strokeRect(clamp(camera.ox + u[0][0] * s), clamp(camera.oy - (u[1][1] + 1) * s),
-      clamp((u[0][1] - u[0][0] + 1) * s), clamp((u[1][1] - u[1][0] + 1) * s));
-  }
   const bmp = bitmap(f);
   if (bmp.canvas) {
     // One pixel per cell, scaled up without smoothing: one image whatever the agent count.
@@ -65,6 +58,7 @@ export function draw2d(ctx, f, r) {
     }
   } else {
     // Agents spread too far for an image: a square each, only those on screen.
+    const colours = stateColours(f);
     const groups = f.states.map(() => []);
     for (let i = 0; i < n; i++) {
       const x = f.pos[2 * i], y = f.pos[2 * i + 1];
@@ -73,7 +67,8 @@ export function draw2d(ctx, f, r) {
     }
     const w = Math.max(s - 2 * gap, 0.6);
     groups.forEach((g, k) => {
-      ctx.fillStyle = f.states[k].colour;
+      if (colours[k] === null) return;
+      ctx.fillStyle = colours[k];
       for (const i of g) {
         ctx.fillRect(camera.ox + f.pos[2 * i] * s + gap, camera.oy - (f.pos[2 * i + 1] + 1) * s + gap, w, w);
       }
@@ -92,6 +87,15 @@ export function draw2d(ctx, f, r) {
     }
     ctx.stroke();
   }
+  // The universe's outline, on top of the agents and the gaps between them.
+  if (f.universe) {
+    const u = f.universe;
+    ctx.strokeStyle = '#888';
+    ctx.lineWidth = 2;
+    const clamp = (v) => Math.max(-1e6, Math.min(1e6, v));
+    ctx.strokeRect(clamp(camera.ox + u[0][0] * s), clamp(camera.oy - (u[1][1] + 1) * s),
+      clamp((u[0][1] - u[0][0] + 1) * s), clamp((u[1][1] - u[1][0] + 1) * s));
+  }
   const ring = (i, colour, width) => {
     ctx.strokeStyle = colour;
     ctx.lineWidth = width;
@@ -104,8 +108,9 @@ export function draw2d(ctx, f, r) {
 // The agent at canvas point (x, y) of frame `f`, or null.
 export function pick2d(f, x, y) {
   const cx = Math.floor((x - camera.ox) / camera.scale), cy = Math.floor((camera.oy - y) / camera.scale);
+  const colours = stateColours(f);
   for (let i = 0; i < agentCount(f); i++) {
-    if (f.pos[2 * i] === cx && f.pos[2 * i + 1] === cy) return i;
+    if (f.pos[2 * i] === cx && f.pos[2 * i + 1] === cy && colours[f.state[i]] !== null) return i;
   }
   return null;
 }

@@ -3,7 +3,7 @@
 // agent's faces cover a point.
 
 import { agentCount, camera, CORNERS, project } from './camera.js';
-import { selection } from './state.js';
+import { selection, stateColours } from './state.js';
 
 function shade(hex, k) {
   const v = parseInt(hex.slice(1), 16);
@@ -47,8 +47,10 @@ export function draw3d(ctx, f, r) {
       ctx.stroke();
     }
   }
+  const colours = stateColours(f);
   const order = [];
   for (let i = 0; i < n; i++) {
+    if (colours[f.state[i]] === null) continue; // a hidden state
     const c = project(f.pos[3 * i] + 0.5, f.pos[3 * i + 1] + 0.5, f.pos[3 * i + 2] + 0.5);
     if (c[0] < -camera.scale * 2 || c[0] > r.width + camera.scale * 2 || c[1] < -camera.scale * 2 || c[1] > r.height + camera.scale * 2) continue;
     order.push([c[2] + f.pos[3 * i + 2], i]);
@@ -59,7 +61,7 @@ export function draw3d(ctx, f, r) {
   for (const [, i] of order) {
     const x = f.pos[3 * i], y = f.pos[3 * i + 1], z = f.pos[3 * i + 2];
     const pts = CORNERS.map((c) => project(x + c[0], y + c[1], z + c[2]));
-    const colour = f.states[f.state[i]].colour;
+    const colour = colours[f.state[i]];
     const polys = [];
     const face = (idx, fill) => {
       ctx.beginPath();

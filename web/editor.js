@@ -3,8 +3,8 @@
 import { $, api, el, escapeHtml } from './api.js';
 import { camera } from './camera.js';
 import { resize } from './draw.js';
-import { showFrame } from './player.js';
-import { player, selection } from './state.js';
+import { showFrame, stopRun } from './player.js';
+import { selection } from './state.js';
 
 // ---------------------------------------------------------------- tabs
 
@@ -164,7 +164,7 @@ $('apply').onclick = async () => {
   const r = await api('POST', '/api/apply', texts());
   if (r.v.check) showDiagnostics(r.v.check);
   if (!r.ok) { $('check-summary').textContent = r.v.error; $('check-summary').className = 'bad'; return; }
-  player.running = false;
+  stopRun();
   selection.selected = null;
   camera.fitted = false;
   $('inspector').textContent = 'Click an agent.';

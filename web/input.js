@@ -4,7 +4,7 @@ import { $ } from './api.js';
 import { camera } from './camera.js';
 import { canvas, draw, fit, pick, zoom } from './draw.js';
 import { inspect } from './panel.js';
-import { currentStep, gotoStep, toggleRun } from './player.js';
+import { currentStep, gotoStep, stopRun, toggleRun } from './player.js';
 import { player } from './state.js';
 
 // ---------------------------------------------------------------- mouse and keys
@@ -43,22 +43,35 @@ canvas.addEventListener('wheel', (e) => {
   zoom(Math.exp(-e.deltaY * 0.0015), e.clientX - r.left, e.clientY - r.top);
 }, { passive: false });
 
+// Keys go to the universe unless a field that takes typing has focus (the step number,
+// the editors); a slider or a button keeps no keys: the arrows step, never the speed.
+function typing(el) {
+  return el.tagName === 'TEXTAREA' || (el.tagName === 'INPUT' && !['range', 'checkbox', 'color'].includes(el.type));
+}
+
 document.addEventListener('keydown', (e) => {
-  if (!$('view').hidden && e.target.tagName !== 'INPUT' && e.target.tagName !== 'TEXTAREA') {
-    if (e.key === ' ') { e.preventDefault(); toggleRun(); }
-    if (e.key === 'ArrowRight') gotoStep(currentStep() + 1);
-    if (e.key === 'ArrowLeft') gotoStep(currentStep() - 1);
-    if (e.key === 'Home') gotoStep(0);
-    if (e.key === '+' || e.key === '=') zoom(1.25);
-    if (e.key === '-') zoom(0.8);
-  }
+  if ($('view').hidden || typing(e.target)) return;
+  const keys = {
+    ' ': toggleRun,
+    ArrowRight: () => gotoStep(currentStep() + 1),
+    ArrowLeft: () => { stopRun(); gotoStep(currentStep() - 1); },
+    Home: () => { stopRun(); gotoStep(0); },
+    '+': () => zoom(1.25),
+    '=': () => zoom(1.25),
+    '-': () => zoom(0.8),
+  };
+  const act = keys[e.key];
+  if (!act) return;
+  e.preventDefault();
+  act();
 });
 
 $('step').onclick = () => gotoStep(currentStep() + 1);
-$('back').onclick = () => gotoStep(currentStep() - 1);
-$('reset').onclick = () => { player.running = false; gotoStep(0); };
+// Back, Reset and Go pause a run.
+$('back').onclick = () => { stopRun(); gotoStep(currentStep() - 1); };
+$('reset').onclick = () => { stopRun(); gotoStep(0); };
 $('run').onclick = toggleRun;
-$('go').onclick = () => gotoStep(Number($('jump').value) || 0);
+$('go').onclick = () => { stopRun(); gotoStep(Number($('jump').value) || 0); };
 $('jump').addEventListener('keydown', (e) => { if (e.key === 'Enter') $('go').onclick(); });
 $('speed').oninput = () => { $('speed-label').textContent = $('speed').value; };
 $('fit').onclick = fit;

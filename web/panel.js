@@ -7,15 +7,36 @@ import { selection } from './state.js';
 // ---------------------------------------------------------------- side panel
 
 
+// The legend: a swatch (a colour picker: the page's own palette) and the name and count of
+// each state; clicking the name highlights the state (the others fade), again hides it
+// (its agents are neither drawn nor picked), again shows it as it was.
 export function showLegend(f) {
   const ul = $('legend');
   ul.replaceChildren();
   const states = f.states.slice().sort((a, b) => (a.name < b.name ? -1 : a.name > b.name ? 1 : 0));
   for (const s of states) {
-    const sw = el('span', { class: 'swatch' });
-    sw.style.background = s.colour;
-    ul.append(el('li', {}, sw, s.name, el('span', { class: 'muted' }, ' ' + s.count)));
+    const look = selection.looks.get(s.name) || {};
+    const sw = el('input', { type: 'color', class: 'swatch', title: 'Choose its colour' });
+    sw.value = look.colour || s.colour;
+    sw.oninput = () => setLook(s.name, { colour: sw.value }, f);
+    const name = el('span', { class: 'state-name', title: 'Highlight, hide or show it' }, s.name);
+    const li = el('li', { class: look.mode || '', 'data-state': s.name }, sw, name,
+      el('span', { class: 'muted' }, ' ' + s.count));
+    name.onclick = () => {
+      const next = { undefined: 'highlight', highlight: 'hidden', hidden: undefined }[look.mode];
+      setLook(s.name, { mode: next }, f);
+    };
+    ul.append(li);
   }
+}
+
+function setLook(name, change, f) {
+  const look = { ...(selection.looks.get(name) || {}), ...change };
+  if (!look.mode) delete look.mode;
+  selection.looks.set(name, look);
+  selection.looksVersion += 1;
+  showLegend(f);
+  draw();
 }
 
 export function showRecords(f) {
@@ -27,7 +48,7 @@ export function showRecords(f) {
   }
   f.records.forEach((r, i) => {
     const li = el('li', { class: r.severity, title: 'Highlight its agents' },
-      el('b', {}, r.kind), ': ' + r.message + ' (agents ' + r.agents.join(', ') + ')');
+      el('b', {}, r.kind), ': ' + r.message + ' (agent' + (r.agents.length === 1 ? ' ' : 's ') + r.agents.join(', ') + ')');
     li.onclick = () => {
       const on = selection.activeRecord !== i;
       selection.activeRecord = on ? i : -1;

@@ -18,7 +18,7 @@ mod session;
 mod views;
 
 use crate::output::say;
-use crate::render::state_colour;
+use crate::palette::Palette;
 use http::{error, Response as Reply};
 use latticesim_compiler::{compile, Checked};
 use latticesim_runtime::{Engine, History, Lattice, Options, Order, TraceEvent};
@@ -81,6 +81,10 @@ pub struct ServeArgs {
     /// keyframes, so memory stays bounded).
     #[arg(long, default_value_t = 64)]
     keyframe_every: u64,
+    /// The colours of the states: a file of `#rrggbb` lines (the colours handed out in
+    /// order of first appearance) and `STATE #rrggbb` lines (a state's own colour).
+    #[arg(long, value_name = "FILE")]
+    palette: Option<PathBuf>,
 }
 
 fn reply_json<T: Serialize>(status: u16, v: &T) -> Reply {
@@ -135,6 +139,13 @@ pub fn serve(args: ServeArgs) -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    let palette = match args.palette.as_deref().map(Palette::read).transpose() {
+        Ok(p) => p.unwrap_or_default(),
+        Err(e) => {
+            say!("error: --palette {e}");
+            return ExitCode::from(2);
+        }
+    };
     let threads = crate::threads(args.threads, usize::MAX, "");
     let mut session = Session {
         root,
@@ -151,6 +162,7 @@ pub fn serve(args: ServeArgs) -> ExitCode {
         rules: String::new(),
         agents: String::new(),
         run: None,
+        palette,
     };
     if let (Some(r), Some(a)) = (&args.rules, &args.agents) {
         let (rules, agents) = match (read_text(r), read_text(a)) {

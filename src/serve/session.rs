@@ -6,6 +6,8 @@ use super::*;
 /// The run shown: its history and the names of its rules.
 pub(super) struct Run {
     pub(super) hist: History,
+    /// The states' colours, handed out as they first appear in the run.
+    pub(super) palette: Palette,
     /// Why the last forward stepping stopped early, if it did.
     pub(super) note: Option<String>,
 }
@@ -23,6 +25,8 @@ pub(super) struct Session {
     pub(super) rules: String,
     pub(super) agents: String,
     pub(super) run: Option<Run>,
+    /// The palette each run starts from (`--palette`, or the default).
+    pub(super) palette: Palette,
 }
 
 /// A request: method, path, query parameters and body.
@@ -113,7 +117,13 @@ impl Session {
         if let (Some(p), Some(lat)) = (c.rules.as_ref(), lat) {
             if let Ok(prog) = compile(p) {
                 let hist = History::new(prog, lat, self.opts, self.keyframe_every, 256);
-                self.run = Some(Run { hist, note: None });
+                let mut palette = self.palette.clone();
+                palette.observe(&hist.engine().lat.state);
+                self.run = Some(Run {
+                    hist,
+                    palette,
+                    note: None,
+                });
                 return (verdict, true);
             }
         }
@@ -277,6 +287,7 @@ impl Session {
                     break;
                 }
                 run.hist.step();
+                run.palette.observe(&run.hist.engine().lat.state);
             }
         }
         Ok(reply_json(200, &frame(run)))

@@ -58,10 +58,6 @@ pub(super) struct StateInfo {
     pub(super) count: u64,
 }
 
-pub(super) fn hex(c: [u8; 3]) -> String {
-    format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2])
-}
-
 pub(super) fn state_name(s: &[u8; 5]) -> String {
     String::from_utf8_lossy(s).into_owned()
 }
@@ -83,7 +79,7 @@ pub(super) fn frame(run: &Run) -> Frame {
                 _ => *index.entry(*s).or_insert_with(|| {
                     states.push(StateInfo {
                         name: state_name(s),
-                        colour: hex(state_colour(s)),
+                        colour: crate::palette::hex(run.palette.get(s)),
                         count: 0,
                     });
                     states.len() as u32 - 1

@@ -298,6 +298,14 @@ impl Lattice {
         }
     }
 
+    /// A cell or offset as records write it: `(x,y)` in 2D, `(x,y,z)` in 3D.
+    pub fn cell_text(&self, p: [i32; 3]) -> String {
+        match self.dim.coords() {
+            2 => format!("({},{})", p[0], p[1]),
+            _ => format!("({},{},{})", p[0], p[1], p[2]),
+        }
+    }
+
     /// The values of counter `i`, one per agent, when it has a column (see
     /// [`Lattice::counter_numbers`]). The column stays in place for the lattice's life.
     pub fn counter_column(&self, i: u8) -> Option<&[i16]> {

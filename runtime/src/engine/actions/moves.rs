@@ -152,7 +152,10 @@ impl Act<'_> {
         let cells = &self.lat.cells;
         sc.codes.extend(live.iter().map(|&(_, t)| cells.code(t)));
         for (a, o) in blocked {
-            let msg = format!("agent {a} cannot move by ({},{},{}): the target cell is blocked; its group does not move", o[0], o[1], o[2]);
+            let msg = format!(
+                "agent {a} cannot move by {}: the target cell is blocked; its group does not move",
+                self.lat.cell_text(o)
+            );
             self.record(rep, RecordKind::MoveBlocked, &[a], msg);
         }
         // Collisions: cancel every move involved, until none is left. Targets are counted
@@ -230,12 +233,10 @@ impl Act<'_> {
                 let i = live.binary_search_by_key(&a, |m| m.0).expect("a mover");
                 live.remove(i);
                 let msg = format!(
-                    "a move of agent {} would put agents {} on the cell ({},{},{}); the moves are cancelled",
+                    "a move of agent {} would put agents {} on the cell {}; the moves are cancelled",
                     a,
                     involved.iter().map(|m| m.to_string()).collect::<Vec<_>>().join(", "),
-                    cell[0],
-                    cell[1],
-                    cell[2]
+                    self.lat.cell_text(cell)
                 );
                 self.record(rep, RecordKind::MoveCollision, &[a], msg);
             }
@@ -379,7 +380,7 @@ impl Act<'_> {
             if let Some(&m) = blocked {
                 let ms = ms.clone();
                 group_off.remove(&root);
-                let msg = format!("agent {m} cannot move by ({},{},{}): the target cell is blocked; its group does not move", o[0], o[1], o[2]);
+                let msg = format!("agent {m} cannot move by {}: the target cell is blocked; its group does not move", self.lat.cell_text(o));
                 self.record(rep, RecordKind::MoveBlocked, &ms, msg);
             }
         }
@@ -432,12 +433,10 @@ impl Act<'_> {
             for (root, cell, involved) in cancel {
                 group_off.remove(&root);
                 let msg = format!(
-                    "a move of agent {} would put agents {} on the cell ({},{},{}); the moves are cancelled",
+                    "a move of agent {} would put agents {} on the cell {}; the moves are cancelled",
                     root,
                     involved.iter().map(|m| m.to_string()).collect::<Vec<_>>().join(", "),
-                    cell[0],
-                    cell[1],
-                    cell[2]
+                    self.lat.cell_text(cell)
                 );
                 self.record(rep, RecordKind::MoveCollision, &members[&root].clone(), msg);
             }
