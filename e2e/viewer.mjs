@@ -221,6 +221,93 @@ async function testControls(browser) {
   await page.close();
 }
 
+// sRGB '#rrggbb' as OKLab (Ottosson), to measure how far apart the state colours are.
+function oklab(hex) {
+  const v = parseInt(hex.slice(1), 16);
+  const lin = (c) => { c /= 255; return c <= 0.04045 ? c / 12.92 : ((c + 0.055) / 1.055) ** 2.4; };
+  const [r, g, b] = [lin(v >> 16), lin((v >> 8) & 255), lin(v & 255)];
+  const l = Math.cbrt(0.4122214708 * r + 0.5363325363 * g + 0.0514459929 * b);
+  const m = Math.cbrt(0.2119034982 * r + 0.6806995451 * g + 0.1073969566 * b);
+  const s = Math.cbrt(0.0883024619 * r + 0.2817188376 * g + 0.6299787005 * b);
+  return [0.2104542553 * l + 0.793617785 * m - 0.0040720468 * s,
+    1.9779984951 * l - 2.428592205 * m + 0.4505937099 * s,
+    0.0259040371 * l + 0.7827717662 * m - 0.808675766 * s];
+}
+
+// The palette: the spanning tree's states at step 9 (TREEA, TREEE, TREES, TREEW, TROOT...,
+// once a few degrees of hue apart) are far apart in OKLab; the legend highlights and hides
+// a state, and a hidden state's agents are not picked.
+async function testPalette(browser) {
+  const url = await serve('examples/spanning-tree/rules-3d.txt', 'examples/spanning-tree/agents-3d.txt');
+  const page = await browser.newPage({ viewport: { width: 1100, height: 640 } });
+  const errors = [];
+  page.on('pageerror', (e) => errors.push(e.message));
+  await page.goto(url);
+  await page.waitForFunction(() => window.latticesim && window.latticesim.ready);
+  await page.fill('#jump', '9');
+  await page.click('#go');
+  await waitStep(page, 9);
+  const states = await page.evaluate(() => window.latticesim.frame().states.map((s) => [s.name, s.colour]));
+  assert.ok(states.length >= 5, `several states at step 9: ${states.map((s) => s[0])}`);
+  let min = Infinity, pair = null;
+  for (let i = 0; i < states.length; i++) {
+    for (let j = 0; j < i; j++) {
+      const [a, b] = [oklab(states[i][1]), oklab(states[j][1])];
+      const d = Math.hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]);
+      if (d < min) { min = d; pair = [states[i][0], states[j][0]]; }
+    }
+  }
+  assert.ok(min >= 0.15, `the closest states ${pair} are ${min.toFixed(3)} apart in OKLab`);
+  // Highlight, then hide the state of agent 0; hidden, it is not picked where it was drawn.
+  const f = await page.evaluate(() => { const f = window.latticesim.frame(); return { s: f.states[f.state[0]].name }; });
+  const [x, y] = await page.evaluate(() => window.latticesim.screenOf(0));
+  const name = `#legend li[data-state="${f.s}"] .state-name`;
+  await page.click(name);
+  await page.waitForSelector(`#legend li.highlight[data-state="${f.s}"]`);
+  await page.click(name);
+  await page.waitForSelector(`#legend li.hidden[data-state="${f.s}"]`);
+  const picked = await page.evaluate(([x, y]) => {
+    const r = document.querySelector('canvas').getBoundingClientRect();
+    return window.latticesim.pick(x - r.left, y - r.top);
+  }, [x, y]);
+  const hiddenState = await page.evaluate((id) => { const f = window.latticesim.frame(); return id === null ? null : f.states[f.state[id]].name; }, picked);
+  assert.notEqual(hiddenState, f.s, 'an agent of a hidden state is not picked');
+  await page.click(name);
+  await page.waitForSelector(`#legend li[data-state="${f.s}"]:not(.hidden):not(.highlight)`);
+  assert.deepEqual(errors, [], 'no script errors in the page');
+  console.log(`ok: ${states.length} states at step 9, the closest (${pair}) ${min.toFixed(3)} apart in OKLab; a state highlighted, hidden (not picked) and shown again`);
+  await page.close();
+}
+
+// Two tabs of one server: each steps and applies on its own.
+async function testTabs(browser) {
+  const url = await serve(RULES, AGENTS);
+  const context = await browser.newContext({ viewport: { width: 1100, height: 640 } });
+  const [one, two] = [await context.newPage(), await context.newPage()];
+  for (const p of [one, two]) {
+    await p.goto(url);
+    await p.waitForFunction(() => window.latticesim && window.latticesim.ready);
+  }
+  await two.fill('#jump', '6');
+  await two.click('#go');
+  await waitStep(two, 6);
+  await one.click('#step');
+  await waitStep(one, 1);
+  assert.equal(await stepNumber(two), 6);
+  // The second tab applies other agents; the first goes on with its own.
+  await two.click('#tab-edit');
+  await two.fill('#ed-agents textarea', '0,0 SINIT0 C00 1\n1,0 SINIT0 C00 2\n');
+  await two.click('#apply');
+  await waitStep(two, 0);
+  assert.equal(await two.evaluate(() => window.latticesim.frame().pos.length / 2), 2);
+  await one.click('#step');
+  await waitStep(one, 2);
+  assert.equal(await one.evaluate(() => window.latticesim.frame().pos.length / 2), 30, 'the first tab still runs its 30 agents');
+  assert.match(await one.textContent('#status'), /agents-30\.txt/);
+  await context.close();
+  console.log('ok: two tabs step and apply without touching each other');
+}
+
 async function screenshot(browser, rules, agents, steps, file, setup) {
   const url = await serve(rules, agents);
   const page = await browser.newPage({ viewport: { width: 1100, height: 640 } });
@@ -241,6 +328,8 @@ try {
   await test(browser);
   await test3d(browser);
   await testControls(browser);
+  await testPalette(browser);
+  await testTabs(browser);
   if (process.env.SCREENSHOTS) {
     await screenshot(browser, 'examples/reconfigure-line/rules.txt', 'examples/reconfigure-line/agents-30.txt', 450, 'viewer-2d.png',
       async (page) => {

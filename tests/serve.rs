@@ -245,6 +245,73 @@ fn frames_forwards_and_back_match_run() {
     assert!(f["attach"].is_array(), "the tour's agents are attached");
 }
 
+impl Server {
+    /// A JSON request of tab `tab`.
+    fn tab_json(&self, tab: &str, method: &str, path: &str, body: &[u8]) -> (u16, Value) {
+        let headers = format!(
+            "X-Latticesim-Token: {}\r\nX-Latticesim-Tab: {tab}\r\n",
+            self.token
+        );
+        let (status, text) = self.request_with(method, path, &headers, body);
+        (status, serde_json::from_str(&text).unwrap_or(Value::Null))
+    }
+}
+
+#[test]
+fn each_tab_has_its_own_run() {
+    let (rules, agents) = ("examples/gravity/rules.txt", "examples/gravity/agents.txt");
+    let srv = start("tabs", rules, agents);
+    let (s, a) = srv.post("/api/tab", json!(null));
+    assert_eq!(s, 200, "{a}");
+    let (s, b) = srv.post("/api/tab", json!(null));
+    assert_eq!(s, 200, "{b}");
+    let (a, b) = (a["tab"].as_str().unwrap(), b["tab"].as_str().unwrap());
+    assert_ne!(a, b);
+    // Tab a goes to step 3; tab b and the default session stay at step 0.
+    let (s, f) = srv.tab_json(a, "GET", "/api/frame?step=3", b"");
+    assert_eq!((s, &f["step"]), (200, &json!(3)));
+    assert_eq!(frame_agents(&f), run_agents(rules, agents, 3));
+    let (_, f) = srv.tab_json(b, "GET", "/api/frame", b"");
+    assert_eq!(f["step"], 0, "another tab's steps do not move this one");
+    assert_eq!(srv.get("/api/frame").1["step"], 0);
+    // Tab b applies other files: tab a still shows gravity, at its step.
+    let other = json!({
+        "rules": std::fs::read_to_string("examples/tour/rules.txt").unwrap(),
+        "agents": std::fs::read_to_string("examples/tour/agents.txt").unwrap(),
+    });
+    let (s, v) = srv.tab_json(b, "POST", "/api/apply", other.to_string().as_bytes());
+    assert_eq!(s, 200, "{v}");
+    let (_, f) = srv.tab_json(a, "GET", "/api/frame", b"");
+    assert_eq!(f["step"], 3);
+    assert_eq!(frame_agents(&f), run_agents(rules, agents, 3));
+    let (_, sa) = srv.tab_json(a, "GET", "/api/session", b"");
+    let (_, sb) = srv.tab_json(b, "GET", "/api/session", b"");
+    assert_eq!(sa["rules"], std::fs::read_to_string(rules).unwrap());
+    assert_ne!(sa["rules"], sb["rules"]);
+    // An unknown tab is told at once, and what to do.
+    let (s, v) = srv.tab_json("nosuchtab", "GET", "/api/frame", b"");
+    assert_eq!(s, 410);
+    assert!(
+        v["error"].as_str().unwrap().contains("reload the page"),
+        "{v}"
+    );
+    let (s, _) = srv.get("/api/tab");
+    assert_eq!(s, 405);
+    // At most 16 tabs: the least recently used are closed, and say why.
+    let mut ids = Vec::new();
+    for _ in 0..17 {
+        let (s, v) = srv.post("/api/tab", json!(null));
+        assert_eq!(s, 200);
+        ids.push(v["tab"].as_str().unwrap().to_string());
+    }
+    let (s, v) = srv.tab_json(a, "GET", "/api/frame", b"");
+    assert_eq!(s, 410, "{v}");
+    assert!(v["error"].as_str().unwrap().contains("to make room"), "{v}");
+    let (s, _) = srv.tab_json(ids.last().unwrap(), "GET", "/api/frame", b"");
+    assert_eq!(s, 200);
+    srv.alive();
+}
+
 #[test]
 fn inspector_shows_counters_messages_and_next_rules() {
     let srv = start(

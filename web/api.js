@@ -2,10 +2,20 @@
 
 export const $ = (id) => document.getElementById(id);
 
+// This tab's session id (POST /api/tab), sent with every request: each tab has its own
+// files and run on the server.
+let tab = null;
+export function setTab(id) { tab = id; }
+
+// Called with the message when the server says this tab's run is gone (410).
+let onGone = null;
+export function whenGone(f) { onGone = f; }
+
 export async function api(method, path, body) {
-  const init = { method };
+  const init = { method, headers: {} };
+  if (tab) init.headers['X-Latticesim-Tab'] = tab;
   if (body !== undefined) {
-    init.headers = { 'Content-Type': 'application/json' };
+    init.headers['Content-Type'] = 'application/json';
     init.body = JSON.stringify(body);
   }
   let r;
@@ -20,6 +30,7 @@ export async function api(method, path, body) {
   } catch (e) {
     v = { error: 'HTTP ' + r.status };
   }
+  if (r.status === 410 && onGone) onGone(v.error);
   return { ok: r.ok, status: r.status, v };
 }
 

@@ -3,16 +3,27 @@
 // selection), camera, draw2d, draw3d, draw (the canvas), panel (legend, records,
 // inspector), player (stepping, running), editor, input.
 
-import { api } from './api.js';
+import { $, api, setTab, whenGone } from './api.js';
 import { draw, pick, resize, screenOf, zoom } from './draw.js';
 import { editors, showDiagnostics, showStatus, showTab } from './editor.js';
-import { gotoStep, setNote, showFrame } from './player.js';
+import { gotoStep, setNote, showFrame, stopRun } from './player.js';
 import { player } from './state.js';
 import './input.js';
 
 // ---------------------------------------------------------------- start
 
 async function start() {
+  // This tab's own session: its files and run, untouched by other tabs.
+  whenGone((message) => {
+    stopRun();
+    $('status').textContent = message;
+    $('status').className = 'gone';
+    setNote(message);
+  });
+  const t = await api('POST', '/api/tab');
+  if (!t.ok) { setNote(t.v.error); return; }
+  setTab(t.v.tab);
+  player.tab = t.v.tab;
   const r = await api('GET', '/api/session');
   if (!r.ok) { setNote(r.v.error); return; }
   const s = r.v;

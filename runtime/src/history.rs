@@ -55,6 +55,11 @@ impl History {
         self.last.as_ref()
     }
 
+    /// Bytes held, about: the engine and every keyframe's lattice.
+    pub fn bytes(&self) -> usize {
+        self.engine.bytes() + self.keyframes.iter().map(|k| k.1.bytes()).sum::<usize>()
+    }
+
     /// Keyframes held now, and the steps between them.
     pub fn keyframes(&self) -> (usize, u64) {
         (self.keyframes.len(), self.every)

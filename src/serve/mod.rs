@@ -15,6 +15,7 @@ mod gate;
 mod http;
 mod routes;
 mod session;
+mod tabs;
 mod views;
 
 use crate::output::say;
@@ -34,6 +35,7 @@ use std::time::{Duration, Instant};
 
 use gate::*;
 use session::*;
+use tabs::Tabs;
 use views::*;
 
 /// The largest request body accepted (rules and agents texts travel in bodies).
@@ -96,8 +98,9 @@ fn reply_json<T: Serialize>(status: u16, v: &T) -> Reply {
     }
 }
 
-/// Answers one request: the gate, then the session's handler under its lock.
-fn answer(gate: &Gate, session: &Mutex<Session>, r: &http::Request) -> Reply {
+/// Answers one request: the gate, then a new tab (`POST /api/tab`), or the handler of the
+/// request's session (its tab's, or the default one) under that session's lock.
+fn answer(gate: &Gate, tabs: &Tabs, r: &http::Request) -> Reply {
     let (path, query) = r.target.split_once('?').unwrap_or((&r.target, ""));
     let query: HashMap<&str, &str> = query
         .split('&')
@@ -112,6 +115,17 @@ fn answer(gate: &Gate, session: &Mutex<Session>, r: &http::Request) -> Reply {
         path,
         query,
         body: &r.body,
+    };
+    let session = match routes::tab_route(tabs, &req) {
+        Some(reply) => Err(reply),
+        None => tabs.get(r.header("x-latticesim-tab")),
+    };
+    let session = match session {
+        Ok(s) => s,
+        Err(mut reply) => {
+            reply.headers.extend(extra);
+            return reply;
+        }
     };
     let mut s = session.lock().unwrap_or_else(|e| e.into_inner());
     let s = &mut *s;
@@ -240,7 +254,7 @@ pub fn serve(args: ServeArgs) -> ExitCode {
         format!("latticesim: serving http://{shown}/?token={token} (Ctrl-C stops)\n").as_bytes(),
     );
     let gate = Gate::new(token, bound, &args.host);
-    let session = Arc::new(Mutex::new(session));
-    http::serve(listener, LIMITS, move |r| answer(&gate, &session, r));
+    let tabs = Tabs::new(session);
+    http::serve(listener, LIMITS, move |r| answer(&gate, &tabs, r));
     ExitCode::SUCCESS
 }

@@ -41,6 +41,24 @@ const API: [(&str, &str, Handler); 6] = [
     ("POST", "/api/file", Session::api_file),
 ];
 
+/// `POST /api/tab`: a new tab's session (docs/viewer.md), its id as `{"tab": ID}`; the
+/// answer, or `None` for any other request (405 for another method on this path).
+pub(super) fn tab_route(tabs: &Tabs, req: &Req) -> Option<Reply> {
+    if req.path != "/api/tab" {
+        return None;
+    }
+    if req.method != "POST" {
+        return Some(error(
+            405,
+            format!("{} is not allowed on /api/tab; it takes POST", req.method),
+        ));
+    }
+    Some(match tabs.open() {
+        Ok(id) => reply_json(200, &json!({ "tab": id })),
+        Err(r) => r,
+    })
+}
+
 /// The answer to a request that passed the gate.
 pub(super) fn route(s: &mut Session, req: &Req) -> Reply {
     let asset = ASSETS.iter().find(|a| a.0 == req.path);

@@ -89,6 +89,28 @@ pub(super) fn check_texts(
 }
 
 impl Session {
+    /// A session of the same files (read again from disk where they can be, so that
+    /// saved changes show), options and palette, not running yet.
+    pub(super) fn fork(&self) -> Session {
+        let fresh = |path: &str, kept: &str| -> String {
+            (self.resolve(path, false).ok())
+                .and_then(|p| std::fs::read_to_string(p).ok())
+                .unwrap_or_else(|| kept.to_string())
+        };
+        Session {
+            root: self.root.clone(),
+            allowed: self.allowed.clone(),
+            opts: self.opts,
+            keyframe_every: self.keyframe_every,
+            rules_path: self.rules_path.clone(),
+            agents_path: self.agents_path.clone(),
+            rules: fresh(&self.rules_path, &self.rules),
+            agents: fresh(&self.agents_path, &self.agents),
+            run: None,
+            palette: self.palette.clone(),
+        }
+    }
+
     pub(super) fn info(&self) -> Value {
         json!({
             "root": self.root.display().to_string(),
