@@ -117,8 +117,8 @@ pub struct Palette {
     sequence: Vec<[u8; 3]>,
     /// States given a colour by the user.
     pinned: HashMap<[u8; 5], [u8; 3]>,
-    /// Each state seen and its colour.
-    seen: HashMap<[u8; 5], [u8; 3]>,
+    /// Each state seen: its colour and its place in `order`.
+    seen: HashMap<[u8; 5], ([u8; 3], u32)>,
     /// The states seen that took a colour of the sequence.
     handed: usize,
     /// The states seen, in order of first appearance.
@@ -203,7 +203,7 @@ impl Palette {
 
     /// The colour of a state, given it now if it has none yet.
     pub fn colour(&mut self, s: &[u8; 5]) -> [u8; 3] {
-        if let Some(&c) = self.seen.get(s) {
+        if let Some(&(c, _)) = self.seen.get(s) {
             return c;
         }
         let c = match self.pinned.get(s) {
@@ -213,14 +213,20 @@ impl Palette {
                 self.sequence[(self.handed - 1) % self.sequence.len()]
             }
         };
-        self.seen.insert(*s, c);
+        self.seen.insert(*s, (c, self.order.len() as u32));
         self.order.push(*s);
         c
     }
 
+    /// The place of a state in the order of first appearance, if it was seen: an index
+    /// that stays the state's for the run (binary frames use it).
+    pub fn index(&self, s: &[u8; 5]) -> Option<u32> {
+        self.seen.get(s).map(|&(_, i)| i)
+    }
+
     /// The colour a state was given (black for a state never seen).
     pub fn get(&self, s: &[u8; 5]) -> [u8; 3] {
-        self.seen.get(s).copied().unwrap_or([0, 0, 0])
+        self.seen.get(s).map_or([0, 0, 0], |&(c, _)| c)
     }
 
     /// The states seen, in order of first appearance.

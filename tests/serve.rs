@@ -77,18 +77,25 @@ fn url_parts(line: &str) -> (String, String) {
 impl Server {
     /// Sends raw bytes; the status and the body of the answer.
     fn raw(&self, request: &[u8]) -> (u16, String) {
+        let (status, body) = self.raw_bytes(request);
+        (status, String::from_utf8_lossy(&body).into_owned())
+    }
+
+    /// Sends raw bytes; the status and the body's bytes.
+    fn raw_bytes(&self, request: &[u8]) -> (u16, Vec<u8>) {
         let mut s = TcpStream::connect(&self.addr).unwrap();
         // The server may answer and close before it has read everything (huge bodies).
         let _ = s.write_all(request);
         let mut out = Vec::new();
         let _ = s.read_to_end(&mut out);
-        let text = String::from_utf8_lossy(&out).into_owned();
-        let status = text
+        let head_end = out.windows(4).position(|w| w == b"\r\n\r\n");
+        let head = String::from_utf8_lossy(&out[..head_end.unwrap_or(out.len())]).into_owned();
+        let status = head
             .split(' ')
             .nth(1)
             .and_then(|c| c.parse().ok())
-            .unwrap_or_else(|| panic!("no status in {text:?}"));
-        let body = text.split_once("\r\n\r\n").map_or("", |b| b.1).to_string();
+            .unwrap_or_else(|| panic!("no status in {head:?}"));
+        let body = head_end.map_or(Vec::new(), |e| out[e + 4..].to_vec());
         (status, body)
     }
 
@@ -310,6 +317,97 @@ fn each_tab_has_its_own_run() {
     let (s, _) = srv.tab_json(ids.last().unwrap(), "GET", "/api/frame", b"");
     assert_eq!(s, 200);
     srv.alive();
+}
+
+/// A binary frame decoded (docs/viewer.md) onto the one held: its head, and every
+/// agent's position and state name.
+fn decode_bin(
+    bytes: &[u8],
+    held: Option<&(Value, Vec<(Vec<i64>, String)>)>,
+) -> (Value, Vec<(Vec<i64>, String)>) {
+    assert_eq!(&bytes[..4], b"LSF1");
+    let len = u32::from_le_bytes(bytes[4..8].try_into().unwrap()) as usize;
+    let head: Value = serde_json::from_slice(&bytes[8..8 + len]).unwrap();
+    let (n, dim) = (
+        head["n"].as_u64().unwrap() as usize,
+        head["dim"].as_u64().unwrap() as usize,
+    );
+    let delta = head["delta"].as_bool().unwrap();
+    let c = if delta {
+        head["changed"].as_u64().unwrap() as usize
+    } else {
+        n
+    };
+    let wide = head["state_bytes"] == 4;
+    let mut at = (8 + len).div_ceil(4) * 4;
+    let mut word = |size: usize| {
+        let v = &bytes[at..at + size];
+        at += size;
+        match size {
+            2 => u16::from_le_bytes(v.try_into().unwrap()) as i64,
+            _ => i32::from_le_bytes(v.try_into().unwrap()) as i64,
+        }
+    };
+    let ids: Vec<usize> = if delta {
+        (0..c).map(|_| word(4) as usize).collect()
+    } else {
+        (0..n).collect()
+    };
+    let pos: Vec<Vec<i64>> = (0..c)
+        .map(|_| (0..dim).map(|_| word(4)).collect())
+        .collect();
+    let st: Vec<usize> = (0..c)
+        .map(|_| word(if wide { 4 } else { 2 }) as usize)
+        .collect();
+    let names: Vec<String> = (head["states"].as_array().unwrap().iter())
+        .map(|s| s["name"].as_str().unwrap().to_string())
+        .collect();
+    let mut agents = match (delta, held) {
+        (true, Some(h)) => h.1.clone(),
+        (true, None) => panic!("a delta without a frame held"),
+        (false, _) => vec![(Vec::new(), String::new()); n],
+    };
+    for (k, &i) in ids.iter().enumerate() {
+        agents[i] = (pos[k].clone(), names[st[k]].clone());
+    }
+    (head, agents)
+}
+
+#[test]
+fn binary_frames_and_their_deltas_match_run() {
+    let (rules, agents) = ("examples/gravity/rules.txt", "examples/gravity/agents.txt");
+    let srv = start("binary", rules, agents);
+    let token = format!("X-Latticesim-Token: {}\r\n", srv.token);
+    let get = |path: &str| {
+        let req = format!(
+            "GET {path} HTTP/1.1\r\nHost: {}\r\n{token}Connection: close\r\n\r\n",
+            srv.addr
+        );
+        srv.raw_bytes(req.as_bytes())
+    };
+    let mut held: Option<(Value, Vec<(Vec<i64>, String)>)> = None;
+    let mut deltas = 0;
+    for step in [0u64, 1, 2, 3, 5, 9, 10, 4, 4, 12] {
+        let since = held
+            .as_ref()
+            .map_or(String::new(), |h| format!("&since={}", h.0["step"]));
+        let (status, body) = get(&format!("/api/frame?format=bin&step={step}{since}"));
+        assert_eq!(status, 200);
+        let f = decode_bin(&body, held.as_ref());
+        let at = f.0["step"].as_u64().unwrap();
+        assert_eq!(f.1, run_agents(rules, agents, at), "step {at}");
+        deltas += f.0["delta"].as_bool().unwrap() as usize;
+        held = Some(f);
+    }
+    assert!(
+        deltas > 0,
+        "late steps of gravity move few agents: sent as deltas"
+    );
+    // A `since` that is not the frame last sent gets a whole frame.
+    let (_, body) = get("/api/frame?format=bin&step=6&since=2");
+    assert_eq!(decode_bin(&body, None).0["delta"], false);
+    let (status, _) = get("/api/frame?format=xml");
+    assert_eq!(status, 400);
 }
 
 #[test]

@@ -43,4 +43,58 @@ export function el(tag, attrs, ...children) {
   return e;
 }
 
+// The frame of step `step` in the binary layout (docs/viewer.md, src/serve/binary.rs),
+// as a delta on `held` (the frame shown) when the server finds that smaller: `{ok, status,
+// v}` like `api`, `v` a frame with typed arrays for pos, state and attach.
+export async function frameAt(step, held) {
+  const headers = {};
+  if (tab) headers['X-Latticesim-Tab'] = tab;
+  const since = held ? '&since=' + held.step : '';
+  let r;
+  try {
+    r = await fetch('/api/frame?format=bin&step=' + step + since, { headers });
+  } catch (e) {
+    return { ok: false, status: 0, v: { error: 'the server does not answer: ' + e.message } };
+  }
+  if (!r.ok) {
+    let v;
+    try { v = await r.json(); } catch (e) { v = { error: 'HTTP ' + r.status }; }
+    if (r.status === 410 && onGone) onGone(v.error);
+    return { ok: false, status: r.status, v };
+  }
+  return { ok: true, status: r.status, v: decodeFrame(await r.arrayBuffer(), held) };
+}
+
+export function decodeFrame(buf, held) {
+  const dv = new DataView(buf);
+  const len = dv.getUint32(4, true);
+  const head = JSON.parse(new TextDecoder().decode(new Uint8Array(buf, 8, len)));
+  const { n, dim } = head;
+  const c = head.delta ? head.changed : n;
+  let off = (8 + len + 3) & ~3;
+  let ids = null;
+  if (head.delta) { ids = new Uint32Array(buf, off, c); off += 4 * c; }
+  const pos = new Int32Array(buf, off, c * dim);
+  off += 4 * c * dim;
+  const wide = head.state_bytes === 4;
+  const st = wide ? new Uint32Array(buf, off, c) : new Uint16Array(buf, off, c);
+  off = (off + head.state_bytes * c + 3) & ~3;
+  const at = head.attach ? new Uint8Array(buf, off, c) : null;
+  const f = head;
+  if (!head.delta) {
+    f.pos = pos; f.state = st; f.attach = at;
+    return f;
+  }
+  f.pos = held.pos.slice();
+  f.state = wide && !(held.state instanceof Uint32Array) ? Uint32Array.from(held.state) : held.state.slice();
+  f.attach = head.attach ? (held.attach ? held.attach.slice() : new Uint8Array(n)) : null;
+  for (let k = 0; k < c; k++) {
+    const i = ids[k];
+    for (let d = 0; d < dim; d++) f.pos[i * dim + d] = pos[k * dim + d];
+    f.state[i] = st[k];
+    if (at) f.attach[i] = at[k];
+  }
+  return f;
+}
+
 export const escapeHtml = (s) => s.replace(/[&<>]/g, (c) => ({ '&': '&amp;', '<': '&lt;', '>': '&gt;' }[c]));

@@ -13,7 +13,8 @@ import { selection } from './state.js';
 export function showLegend(f) {
   const ul = $('legend');
   ul.replaceChildren();
-  const states = f.states.slice().sort((a, b) => (a.name < b.name ? -1 : a.name > b.name ? 1 : 0));
+  const states = f.states.filter((s) => s.count > 0)
+    .sort((a, b) => (a.name < b.name ? -1 : a.name > b.name ? 1 : 0));
   for (const s of states) {
     const look = selection.looks.get(s.name) || {};
     const sw = el('input', { type: 'color', class: 'swatch', title: 'Choose its colour' });
@@ -65,7 +66,7 @@ export function showStats(f) {
   const s = f.stats;
   $('stats').innerHTML = '';
   $('stats').append(
-    `${f.pos.length / f.dim} agents, ${f.states.length} states`, el('br'),
+    `${f.pos.length / f.dim} agents, ${f.states.filter((s) => s.count > 0).length} states`, el('br'),
     `firings ${s.firings}, moves ${s.moves}, swaps ${s.swaps}`, el('br'),
     `messages ${s.sent} sent, ${s.delivered} delivered, ${s.dropped} dropped`, el('br'),
     `records: ${s.errors} errors, ${s.warnings} warnings`, el('br'),

@@ -1,6 +1,6 @@
 // Stepping: the frame shown, going to a step, running and pausing.
 
-import { $, api } from './api.js';
+import { $, frameAt } from './api.js';
 import { camera } from './camera.js';
 import { draw, fit } from './draw.js';
 import { inspect, showLegend, showRecords, showStats } from './panel.js';
@@ -20,7 +20,7 @@ export async function gotoStep(n) {
   try {
     while (player.target !== null && (!player.frame || player.frame.step !== player.target)) {
       const t = player.target;
-      const r = await api('GET', '/api/frame?step=' + t);
+      const r = await frameAt(t, player.frame);
       if (!r.ok) { setNote(r.v.error); player.target = null; stopRun(); break; }
       showFrame(r.v);
       // A run that ended before the step asked for: the target is where it ended.

@@ -11,6 +11,7 @@
 //! handling one is caught, answered with 500 and ends the run (the files stay), so the
 //! server keeps serving.
 
+mod binary;
 mod gate;
 mod http;
 mod routes;

@@ -8,6 +8,8 @@ pub(super) struct Run {
     pub(super) hist: History,
     /// The states' colours, handed out as they first appear in the run.
     pub(super) palette: Palette,
+    /// The last binary frame sent, for deltas.
+    pub(super) sent: Option<super::binary::Sent>,
     /// Why the last forward stepping stopped early, if it did.
     pub(super) note: Option<String>,
 }
@@ -144,6 +146,7 @@ impl Session {
                 self.run = Some(Run {
                     hist,
                     palette,
+                    sent: None,
                     note: None,
                 });
                 return (verdict, true);
@@ -312,7 +315,19 @@ impl Session {
                 run.palette.observe(&run.hist.engine().lat.state);
             }
         }
-        Ok(reply_json(200, &frame(run)))
+        match req.query.get("format") {
+            Some(&"bin") => Ok(Reply {
+                status: 200,
+                ctype: "application/octet-stream",
+                headers: Vec::new(),
+                body: super::binary::frame_bin(run, req.number("since")?),
+            }),
+            Some(&"json") | None => Ok(reply_json(200, &frame(run))),
+            Some(f) => Err(error(
+                400,
+                format!("`format` is `json` (the default) or `bin`, not `{f}`"),
+            )),
+        }
     }
 
     pub(super) fn api_agent(&mut self, req: &Req) -> Result<Reply, Reply> {

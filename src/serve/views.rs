@@ -102,34 +102,9 @@ pub(super) fn frame(run: &Run) -> Frame {
     let universe = lat
         .universe
         .map(|b| b[..coords].iter().map(|&(lo, hi)| [lo, hi]).collect());
-    let records = run
-        .hist
-        .last_report()
-        .map(|rep| {
-            rep.records
-                .iter()
-                .map(|r| {
-                    json!({
-                        "kind": r.kind.name(),
-                        "severity": if r.is_error() { "error" } else { "warning" },
-                        "message": r.message,
-                        "agents": r.agents.iter().map(|(id, _)| id).collect::<Vec<_>>(),
-                    })
-                })
-                .collect()
-        })
-        .unwrap_or_default();
+    let records = records_view(run);
     let s = &e.stats;
-    let stats = json!({
-        "firings": s.firings.iter().sum::<u64>(),
-        "moves": s.moves,
-        "swaps": s.swaps,
-        "sent": s.sent,
-        "delivered": s.delivered,
-        "dropped": s.dropped,
-        "errors": s.errors(),
-        "warnings": s.warnings(),
-    });
+    let stats = stats_view(e);
     let (k, every) = run.hist.keyframes();
     Frame {
         step: run.hist.steps(),
@@ -145,6 +120,41 @@ pub(super) fn frame(run: &Run) -> Frame {
         keyframes: [k as u64, every],
         note: run.note.clone(),
     }
+}
+
+/// The records of the step that led to the configuration shown, as the viewer lists them.
+pub(super) fn records_view(run: &Run) -> Vec<Value> {
+    run.hist
+        .last_report()
+        .map(|rep| {
+            rep.records
+                .iter()
+                .map(|r| {
+                    json!({
+                        "kind": r.kind.name(),
+                        "severity": if r.is_error() { "error" } else { "warning" },
+                        "message": r.message,
+                        "agents": r.agents.iter().map(|(id, _)| id).collect::<Vec<_>>(),
+                    })
+                })
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// The run's totals, as the viewer shows them.
+pub(super) fn stats_view(e: &Engine) -> Value {
+    let s = &e.stats;
+    json!({
+        "firings": s.firings.iter().sum::<u64>(),
+        "moves": s.moves,
+        "swaps": s.swaps,
+        "sent": s.sent,
+        "delivered": s.delivered,
+        "dropped": s.dropped,
+        "errors": s.errors(),
+        "warnings": s.warnings(),
+    })
 }
 
 /// What the inspector shows of agent `a`: its columns, its inbox, and the rules it executes
