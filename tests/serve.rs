@@ -319,12 +319,11 @@ fn each_tab_has_its_own_run() {
     srv.alive();
 }
 
-/// A binary frame decoded (docs/viewer.md) onto the one held: its head, and every
-/// agent's position and state name.
-fn decode_bin(
-    bytes: &[u8],
-    held: Option<&(Value, Vec<(Vec<i64>, String)>)>,
-) -> (Value, Vec<(Vec<i64>, String)>) {
+/// A frame as the test reads it: its head, and every agent's position and state name.
+type Decoded = (Value, Vec<(Vec<i64>, String)>);
+
+/// A binary frame decoded (docs/viewer.md) onto the one held.
+fn decode_bin(bytes: &[u8], held: Option<&Decoded>) -> Decoded {
     assert_eq!(&bytes[..4], b"LSF1");
     let len = u32::from_le_bytes(bytes[4..8].try_into().unwrap()) as usize;
     let head: Value = serde_json::from_slice(&bytes[8..8 + len]).unwrap();
@@ -385,7 +384,7 @@ fn binary_frames_and_their_deltas_match_run() {
         );
         srv.raw_bytes(req.as_bytes())
     };
-    let mut held: Option<(Value, Vec<(Vec<i64>, String)>)> = None;
+    let mut held: Option<Decoded> = None;
     let mut deltas = 0;
     for step in [0u64, 1, 2, 3, 5, 9, 10, 4, 4, 12] {
         let since = held
