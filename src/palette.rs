@@ -197,7 +197,35 @@ impl Palette {
                 continue;
             }
             last = Some(*s);
-            self.colour(s);
+            if self.fast_index(s).is_none() {
+                self.colour(s);
+            }
+        }
+    }
+
+    /// The indices of `states` (see [`Palette::index`]; 0 for a state never seen), as
+    /// fast as a run of a few states allows: a search of the states seen while they are
+    /// few, the hash map beyond.
+    pub fn indices(&self, states: &[[u8; 5]]) -> Vec<u32> {
+        let mut last: Option<([u8; 5], u32)> = None;
+        (states.iter())
+            .map(|s| match last {
+                Some((l, i)) if l == *s => i,
+                _ => {
+                    let i = self.fast_index(s).unwrap_or(0);
+                    last = Some((*s, i));
+                    i
+                }
+            })
+            .collect()
+    }
+
+    /// [`Palette::index`], by a linear search while the states seen are few.
+    fn fast_index(&self, s: &[u8; 5]) -> Option<u32> {
+        if self.order.len() <= 32 {
+            self.order.iter().position(|o| o == s).map(|i| i as u32)
+        } else {
+            self.index(s)
         }
     }
 

@@ -634,7 +634,7 @@ fn serves_the_app_and_refuses_a_busy_port() {
         })
         .collect();
     assert_eq!(seen, on_disk, "every module of web/ is imported and served");
-    assert!(all.contains("/api/frame?step="));
+    assert!(all.contains("/api/frame?format=bin&step="));
     let port = srv.addr.rsplit(':').next().unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_latticesim"))
         .current_dir(ROOT)

@@ -45,7 +45,8 @@ async function start() {
 }
 
 // For tests and measurements (e2e/): where an agent is drawn (page coordinates), the agent
-// drawn at a canvas point, the frame, showing a frame, drawing and zooming.
-window.latticesim = { screenOf, pick, frame: () => player.frame, show: showFrame, draw, zoom, ready: false };
+// drawn at a canvas point, the frame, showing a frame, going to a step as the controls do,
+// drawing and zooming.
+window.latticesim = { screenOf, pick, frame: () => player.frame, show: showFrame, goto: gotoStep, draw, zoom, ready: false };
 window.addEventListener('resize', resize);
 start();

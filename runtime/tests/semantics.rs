@@ -341,7 +341,8 @@ fn attach_one_zero_and_refusal() {
 #[test]
 fn blocked_targets_and_collisions_cancel_moves() {
     // Agent 0 at the east edge moves east: blocked. Agents 1 and 2 both move into (5,5):
-    // collision, both cancelled. Agent 3 moves into the cell of a staying agent 4: cancelled.
+    // collision, both cancelled, one record naming both. Agent 3 moves into the cell of a
+    // staying agent 4: cancelled, one record naming both.
     let mut e = engine(
         "e\n1\nSE****\nP1,0\nn\n1\nSN****\nP0,1\ns\n1\nSS****\nP0,-1\nw\n1\nSW****\nP-1,0\n",
         "U0,9,0,9\n9,0 SE0000\n5,4 SN0000\n5,6 SS0000\n2,2 SW0000\n1,2\n",
@@ -349,12 +350,19 @@ fn blocked_targets_and_collisions_cancel_moves() {
     let r = e.step();
     assert_eq!(
         kinds(&r),
-        vec![
-            "move-blocked",
-            "move-collision",
-            "move-collision",
-            "move-collision"
-        ]
+        vec!["move-blocked", "move-collision", "move-collision"]
+    );
+    let agents = |i: usize| {
+        let mut a: Vec<u32> = r.records[i].agents.iter().map(|a| a.0).collect();
+        a.sort();
+        a
+    };
+    assert_eq!((agents(1), agents(2)), (vec![3, 4], vec![1, 2]));
+    assert!(
+        r.records[2].message
+            == "agents 1, 2 would meet on the cell (5,5); the moves of agents 1, 2 are cancelled",
+        "{}",
+        r.records[2].message
     );
     assert_eq!(xy(&e, 0), (9, 0));
     assert_eq!(xy(&e, 1), (5, 4));

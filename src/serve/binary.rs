@@ -34,9 +34,7 @@ pub(super) fn frame_bin(run: &mut Run, since: Option<u64>) -> Vec<u8> {
     let lat = &e.lat;
     let (n, dim) = (lat.len(), lat.dim.coords());
     let palette = &run.palette;
-    let state: Vec<u32> = (lat.state.iter())
-        .map(|s| palette.index(s).unwrap_or(0))
-        .collect();
+    let state = palette.indices(&lat.state);
     let mut counts = vec![0u64; palette.order().len()];
     for &i in &state {
         counts[i as usize] += 1;
@@ -98,17 +96,18 @@ pub(super) fn frame_bin(run: &mut Run, since: Option<u64>) -> Vec<u8> {
             out.extend_from_slice(&i.to_le_bytes());
         }
     }
-    for &i in &ids {
-        for &v in &lat.pos[i][..dim] {
-            out.extend_from_slice(&v.to_le_bytes());
+    let at = out.len();
+    out.resize(at + ids.len() * 4 * dim, 0);
+    for (chunk, &i) in out[at..].chunks_exact_mut(4 * dim).zip(&ids) {
+        for (d, &v) in lat.pos[i][..dim].iter().enumerate() {
+            chunk[4 * d..4 * d + 4].copy_from_slice(&v.to_le_bytes());
         }
     }
-    for &i in &ids {
-        if wide {
-            out.extend_from_slice(&state[i].to_le_bytes());
-        } else {
-            out.extend_from_slice(&(state[i] as u16).to_le_bytes());
-        }
+    let width = if wide { 4 } else { 2 };
+    let at = out.len();
+    out.resize(at + ids.len() * width, 0);
+    for (chunk, &i) in out[at..].chunks_exact_mut(width).zip(&ids) {
+        chunk.copy_from_slice(&state[i].to_le_bytes()[..width]);
     }
     pad(&mut out);
     if attach {

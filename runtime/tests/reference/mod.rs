@@ -819,31 +819,27 @@ impl World {
                     None => p,
                 }
             };
-            let mut cancel: Vec<usize> = Vec::new();
+            // Every cell two agents would share, one of them moving: one record naming
+            // all the agents that would be there, and every group moving there stays.
+            let mut at: BTreeMap<[i32; 3], Vec<usize>> = BTreeMap::new();
             for a in 0..n {
-                for b in 0..n {
-                    if a != b && target(a, goff) == target(b, goff) {
-                        for x in [a, b] {
-                            if goff.contains_key(&group[x]) && !cancel.contains(&group[x]) {
-                                cancel.push(group[x]);
-                            }
-                        }
-                    }
-                }
+                at.entry(target(a, goff)).or_default().push(a);
             }
-            if cancel.is_empty() {
+            let events: Vec<Vec<usize>> = at
+                .into_values()
+                .filter(|v| v.len() > 1 && v.iter().any(|&a| goff.contains_key(&group[a])))
+                .collect();
+            if events.is_empty() {
                 break;
             }
-            cancel.sort();
-            for g in cancel {
-                goff.remove(&g);
+            for agents in events {
+                for &a in &agents {
+                    goff.remove(&group[a]);
+                }
                 recs.push(Rec {
                     step,
                     kind: "move-collision",
-                    agents: (0..n)
-                        .filter(|&a| group[a] == g)
-                        .map(|a| a as u32)
-                        .collect(),
+                    agents: agents.iter().map(|&a| a as u32).collect(),
                 });
             }
         }

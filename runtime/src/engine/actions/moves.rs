@@ -219,26 +219,21 @@ impl Act<'_> {
                 clear(&mut sc, live, &self.lat.cells);
                 break;
             }
-            let mut cancel: Vec<(u32, [i32; 3], Vec<u32>)> = Vec::new();
+            // One record per cell where agents would meet, naming them all.
+            let mut events: Vec<([i32; 3], Vec<u32>, Vec<u32>)> = Vec::new();
             for (cell, ms) in bad {
                 let mut involved = ms.clone();
                 involved.extend(self.lat.agent_at(cell).filter(|&s| !moving(s)));
-                for m in ms {
-                    cancel.push((m, cell, involved.clone()));
-                }
+                events.push((cell, ms, involved));
             }
-            cancel.sort_by_key(|c| c.0);
             clear(&mut sc, live, &self.lat.cells);
-            for (a, cell, involved) in cancel {
-                let i = live.binary_search_by_key(&a, |m| m.0).expect("a mover");
-                live.remove(i);
-                let msg = format!(
-                    "a move of agent {} would put agents {} on the cell {}; the moves are cancelled",
-                    a,
-                    involved.iter().map(|m| m.to_string()).collect::<Vec<_>>().join(", "),
-                    self.lat.cell_text(cell)
-                );
-                self.record(rep, RecordKind::MoveCollision, &[a], msg);
+            for (cell, ms, involved) in events {
+                for a in &ms {
+                    let i = live.binary_search_by_key(a, |m| m.0).expect("a mover");
+                    live.remove(i);
+                }
+                let msg = collision_text(self.lat, cell, &ms, &involved);
+                self.record(rep, RecordKind::MoveCollision, &involved, msg);
             }
         }
         self.bufs.scratch = sc;
@@ -409,7 +404,9 @@ impl Act<'_> {
                 }
             }
             let moving = |a: u32, parent: &mut Vec<u32>| group_off.contains_key(&find(parent, a));
-            let mut cancel: Vec<(u32, [i32; 3], Vec<u32>)> = Vec::new();
+            // One record per cell where agents would meet, naming them all; every group
+            // with an agent there stays.
+            let mut events: Vec<([i32; 3], Vec<u32>, Vec<u32>)> = Vec::new();
             let mut cells: Vec<&[i32; 3]> = target.keys().collect();
             cells.sort();
             for cell in cells {
@@ -418,27 +415,19 @@ impl Act<'_> {
                 if ms.len() > 1 || stay.is_some() {
                     let mut involved = ms.clone();
                     involved.extend(stay);
-                    for &m in ms {
-                        let root = find(parent, m);
-                        if !cancel.iter().any(|c| c.0 == root) {
-                            cancel.push((root, *cell, involved.clone()));
-                        }
-                    }
+                    events.push((*cell, ms.clone(), involved));
                 }
             }
-            if cancel.is_empty() {
+            if events.is_empty() {
                 break;
             }
-            cancel.sort_by_key(|c| c.0);
-            for (root, cell, involved) in cancel {
-                group_off.remove(&root);
-                let msg = format!(
-                    "a move of agent {} would put agents {} on the cell {}; the moves are cancelled",
-                    root,
-                    involved.iter().map(|m| m.to_string()).collect::<Vec<_>>().join(", "),
-                    self.lat.cell_text(cell)
-                );
-                self.record(rep, RecordKind::MoveCollision, &members[&root].clone(), msg);
+            for (cell, ms, involved) in events {
+                for &m in &ms {
+                    let root = find(parent, m);
+                    group_off.remove(&root);
+                }
+                let msg = collision_text(self.lat, cell, &ms, &involved);
+                self.record(rep, RecordKind::MoveCollision, &involved, msg);
             }
         }
     }
@@ -604,4 +593,26 @@ impl Act<'_> {
             }
         }
     }
+}
+
+/// The sentence of a collision at `cell`: the agents that would meet there and the moves
+/// cancelled (`movers`: the agents moving into it).
+fn collision_text(lat: &Lattice, cell: [i32; 3], movers: &[u32], involved: &[u32]) -> String {
+    let list = |v: &[u32]| {
+        v.iter()
+            .map(|m| m.to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let (s, are) = if movers.len() == 1 {
+        ("", "is")
+    } else {
+        ("s", "are")
+    };
+    format!(
+        "agents {} would meet on the cell {}; the move{s} of agent{s} {} {are} cancelled",
+        list(involved),
+        lat.cell_text(cell),
+        list(movers)
+    )
 }
