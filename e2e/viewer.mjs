@@ -10,6 +10,8 @@ import { execFileSync } from 'node:child_process';
 import { launch, serve as start } from './common.mjs';
 import assert from 'node:assert/strict';
 import path from 'node:path';
+import fs from 'node:fs';
+import os from 'node:os';
 
 const BIN = path.resolve(process.env.LATTICESIM || 'target/debug/latticesim');
 const RULES = 'examples/leader-election/rules.txt';
@@ -180,7 +182,15 @@ async function testControls(browser) {
   await waitStep(page, 30);
   await page.waitForTimeout(300);
   assert.equal(await stepNumber(page), 30, '30 presses of the right arrow are 30 steps');
-  console.log('ok: 30 quick presses of the right arrow land on step 30');
+  // The frame shown, patched from binary deltas step by step, is the run's step 30.
+  const cli = execFileSync(BIN, ['run', 'examples/bouncing/rules.txt', 'examples/bouncing/agents.txt', '--max-steps', '30', '--quiet'], { encoding: 'utf8' })
+    .split('\n').filter((l) => l && !l.startsWith('U')).map(parseAgent);
+  const shown = await page.evaluate(() => {
+    const f = window.latticesim.frame();
+    return Array.from({ length: f.pos.length / 2 }, (_, i) => ({ pos: `${f.pos[2 * i]},${f.pos[2 * i + 1]}`, state: f.states[f.state[i]].name }));
+  });
+  assert.deepEqual(shown, cli.map((a) => ({ pos: a.pos, state: a.state })), 'the frame shown is the run at step 30');
+  console.log('ok: 30 quick presses of the right arrow land on step 30, the frame equal to latticesim run --max-steps 30');
 
   // Touch the slider, then the arrows step and leave the speed alone.
   await page.fill('#jump', '0');
@@ -279,6 +289,43 @@ async function testPalette(browser) {
   await page.close();
 }
 
+// 3D slabs: in a solid 5 x 5 x 5 block the middle agent is hidden; with the z slab cut
+// down to its layer it is drawn and picked where it is. Tilting and rotating keep it so.
+async function testSlabs(browser) {
+  const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'latticesim-e2e-'));
+  const rules = path.join(dir, 'rules.txt'), agents = path.join(dir, 'agents.txt');
+  fs.writeFileSync(rules, 'noop\n1\nSXXXXX\nSYYYYY\n');
+  let text = '';
+  for (let x = 0; x < 5; x++) for (let y = 0; y < 5; y++) for (let z = 0; z < 5; z++) text += `${x},${y},${z} SB${x}${y}${z}0\n`;
+  fs.writeFileSync(agents, text);
+  const url = await serve(rules, agents);
+  const page = await browser.newPage({ viewport: { width: 1100, height: 640 } });
+  const errors = [];
+  page.on('pageerror', (e) => errors.push(e.message));
+  await page.goto(url);
+  await page.waitForFunction(() => window.latticesim && window.latticesim.ready);
+  const middle = 2 * 25 + 2 * 5 + 2; // the agent at 2,2,2
+  const pickAt = (id) => page.evaluate((id) => {
+    const c = document.querySelector('canvas').getBoundingClientRect();
+    const f = window.latticesim.frame();
+    // Where the middle agent's cell is, projected, whether drawn or not.
+    return window.latticesim.pick(...window.latticesim.project(id).map((v, k) => v - (k ? c.top : c.left)));
+  }, id);
+  assert.notEqual(await pickAt(middle), middle, 'inside the block the middle agent is hidden');
+  await page.$eval('#slabs .slab[data-axis="2"] .hi', (s) => { s.value = '2'; s.dispatchEvent(new Event('input')); });
+  assert.equal(await page.textContent('#slabs .slab[data-axis="2"] .val'), '0..2');
+  assert.equal(await pickAt(middle), middle, 'the slab z 0..2 shows the middle agent on its top');
+  await page.click('#tilt-up');
+  await page.click('#rot-left');
+  assert.equal(await pickAt(middle), middle, 'still after tilting and turning');
+  const [x, y] = await page.evaluate((id) => window.latticesim.screenOf(id), middle);
+  await page.mouse.click(x, y);
+  await page.waitForFunction((id) => document.getElementById('insp-id')?.textContent === String(id), middle);
+  assert.deepEqual(errors, [], 'no script errors in the page');
+  console.log('ok: 3D slab z 0..2 of a 5x5x5 block: the middle agent, hidden before, is picked and inspected (also tilted and turned)');
+  await page.close();
+}
+
 // Two tabs of one server: each steps and applies on its own.
 async function testTabs(browser) {
   const url = await serve(RULES, AGENTS);
@@ -330,6 +377,7 @@ try {
   await testControls(browser);
   await testPalette(browser);
   await testTabs(browser);
+  await testSlabs(browser);
   if (process.env.SCREENSHOTS) {
     await screenshot(browser, 'examples/reconfigure-line/rules.txt', 'examples/reconfigure-line/agents-30.txt', 450, 'viewer-2d.png',
       async (page) => {

@@ -85,9 +85,21 @@ export function decodeFrame(buf, held) {
     f.pos = pos; f.state = st; f.attach = at;
     return f;
   }
-  f.pos = held.pos.slice();
-  f.state = wide && !(held.state instanceof Uint32Array) ? Uint32Array.from(held.state) : held.state.slice();
-  f.attach = head.attach ? (held.attach ? held.attach.slice() : new Uint8Array(n)) : null;
+  // The frame held is done with: its columns become the new frame's, patched in place (no
+  // copy of a million positions per step). What changed, and the old cells of the agents
+  // that changed, are kept so that drawings can be patched, not redone.
+  f.base = held;
+  f.changedIds = ids;
+  f.oldPos = new Int32Array(c * dim);
+  for (let k = 0; k < c; k++) {
+    for (let d = 0; d < dim; d++) f.oldPos[k * dim + d] = held.pos[ids[k] * dim + d];
+  }
+  held.base = null;
+  held.changedIds = null;
+  held.oldPos = null;
+  f.pos = held.pos;
+  f.state = wide && !(held.state instanceof Uint32Array) ? Uint32Array.from(held.state) : held.state;
+  f.attach = head.attach ? (held.attach || new Uint8Array(n)) : null;
   for (let k = 0; k < c; k++) {
     const i = ids[k];
     for (let d = 0; d < dim; d++) f.pos[i * dim + d] = pos[k * dim + d];

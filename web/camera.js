@@ -5,6 +5,8 @@ export const camera = {
   scale: 20,         // pixels per cell
   ox: 0, oy: 0,      // screen position of the world origin
   theta: 0,          // rotation about the vertical axis (3D)
+  phi: Math.asin(1 / Math.sqrt(3)), // elevation of the view (3D; isometric at start)
+  clip: [null, null, null], // 3D: per axis, the slab [lo, hi] of cells shown, or null
   faces: [],         // 3D: drawn faces, for picking
   fitted: false,
 };
@@ -26,13 +28,24 @@ export function bbox(f) {
   return { lo, hi };
 }
 
-// 3D: rotation about the centre of the agents, then an isometric projection.
+// 3D: rotation about the vertical axis through the centre of the agents, then a parallel
+// projection seen from the elevation `phi` (isometric at start): the screen point and the
+// depth (larger is nearer the viewer).
+const S = Math.sqrt(1.5);
 export function project(x, y, z) {
   const c = camera.centre;
-  const dx = x - c[0], dy = y - c[1];
+  const dx = x - c[0], dy = y - c[1], dz = z - c[2];
   const cs = Math.cos(camera.theta), sn = Math.sin(camera.theta);
   const xr = dx * cs - dy * sn, yr = dx * sn + dy * cs;
-  return [camera.ox + (xr - yr) * 0.866 * camera.scale, camera.oy + ((xr + yr) * 0.5 - (z - c[2])) * camera.scale, xr + yr];
+  const a = (xr - yr) / Math.SQRT2, b = (xr + yr) / Math.SQRT2;
+  const sp = Math.sin(camera.phi), cp = Math.cos(camera.phi);
+  return [camera.ox + a * S * camera.scale, camera.oy + (b * sp - dz * cp) * S * camera.scale, b * cp + dz * sp];
+}
+
+// Tilts the 3D view by `d` radians (kept between looking from the side and from above or
+// below).
+export function tilt(d) {
+  camera.phi = Math.max(-1.5, Math.min(1.5, camera.phi + d));
 }
 
 // Sets the camera to show every agent of frame `f` in a canvas of size `r`, and the

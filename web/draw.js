@@ -2,7 +2,7 @@
 // the camera of camera.js), fitting, zooming and picking.
 
 import { $ } from './api.js';
-import { camera, fitTo, zoomAt } from './camera.js';
+import { camera, fitTo, project as projectCell, zoomAt } from './camera.js';
 import { centre2d, draw2d, pick2d } from './draw2d.js';
 import { centre3d, draw3d, pick3d } from './draw3d.js';
 import { player } from './state.js';
@@ -45,6 +45,14 @@ export function pick(x, y) {
   const f = player.frame;
   if (!f) return null;
   return f.dim === 2 ? pick2d(f, x, y) : pick3d(x, y);
+}
+
+// Where the centre of agent `id`'s cell is projected in 3D, in page coordinates, whether it
+// is drawn or not (for tests and scripts).
+export function project(id) {
+  const f = player.frame, r = canvas.getBoundingClientRect();
+  const p = projectCell(f.pos[3 * id] + 0.5, f.pos[3 * id + 1] + 0.5, f.pos[3 * id + 2] + 0.5);
+  return [r.left + p[0], r.top + p[1]];
 }
 
 // Where agent `id` is drawn, in page coordinates (for tests and scripts).

@@ -5,8 +5,38 @@
 import { agentCount, bbox, camera } from './camera.js';
 import { selection, stateColours } from './state.js';
 
-// The 2D frame as an image of one pixel per cell (north up), made once per frame; none
-// when the agents' bounding box has more than 16 million cells.
+// RGBA bytes of each state's colour in a little-endian word (0xAABBGGRR); 0 (transparent)
+// for a hidden state.
+function words(f) {
+  return stateColours(f).map((c) => {
+    if (c === null) return 0;
+    const v = parseInt(c.slice(1), 16);
+    return (0xff000000 | ((v & 0xff) << 16) | (v & 0xff00) | (v >> 16)) >>> 0;
+  });
+}
+
+// The image of the frame before, patched where agents changed (a delta frame whose agents
+// all stay inside that image): their old cells cleared, their new cells painted. True when
+// it was done.
+function patched(f) {
+  const b = camera.bmp;
+  if (!b || !b.canvas || !f.base || b.frame !== f.base || b.looks !== selection.looksVersion) return false;
+  const ids = f.changedIds, w = b.hi[0] - b.lo[0] + 1;
+  for (const i of ids) {
+    const x = f.pos[2 * i], y = f.pos[2 * i + 1];
+    if (x < b.lo[0] || x > b.hi[0] || y < b.lo[1] || y > b.hi[1]) return false;
+  }
+  const cols = words(f);
+  ids.forEach((i, k) => { b.px[(b.hi[1] - f.oldPos[2 * k + 1]) * w + (f.oldPos[2 * k] - b.lo[0])] = 0; });
+  for (const i of ids) b.px[(b.hi[1] - f.pos[2 * i + 1]) * w + (f.pos[2 * i] - b.lo[0])] = cols[f.state[i]];
+  if (ids.length) b.ctx.putImageData(b.img, 0, 0);
+  b.frame = f;
+  return true;
+}
+
+// The 2D frame as an image of one pixel per cell (north up), made once per frame (or
+// patched from the one before); none when the agents' bounding box has more than 16
+// million cells.
 function bitmap(f) {
   if (camera.bmp && camera.bmp.frame === f && camera.bmp.looks === selection.looksVersion) return camera.bmp;
   const b = bbox(f);
@@ -20,16 +50,12 @@ function bitmap(f) {
   const img = cx.createImageData(w, h);
   const px = new Uint32Array(img.data.buffer);
   // RGBA bytes in a little-endian word: 0xAABBGGRR.
-  const cols = stateColours(f).map((c) => {
-    if (c === null) return 0; // hidden: transparent
-    const v = parseInt(c.slice(1), 16);
-    return (0xff000000 | ((v & 0xff) << 16) | (v & 0xff00) | (v >> 16)) >>> 0;
-  });
+  const cols = words(f);
   for (let i = 0; i < agentCount(f); i++) {
     px[(b.hi[1] - f.pos[2 * i + 1]) * w + (f.pos[2 * i] - b.lo[0])] = cols[f.state[i]];
   }
   cx.putImageData(img, 0, 0);
-  camera.bmp.canvas = c;
+  Object.assign(camera.bmp, { canvas: c, ctx: cx, img, px });
   return camera.bmp;
 }
 

@@ -2,7 +2,7 @@
 // viewer, shaded), the universe's box, bonds and the marks of selected agents; and which
 // agent's faces cover a point.
 
-import { agentCount, camera, CORNERS, project } from './camera.js';
+import { agentCount, bbox, camera, CORNERS, project } from './camera.js';
 import { selection, stateColours } from './state.js';
 
 function shade(hex, k) {
@@ -11,24 +11,77 @@ function shade(hex, k) {
   return `rgb(${c[0]},${c[1]},${c[2]})`;
 }
 
-// Faces as corner indices with their outward normal in (x, y); the top has none.
-const SIDES = [
-  { c: [0, 3, 7, 4], n: [-1, 0] }, { c: [1, 2, 6, 5], n: [1, 0] },
-  { c: [0, 1, 5, 4], n: [0, -1] }, { c: [3, 2, 6, 7], n: [0, 1] },
+// Faces as corner indices with their outward normal; cubes are drawn a little smaller than
+// their cells, so that bonds show in the gaps between them.
+const FACES = [
+  { c: [0, 3, 7, 4], n: [-1, 0, 0] }, { c: [1, 2, 6, 5], n: [1, 0, 0] },
+  { c: [0, 1, 5, 4], n: [0, -1, 0] }, { c: [3, 2, 6, 7], n: [0, 1, 0] },
+  { c: [0, 1, 2, 3], n: [0, 0, -1] }, { c: [4, 5, 6, 7], n: [0, 0, 1] },
 ];
-const TOP = [4, 5, 6, 7];
+const MARGIN = 0.08;
+// The six neighbours' offsets, and the bonds' bits with their directions (N W E S A B).
+const DIRS = [[0, 1, 0], [-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]];
+
+// Cells to agents: a grid over the agents' bounding box (a map when that box is huge);
+// `at(x, y, z)` is the agent there or -1.
+function cellIndex(f, n) {
+  const b = bbox(f);
+  const w = b.hi[0] - b.lo[0] + 3, h = b.hi[1] - b.lo[1] + 3, d = b.hi[2] - b.lo[2] + 3;
+  const id = (x, y, z) => ((x - b.lo[0] + 1) * h + (y - b.lo[1] + 1)) * d + (z - b.lo[2] + 1);
+  const inside = (x, y, z) => x >= b.lo[0] - 1 && x <= b.hi[0] + 1 && y >= b.lo[1] - 1 && y <= b.hi[1] + 1 && z >= b.lo[2] - 1 && z <= b.hi[2] + 1;
+  if (w * h * d <= 1 << 24) {
+    const grid = new Int32Array(w * h * d).fill(-1);
+    return { set: (x, y, z, i) => { grid[id(x, y, z)] = i; }, at: (x, y, z) => (inside(x, y, z) ? grid[id(x, y, z)] : -1) };
+  }
+  const map = new Map();
+  return { set: (x, y, z, i) => map.set(id(x, y, z), i), at: (x, y, z) => (inside(x, y, z) ? map.get(id(x, y, z)) ?? -1 : -1) };
+}
+
+// The agents drawn: not of a hidden state, inside the slabs of camera.clip, and not
+// hidden on every side by other agents drawn (a solid block shows only its skin); with
+// the index of the cells of the agents kept (for bonds). Made again only when the frame,
+// the legend's looks or the slabs change, not when the view turns.
+function shown(f, colours) {
+  const clipKey = JSON.stringify(camera.clip);
+  const c = camera.shown;
+  if (c && c.frame === f && c.looks === selection.looksVersion && c.clip === clipKey) return c;
+  const n = agentCount(f);
+  const clip = camera.clip;
+  const cells = cellIndex(f, n);
+  const keep = new Uint8Array(n);
+  for (let i = 0; i < n; i++) {
+    if (colours[f.state[i]] === null) continue;
+    let ok = true;
+    for (let k = 0; k < 3; k++) {
+      const s = clip[k], v = f.pos[3 * i + k];
+      if (s && (v < s[0] || v > s[1])) ok = false;
+    }
+    if (!ok) continue;
+    keep[i] = 1;
+    cells.set(f.pos[3 * i], f.pos[3 * i + 1], f.pos[3 * i + 2], i);
+  }
+  const out = [];
+  for (let i = 0; i < n; i++) {
+    if (!keep[i]) continue;
+    const x = f.pos[3 * i], y = f.pos[3 * i + 1], z = f.pos[3 * i + 2];
+    if (DIRS.every((d) => cells.at(x + d[0], y + d[1], z + d[2]) >= 0)) continue;
+    out.push(i);
+  }
+  camera.shown = { frame: f, looks: selection.looksVersion, clip: clipKey, out, cells };
+  return camera.shown;
+}
 
 export function draw3d(ctx, f, r) {
-  const n = agentCount(f);
   const cs = Math.cos(camera.theta), sn = Math.sin(camera.theta);
-  // Sides facing the viewer (who looks from +x'+y', above), and their shade.
-  const sides = SIDES.filter((sd) => {
-    const xr = sd.n[0] * cs - sd.n[1] * sn, yr = sd.n[0] * sn + sd.n[1] * cs;
-    return xr + yr > 1e-9;
-  }).map((sd) => {
-    const xr = sd.n[0] * cs - sd.n[1] * sn;
-    return { c: sd.c, k: xr > 0 ? 0.78 : 0.62 };
-  });
+  const sp = Math.sin(camera.phi), cp = Math.cos(camera.phi);
+  // The faces that face the viewer, and their shade: the depth of a face's normal > 0.
+  const faces = FACES.map((fc) => {
+    const [nx, ny, nz] = fc.n;
+    const b = ((nx * cs - ny * sn) + (nx * sn + ny * cs)) / Math.SQRT2;
+    const toward = b * cp + nz * sp;
+    const xr = nx * cs - ny * sn;
+    return { c: fc.c, toward, k: nz !== 0 ? 1 : xr > 0 ? 0.78 : 0.62 };
+  }).filter((fc) => fc.toward > 1e-9).sort((a, b) => a.toward - b.toward);
   if (f.universe) {
     const u = f.universe;
     const p = (x, y, z) => project(x, y, z);
@@ -48,19 +101,20 @@ export function draw3d(ctx, f, r) {
     }
   }
   const colours = stateColours(f);
+  const { out, cells } = shown(f, colours);
   const order = [];
-  for (let i = 0; i < n; i++) {
-    if (colours[f.state[i]] === null) continue; // a hidden state
+  for (const i of out) {
     const c = project(f.pos[3 * i] + 0.5, f.pos[3 * i + 1] + 0.5, f.pos[3 * i + 2] + 0.5);
     if (c[0] < -camera.scale * 2 || c[0] > r.width + camera.scale * 2 || c[1] < -camera.scale * 2 || c[1] > r.height + camera.scale * 2) continue;
-    order.push([c[2] + f.pos[3 * i + 2], i]);
+    order.push([c[2], i]);
   }
   order.sort((a, b) => a[0] - b[0]);
   camera.faces = [];
   ctx.lineJoin = 'round';
+  const lo = MARGIN, hi = 1 - MARGIN;
   for (const [, i] of order) {
     const x = f.pos[3 * i], y = f.pos[3 * i + 1], z = f.pos[3 * i + 2];
-    const pts = CORNERS.map((c) => project(x + c[0], y + c[1], z + c[2]));
+    const pts = CORNERS.map((c) => project(x + (c[0] ? hi : lo), y + (c[1] ? hi : lo), z + (c[2] ? hi : lo)));
     const colour = colours[f.state[i]];
     const polys = [];
     const face = (idx, fill) => {
@@ -72,8 +126,7 @@ export function draw3d(ctx, f, r) {
       if (camera.scale >= 5) { ctx.strokeStyle = shade(colour, 0.45); ctx.lineWidth = 1; ctx.stroke(); }
       polys.push(idx.map((k) => pts[k]));
     };
-    for (const sd of sides) face(sd.c, shade(colour, sd.k));
-    face(TOP, colour);
+    for (const fc of faces) face(fc.c, fc.k === 1 ? colour : shade(colour, fc.k));
     camera.faces.push([i, polys]);
     const mark = selection.highlight.has(i) ? '#ffd400' : selection.selected === i ? '#0050ff' : null;
     if (mark) {
@@ -86,22 +139,24 @@ export function draw3d(ctx, f, r) {
         ctx.stroke();
       }
     }
-  }
-  if (f.attach) {
-    ctx.strokeStyle = '#222';
-    ctx.lineWidth = Math.max(1, camera.scale * 0.12);
-    ctx.beginPath();
-    const bonds = [[1, [0, 1, 0]], [4, [1, 0, 0]], [16, [0, 0, 1]]]; // N, E, A
-    for (let i = 0; i < n; i++) {
-      const x = f.pos[3 * i] + 0.5, y = f.pos[3 * i + 1] + 0.5, z = f.pos[3 * i + 2] + 0.5;
-      for (const [bit, d] of bonds) {
-        if (!(f.attach[i] & bit)) continue;
-        const a = project(x, y, z), b = project(x + d[0], y + d[1], z + d[2]);
+    // Its bonds towards nearer neighbours, in the gaps: drawn over this cube, under them.
+    if (f.attach && f.attach[i]) {
+      ctx.strokeStyle = '#222';
+      ctx.lineWidth = Math.max(1, camera.scale * 0.12);
+      ctx.beginPath();
+      const c0 = project(x + 0.5, y + 0.5, z + 0.5);
+      DIRS.forEach((d, bit) => {
+        if (!(f.attach[i] & (1 << bit))) return;
+        if (cells.at(x + d[0], y + d[1], z + d[2]) < 0) return;
+        const c1 = project(x + 0.5 + d[0], y + 0.5 + d[1], z + 0.5 + d[2]);
+        if (c1[2] < c0[2]) return; // the farther cube draws it
+        const a = project(x + 0.5 + d[0] * (0.5 - MARGIN), y + 0.5 + d[1] * (0.5 - MARGIN), z + 0.5 + d[2] * (0.5 - MARGIN));
+        const b = project(x + 0.5 + d[0] * (0.5 + MARGIN), y + 0.5 + d[1] * (0.5 + MARGIN), z + 0.5 + d[2] * (0.5 + MARGIN));
         ctx.moveTo(a[0], a[1]);
         ctx.lineTo(b[0], b[1]);
-      }
+      });
+      ctx.stroke();
     }
-    ctx.stroke();
   }
 }
 
@@ -126,7 +181,7 @@ export function pick3d(x, y) {
   return null;
 }
 
-// Where agent `id` is drawn (the centre of its top face), in canvas coordinates.
+// Where agent `id` is drawn (the centre of its nearest face), in canvas coordinates.
 export function centre3d(id) {
   const entry = camera.faces.find((e) => e[0] === id);
   const top = entry[1][entry[1].length - 1];

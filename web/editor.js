@@ -167,6 +167,7 @@ $('apply').onclick = async () => {
   stopRun();
   selection.selected = null;
   camera.fitted = false;
+  camera.clip = [null, null, null];
   $('inspector').textContent = 'Click an agent.';
   showTab('view');
   showFrame(r.v.frame);

@@ -1,7 +1,7 @@
 // Mouse and keys on the view, and the toolbar buttons.
 
 import { $ } from './api.js';
-import { camera } from './camera.js';
+import { camera, tilt } from './camera.js';
 import { canvas, draw, fit, pick, zoom } from './draw.js';
 import { inspect } from './panel.js';
 import { currentStep, gotoStep, stopRun, toggleRun } from './player.js';
@@ -19,7 +19,7 @@ window.addEventListener('mousemove', (e) => {
   const dx = e.clientX - drag.x, dy = e.clientY - drag.y;
   if (Math.abs(dx) + Math.abs(dy) > 3) drag.moved = true;
   if (!drag.moved) return;
-  if (drag.rotate && player.frame && player.frame.dim === 3) camera.theta += dx * 0.01;
+  if (drag.rotate && player.frame && player.frame.dim === 3) { camera.theta += dx * 0.01; tilt(dy * 0.01); }
   else { camera.ox += dx; camera.oy += dy; }
   drag.x = e.clientX;
   drag.y = e.clientY;
@@ -77,3 +77,5 @@ $('speed').oninput = () => { $('speed-label').textContent = $('speed').value; };
 $('fit').onclick = fit;
 $('rot-left').onclick = () => { camera.theta -= Math.PI / 12; draw(); };
 $('rot-right').onclick = () => { camera.theta += Math.PI / 12; draw(); };
+$('tilt-up').onclick = () => { tilt(Math.PI / 18); draw(); };
+$('tilt-down').onclick = () => { tilt(-Math.PI / 18); draw(); };

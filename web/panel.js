@@ -1,6 +1,7 @@
 // The side panel: legend, records, statistics and the inspector of the selected agent.
 
 import { $, api, el } from './api.js';
+import { bbox, camera } from './camera.js';
 import { draw } from './draw.js';
 import { selection } from './state.js';
 
@@ -94,4 +95,32 @@ export async function inspect(id) {
     row('rules in step ' + a.next_step, next, 'insp-rules')));
   box.classList.remove('muted');
   draw();
+}
+
+// 3D slabs: per axis, the cells from `lo` to `hi` are drawn (and picked), so that agents
+// inside a shape can be seen. The sliders span the agents' extent; at full extent an axis
+// is not cut.
+export function showSlabs(f) {
+  $('slabs').hidden = f.dim !== 3;
+  if (f.dim !== 3) return;
+  const b = bbox(f);
+  for (const row of document.querySelectorAll('#slabs .slab')) {
+    const k = Number(row.dataset.axis);
+    const [lo, hi] = [row.querySelector('.lo'), row.querySelector('.hi')];
+    for (const s of [lo, hi]) { s.min = b.lo[k]; s.max = b.hi[k]; s.step = 1; }
+    const c = camera.clip[k];
+    lo.value = c ? c[0] : b.lo[k];
+    hi.value = c ? c[1] : b.hi[k];
+    row.querySelector('.val').textContent = `${lo.value}..${hi.value}`;
+    const change = () => {
+      let [l, h] = [Number(lo.value), Number(hi.value)];
+      if (l > h) [l, h] = [h, l];
+      const whole = l <= Number(lo.min) && h >= Number(hi.max);
+      camera.clip[k] = whole ? null : [l, h];
+      row.querySelector('.val').textContent = `${l}..${h}`;
+      draw();
+    };
+    lo.oninput = change;
+    hi.oninput = change;
+  }
 }

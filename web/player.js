@@ -3,7 +3,7 @@
 import { $, frameAt } from './api.js';
 import { camera } from './camera.js';
 import { draw, fit } from './draw.js';
-import { inspect, showLegend, showRecords, showStats } from './panel.js';
+import { inspect, showLegend, showRecords, showSlabs, showStats } from './panel.js';
 import { player, selection } from './state.js';
 
 // ---------------------------------------------------------------- stepping
@@ -50,6 +50,7 @@ export function showFrame(f) {
   showLegend(f);
   showRecords(f);
   showStats(f);
+  showSlabs(f);
   draw();
   if (selection.selected !== null) inspect(selection.selected);
 }

@@ -113,11 +113,26 @@ pub(super) fn frame_bin(run: &mut Run, since: Option<u64>) -> Vec<u8> {
     if attach {
         out.extend(ids.iter().map(|&i| lat.attach[i]));
     }
-    run.sent = Some(Sent {
-        step: run.hist.steps(),
-        pos: lat.pos.clone(),
-        state,
-        attach: lat.attach.clone(),
-    });
+    let step = run.hist.steps();
+    match (run.sent.as_mut(), &changed) {
+        // A delta: what the tab holds now is the last frame with the changes.
+        (Some(sent), Some(c)) => {
+            sent.step = step;
+            for &i in c {
+                let i = i as usize;
+                sent.pos[i] = lat.pos[i];
+                sent.state[i] = state[i];
+                sent.attach[i] = lat.attach[i];
+            }
+        }
+        _ => {
+            run.sent = Some(Sent {
+                step,
+                pos: lat.pos.clone(),
+                state,
+                attach: lat.attach.clone(),
+            })
+        }
+    }
     out
 }
