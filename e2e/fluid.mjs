@@ -22,7 +22,11 @@ try {
   await page.waitForFunction(() => window.latticesim && window.latticesim.ready);
   const r = await page.evaluate(async (steps) => {
     const L = window.latticesim;
-    const ctx = document.getElementById('canvas').getContext('2d');
+    const ctx2d = document.getElementById('canvas').getContext('2d');
+    // Reading a pixel back waits until the drawing is really done (WebGL's too, in 3D).
+    const gl = L.webgl() && L.frame().dim === 3 ? document.getElementById('gl').getContext('webgl2') : null;
+    const px = new Uint8Array(4);
+    const ctx = { getImageData: () => { ctx2d.getImageData(0, 0, 1, 1); if (gl) gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, px); } };
     // As the Run button steps: the binary frame (a delta where smaller), decoded, shown.
     const per = [];
     const t0 = performance.now();
@@ -43,6 +47,7 @@ try {
       return (performance.now() - t) / 10;
     };
     return {
+      webgl: !!gl,
       agents: L.frame().pos.length / L.frame().dim, dim: L.frame().dim,
       rate, step: med, bytes: last.byteLength,
       drawFit: drawAt(1), drawZoom8: drawAt(8), drawZoomOut: drawAt(1 / 8),
@@ -50,7 +55,7 @@ try {
   }, steps);
   const ms = (v) => v.toFixed(1) + ' ms';
   console.log(`${r.agents} agents (${r.dim}D), ${steps} steps as Run takes them: ${r.rate.toFixed(1)} steps/s, median step ${ms(r.step)} (request, decoding, legend, drawing; a whole frame is ${(r.bytes / 1e6).toFixed(2)} MB)`);
-  console.log(`drawing alone: fitted ${ms(r.drawFit)} (${(1000 / r.drawFit).toFixed(0)} frames/s), zoomed in 8x ${ms(r.drawZoom8)}, zoomed out 8x ${ms(r.drawZoomOut)}`);
+  console.log(`drawing alone${r.webgl ? ' (WebGL2)' : ''}: fitted ${ms(r.drawFit)} (${(1000 / r.drawFit).toFixed(0)} frames/s), zoomed in 8x ${ms(r.drawZoom8)}, zoomed out 8x ${ms(r.drawZoomOut)}`);
 } finally {
   await browser.close();
   server.kill();

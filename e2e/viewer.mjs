@@ -158,7 +158,7 @@ async function test3d(browser) {
   }
   // The covered agent: its top face's centre picks an agent drawn over it.
   const over = await page.evaluate((id) => {
-    const r = document.querySelector('canvas').getBoundingClientRect();
+    const r = document.getElementById('canvas').getBoundingClientRect();
     const [x, y] = window.latticesim.screenOf(id);
     return window.latticesim.pick(x - r.left, y - r.top);
   }, inner);
@@ -277,7 +277,7 @@ async function testPalette(browser) {
   await page.click(name);
   await page.waitForSelector(`#legend li.hidden[data-state="${f.s}"]`);
   const picked = await page.evaluate(([x, y]) => {
-    const r = document.querySelector('canvas').getBoundingClientRect();
+    const r = document.getElementById('canvas').getBoundingClientRect();
     return window.latticesim.pick(x - r.left, y - r.top);
   }, [x, y]);
   const hiddenState = await page.evaluate((id) => { const f = window.latticesim.frame(); return id === null ? null : f.states[f.state[id]].name; }, picked);
@@ -305,24 +305,31 @@ async function testSlabs(browser) {
   await page.goto(url);
   await page.waitForFunction(() => window.latticesim && window.latticesim.ready);
   const middle = 2 * 25 + 2 * 5 + 2; // the agent at 2,2,2
+  // The agent drawn where the top of agent `id`'s cell is projected, whether it is drawn
+  // or not.
   const pickAt = (id) => page.evaluate((id) => {
-    const c = document.querySelector('canvas').getBoundingClientRect();
-    const f = window.latticesim.frame();
-    // Where the middle agent's cell is, projected, whether drawn or not.
-    return window.latticesim.pick(...window.latticesim.project(id).map((v, k) => v - (k ? c.top : c.left)));
+    const c = document.getElementById('canvas').getBoundingClientRect();
+    return window.latticesim.pick(...window.latticesim.project(id, 0.9).map((v, k) => v - (k ? c.top : c.left)));
   }, id);
-  assert.notEqual(await pickAt(middle), middle, 'inside the block the middle agent is hidden');
-  await page.$eval('#slabs .slab[data-axis="2"] .hi', (s) => { s.value = '2'; s.dispatchEvent(new Event('input')); });
-  assert.equal(await page.textContent('#slabs .slab[data-axis="2"] .val'), '0..2');
-  assert.equal(await pickAt(middle), middle, 'the slab z 0..2 shows the middle agent on its top');
-  await page.click('#tilt-up');
-  await page.click('#rot-left');
-  assert.equal(await pickAt(middle), middle, 'still after tilting and turning');
-  const [x, y] = await page.evaluate((id) => window.latticesim.screenOf(id), middle);
-  await page.mouse.click(x, y);
-  await page.waitForFunction((id) => document.getElementById('insp-id')?.textContent === String(id), middle);
+  // With WebGL2 (depth buffer, picking by ids; `?webgl` asks for it on this machine's
+  // software renderer), then with the canvas drawing.
+  for (const gl of [true, false]) {
+    await page.goto(new URL(gl ? '/?webgl' : '/?canvas3d', url).href);
+    await page.waitForFunction(() => window.latticesim && window.latticesim.ready);
+    assert.equal(await page.evaluate(() => window.latticesim.webgl()), gl, gl ? 'WebGL2 draws the 3D view' : 'the canvas draws it');
+    assert.notEqual(await pickAt(middle), middle, 'inside the block the middle agent is hidden');
+    await page.$eval('#slabs .slab[data-axis="2"] .hi', (s) => { s.value = '2'; s.dispatchEvent(new Event('input')); });
+    assert.equal(await page.textContent('#slabs .slab[data-axis="2"] .val'), '0..2');
+    assert.equal(await pickAt(middle), middle, 'the slab z 0..2 shows the middle agent on its top');
+    await page.click('#tilt-up');
+    await page.click('#rot-left');
+    assert.equal(await pickAt(middle), middle, 'still after tilting and turning');
+    const [x, y] = await page.evaluate((id) => window.latticesim.screenOf(id), middle);
+    await page.mouse.click(x, y);
+    await page.waitForFunction((id) => document.getElementById('insp-id')?.textContent === String(id), middle);
+  }
   assert.deepEqual(errors, [], 'no script errors in the page');
-  console.log('ok: 3D slab z 0..2 of a 5x5x5 block: the middle agent, hidden before, is picked and inspected (also tilted and turned)');
+  console.log('ok: 3D slab z 0..2 of a 5x5x5 block: the middle agent, hidden before, is picked and inspected (also tilted and turned), with WebGL2 and with the canvas');
   await page.close();
 }
 

@@ -1,10 +1,10 @@
 // latticesim viewer and editor: the entry point. Modules (each imports only those
 // listed before it): api (the JSON API, DOM helpers), state (the run shown, the
-// selection), camera, draw2d, draw3d, draw (the canvas), panel (legend, records,
+// selection), camera, draw2d, draw3d, gl3d (3D in WebGL2), draw (the canvas), panel (legend, records,
 // inspector), player (stepping, running), editor, input.
 
 import { $, api, setTab, whenGone } from './api.js';
-import { draw, pick, project, resize, screenOf, zoom } from './draw.js';
+import { draw, pick, project, resize, screenOf, usesWebGL, zoom } from './draw.js';
 import { editors, showDiagnostics, showStatus, showTab } from './editor.js';
 import { gotoStep, setNote, showFrame, stopRun } from './player.js';
 import { player } from './state.js';
@@ -47,6 +47,6 @@ async function start() {
 // For tests and measurements (e2e/): where an agent is drawn (page coordinates), the agent
 // drawn at a canvas point, the frame, showing a frame, going to a step as the controls do,
 // drawing and zooming.
-window.latticesim = { screenOf, pick, project, frame: () => player.frame, show: showFrame, goto: gotoStep, draw, zoom, ready: false };
+window.latticesim = { screenOf, pick, project, webgl: usesWebGL, frame: () => player.frame, show: showFrame, goto: gotoStep, draw, zoom, ready: false };
 window.addEventListener('resize', resize);
 start();

@@ -18,9 +18,9 @@ const FACES = [
   { c: [0, 1, 5, 4], n: [0, -1, 0] }, { c: [3, 2, 6, 7], n: [0, 1, 0] },
   { c: [0, 1, 2, 3], n: [0, 0, -1] }, { c: [4, 5, 6, 7], n: [0, 0, 1] },
 ];
-const MARGIN = 0.08;
+export const MARGIN = 0.08;
 // The six neighbours' offsets, and the bonds' bits with their directions (N W E S A B).
-const DIRS = [[0, 1, 0], [-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]];
+export const DIRS = [[0, 1, 0], [-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]];
 
 // Cells to agents: a grid over the agents' bounding box (a map when that box is huge);
 // `at(x, y, z)` is the agent there or -1.
@@ -41,7 +41,7 @@ function cellIndex(f, n) {
 // hidden on every side by other agents drawn (a solid block shows only its skin); with
 // the index of the cells of the agents kept (for bonds). Made again only when the frame,
 // the legend's looks or the slabs change, not when the view turns.
-function shown(f, colours) {
+export function shown(f, colours) {
   const clipKey = JSON.stringify(camera.clip);
   const c = camera.shown;
   if (c && c.frame === f && c.looks === selection.looksVersion && c.clip === clipKey) return c;
@@ -71,17 +71,8 @@ function shown(f, colours) {
   return camera.shown;
 }
 
-export function draw3d(ctx, f, r) {
-  const cs = Math.cos(camera.theta), sn = Math.sin(camera.theta);
-  const sp = Math.sin(camera.phi), cp = Math.cos(camera.phi);
-  // The faces that face the viewer, and their shade: the depth of a face's normal > 0.
-  const faces = FACES.map((fc) => {
-    const [nx, ny, nz] = fc.n;
-    const b = ((nx * cs - ny * sn) + (nx * sn + ny * cs)) / Math.SQRT2;
-    const toward = b * cp + nz * sp;
-    const xr = nx * cs - ny * sn;
-    return { c: fc.c, toward, k: nz !== 0 ? 1 : xr > 0 ? 0.78 : 0.62 };
-  }).filter((fc) => fc.toward > 1e-9).sort((a, b) => a.toward - b.toward);
+// The universe's box, in grey lines.
+export function universeBox(ctx, f) {
   if (f.universe) {
     const u = f.universe;
     const p = (x, y, z) => project(x, y, z);
@@ -100,6 +91,20 @@ export function draw3d(ctx, f, r) {
       ctx.stroke();
     }
   }
+}
+
+export function draw3d(ctx, f, r) {
+  const cs = Math.cos(camera.theta), sn = Math.sin(camera.theta);
+  const sp = Math.sin(camera.phi), cp = Math.cos(camera.phi);
+  // The faces that face the viewer, and their shade: the depth of a face's normal > 0.
+  const faces = FACES.map((fc) => {
+    const [nx, ny, nz] = fc.n;
+    const b = ((nx * cs - ny * sn) + (nx * sn + ny * cs)) / Math.SQRT2;
+    const toward = b * cp + nz * sp;
+    const xr = nx * cs - ny * sn;
+    return { c: fc.c, toward, k: nz !== 0 ? 1 : xr > 0 ? 0.78 : 0.62 };
+  }).filter((fc) => fc.toward > 1e-9).sort((a, b) => a.toward - b.toward);
+  universeBox(ctx, f);
   const colours = stateColours(f);
   const { out, cells } = shown(f, colours);
   const order = [];

@@ -5,7 +5,7 @@
 use super::*;
 
 /// The app's files: path, content type, content (the script is ES modules, `web/*.js`).
-const ASSETS: [(&str, &str, &str); 14] = [
+const ASSETS: [(&str, &str, &str); 15] = [
     ("/", HTML, include_str!("../../web/index.html")),
     ("/index.html", HTML, include_str!("../../web/index.html")),
     (
@@ -22,6 +22,7 @@ const ASSETS: [(&str, &str, &str); 14] = [
     ("/draw.js", JS, include_str!("../../web/draw.js")),
     ("/draw2d.js", JS, include_str!("../../web/draw2d.js")),
     ("/draw3d.js", JS, include_str!("../../web/draw3d.js")),
+    ("/gl3d.js", JS, include_str!("../../web/gl3d.js")),
     ("/input.js", JS, include_str!("../../web/input.js")),
     ("/editor.js", JS, include_str!("../../web/editor.js")),
 ];
