@@ -42,6 +42,16 @@ function parseAgent(line) {
   return a;
 }
 
+// A page of the viewer at `url`, ready, and the script errors it will have.
+async function open(browser, url, viewport = { width: 1100, height: 640 }) {
+  const page = await browser.newPage({ viewport });
+  const errors = [];
+  page.on('pageerror', (e) => errors.push(e.message));
+  await page.goto(url);
+  await page.waitForFunction(() => window.latticesim && window.latticesim.ready);
+  return { page, errors };
+}
+
 async function stepNumber(page) {
   return Number(await page.textContent('#step-number'));
 }
@@ -52,11 +62,7 @@ async function waitStep(page, n) {
 
 async function test(browser) {
   const url = await serve(RULES, AGENTS);
-  const page = await browser.newPage({ viewport: { width: 1280, height: 760 } });
-  const errors = [];
-  page.on('pageerror', (e) => errors.push(e.message));
-  await page.goto(url);
-  await page.waitForFunction(() => window.latticesim && window.latticesim.ready);
+  const { page, errors } = await open(browser, url, { width: 1280, height: 760 });
   assert.equal(await stepNumber(page), 0);
 
   // Five steps forward, two back.
@@ -128,11 +134,7 @@ async function test(browser) {
 // those agents (picking through the drawn faces), with no script error.
 async function test3d(browser) {
   const url = await serve('examples/spanning-tree/rules-3d.txt', 'examples/spanning-tree/agents-3d.txt');
-  const page = await browser.newPage({ viewport: { width: 1100, height: 640 } });
-  const errors = [];
-  page.on('pageerror', (e) => errors.push(e.message));
-  await page.goto(url);
-  await page.waitForFunction(() => window.latticesim && window.latticesim.ready);
+  const { page, errors } = await open(browser, url);
   for (let i = 1; i <= 3; i++) {
     await page.click('#step');
     await waitStep(page, i);
@@ -172,11 +174,7 @@ async function test3d(browser) {
 // pause a run, the keys step after the slider was touched, the achieved rate is shown.
 async function testControls(browser) {
   const url = await serve('examples/bouncing/rules.txt', 'examples/bouncing/agents.txt');
-  const page = await browser.newPage({ viewport: { width: 1100, height: 640 } });
-  const errors = [];
-  page.on('pageerror', (e) => errors.push(e.message));
-  await page.goto(url);
-  await page.waitForFunction(() => window.latticesim && window.latticesim.ready);
+  const { page, errors } = await open(browser, url);
   await page.click('#stage');
   for (let i = 0; i < 30; i++) await page.keyboard.press('ArrowRight');
   await waitStep(page, 30);
@@ -249,11 +247,7 @@ function oklab(hex) {
 // a state, and a hidden state's agents are not picked.
 async function testPalette(browser) {
   const url = await serve('examples/spanning-tree/rules-3d.txt', 'examples/spanning-tree/agents-3d.txt');
-  const page = await browser.newPage({ viewport: { width: 1100, height: 640 } });
-  const errors = [];
-  page.on('pageerror', (e) => errors.push(e.message));
-  await page.goto(url);
-  await page.waitForFunction(() => window.latticesim && window.latticesim.ready);
+  const { page, errors } = await open(browser, url);
   await page.fill('#jump', '9');
   await page.click('#go');
   await waitStep(page, 9);
@@ -299,11 +293,7 @@ async function testSlabs(browser) {
   for (let x = 0; x < 5; x++) for (let y = 0; y < 5; y++) for (let z = 0; z < 5; z++) text += `${x},${y},${z} SB${x}${y}${z}0\n`;
   fs.writeFileSync(agents, text);
   const url = await serve(rules, agents);
-  const page = await browser.newPage({ viewport: { width: 1100, height: 640 } });
-  const errors = [];
-  page.on('pageerror', (e) => errors.push(e.message));
-  await page.goto(url);
-  await page.waitForFunction(() => window.latticesim && window.latticesim.ready);
+  const { page, errors } = await open(browser, url);
   const middle = 2 * 25 + 2 * 5 + 2; // the agent at 2,2,2
   // The agent drawn where the top of agent `id`'s cell is projected, whether it is drawn
   // or not.
@@ -364,9 +354,7 @@ async function testTabs(browser) {
 
 async function screenshot(browser, rules, agents, steps, file, setup) {
   const url = await serve(rules, agents);
-  const page = await browser.newPage({ viewport: { width: 1100, height: 640 } });
-  await page.goto(url);
-  await page.waitForFunction(() => window.latticesim && window.latticesim.ready);
+  const { page } = await open(browser, url);
   await page.fill('#jump', String(steps));
   await page.click('#go');
   await waitStep(page, steps);

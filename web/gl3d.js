@@ -146,16 +146,22 @@ function uniforms(w, h, picking) {
   gl.uniform1i(U('picking'), picking ? 1 : 0);
 }
 
-// Draws frame `f` into the WebGL canvas of CSS size (w, h).
-export function drawGL(canvas, f, w, h) {
-  gl.viewport(0, 0, canvas.width, canvas.height);
+// Draws frame `f` into the bound framebuffer of W x H pixels, for a canvas of CSS size
+// (w, h): in colours on white, or (`picking`) as agent ids on nothing.
+function render(f, W, H, w, h, picking) {
+  gl.viewport(0, 0, W, H);
   gl.useProgram(prog);
   instances(f);
-  uniforms(w, h, false);
+  uniforms(w, h, picking);
   gl.enable(gl.DEPTH_TEST);
-  gl.clearColor(1, 1, 1, 1);
+  gl.clearColor(...(picking ? [0, 0, 0, 0] : [1, 1, 1, 1]));
   gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
   gl.drawArraysInstanced(gl.TRIANGLES, 0, 6, count);
+}
+
+// Draws frame `f` into the WebGL canvas of CSS size (w, h).
+export function drawGL(canvas, f, w, h) {
+  render(f, canvas.width, canvas.height, w, h, false);
 }
 
 // The agent drawn at CSS point (x, y) of a canvas of CSS size (w, h), or null.
@@ -173,14 +179,7 @@ export function pickGL(canvas, f, x, y, w, h) {
     pickFb = { fb, w: W, h: H };
   }
   gl.bindFramebuffer(gl.FRAMEBUFFER, pickFb.fb);
-  gl.viewport(0, 0, W, H);
-  gl.useProgram(prog);
-  instances(f);
-  uniforms(w, h, true);
-  gl.enable(gl.DEPTH_TEST);
-  gl.clearColor(0, 0, 0, 0);
-  gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
-  gl.drawArraysInstanced(gl.TRIANGLES, 0, 6, count);
+  render(f, W, H, w, h, true);
   const px = new Uint8Array(4);
   gl.readPixels(Math.round(x * W / w), Math.round(H - 1 - y * H / h), 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, px);
   gl.bindFramebuffer(gl.FRAMEBUFFER, null);
