@@ -323,6 +323,37 @@ async function testSlabs(browser) {
   await page.close();
 }
 
+// Colouring by a counter: leader election's ids (C00) on the viridis scale, the scale's
+// ends in the legend, the agent with the largest id drawn in its top colour.
+async function testColourBy(browser) {
+  const url = await serve(RULES, AGENTS);
+  const { page, errors } = await open(browser, url);
+  await page.click('#step');
+  await waitStep(page, 1);
+  await page.selectOption('#colour-by', 'C00');
+  await page.waitForFunction(() => window.latticesim.frame().values);
+  const after = agentsAfter(1).map(parseAgent);
+  const ids = after.map((a) => a.counters.C00 || 0);
+  const [lo, hi] = [Math.min(...ids), Math.max(...ids)];
+  assert.equal(await page.textContent('#scale .lo'), String(lo));
+  assert.equal(await page.textContent('#scale .hi'), String(hi));
+  const top = ids.indexOf(hi);
+  const rgb = await page.evaluate((id) => {
+    const c = document.getElementById('canvas');
+    const r = c.getBoundingClientRect();
+    const [x, y] = window.latticesim.screenOf(id);
+    const dpr = window.devicePixelRatio || 1;
+    return Array.from(c.getContext('2d').getImageData(Math.round((x - r.left) * dpr), Math.round((y - r.top) * dpr), 1, 1).data.slice(0, 3));
+  }, top);
+  assert.deepEqual(rgb, [0xfd, 0xe7, 0x25], `agent ${top} (C00 = ${hi}) in the scale's top colour`);
+  await page.selectOption('#colour-by', '');
+  await page.waitForFunction(() => !window.latticesim.frame().values);
+  assert.ok(await page.isHidden('#scale'));
+  assert.deepEqual(errors, [], 'no script errors in the page');
+  console.log(`ok: coloured by C00 (${lo}..${hi}), agent ${top} drawn in the scale's top colour; back to states`);
+  await page.close();
+}
+
 // Two tabs of one server: each steps and applies on its own.
 async function testTabs(browser) {
   const url = await serve(RULES, AGENTS);
@@ -371,6 +402,7 @@ try {
   await test3d(browser);
   await testControls(browser);
   await testPalette(browser);
+  await testColourBy(browser);
   await testTabs(browser);
   await testSlabs(browser);
   if (process.env.SCREENSHOTS) {

@@ -46,10 +46,10 @@ export function el(tag, attrs, ...children) {
 // The frame of step `step` in the binary layout (docs/viewer.md, src/serve/binary.rs),
 // as a delta on `held` (the frame shown) when the server finds that smaller: `{ok, status,
 // v}` like `api`, `v` a frame with typed arrays for pos, state and attach.
-export async function frameAt(step, held) {
+export async function frameAt(step, held, counter) {
   const headers = {};
   if (tab) headers['X-Latticesim-Tab'] = tab;
-  const since = held ? '&since=' + held.step : '';
+  const since = (held ? '&since=' + held.step : '') + (counter ? '&counter=' + counter : '');
   let r;
   try {
     r = await fetch('/api/frame?format=bin&step=' + step + since, { headers });
@@ -80,7 +80,11 @@ export function decodeFrame(buf, held) {
   const st = wide ? new Uint32Array(buf, off, c) : new Uint16Array(buf, off, c);
   off = (off + head.state_bytes * c + 3) & ~3;
   const at = head.attach ? new Uint8Array(buf, off, c) : null;
+  if (at) off += c;
+  // The counter asked for, of every agent.
+  const values = head.counter ? new Int16Array(buf, (off + 1) & ~1, n) : null;
   const f = head;
+  f.values = values;
   if (!head.delta) {
     f.pos = pos; f.state = st; f.attach = at;
     return f;

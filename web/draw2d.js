@@ -3,7 +3,7 @@
 // and which agent stands at a point.
 
 import { agentCount, bbox, camera } from './camera.js';
-import { selection, stateColours } from './state.js';
+import { agentColour, selection, stateColours } from './state.js';
 
 // RGBA bytes of each state's colour in a little-endian word (0xAABBGGRR); 0 (transparent)
 // for a hidden state.
@@ -20,7 +20,7 @@ function words(f) {
 // it was done.
 function patched(f) {
   const b = camera.bmp;
-  if (!b || !b.canvas || !f.base || b.frame !== f.base || b.looks !== selection.looksVersion) return false;
+  if (!b || !b.canvas || !f.base || b.frame !== f.base || b.looks !== selection.looksVersion || f.values) return false;
   const ids = f.changedIds, w = b.hi[0] - b.lo[0] + 1;
   for (const i of ids) {
     const x = f.pos[2 * i], y = f.pos[2 * i + 1];
@@ -51,8 +51,11 @@ function bitmap(f) {
   const px = new Uint32Array(img.data.buffer);
   // RGBA bytes in a little-endian word: 0xAABBGGRR.
   const cols = words(f);
+  const word = (hex) => { const v = parseInt(hex.slice(1), 16); return (0xff000000 | ((v & 0xff) << 16) | (v & 0xff00) | (v >> 16)) >>> 0; };
+  const states = stateColours(f);
   for (let i = 0; i < agentCount(f); i++) {
-    px[(b.hi[1] - f.pos[2 * i + 1]) * w + (f.pos[2 * i] - b.lo[0])] = cols[f.state[i]];
+    const c = selection.colourBy && f.values ? agentColour(f, states, i) : null;
+    px[(b.hi[1] - f.pos[2 * i + 1]) * w + (f.pos[2 * i] - b.lo[0])] = c === null ? cols[f.state[i]] : word(c);
   }
   cx.putImageData(img, 0, 0);
   Object.assign(camera.bmp, { canvas: c, ctx: cx, img, px });
@@ -96,6 +99,7 @@ export function draw2d(ctx, f, r) {
       if (colours[k] === null) return;
       ctx.fillStyle = colours[k];
       for (const i of g) {
+        if (selection.colourBy && f.values) ctx.fillStyle = agentColour(f, colours, i);
         ctx.fillRect(camera.ox + f.pos[2 * i] * s + gap, camera.oy - (f.pos[2 * i + 1] + 1) * s + gap, w, w);
       }
     });

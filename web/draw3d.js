@@ -3,7 +3,7 @@
 // agent's faces cover a point.
 
 import { agentCount, bbox, camera, CORNERS, project } from './camera.js';
-import { selection, stateColours } from './state.js';
+import { agentColour, selection, stateColours } from './state.js';
 
 function shade(hex, k) {
   const v = parseInt(hex.slice(1), 16);
@@ -120,7 +120,7 @@ export function draw3d(ctx, f, r) {
   for (const [, i] of order) {
     const x = f.pos[3 * i], y = f.pos[3 * i + 1], z = f.pos[3 * i + 2];
     const pts = CORNERS.map((c) => project(x + (c[0] ? hi : lo), y + (c[1] ? hi : lo), z + (c[2] ? hi : lo)));
-    const colour = colours[f.state[i]];
+    const colour = agentColour(f, colours, i);
     const polys = [];
     const face = (idx, fill) => {
       ctx.beginPath();

@@ -6,7 +6,7 @@
 // fallback where WebGL2 is missing.
 
 import { camera } from './camera.js';
-import { selection, stateColours } from './state.js';
+import { agentColour, selection, stateColours } from './state.js';
 import { DIRS, MARGIN, shown } from './draw3d.js';
 
 const VS = `#version 300 es
@@ -106,14 +106,14 @@ const rgb = (hex) => { const v = parseInt(hex.slice(1), 16); return [(v >> 16) /
 function instances(f) {
   const colours = stateColours(f);
   const { out, cells } = shown(f, colours);
-  const key = `${selection.looksVersion}|${JSON.stringify(camera.clip)}|${selection.selected}|${[...selection.highlight].join(',')}`;
+  const key = `${selection.looksVersion}|${JSON.stringify(camera.clip)}|${selection.selected}|${[...selection.highlight].join(',')}|${selection.colourBy}`;
   if (built && built.frame === f && built.key === key) return;
   const centre = [], half = [], face = [], colour = [], id = [];
   const h = 0.5 - MARGIN;
   const push = (c, hs, fc, col, i) => { centre.push(...c); half.push(...hs); face.push(fc); colour.push(...col); id.push(i + 1); };
   for (const i of out) {
     const x = f.pos[3 * i], y = f.pos[3 * i + 1], z = f.pos[3 * i + 2];
-    const col = selection.selected === i ? [0, 0.31, 1] : selection.highlight.has(i) ? [1, 0.83, 0] : rgb(colours[f.state[i]]);
+    const col = selection.selected === i ? [0, 0.31, 1] : selection.highlight.has(i) ? [1, 0.83, 0] : rgb(agentColour(f, colours, i));
     const c = [x + 0.5, y + 0.5, z + 0.5];
     // Faces: -x +x -y +y -z +z; the neighbours in those directions.
     const around = [[-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 1, 0], [0, 0, -1], [0, 0, 1]];

@@ -4,8 +4,8 @@ import { $ } from './api.js';
 import { camera, tilt } from './camera.js';
 import { canvas, draw, fit, pick, zoom } from './draw.js';
 import { inspect } from './panel.js';
-import { currentStep, gotoStep, stopRun, toggleRun } from './player.js';
-import { player } from './state.js';
+import { currentStep, gotoStep, refreshFrame, stopRun, toggleRun } from './player.js';
+import { player, selection } from './state.js';
 
 // ---------------------------------------------------------------- mouse and keys
 
@@ -75,6 +75,11 @@ $('go').onclick = () => { stopRun(); gotoStep(Number($('jump').value) || 0); };
 $('jump').addEventListener('keydown', (e) => { if (e.key === 'Enter') $('go').onclick(); });
 $('speed').oninput = () => { $('speed-label').textContent = $('speed').value; };
 $('fit').onclick = fit;
+$('colour-by').onchange = () => {
+  selection.colourBy = $('colour-by').value || null;
+  selection.looksVersion += 1;
+  refreshFrame();
+};
 $('rot-left').onclick = () => { camera.theta -= Math.PI / 12; draw(); };
 $('rot-right').onclick = () => { camera.theta += Math.PI / 12; draw(); };
 $('tilt-up').onclick = () => { tilt(Math.PI / 18); draw(); };

@@ -3,7 +3,7 @@
 import { $, api, el } from './api.js';
 import { bbox, camera } from './camera.js';
 import { draw } from './draw.js';
-import { selection } from './state.js';
+import { selection, valueRange } from './state.js';
 
 // ---------------------------------------------------------------- side panel
 
@@ -12,6 +12,19 @@ import { selection } from './state.js';
 // each state; clicking the name highlights the state (the others fade), again hides it
 // (its agents are neither drawn nor picked), again shows it as it was.
 export function showLegend(f) {
+  // The counters the agents can be coloured by, and the scale when they are.
+  const sel = $('colour-by');
+  const names = ['', ...(f.counters || [])];
+  if ([...sel.options].map((o) => o.value).join() !== names.join()) {
+    sel.replaceChildren(...names.map((c) => el('option', { value: c }, c || 'state')));
+  }
+  sel.value = selection.colourBy || '';
+  const range = selection.colourBy ? valueRange(f) : null;
+  $('scale').hidden = !range;
+  if (range) {
+    $('scale').querySelector('.lo').textContent = range[0];
+    $('scale').querySelector('.hi').textContent = range[1];
+  }
   const ul = $('legend');
   ul.replaceChildren();
   const states = f.states.filter((s) => s.count > 0)

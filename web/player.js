@@ -20,7 +20,7 @@ export async function gotoStep(n) {
   try {
     while (player.target !== null && (!player.frame || player.frame.step !== player.target)) {
       const t = player.target;
-      const r = await frameAt(t, player.frame);
+      const r = await frameAt(t, player.frame, selection.colourBy);
       if (!r.ok) { setNote(r.v.error); player.target = null; stopRun(); break; }
       showFrame(r.v);
       // A run that ended before the step asked for: the target is where it ended.
@@ -31,6 +31,14 @@ export async function gotoStep(n) {
     player.busy = false;
     updateRunButton();
   }
+}
+
+// The frame of the current step asked for again, whole (after the counter to colour by
+// changed).
+export async function refreshFrame() {
+  if (!player.frame) return;
+  const r = await frameAt(player.frame.step, null, selection.colourBy);
+  if (r.ok) showFrame(r.v); else setNote(r.v.error);
 }
 
 export function currentStep() {

@@ -19,7 +19,38 @@ export const selection = {
   // { mode: 'highlight' | 'hidden' }.
   looks: new Map(),
   looksVersion: 0,   // changed with every change of looks (drawings cached per frame see it)
+  colourBy: null,    // a counter ('C00') to colour the agents by, instead of their state
 };
+
+// The scale of a counter: viridis, as `latticesim render --color-by` draws it.
+const SCALE = [[68, 1, 84], [59, 82, 139], [33, 145, 140], [94, 201, 98], [253, 231, 37]];
+export function scaleColour(t) {
+  const x = Math.max(0, Math.min(1, t)) * (SCALE.length - 1);
+  const i = Math.min(Math.floor(x), SCALE.length - 2), k = x - i;
+  const c = SCALE[i].map((a, j) => Math.round(a + (SCALE[i + 1][j] - a) * k));
+  return '#' + ((1 << 24) | (c[0] << 16) | (c[1] << 8) | c[2]).toString(16).slice(1);
+}
+
+// The smallest and largest value of the counter a frame carries.
+export function valueRange(f) {
+  if (!f.values) return null;
+  if (!f.range) {
+    let lo = Infinity, hi = -Infinity;
+    for (const v of f.values) { if (v < lo) lo = v; if (v > hi) hi = v; }
+    f.range = f.values.length ? [lo, hi] : [0, 0];
+  }
+  return f.range;
+}
+
+// The colour agent `i` of frame `f` is drawn in: its state's (see stateColours, given as
+// `colours`), or its counter's on the scale when colouring by a counter; null when its
+// state is hidden.
+export function agentColour(f, colours, i) {
+  const c = colours[f.state[i]];
+  if (c === null || !selection.colourBy || !f.values) return c;
+  const [lo, hi] = valueRange(f);
+  return scaleColour(hi > lo ? (f.values[i] - lo) / (hi - lo) : 0.5);
+}
 
 // A colour faded towards white (the states not highlighted while one is).
 function fade(hex) {

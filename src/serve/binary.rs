@@ -9,7 +9,8 @@
 //! positions (i32, `dim` per agent), state indices (u16, or u32 with `state_bytes` 4: an
 //! index into `states`, which lists every state the run has shown, in order of first
 //! appearance, so an index keeps its state for the run), zero bytes to a multiple of 4,
-//! and attachment bits (u8, when `attach`).
+//! and attachment bits (u8, when `attach`); with `counter` (asked for with `counter=Cnn`),
+//! zero bytes to a multiple of 2 and that counter of every agent (i16), delta or not.
 
 use super::*;
 
@@ -29,7 +30,7 @@ fn pad(out: &mut Vec<u8>) {
 
 /// The binary frame of the run's current step; a delta when the tab holds the frame of
 /// step `since` (the last one sent) and that is smaller.
-pub(super) fn frame_bin(run: &mut Run, since: Option<u64>) -> Vec<u8> {
+pub(super) fn frame_bin(run: &mut Run, since: Option<u64>, counter: Option<u8>) -> Vec<u8> {
     let e = run.hist.engine();
     let lat = &e.lat;
     let (n, dim) = (lat.len(), lat.dim.coords());
@@ -80,6 +81,8 @@ pub(super) fn frame_bin(run: &mut Run, since: Option<u64>) -> Vec<u8> {
         "delta": changed.is_some(),
         "base": changed.as_ref().and(since),
         "changed": changed.as_ref().map(Vec::len),
+        "counters": lat.counter_numbers().iter().map(|c| format!("C{c:02}")).collect::<Vec<_>>(),
+        "counter": counter.map(|c| format!("C{c:02}")),
     });
     let head = head.to_string();
     let ids: Vec<usize> = match &changed {
@@ -112,6 +115,14 @@ pub(super) fn frame_bin(run: &mut Run, since: Option<u64>) -> Vec<u8> {
     pad(&mut out);
     if attach {
         out.extend(ids.iter().map(|&i| lat.attach[i]));
+    }
+    if let Some(c) = counter {
+        if out.len() % 2 == 1 {
+            out.push(0);
+        }
+        for a in 0..n as u32 {
+            out.extend_from_slice(&lat.counter(a, c).to_le_bytes());
+        }
     }
     let step = run.hist.steps();
     match (run.sent.as_mut(), &changed) {

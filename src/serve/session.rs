@@ -320,7 +320,7 @@ impl Session {
                 status: 200,
                 ctype: "application/octet-stream",
                 headers: Vec::new(),
-                body: super::binary::frame_bin(run, req.number("since")?),
+                body: super::binary::frame_bin(run, req.number("since")?, counter_asked(req, run)?),
             }),
             Some(&"json") | None => Ok(reply_json(200, &frame(run))),
             Some(f) => Err(error(
@@ -411,4 +411,21 @@ pub(super) fn save(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
         f.set_permissions(meta.permissions())?;
     }
     f.commit()
+}
+
+/// The counter a binary frame is asked to carry (`counter=Cnn`), checked against the run's
+/// dimension.
+fn counter_asked(req: &Req, run: &Run) -> Result<Option<u8>, Reply> {
+    let Some(name) = req.query.get("counter") else {
+        return Ok(None);
+    };
+    let nc = run.hist.engine().lat.nc();
+    match crate::gen::parse_counter(name) {
+        Ok(c) if (c as usize) < nc => Ok(Some(c)),
+        Ok(_) => Err(error(
+            400,
+            format!("`counter`: {name} is not a counter of this run (C00..C{:02})", nc - 1),
+        )),
+        Err(e) => Err(error(400, format!("`counter`: {e}"))),
+    }
 }
