@@ -424,7 +424,10 @@ fn counter_asked(req: &Req, run: &Run) -> Result<Option<u8>, Reply> {
         Ok(c) if (c as usize) < nc => Ok(Some(c)),
         Ok(_) => Err(error(
             400,
-            format!("`counter`: {name} is not a counter of this run (C00..C{:02})", nc - 1),
+            format!(
+                "`counter`: {name} is not a counter of this run (C00..C{:02})",
+                nc - 1
+            ),
         )),
         Err(e) => Err(error(400, format!("`counter`: {e}"))),
     }
