@@ -912,7 +912,7 @@ impl World {
                         recs.push(Rec {
                             step,
                             kind: "swap-target",
-                            agents: vec![a as u32],
+                            agents: vec![a as u32, b as u32],
                         });
                     }
                 }

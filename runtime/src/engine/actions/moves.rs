@@ -535,7 +535,7 @@ impl Act<'_> {
                             "agent {a} cannot swap towards {}: agent {b} there is asked for different swaps and takes part in none",
                             d.letter()
                         );
-                        self.record(rep, RecordKind::SwapTarget, &[a], msg);
+                        self.record(rep, RecordKind::SwapTarget, &[a, b], msg);
                     }
                     if !pairs.iter().any(|p| p.0 == x && p.1 == y) {
                         pairs.push((x, y, dd, dead));
