@@ -370,6 +370,9 @@ impl Simulation {
     fn positions(slf: Bound<'_, Self>) -> PyResult<Bound<'_, PyArray2<i32>>> {
         let this = slf.borrow();
         let lat = &this.engine.lat;
+        if lat.is_empty() {
+            return read_only(PyArray2::zeros(slf.py(), (0, lat.dim.coords()), false));
+        }
         let flat: &[i32] = lat.pos.as_flattened();
         let shape = (lat.len(), lat.dim.coords()).strides((3, 1));
         let view = ArrayView2::from_shape(shape, flat).expect("three coordinates per agent");

@@ -231,3 +231,11 @@ def test_help_reads_well():
     for word in ("from_files", "from_text", "resume", "positions", "series", "checkpoint", "Ctrl-C", "CheckError"):
         assert word in text, word
     assert latticesim.__version__
+
+
+def test_no_agents_is_an_empty_configuration():
+    rules = (ROOT / "examples/leader-election/rules.txt").read_text()
+    sim = latticesim.Simulation.from_text(rules, "")
+    assert sim.agents == 0 and sim.positions.shape == (0, 2) and sim.states.shape == (0,)
+    assert sim.to_pandas().shape[0] == 0 and sim.to_text() == ""
+    assert sim.run().quiescent
