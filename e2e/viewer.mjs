@@ -52,6 +52,42 @@ async function open(browser, url, viewport = { width: 1100, height: 640 }) {
   return { page, errors };
 }
 
+// The places where the 2D image differs from the frame shown: agents not in their state's
+// colour, empty cells among them with something drawn (none: the image, patched step by
+// step where agents changed, is the frame).
+function imageWrongs(page) {
+  return page.evaluate(() => {
+    const L = window.latticesim, f = L.frame();
+    const c = document.getElementById('canvas'), r = c.getBoundingClientRect();
+    const ctx = c.getContext('2d'), dpr = window.devicePixelRatio || 1;
+    // '' for a pixel nothing was drawn on (the page's white shows through).
+    const at = (x, y) => {
+      const d = ctx.getImageData(Math.round((x - r.left) * dpr), Math.round((y - r.top) * dpr), 1, 1).data;
+      return d[3] === 0 ? '' : Array.from(d.slice(0, 3)).map((v) => v.toString(16).padStart(2, '0')).join('');
+    };
+    const taken = new Set();
+    const bad = [];
+    for (let i = 0; i < f.pos.length / 2; i++) {
+      taken.add(f.pos[2 * i] + ',' + f.pos[2 * i + 1]);
+      const [x, y] = L.screenOf(i);
+      if ('#' + at(x, y) !== f.states[f.state[i]].colour) bad.push(i);
+    }
+    // Every empty cell among the agents: nothing drawn there (or white), no agent left
+    // behind by the patches.
+    const [x0, y0] = L.screenOf(0), s = L.cell();
+    const xs = [], ys = [];
+    for (let i = 0; i < f.pos.length / 2; i++) { xs.push(f.pos[2 * i]); ys.push(f.pos[2 * i + 1]); }
+    for (let x = Math.min(...xs); x <= Math.max(...xs); x++) {
+      for (let y = Math.min(...ys); y <= Math.max(...ys); y++) {
+        if (taken.has(x + ',' + y)) continue;
+        const px = at(x0 + (x - f.pos[0]) * s, y0 - (y - f.pos[1]) * s);
+        if (px !== '' && px !== 'ffffff') bad.push(`empty ${x},${y}: #${px}`);
+      }
+    }
+    return bad;
+  });
+}
+
 async function stepNumber(page) {
   return Number(await page.textContent('#step-number'));
 }
@@ -188,6 +224,7 @@ async function testControls(browser) {
     return Array.from({ length: f.pos.length / 2 }, (_, i) => ({ pos: `${f.pos[2 * i]},${f.pos[2 * i + 1]}`, state: f.states[f.state[i]].name }));
   });
   assert.deepEqual(shown, cli.map((a) => ({ pos: a.pos, state: a.state })), 'the frame shown is the run at step 30');
+  assert.deepEqual(await imageWrongs(page), [], 'the patched image is the frame');
   console.log('ok: 30 quick presses of the right arrow land on step 30, the frame equal to latticesim run --max-steps 30');
 
   // Touch the slider, then the arrows step and leave the speed alone.
@@ -225,6 +262,15 @@ async function testControls(browser) {
   assert.equal(await stepNumber(page), back, 'the run is paused after Back');
   assert.ok(back >= s1 - 1, `Back went one step back (${s1} -> ${back})`);
   assert.deepEqual(errors, [], 'no script errors in the page');
+  // Gravity: late steps move few agents, sent as deltas and patched into the image.
+  const g = await open(browser, await serve('examples/gravity/rules.txt', 'examples/gravity/agents.txt'));
+  for (let i = 1; i <= 10; i++) {
+    await g.page.keyboard.press('ArrowRight');
+    await waitStep(g.page, i);
+    assert.deepEqual(await imageWrongs(g.page), [], `gravity's image at step ${i}`);
+  }
+  assert.ok(await g.page.evaluate(() => window.latticesim.patches()) > 0, 'some steps were patched in');
+  await g.page.close();
   console.log(`ok: Pause/Run races give one loop (${rate.toFixed(1)} steps/s at speed 5); Back pauses; the slider keeps no arrow keys`);
   await page.close();
 }

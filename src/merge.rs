@@ -2,8 +2,7 @@
 //! joined into one table, its rows in the order of their run numbers: the table the
 //! sweep run whole writes (but for the wall times).
 
-use crate::output::{open_output, say, write_output};
-use crate::sweep::is_parquet;
+use crate::output::{open_output, say};
 use crate::table::{Column, Table};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -70,18 +69,7 @@ pub fn merge(a: MergeArgs) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let written = if is_parquet(&a.out) {
-        table
-            .write_parquet(out)
-            .and_then(|f| f.commit())
-            .map_err(|e| {
-                say!("error: cannot write `{}`: {e}", a.out.display());
-                ExitCode::from(2)
-            })
-    } else {
-        write_output(out, table.to_csv().as_bytes())
-    };
-    if let Err(c) = written {
+    if let Err(c) = table.commit(out) {
         return c;
     }
     say!(

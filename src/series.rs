@@ -4,7 +4,7 @@
 //! Either way the file appears whole when the run ends (it is an [`AtomicFile`]).
 
 use crate::output::{open_output, say, AtomicFile};
-use crate::table::csv_field;
+use crate::table::{csv_field, format_of};
 use latticesim_runtime::StepCost;
 use parquet::basic::{Repetition, Type as Physical};
 use parquet::data_type::{DoubleType, Int64Type};
@@ -29,18 +29,6 @@ pub(crate) enum Series {
         counts: Vec<Vec<i64>>,
         times: Option<Vec<f64>>,
     },
-}
-
-/// The format of a series file, from its name.
-fn format_of(path: &Path) -> Option<&'static str> {
-    let name = path.file_name()?.to_str()?.to_ascii_lowercase();
-    if name.ends_with(".csv") {
-        Some("csv")
-    } else if name.ends_with(".parquet") {
-        Some("parquet")
-    } else {
-        None
-    }
 }
 
 /// A series file opened before the run, to be started when the rules are known.

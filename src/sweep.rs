@@ -208,12 +208,11 @@ impl SweepShape {
     }
 
     /// Its name, as `--shape` takes it.
-    pub fn name(self) -> &'static str {
-        match self {
-            SweepShape::Line => "line",
-            SweepShape::Block => "block",
-            SweepShape::Connected => "connected",
-        }
+    pub fn name(self) -> String {
+        self.to_possible_value()
+            .expect("named")
+            .get_name()
+            .to_string()
     }
 }
 
@@ -448,12 +447,6 @@ fn jobs(a: &SweepArgs) -> Result<Vec<(Job, u64)>, String> {
         .collect())
 }
 
-/// The name ends in `.parquet`.
-pub fn is_parquet(path: &std::path::Path) -> bool {
-    (path.file_name().and_then(|n| n.to_str()))
-        .is_some_and(|n| n.to_ascii_lowercase().ends_with(".parquet"))
-}
-
 /// The table of the rows, the fitted growth of the metrics chosen, and the plot.
 fn outputs(
     a: &SweepArgs,
@@ -461,16 +454,7 @@ fn outputs(
     out_file: crate::output::AtomicFile,
     plot_file: Option<crate::output::AtomicFile>,
 ) -> Result<(), ExitCode> {
-    let t = table(rows);
-    if is_parquet(&a.out) {
-        let committed = t.write_parquet(out_file).and_then(|f| f.commit());
-        if let Err(e) = committed {
-            say!("error: cannot write `{}`: {e}", a.out.display());
-            return Err(ExitCode::from(2));
-        }
-    } else {
-        write_output(out_file, t.to_csv().as_bytes())?;
-    }
+    table(rows).commit(out_file)?;
     let metrics = chosen(a, rows);
     let fits: Vec<String> = (metrics.iter())
         .filter_map(|&(name, f)| fit(&points(rows, f)).map(|f| format!("{name} ~ {}", f.text())))

@@ -68,6 +68,18 @@ impl Column {
     }
 }
 
+/// The format of a table or series file by its name: `csv`, `parquet`, or none.
+pub fn format_of(path: &Path) -> Option<&'static str> {
+    let name = path.file_name()?.to_str()?.to_ascii_lowercase();
+    if name.ends_with(".csv") {
+        Some("csv")
+    } else if name.ends_with(".parquet") {
+        Some("parquet")
+    } else {
+        None
+    }
+}
+
 /// A CSV field: quoted when it holds a comma, a quote or a line break (RFC 4180).
 pub fn csv_field(s: &str) -> String {
     if s.contains([',', '"', '\n', '\r']) {
@@ -165,6 +177,22 @@ impl Table {
         }
         group.close().map_err(other)?;
         writer.into_inner().map_err(other)
+    }
+
+    /// Writes the table into an output file, as Parquet when its name ends in `.parquet`,
+    /// else as CSV, and commits it; the message and exit status 2 when it cannot.
+    pub(crate) fn commit(
+        &self,
+        f: crate::output::AtomicFile,
+    ) -> Result<(), std::process::ExitCode> {
+        if format_of(f.path()) != Some("parquet") {
+            return crate::output::write_output(f, self.to_csv().as_bytes());
+        }
+        let path = f.path().to_path_buf();
+        self.write_parquet(f).and_then(|f| f.commit()).map_err(|e| {
+            crate::output::say!("error: cannot write `{}`: {e}", path.display());
+            std::process::ExitCode::from(2)
+        })
     }
 
     /// Reads a table written by [`Table::to_csv`] (the types by the column names).

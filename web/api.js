@@ -11,7 +11,10 @@ export function setTab(id) { tab = id; }
 let onGone = null;
 export function whenGone(f) { onGone = f; }
 
-export async function api(method, path, body) {
+// Sends a request with this tab's id; `read` turns a successful answer into its value.
+// `{ok, status, v}`: `v` that value, or `{error}` from the server's JSON (or the status).
+// A 410 (this tab's run is gone) is also told to the page at once.
+async function send(method, path, body, read) {
   const init = { method, headers: {} };
   if (tab) init.headers['X-Latticesim-Tab'] = tab;
   if (body !== undefined) {
@@ -26,12 +29,17 @@ export async function api(method, path, body) {
   }
   let v;
   try {
-    v = await r.json();
+    v = r.ok ? await read(r) : await r.json();
   } catch (e) {
     v = { error: 'HTTP ' + r.status };
   }
   if (r.status === 410 && onGone) onGone(v.error);
   return { ok: r.ok, status: r.status, v };
+}
+
+// A JSON request of the API.
+export function api(method, path, body) {
+  return send(method, path, body, (r) => r.json());
 }
 
 export function el(tag, attrs, ...children) {
@@ -46,23 +54,10 @@ export function el(tag, attrs, ...children) {
 // The frame of step `step` in the binary layout (docs/viewer.md, src/serve/binary.rs),
 // as a delta on `held` (the frame shown) when the server finds that smaller: `{ok, status,
 // v}` like `api`, `v` a frame with typed arrays for pos, state and attach.
-export async function frameAt(step, held, counter) {
-  const headers = {};
-  if (tab) headers['X-Latticesim-Tab'] = tab;
+export function frameAt(step, held, counter) {
   const since = (held ? '&since=' + held.step : '') + (counter ? '&counter=' + counter : '');
-  let r;
-  try {
-    r = await fetch('/api/frame?format=bin&step=' + step + since, { headers });
-  } catch (e) {
-    return { ok: false, status: 0, v: { error: 'the server does not answer: ' + e.message } };
-  }
-  if (!r.ok) {
-    let v;
-    try { v = await r.json(); } catch (e) { v = { error: 'HTTP ' + r.status }; }
-    if (r.status === 410 && onGone) onGone(v.error);
-    return { ok: false, status: r.status, v };
-  }
-  return { ok: true, status: r.status, v: decodeFrame(await r.arrayBuffer(), held) };
+  return send('GET', '/api/frame?format=bin&step=' + step + since, undefined,
+    async (r) => decodeFrame(await r.arrayBuffer(), held));
 }
 
 export function decodeFrame(buf, held) {

@@ -7,12 +7,14 @@ import { agentColour, selection, stateColours } from './state.js';
 
 // RGBA bytes of each state's colour in a little-endian word (0xAABBGGRR); 0 (transparent)
 // for a hidden state.
+function word(hex) {
+  if (hex === null) return 0;
+  const v = parseInt(hex.slice(1), 16);
+  return (0xff000000 | ((v & 0xff) << 16) | (v & 0xff00) | (v >> 16)) >>> 0;
+}
+
 function words(f) {
-  return stateColours(f).map((c) => {
-    if (c === null) return 0;
-    const v = parseInt(c.slice(1), 16);
-    return (0xff000000 | ((v & 0xff) << 16) | (v & 0xff00) | (v >> 16)) >>> 0;
-  });
+  return stateColours(f).map(word);
 }
 
 // The image of the frame before, patched where agents changed (a delta frame whose agents
@@ -31,6 +33,7 @@ function patched(f) {
   for (const i of ids) b.px[(b.hi[1] - f.pos[2 * i + 1]) * w + (f.pos[2 * i] - b.lo[0])] = cols[f.state[i]];
   if (ids.length) b.ctx.putImageData(b.img, 0, 0);
   b.frame = f;
+  camera.patches = (camera.patches || 0) + 1;
   return true;
 }
 
@@ -39,6 +42,7 @@ function patched(f) {
 // million cells.
 function bitmap(f) {
   if (camera.bmp && camera.bmp.frame === f && camera.bmp.looks === selection.looksVersion) return camera.bmp;
+  if (patched(f)) return camera.bmp;
   const b = bbox(f);
   const w = b.hi[0] - b.lo[0] + 1, h = b.hi[1] - b.lo[1] + 1;
   camera.bmp = { frame: f, canvas: null, lo: b.lo, hi: b.hi, looks: selection.looksVersion };
@@ -49,9 +53,7 @@ function bitmap(f) {
   const cx = c.getContext('2d');
   const img = cx.createImageData(w, h);
   const px = new Uint32Array(img.data.buffer);
-  // RGBA bytes in a little-endian word: 0xAABBGGRR.
   const cols = words(f);
-  const word = (hex) => { const v = parseInt(hex.slice(1), 16); return (0xff000000 | ((v & 0xff) << 16) | (v & 0xff00) | (v >> 16)) >>> 0; };
   const states = stateColours(f);
   for (let i = 0; i < agentCount(f); i++) {
     const c = selection.colourBy && f.values ? agentColour(f, states, i) : null;

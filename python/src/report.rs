@@ -83,8 +83,6 @@ pub struct Report {
     record_count: u64,
     /// No agent had a rule to execute at the last step: the run is over.
     quiescent: bool,
-    /// Why the call stopped: `quiescence`, `max-steps` (the steps asked for were taken).
-    stopped_by: String,
 }
 
 impl Report {
@@ -117,13 +115,22 @@ impl Report {
             records,
             record_count,
             quiescent,
-            stopped_by: if quiescent { "quiescence" } else { "max-steps" }.to_string(),
         })
     }
 }
 
 #[pymethods]
 impl Report {
+    /// Why the call stopped: `quiescence`, or `max-steps` (the steps asked for were taken).
+    #[getter]
+    fn stopped_by(&self) -> &'static str {
+        if self.quiescent {
+            "quiescence"
+        } else {
+            "max-steps"
+        }
+    }
+
     /// All firings of the steps.
     #[getter]
     fn total_firings(&self, py: Python<'_>) -> PyResult<u64> {

@@ -31,8 +31,6 @@ const SLICE: Duration = Duration::from_millis(50);
 #[pyclass(module = "latticesim")]
 pub struct Simulation {
     engine: Engine,
-    /// The rules' names, in file order.
-    rules: Vec<String>,
     /// The per-step costs, a row of `StepCost::values` per step, when kept.
     series: Option<Vec<u64>>,
     /// Why the last call stopped.
@@ -53,28 +51,34 @@ struct Batch {
 }
 
 impl Simulation {
+    /// A simulation of an engine (new, or resumed at a later step).
     fn new(
-        prog: latticesim_vm::Verified,
-        lat: latticesim_runtime::Lattice,
-        opts: Options,
-        threads: Option<usize>,
+        engine: Engine,
         series: bool,
         names: (String, String),
         warnings: Bound<'_, PyList>,
     ) -> Simulation {
-        let opts = Options {
-            threads: latticesim::engine_threads(threads, lat.len()),
-            ..opts
-        };
-        let engine = Engine::new(prog, lat, opts);
         Simulation {
-            rules: engine.prog.rules.iter().map(|r| r.name.clone()).collect(),
+            stopped_by: if engine.stats.quiescent {
+                "quiescence"
+            } else {
+                "max-steps"
+            },
             engine,
             series: series.then(Vec::new),
-            stopped_by: "max-steps",
             warnings: warnings.unbind(),
             names,
         }
+    }
+
+    /// The rules' names, in file order.
+    fn rule_names(&self) -> Vec<String> {
+        self.engine
+            .prog
+            .rules
+            .iter()
+            .map(|r| r.name.clone())
+            .collect()
     }
 
     /// A checked pair of files (`load`'s verdict) as a simulation, or its errors raised.
@@ -97,9 +101,12 @@ impl Simulation {
                 "internal error: the compiled program does not verify: {e}"
             ))
         })?;
-        Ok(Simulation::new(
-            prog, lat, opts, threads, series, names, warnings,
-        ))
+        let opts = Options {
+            threads: latticesim::engine_threads(threads, lat.len()),
+            ..opts
+        };
+        let engine = Engine::new(prog, lat, opts);
+        Ok(Simulation::new(engine, series, names, warnings))
     }
 
     /// Steps until `left` steps are taken, the run is quiescent, or `until` has passed.
@@ -159,7 +166,7 @@ impl Simulation {
             .collect::<PyResult<Vec<_>>>()?;
         Report::new(
             py,
-            &self.rules,
+            &self.rule_names(),
             &sum,
             self.engine.stats.steps,
             records,
@@ -301,18 +308,13 @@ impl Simulation {
         let engine = py
             .detach(|| latticesim::run::read_checkpoint_file(prog, opts, &checkpoint))
             .map_err(cannot)?;
-        Ok(Simulation {
-            rules: engine.prog.rules.iter().map(|r| r.name.clone()).collect(),
-            stopped_by: if engine.stats.quiescent {
-                "quiescence"
-            } else {
-                "max-steps"
-            },
+        let names = (rules_name, checkpoint.display().to_string());
+        Ok(Simulation::new(
             engine,
-            series: series.then(Vec::new),
-            warnings: check::diagnostics(py, &c)?.unbind(),
-            names: (rules_name, checkpoint.display().to_string()),
-        })
+            series,
+            names,
+            check::diagnostics(py, &c)?,
+        ))
     }
 
     /// Takes up to `n` steps (fewer when the run becomes quiescent): the report of them.
@@ -356,7 +358,7 @@ impl Simulation {
     /// The rules' names, in file order.
     #[getter]
     fn rules(&self) -> Vec<String> {
-        self.rules.clone()
+        self.rule_names()
     }
 
     /// The checker's warnings about the files (a list of `Diagnostic`).
@@ -527,11 +529,12 @@ impl Simulation {
                 "this simulation keeps no series (made with series=False)",
             ));
         };
-        let rules: Vec<&str> = self.rules.iter().map(String::as_str).collect();
-        let names = StepCost::columns(&rules);
-        let width = names.len();
+        let rules = self.rule_names();
+        let rules: Vec<&str> = rules.iter().map(String::as_str).collect();
+        let columns = StepCost::columns(&rules);
+        let width = columns.len();
         let out = PyDict::new(py);
-        for (j, name) in names.iter().enumerate() {
+        for (j, name) in columns.iter().enumerate() {
             let col: Vec<i64> = s.iter().skip(j).step_by(width).map(|&v| v as i64).collect();
             out.set_item(name, PyArray1::from_vec(py, col))?;
         }
@@ -591,7 +594,7 @@ impl Simulation {
             self.names.1,
             self.engine.lat.len(),
             self.engine.lat.dim.coords(),
-            self.rules.len(),
+            self.engine.prog.rules.len(),
             self.engine.stats.steps,
             if self.engine.stats.quiescent {
                 ", quiescent"

@@ -34,17 +34,7 @@ pub(super) fn frame_bin(run: &mut Run, since: Option<u64>, counter: Option<u8>) 
     let e = run.hist.engine();
     let lat = &e.lat;
     let (n, dim) = (lat.len(), lat.dim.coords());
-    let palette = &run.palette;
-    let state = palette.indices(&lat.state);
-    let mut counts = vec![0u64; palette.order().len()];
-    for &i in &state {
-        counts[i as usize] += 1;
-    }
-    let states: Vec<Value> = (palette.order().iter().zip(&counts))
-        .map(|(s, &count)| {
-            json!({ "name": state_name(s), "colour": crate::palette::hex(palette.get(s)), "count": count })
-        })
-        .collect();
+    let (state, states) = states_view(run);
     let attach = lat.attach.iter().any(|&b| b != 0);
     let wide = states.len() > u16::MAX as usize;
     // The agents changed since the frame the tab holds, if it holds the last one sent.

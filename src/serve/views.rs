@@ -62,34 +62,31 @@ pub(super) fn state_name(s: &[u8; 5]) -> String {
     String::from_utf8_lossy(s).into_owned()
 }
 
+/// Each agent's state as an index into the run's states, and those states (every state
+/// the run has shown, in order of first appearance, so an index keeps its state for the
+/// run) with their colours and how many agents are in each now.
+pub(super) fn states_view(run: &Run) -> (Vec<u32>, Vec<StateInfo>) {
+    let palette = &run.palette;
+    let state = palette.indices(&run.hist.engine().lat.state);
+    let mut counts = vec![0u64; palette.order().len()];
+    for &i in &state {
+        counts[i as usize] += 1;
+    }
+    let states = (palette.order().iter().zip(counts))
+        .map(|(s, count)| StateInfo {
+            name: state_name(s),
+            colour: crate::palette::hex(palette.get(s)),
+            count,
+        })
+        .collect();
+    (state, states)
+}
+
 pub(super) fn frame(run: &Run) -> Frame {
     let e = run.hist.engine();
     let lat = &e.lat;
     let coords = lat.dim.coords();
-    let mut index: HashMap<[u8; 5], u32> = HashMap::new();
-    let mut states: Vec<StateInfo> = Vec::new();
-    // Neighbours often share a state: the last one found is tried first.
-    let mut last: Option<([u8; 5], u32)> = None;
-    let state = lat
-        .state
-        .iter()
-        .map(|s| {
-            let i = match last {
-                Some((l, i)) if l == *s => i,
-                _ => *index.entry(*s).or_insert_with(|| {
-                    states.push(StateInfo {
-                        name: state_name(s),
-                        colour: crate::palette::hex(run.palette.get(s)),
-                        count: 0,
-                    });
-                    states.len() as u32 - 1
-                }),
-            };
-            last = Some((*s, i));
-            states[i as usize].count += 1;
-            i
-        })
-        .collect();
+    let (state, states) = states_view(run);
     let mut pos = Vec::with_capacity(lat.len() * coords);
     for p in &lat.pos {
         pos.extend_from_slice(&p[..coords]);
