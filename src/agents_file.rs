@@ -614,9 +614,19 @@ fn fast(
         Err(d) => return Ok(Err(Declined::Lattice(d))),
     };
     let rules_checked = checked.rules.as_ref().expect("a clean head has rules");
-    if !latticesim_compiler::idle_states(rules_checked, &distinct(&lat.state)).is_empty() {
+    let states = distinct(&lat.state);
+    if !latticesim_compiler::idle_states(rules_checked, &states).is_empty() {
         return Ok(Err(Declined::Idle));
     }
+    let rules_text = checked.sources.text(latticesim_grammar::FileId(0));
+    let more = latticesim_compiler::pattern_warnings(
+        rules_text,
+        latticesim_grammar::FileId(0),
+        head.dim,
+        &states,
+    );
+    checked.diags.extend(more);
+    latticesim_compiler::diagnostics::sort(&mut checked.diags);
     checked.agent_count = n;
     checked.config = None;
     Ok(Ok(Loaded {

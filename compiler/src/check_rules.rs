@@ -8,7 +8,7 @@ use crate::checked::{
 use crate::contradict;
 use crate::dim::DimSource;
 use latticesim_grammar::ast::{self, Comp, Term, Value};
-use latticesim_grammar::{Code, Diagnostic, FileId, Label, Span, Spanned};
+use latticesim_grammar::{Code, Diagnostic, FileId, Fix, Label, Span, Spanned};
 use std::collections::HashMap;
 
 fn cmp_op(op: ast::CmpOp) -> crate::checked::CmpOp {
@@ -39,6 +39,15 @@ pub(crate) fn chars(n: usize) -> String {
         "1 character".into()
     } else {
         format!("{n} characters")
+    }
+}
+
+/// The digit a letter is often typed for (`O` for `0`, `l` or `I` for `1`).
+pub(crate) fn digit_for(c: char) -> Option<char> {
+    match c {
+        'O' | 'o' => Some('0'),
+        'l' | 'I' | 'i' | '|' => Some('1'),
+        _ => None,
     }
 }
 
@@ -373,23 +382,30 @@ impl Checker<'_> {
                 } else {
                     ""
                 };
-                self.push(
-                    Diagnostic::new(
-                        Code::E304,
-                        format!("`{c}` cannot stand in an `{letter}` pattern{extra}"),
-                        self.label(
-                            p.span.sub(at, at + c.len_utf8()),
-                            format!("expected one of {allowed}"),
-                        ),
-                    )
-                    .with_help(format!(
-                        "each character of `{letter}` is one of {allowed}: {meaning}"
-                    )),
-                );
+                let cspan = p.span.sub(at, at + c.len_utf8());
+                let mut d = Diagnostic::new(
+                    Code::E304,
+                    format!("`{c}` cannot stand in an `{letter}` pattern{extra}"),
+                    self.label(cspan, format!("expected one of {allowed}")),
+                )
+                .with_help(format!(
+                    "each character of `{letter}` is one of {allowed}: {meaning}"
+                ));
+                if let Some(digit) = digit_for(c).filter(|d| allowed.contains(*d)) {
+                    d = d.with_fix(Fix::replace(
+                        format!("write the digit `{digit}`, not `{c}`"),
+                        self.file,
+                        cspan,
+                        digit.to_string(),
+                    ));
+                }
+                self.push(d);
                 ok = false;
             }
         }
-        if chars.len() != need {
+        // A pattern with a wrong character is one slip: its length is judged once it is
+        // right.
+        if ok && chars.len() != need {
             let order = if need == 4 {
                 "N, W, E, S"
             } else {
@@ -411,6 +427,21 @@ impl Checker<'_> {
             .with_help(format!(
                 "write one character per direction, in the order {order}"
             ));
+            let d = match (need, chars.len()) {
+                (4, 6) => d.with_fix(Fix::replace(
+                    "drop the last two characters (A and B, above and below, exist only in 3D)",
+                    self.file,
+                    p.span,
+                    chars[..4].iter().collect::<String>(),
+                )),
+                (6, 4) => d.with_fix(Fix::replace(
+                    "add `**` for above and below (either)",
+                    self.file,
+                    p.span.sub(p.span.len(), p.span.len()),
+                    "**",
+                )),
+                _ => d,
+            };
             if chars.len() == self.d().other().dirs() {
                 self.push_dim(d);
             } else {
@@ -448,7 +479,7 @@ impl Checker<'_> {
                 Code::E313,
                 format!(
                     "`{}` is an action; it cannot stand in a precondition",
-                    t.node
+                    crate::written(self.src, t.span)
                 ),
                 help,
             )
@@ -459,7 +490,10 @@ impl Checker<'_> {
             };
             (
                 Code::E312,
-                format!("`{}` is a test; it cannot stand in a postcondition", t.node),
+                format!(
+                    "`{}` is a test; it cannot stand in a postcondition",
+                    crate::written(self.src, t.span)
+                ),
                 help,
             )
         };

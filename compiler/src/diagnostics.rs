@@ -4,7 +4,7 @@
 use codespan_reporting::diagnostic::{Diagnostic as CsDiagnostic, Label as CsLabel, LabelStyle};
 use codespan_reporting::files::{Files, SimpleFiles};
 use codespan_reporting::term::{self, Config};
-use latticesim_grammar::{Diagnostic, FileId, Label, Severity};
+use latticesim_grammar::{Code, Diagnostic, FileId, Fix, Label, Severity};
 use serde::Serialize;
 
 /// The files a run read, by [`FileId`], with the names shown in messages.
@@ -137,23 +137,25 @@ impl Sources {
     }
 }
 
-/// Sorts diagnostics into file order (by file, then position, then code) and drops exact
-/// duplicates.
+/// True for the codes that cause others: a file that is not UTF-8, a dimension conflict, a
+/// file cut short. They come first, whatever their place.
+pub fn is_root_cause(code: Code) -> bool {
+    matches!(code, Code::E101 | Code::E301 | Code::E103)
+}
+
+/// Sorts diagnostics: root causes first ([`is_root_cause`]), then file order (by file, then
+/// position, then code); exact duplicates are dropped.
 pub fn sort(diags: &mut Vec<Diagnostic>) {
-    diags.sort_by(|a, b| {
+    let key = |d: &Diagnostic| {
         (
-            a.primary.file,
-            a.primary.span.start,
-            a.primary.span.end,
-            a.code,
+            !is_root_cause(d.code),
+            d.primary.file,
+            d.primary.span.start,
+            d.primary.span.end,
+            d.code,
         )
-            .cmp(&(
-                b.primary.file,
-                b.primary.span.start,
-                b.primary.span.end,
-                b.code,
-            ))
-    });
+    };
+    diags.sort_by_key(key);
     diags.dedup();
 }
 
@@ -195,10 +197,45 @@ fn to_codespan(d: &Diagnostic, sources: &Sources) -> CsDiagnostic<usize> {
     if let Some(h) = &d.help {
         notes.push(format!("help: {}", visible(h)));
     }
+    for f in &d.fixes {
+        notes.push(fix_note(f, sources));
+    }
     base.with_code(d.code.as_str())
         .with_message(visible(&d.message))
         .with_labels(labels)
         .with_notes(notes)
+}
+
+/// A fix as a note: what it does, then each line it changes as it reads after the fix.
+fn fix_note(f: &Fix, sources: &Sources) -> String {
+    let mut note = format!("fix: {}", visible(&f.message));
+    let Some(first) = f.edits.first() else {
+        return note;
+    };
+    let text = sources.text(first.file);
+    let fixed = f.apply(text, first.file);
+    // The lines the edits touch, found in the fixed text by how far the edits shifted them.
+    let mut shift: isize = 0;
+    let mut shown: Vec<usize> = Vec::new();
+    let mut edits: Vec<_> = f.edits.iter().filter(|e| e.file == first.file).collect();
+    edits.sort_by_key(|e| e.span.start);
+    for e in edits {
+        let at = (e.span.start as isize + shift).max(0) as usize;
+        shift += e.replacement.len() as isize - e.span.len() as isize;
+        let start = fixed[..at.min(fixed.len())]
+            .rfind('\n')
+            .map_or(0, |i| i + 1);
+        if !shown.contains(&start) {
+            shown.push(start);
+        }
+    }
+    note += ":";
+    for start in shown {
+        let line = fixed[start..].split('\n').next().unwrap_or("");
+        let number = fixed[..start].matches('\n').count() + 1;
+        note += &format!("\n{number} | {}", visible(line.trim_end_matches('\r')));
+    }
+    note
 }
 
 /// Renders diagnostics as plain text, as the golden files hold them.
@@ -294,6 +331,27 @@ pub struct JsonDiagnostic {
     pub labels: Vec<JsonLabel>,
     /// How to fix it.
     pub help: Option<String>,
+    /// Suggested fixes with their edits, most likely first.
+    pub fixes: Vec<JsonFix>,
+}
+
+/// A suggested fix in JSON output.
+#[derive(Serialize, Debug, Clone, PartialEq, Eq)]
+pub struct JsonFix {
+    /// What it does.
+    pub message: String,
+    /// The replacements; each has a label's place fields and `replacement`.
+    pub edits: Vec<JsonEdit>,
+}
+
+/// One replacement of a fix.
+#[derive(Serialize, Debug, Clone, PartialEq, Eq)]
+pub struct JsonEdit {
+    /// Where, as a label (its message is empty).
+    #[serde(flatten)]
+    pub at: JsonLabel,
+    /// The new text.
+    pub replacement: String,
 }
 
 fn json_label(l: &Label, primary: bool, sources: &Sources) -> JsonLabel {
@@ -335,6 +393,21 @@ pub fn to_json(diags: &[Diagnostic], sources: &Sources) -> Vec<JsonDiagnostic> {
                 end_column: p.end_column,
                 labels,
                 help: d.help.as_deref().map(visible),
+                fixes: d
+                    .fixes
+                    .iter()
+                    .map(|f| JsonFix {
+                        message: visible(&f.message),
+                        edits: f
+                            .edits
+                            .iter()
+                            .map(|e| JsonEdit {
+                                at: json_label(&Label::new(e.file, e.span, ""), false, sources),
+                                replacement: e.replacement.clone(),
+                            })
+                            .collect(),
+                    })
+                    .collect(),
             }
         })
         .collect()

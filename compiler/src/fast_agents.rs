@@ -432,7 +432,10 @@ fn line(raw: &[u8], head: &Head, out: &mut Columns) -> bool {
 /// its diagnostics (warnings of the rules) are those the whole pair would have, once the
 /// rest of the agents file has been read cleanly.
 pub fn check_with_head(rules: Input<'_>, head: Input<'_>) -> Option<Checked> {
-    let c = check(rules, Some(head), None);
+    let mut c = check(rules, Some(head), None);
+    // Patterns no start state matches are judged with the whole file's states (see
+    // [`crate::pattern_warnings`]), not the first part's.
+    c.diags.retain(|d| d.code != latticesim_grammar::Code::W503);
     let clean = c.rules.is_some()
         && c.config.is_some()
         && c.errors() == 0

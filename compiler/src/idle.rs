@@ -107,13 +107,19 @@ pub fn idle_states(rules: &CheckedRules, states: &[[u8; 5]]) -> Vec<Idle> {
         .collect()
 }
 
+/// A W603 and the idle state it is about.
+pub(crate) struct IdleDiagnostic {
+    pub diag: Diagnostic,
+    pub idle_state: [u8; 5],
+}
+
 /// W603 for every idle start state of the agents file `f` (file `file`), on its first
 /// agent's state field (or position, when it has none).
 pub(crate) fn diagnostics(
     rules: &CheckedRules,
     f: &AgentsFile<'_>,
     file: FileId,
-) -> Vec<Diagnostic> {
+) -> Vec<IdleDiagnostic> {
     // Per state, in order of first appearance: the first agent, its span, how many.
     let mut seen: Vec<([u8; 5], usize, Span, usize)> = Vec::new();
     for (i, a) in f.agents.iter().enumerate() {
@@ -156,12 +162,13 @@ pub(crate) fn diagnostics(
                 ),
                 None => "start these agents in a state the rules test (`S`, `T`), or write a rule for this one".into(),
             };
-            Diagnostic::new(
+            let diag = Diagnostic::new(
                 Code::W603,
                 format!("{who} in state `{name}`, which no rule tests (`S`, `T`) or sets: they never execute a rule"),
                 Label::new(file, span, format!("agent {first} starts in `{name}`")),
             )
-            .with_help(help)
+            .with_help(help);
+            IdleDiagnostic { diag, idle_state: st }
         })
         .collect()
 }

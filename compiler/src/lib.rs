@@ -11,6 +11,7 @@ mod check_rules;
 pub mod checked;
 mod contradict;
 mod idle;
+mod never;
 pub use idle::{idle_states, Idle};
 pub mod diagnostics;
 pub mod dim;
@@ -186,6 +187,47 @@ fn t_arity_mismatch(f: &RulesFile<'_>, dim: Dim) -> bool {
         .any(|r| r.pre.node.iter().chain(r.post.node).any(|t| walk(t, dim)))
 }
 
+/// W503 and W603: patterns no state matches, states no rule tests. When a start state that
+/// no rule tests is near a pattern that nothing matches, that is one slip: one W503, with
+/// the agents' place as a secondary label.
+fn states_warnings(
+    ast: &RulesFile<'_>,
+    rules: &CheckedRules,
+    rid: FileId,
+    agents: &latticesim_grammar::ast::AgentsFile<'_>,
+    aid: FileId,
+) -> Vec<Diagnostic> {
+    let mut idle = idle::diagnostics(rules, agents, aid);
+    let mut out = Vec::new();
+    for n in never::never(ast, &never::start_states(agents)) {
+        let p = never::pat(n.pattern.node).expect("a pattern of five characters");
+        let near = idle
+            .iter()
+            .position(|d| never::distance(&p, &d.idle_state) <= 2);
+        let label = near.map(|i| {
+            let d = idle.remove(i);
+            latticesim_grammar::Label {
+                message: format!("{}, which no rule tests", d.diag.primary.message),
+                ..d.diag.primary
+            }
+        });
+        out.push(never::diagnostic(&n, rid, label));
+    }
+    out.extend(idle.into_iter().map(|d| d.diag));
+    out
+}
+
+/// W503 for rules already checked clean, given the distinct states agents start in: for
+/// the fast reader of agents files, which checks the rules with the file's first part only.
+pub fn pattern_warnings(rules: &str, file: FileId, dim: Dim, start: &[[u8; 5]]) -> Vec<Diagnostic> {
+    let arena = Bump::new();
+    let (ast, _) = parse_rules(rules, file, &arena, Some(dim.coords() as u8));
+    never::never(&ast, start)
+        .iter()
+        .map(|n| never::diagnostic(n, file, None))
+        .collect()
+}
+
 /// Checks a rules file and, if given, an agents file. `dim` is `--dim`.
 pub fn check(rules: Input<'_>, agents: Option<Input<'_>>, dim: Option<Dim>) -> Checked {
     let mut sources = Sources::new();
@@ -232,7 +274,7 @@ pub fn check(rules: Input<'_>, agents: Option<Input<'_>>, dim: Option<Dim>) -> C
     });
     if let (Some(a), Some(id), Some(_)) = (&agents_ast, agents_id, &config) {
         if !diags.iter().any(|d| d.is_error()) {
-            diags.extend(idle::diagnostics(&rules, a, id));
+            diags.extend(states_warnings(&ast, &rules, rid, a, id));
         }
     }
     if !diags.iter().any(|d| d.is_error()) {

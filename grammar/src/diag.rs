@@ -82,6 +82,8 @@ codes! {
     E101 Error "invalid-utf8" "the file is not valid UTF-8";
     E102 Error "invalid-character" "a character that starts no term";
     E103 Error "rule-cut-short" "a rule cut short at the end of the file";
+    E104 Error "rule-missing-line" "a rule that lacks its name, priority, precondition or postcondition line";
+    E105 Error "rule-extra-line" "a line after a rule's postcondition that starts no rule";
     E201 Error "unexpected-token" "a token where it cannot stand";
     E202 Error "unexpected-end-of-line" "a line that ends inside a term";
     E203 Error "unclosed-parenthesis" "a `(` without its `)`";
@@ -121,6 +123,7 @@ codes! {
     E410 Error "coordinate-range" "a coordinate outside the 32-bit range of the lattice";
     W501 Warning "duplicate-rule-name" "two rules with the same name";
     W502 Warning "contradictory-precondition" "a precondition that can never hold";
+    W503 Warning "pattern-never-matches" "an `S` or `T` pattern that no state an agent starts in or a rule sets matches";
     W601 Warning "one-sided-attachment" "an attachment declared by only one of two agents";
     W602 Warning "attachment-to-empty-cell" "an attachment towards an empty cell";
     W603 Warning "idle-start-state" "agents that start in a state no rule tests or sets";
@@ -148,6 +151,66 @@ impl Label {
     }
 }
 
+/// A replacement of some text of one file.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Edit {
+    /// The file.
+    pub file: FileId,
+    /// The bytes replaced (empty to insert).
+    pub span: Span,
+    /// What they are replaced with (empty to delete).
+    pub replacement: String,
+}
+
+/// A suggested fix: what it does in words and the edits that do it. Applying every edit of a
+/// fix (they never overlap) turns the text into what the suggestion says; editors offer it
+/// as a quick fix, and `check --format json` lists it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Fix {
+    /// One short sentence, e.g. "write `0` (zero), not the letter `O`".
+    pub message: String,
+    /// The edits, in file order.
+    pub edits: Vec<Edit>,
+}
+
+impl Fix {
+    /// A fix that replaces one span.
+    pub fn replace(
+        message: impl Into<String>,
+        file: FileId,
+        span: Span,
+        replacement: impl Into<String>,
+    ) -> Fix {
+        Fix {
+            message: message.into(),
+            edits: vec![Edit {
+                file,
+                span,
+                replacement: replacement.into(),
+            }],
+        }
+    }
+
+    /// The text with every edit of this fix applied (edits outside `text` are ignored).
+    pub fn apply(&self, text: &str, file: FileId) -> String {
+        let mut edits: Vec<&Edit> = self.edits.iter().filter(|e| e.file == file).collect();
+        edits.sort_by_key(|e| e.span.start);
+        let mut out = String::with_capacity(text.len());
+        let mut at = 0;
+        for e in edits {
+            let (s, t) = (e.span.start as usize, e.span.end as usize);
+            if s < at || t > text.len() {
+                continue;
+            }
+            out.push_str(&text[at..s]);
+            out.push_str(&e.replacement);
+            at = t;
+        }
+        out.push_str(&text[at..]);
+        out
+    }
+}
+
 /// One problem found in an input file.
 ///
 /// It always has a primary label: the constructor takes it.
@@ -163,6 +226,8 @@ pub struct Diagnostic {
     pub secondary: Vec<Label>,
     /// How to fix it, if we can say.
     pub help: Option<String>,
+    /// Machine-applicable fixes, most likely first.
+    pub fixes: Vec<Fix>,
 }
 
 impl Diagnostic {
@@ -174,7 +239,14 @@ impl Diagnostic {
             primary,
             secondary: Vec::new(),
             help: None,
+            fixes: Vec::new(),
         }
+    }
+
+    /// Adds a suggested fix.
+    pub fn with_fix(mut self, fix: Fix) -> Diagnostic {
+        self.fixes.push(fix);
+        self
     }
 
     /// Adds a secondary label.

@@ -18,9 +18,10 @@ pub mod lines;
 mod parser;
 pub mod pretty;
 pub mod span;
+pub mod structure;
 
 pub use agents::parse_agents;
-pub use diag::{Code, Diagnostic, Label, Severity};
+pub use diag::{Code, Diagnostic, Edit, Fix, Label, Severity};
 pub use parser::{parse_rules, MAX_NESTING};
 pub use span::{FileId, Span, Spanned};
 

@@ -13,6 +13,9 @@ pub struct Line<'a> {
     pub start: usize,
     /// 1-based line number.
     pub number: u32,
+    /// True when a blank line (not a comment) stands between this line and the previous
+    /// significant one, or this is the first: rules are separated so.
+    pub after_blank: bool,
 }
 
 /// True for the blanks that separate terms.
@@ -23,6 +26,7 @@ pub fn is_blank(c: char) -> bool {
 /// The significant lines of a file, in order.
 pub fn significant_lines(src: &str) -> impl Iterator<Item = Line<'_>> {
     let mut offset = 0usize;
+    let mut blank = true;
     src.split_inclusive('\n')
         .enumerate()
         .filter_map(move |(i, raw)| {
@@ -30,6 +34,9 @@ pub fn significant_lines(src: &str) -> impl Iterator<Item = Line<'_>> {
             offset += raw.len();
             let mut body = raw.strip_suffix('\n').unwrap_or(raw);
             body = body.strip_suffix('\r').unwrap_or(body);
+            if body.trim_matches(is_blank).is_empty() {
+                blank = true;
+            }
             if let Some(c) = body.find("//") {
                 body = &body[..c];
             }
@@ -39,6 +46,7 @@ pub fn significant_lines(src: &str) -> impl Iterator<Item = Line<'_>> {
                 text,
                 start: line_start + trimmed_start,
                 number: i as u32 + 1,
+                after_blank: std::mem::take(&mut blank),
             })
         })
 }
@@ -58,5 +66,7 @@ mod tests {
         assert_eq!(lines[1].text, "42");
         assert_eq!(lines[2].text, "last");
         assert_eq!(lines[2].number, 6);
+        let after: Vec<bool> = lines.iter().map(|l| l.after_blank).collect();
+        assert_eq!(after, [true, false, false]);
     }
 }

@@ -1,18 +1,19 @@
-//! Parsing rules.txt: the rule structure (four significant lines) by hand, each condition
-//! line with the lalrpop grammar, and every lexical and syntax error turned into a
-//! [`Diagnostic`].
+//! Parsing rules.txt: the rule structure (four significant lines, found by
+//! [`crate::structure`]), each condition line with the lalrpop grammar, and every lexical and
+//! syntax error turned into a [`Diagnostic`].
 //!
 //! Recovery: each line is parsed on its own, so one broken line never hides the next. Within
 //! a line, characters that start no token and unbalanced parentheses are reported and removed
 //! before parsing, and the grammar's error productions skip to the next term.
 
 use crate::ast::{Comp, Operand, Rule, RulesFile, Term, Terms};
-use crate::diag::{Code, Diagnostic, Label};
+use crate::diag::{Code, Diagnostic, Fix, Label};
 use crate::lexer::{BadChar, Lexer, Spanned3, Tok};
 use crate::lines::{significant_lines, Line};
 use crate::span::{FileId, Span, Spanned};
+use crate::structure::{layouts, Layout};
 use bumpalo::Bump;
-use lalrpop_util::{ErrorRecovery, ParseError};
+use lalrpop_util::ParseError;
 
 lalrpop_util::lalrpop_mod!(
     #[allow(clippy::all, clippy::pedantic, missing_docs, unused)]
@@ -50,6 +51,10 @@ pub(crate) fn external<'a>(
 /// Parses a rules file. `dim_hint` (2 or 3), when known, decides how an ambiguous `T` term
 /// splits into offset and state. Returns every complete rule (lines with syntax errors keep
 /// what could be read) and the diagnostics in file order.
+///
+/// The rule structure is found first, from the shape of the file ([`crate::structure`]): a
+/// rule that lacks a line or has one too many is reported once, on that rule, and its
+/// neighbours are read as written. A rule that lacks a line is not read further.
 pub fn parse_rules<'a>(
     src: &'a str,
     file: FileId,
@@ -57,18 +62,20 @@ pub fn parse_rules<'a>(
     dim_hint: Option<u8>,
 ) -> (RulesFile<'a>, Vec<Diagnostic>) {
     let mut diags = Vec::new();
-    // About 90 bytes make a rule; reserving avoids doubling a large vector at the end.
-    let mut rules = Vec::with_capacity(src.len() / 128);
-    // Lines are taken four at a time as they come; nothing holds the whole file's lines.
-    let mut chunk: Vec<Line<'a>> = Vec::with_capacity(4);
+    let lines: Vec<Line<'a>> = significant_lines(src).collect();
+    let layouts = layouts(&lines);
+    let mut rules = Vec::with_capacity(layouts.len());
     let mut toks = Vec::with_capacity(32);
-    for line in significant_lines(src) {
-        chunk.push(line);
-        if chunk.len() < 4 {
-            continue;
+    let count = layouts.len();
+    for (i, l) in layouts.into_iter().enumerate() {
+        if let Some((a, b)) = l.extra {
+            diags.push(extra_lines(&l, a, b, file));
         }
-        let [name, prio, pre, post] = [chunk[0], chunk[1], chunk[2], chunk[3]];
-        chunk.clear();
+        let (Some(name), Some(prio), Some(pre), Some(post)) = (l.name, l.priority, l.pre, l.post)
+        else {
+            diags.push(missing_lines(&l, i + 1 == count, file));
+            continue;
+        };
         let priority = parse_priority(prio, file, &mut diags);
         let pre = parse_line(pre, file, arena, dim_hint, &mut diags, &mut toks);
         let post = parse_line(post, file, arena, dim_hint, &mut diags, &mut toks);
@@ -79,35 +86,93 @@ pub fn parse_rules<'a>(
             post,
         });
     }
-    let rest = &chunk[..];
-    if let Some(first) = rest.first() {
-        let missing = ["priority", "precondition", "postcondition"];
-        let last = rest[rest.len() - 1];
-        let span = line_span(*first).to(line_span(last));
-        let lacks = match &missing[rest.len() - 1..] {
-            [a, b, c] => format!("{a}, {b} and {c}"),
-            [a, b] => format!("{a} and {b}"),
-            [a] => a.to_string(),
-            _ => unreachable!("a remainder has 1 to 3 lines"),
-        };
-        diags.push(
-            Diagnostic::new(
-                Code::E103,
-                format!(
-                    "the rule `{}` is cut short by the end of the file: its {} line{} missing",
-                    first.text,
-                    lacks,
-                    if rest.len() == 3 { " is" } else { "s are" }
-                ),
-                Label::new(file, span, "this rule has only these lines"),
-            )
-            .with_help(
-                "a rule is four lines: name, priority, precondition, postcondition; \
-                 complete it or delete it",
-            ),
-        );
-    }
     (RulesFile { rules }, diags)
+}
+
+const RULE_IS_FOUR_LINES: &str =
+    "a rule is four lines: name, priority, precondition, postcondition (see docs/language.md)";
+
+/// E105: lines after a rule's postcondition that start no rule.
+fn extra_lines(l: &Layout<'_>, a: Line<'_>, b: Line<'_>, file: FileId) -> Diagnostic {
+    let n = b.number - a.number + 1;
+    let name = l.name.map_or("", |n| n.text);
+    let span = line_span(a).to(line_span(b));
+    let many = if n == 1 {
+        "a line too many".to_string()
+    } else {
+        format!("{n} lines too many")
+    };
+    Diagnostic::new(
+        Code::E105,
+        format!("the rule `{name}` has {many}: it ended with its postcondition"),
+        Label::new(file, span, "after the postcondition"),
+    )
+    .with_help(format!(
+        "{RULE_IS_FOUR_LINES}; delete {}, or make {} a rule of its own with a name and a priority",
+        if n == 1 { "this line" } else { "these lines" },
+        if n == 1 { "it" } else { "them" },
+    ))
+}
+
+/// E104 (E103 for the last rule of the file when it lacks its end): the lines a rule lacks,
+/// reported on the line after which (or before which) the first of them belongs.
+fn missing_lines(l: &Layout<'_>, last: bool, file: FileId) -> Diagnostic {
+    let parts = [
+        ("name", l.name.is_none()),
+        ("priority", l.priority.is_none()),
+        ("precondition", l.pre.is_none()),
+        ("postcondition", l.post.is_none()),
+    ];
+    let lacks: Vec<&str> = parts.iter().filter(|p| p.1).map(|p| p.0).collect();
+    let lacks_text = match lacks.as_slice() {
+        [a] => format!("{a} line is"),
+        [a, b] => format!("{a} and {b} lines are"),
+        [rest @ .., z] => format!("{} and {z} lines are", rest.join(", ")),
+        [] => "lines are".into(),
+    };
+    let first_missing = parts.iter().position(|p| p.1).unwrap_or(3);
+    let name = l.name.map(|n| n.text);
+    // The line just before the first missing one; or the first line, when it is the name.
+    let before = [l.name, l.priority, l.pre, l.post][..first_missing]
+        .iter()
+        .rev()
+        .find_map(|x| *x);
+    let (code, message) = match name {
+        Some(n) if last && l.post.is_none() => (
+            Code::E103,
+            format!("the rule `{n}` is cut short by the end of the file: its {lacks_text} missing"),
+        ),
+        Some(n) => (
+            Code::E104,
+            format!("the rule `{n}` lacks a line: its {lacks_text} missing"),
+        ),
+        None => (
+            Code::E104,
+            format!("a rule lacks a line: its {lacks_text} missing"),
+        ),
+    };
+    let label = match before {
+        Some(b) => Label::new(
+            file,
+            line_span(b),
+            format!("expected the {} after this line", lacks[0]),
+        ),
+        None => Label::new(
+            file,
+            l.lines().next().map_or(Span::default(), line_span),
+            format!("expected the {} before this line", lacks[0]),
+        ),
+    };
+    let mut d = Diagnostic::new(code, message, label).with_help(format!(
+        "{RULE_IS_FOUR_LINES}; add the missing line{} or delete the rule",
+        if lacks.len() == 1 { "" } else { "s" }
+    ));
+    if let (Some(n), Some(b)) = (l.name, before) {
+        if n != b {
+            d = d.with_secondary(Label::new(file, line_span(n), "the rule starts here"));
+        }
+    }
+    d
 }
 
 fn line_span(line: Line<'_>) -> Span {
@@ -129,17 +194,29 @@ fn parse_priority(
             i64::MAX
         }))
     } else {
-        diags.push(
-            Diagnostic::new(
-                Code::E205,
-                format!("the priority line `{t}` is not a whole number"),
-                Label::new(file, span, "expected the rule's priority here"),
-            )
-            .with_help(
-                "the second line of a rule is its priority, a whole number from 1 to 32767 \
-                 (did a line go missing above?)",
-            ),
-        );
+        let mut d = Diagnostic::new(
+            Code::E205,
+            format!("the priority line `{t}` is not a whole number"),
+            Label::new(file, span, "expected the rule's priority here"),
+        )
+        .with_help("the second line of a rule is its priority, a whole number from 1 to 32767");
+        let digits: String = t
+            .chars()
+            .map(|c| match c {
+                'O' | 'o' => '0',
+                'l' | 'I' => '1',
+                c => c,
+            })
+            .collect();
+        if crate::structure::is_priority(&digits) {
+            d = d.with_fix(Fix::replace(
+                format!("write the number `{digits}` with digits"),
+                file,
+                span,
+                digits,
+            ));
+        }
+        diags.push(d);
         None
     };
     Spanned::new(value, span)
@@ -157,10 +234,12 @@ fn clean_tokens<'a>(
     dim_hint: Option<u8>,
     diags: &mut Vec<Diagnostic>,
     toks: &mut Vec<Spanned3<'a>>,
+    removed: &mut Vec<Span>,
 ) {
     toks.clear();
     let mut open = Vec::new();
     let mut drop = Vec::new();
+    let mut bad: Vec<(usize, usize)> = Vec::new();
     // How deep the next term is: the levels of the open groups (each `(` and every `!`
     // before it count one), plus the `!`s just read.
     let mut levels: Vec<usize> = Vec::new();
@@ -219,20 +298,7 @@ fn clean_tokens<'a>(
                 }
                 toks.push(t);
             }
-            Err(BadChar { start, end }) => {
-                let c = &line_src(line, start, end);
-                diags.push(
-                    Diagnostic::new(
-                        Code::E102,
-                        format!("{} does not start any term", crate::diag::quote_char(c)),
-                        Label::new(file, Span::new(start, end), "unexpected character"),
-                    )
-                    .with_help(
-                        "terms start with N, E, F, P, L, Q, A, S, T, M, V, W, X, <, >, =, !, ( \
-                         or, in a postcondition, a counter or message slot (see docs/language.md)",
-                    ),
-                );
-            }
+            Err(BadChar { start, end }) => bad.push((start, end)),
         }
     }
     for &i in &open {
@@ -247,7 +313,26 @@ fn clean_tokens<'a>(
         );
     }
     drop.extend(open);
+    // A character that starts no term spoils its word (up to the blanks around it): one
+    // error for the word, and its pieces are not read (so they cause no more).
+    for (start, end) in bad {
+        let (ws, we) = word_around(line, start, end);
+        if removed
+            .last()
+            .is_some_and(|r: &Span| r.start as usize == ws)
+        {
+            continue;
+        }
+        diags.push(bad_char(line, file, start, end));
+        removed.push(Span::new(ws, we));
+        for (i, t) in toks.iter().enumerate() {
+            if t.0 >= ws && t.2 <= we && !matches!(t.1, Tok::LParen | Tok::RParen) {
+                drop.push(i);
+            }
+        }
+    }
     drop.sort_unstable();
+    drop.dedup();
     let mut k = 0;
     let mut i = 0;
     toks.retain(|_| {
@@ -264,6 +349,43 @@ fn line_src(line: Line<'_>, start: usize, end: usize) -> &str {
     &line.text[start - line.start..end - line.start]
 }
 
+/// The bytes of the blank-separated word around `start..end` of a line.
+fn word_around(line: Line<'_>, start: usize, end: usize) -> (usize, usize) {
+    let t = line.text;
+    let (s, e) = (start - line.start, end - line.start);
+    let ws = t[..s].rfind(crate::lines::is_blank).map_or(0, |i| i + 1);
+    let we = t[e..]
+        .find(crate::lines::is_blank)
+        .map_or(t.len(), |i| e + i);
+    (line.start + ws, line.start + we)
+}
+
+/// True for a token that can begin a term (or close a group).
+fn starts_term(t: &Tok<'_>) -> bool {
+    !matches!(
+        t,
+        Tok::Comma
+            | Tok::Plus
+            | Tok::Minus
+            | Tok::Star
+            | Tok::Slash
+            | Tok::OpMod
+            | Tok::OpMax
+            | Tok::OpMin
+            | Tok::Int(_)
+            | Tok::StateText(_)
+    )
+}
+
+/// True when token `j` may start a term: it can begin one, and a blank, a `(`, a `)` or a
+/// `!` (or the start of the line) comes before it.
+fn resync_at(toks: &[Spanned3<'_>], j: usize) -> bool {
+    starts_term(&toks[j].1)
+        && (j == 0
+            || toks[j].0 > toks[j - 1].2
+            || matches!(toks[j - 1].1, Tok::LParen | Tok::RParen | Tok::Bang))
+}
+
 fn parse_line<'a>(
     line: Line<'a>,
     file: FileId,
@@ -273,40 +395,104 @@ fn parse_line<'a>(
     toks: &mut Vec<Spanned3<'a>>,
 ) -> Terms<'a> {
     let span = line_span(line);
-    clean_tokens(line, file, dim_hint, diags, toks);
-    let mut recovered: Vec<ErrorRecovery<usize, Tok<'a>, BadChar>> = Vec::new();
-    let mut gaps = Vec::new();
+    // Byte ranges of the line not read: words spoilt by a bad character, terms broken by
+    // a syntax error. An error in a term that touches one is a consequence: not reported.
+    let mut removed: Vec<Span> = Vec::new();
+    clean_tokens(line, file, dim_hint, diags, toks, &mut removed);
     let end = span.end as usize;
-    let result = rules_grammar::LineParser::new().parse(
-        arena,
-        &mut recovered,
-        &mut gaps,
-        toks.iter().map(|&t| Ok::<_, BadChar>(t)),
-    );
-    for e in recovered {
-        diags.push(syntax_error(e.error, line, file, end));
-    }
-    for g in gaps {
-        diags.push(
-            Diagnostic::new(
-                Code::E204,
-                "a blank inside a term",
-                Label::new(file, g, "remove this blank"),
-            )
-            .with_help(
-                "the pieces of one term are written together, e.g. `E-1,0`, `T1,0,ABCDE`, \
-                 `<C00 0010`",
-            ),
+    // Recovery: on a syntax error, the broken term (from the last place a term could
+    // start, up to the next) is taken out and the line read again, so one slip is one
+    // error and nothing is quoted that is not in the file.
+    loop {
+        let mut gaps = Vec::new();
+        let result = rules_grammar::LineParser::new().parse(
+            arena,
+            &mut gaps,
+            toks.iter().map(|&t| Ok::<_, BadChar>(t)),
         );
-    }
-    let terms: &'a [Spanned<Term<'a>>] = match result {
-        Ok(v) => arena.alloc_slice_copy(&v),
-        Err(e) => {
-            diags.push(syntax_error(e, line, file, end));
-            &[]
+        let e = match result {
+            Ok(v) => {
+                for g in gaps {
+                    diags.push(blank_inside(file, g));
+                }
+                let mut v = v;
+                if !removed.is_empty() {
+                    // Later phases know the line was not read whole.
+                    v.push(Spanned::new(Term::Error, removed[0]));
+                }
+                return Spanned::new(arena.alloc_slice_copy(&v), span);
+            }
+            Err(e) => e,
+        };
+        let k = match &e {
+            ParseError::UnrecognizedToken {
+                token: (l, _, _), ..
+            }
+            | ParseError::ExtraToken { token: (l, _, _) } => {
+                toks.iter().position(|t| t.0 == *l).unwrap_or(toks.len())
+            }
+            _ => toks.len(),
+        };
+        let s = (0..k.min(toks.len()) + usize::from(k < toks.len() && !resync_at(toks, k)))
+            .rev()
+            .find(|&j| resync_at(toks, j))
+            .unwrap_or(0);
+        // The next term starts after the token in error, or at it when it is a term
+        // letter (a value or comparison sign there belongs to the broken term).
+        let strong = toks.get(k).is_some_and(|t| {
+            !matches!(
+                t.1,
+                Tok::Lt | Tok::Gt | Tok::Eq | Tok::Counter(_) | Tok::MsgRef(_) | Tok::RParen
+            )
+        });
+        let first = if strong && k > s { k } else { k + 1 };
+        let r = (first..toks.len())
+            .find(|&j| resync_at(toks, j))
+            .unwrap_or(toks.len());
+        let from = toks.get(s).map_or(end, |t| t.0);
+        // A term that starts right where a weakly resynchronised one was cut (`C00 = C01
+        // 0000` read on from `C01`) is still that term: the range reaches its start.
+        let to = match toks.get(r) {
+            Some(t) if r > k || r == 0 => t.0,
+            Some(_) => toks[r - 1].2,
+            None => end,
+        };
+        let upto = toks.get(k).map_or(end, |t| t.2);
+        let touches = removed
+            .iter()
+            .any(|x| (x.start as usize) <= upto && from <= x.end as usize);
+        if !touches {
+            diags.push(syntax_error(e, line, file, end, toks, s, k));
         }
-    };
-    Spanned::new(terms, span)
+        removed.push(Span::new(from, to));
+        let before = toks.len();
+        let mut i = 0;
+        toks.retain(|t| {
+            let keep = i < s || i >= r || matches!(t.1, Tok::LParen | Tok::RParen);
+            i += 1;
+            keep
+        });
+        if toks.len() == before {
+            // Nothing left to take out (only parentheses): the line gives no terms.
+            return Spanned::new(
+                arena.alloc_slice_copy(&[Spanned::new(Term::Error, span)]),
+                span,
+            );
+        }
+    }
+}
+
+fn blank_inside(file: FileId, g: Span) -> Diagnostic {
+    Diagnostic::new(
+        Code::E204,
+        "a blank inside a term",
+        Label::new(file, g, "remove this blank"),
+    )
+    .with_help(
+        "the pieces of one term are written together, e.g. `E-1,0`, `T1,0,ABCDE`, \
+         `<C00 0010`",
+    )
+    .with_fix(Fix::replace("remove the blank", file, g, ""))
 }
 
 fn syntax_error(
@@ -314,8 +500,12 @@ fn syntax_error(
     line: Line<'_>,
     file: FileId,
     end: usize,
+    toks: &[Spanned3<'_>],
+    s: usize,
+    k: usize,
 ) -> Diagnostic {
-    match e {
+    let fix = syntax_fix(line, file, toks, s, k);
+    let d = match e {
         ParseError::UnrecognizedToken {
             token: (l, _, r),
             expected,
@@ -333,28 +523,19 @@ fn syntax_error(
             .with_help(help_for(&expected))
         }
         ParseError::UnrecognizedEof { expected, .. } => {
-            let last_word_start = line.text.rfind(crate::lines::is_blank).map_or(0, |i| i + 1);
-            let span = Span::new(line.start + last_word_start, end);
+            let from = toks.get(s).map_or(line.start, |t| t.0);
             Diagnostic::new(
                 Code::E202,
                 "the line ends in the middle of a term",
                 Label::new(
                     file,
-                    span,
+                    Span::new(from, end),
                     format!("expected {} after this", describe(&expected)),
                 ),
             )
             .with_help(help_for(&expected))
         }
-        ParseError::User { error } => Diagnostic::new(
-            Code::E102,
-            "a character that starts no term",
-            Label::new(
-                file,
-                Span::new(error.start, error.end),
-                "unexpected character",
-            ),
-        ),
+        ParseError::User { error } => bad_char(line, file, error.start, error.end),
         ParseError::InvalidToken { location }
         | ParseError::ExtraToken {
             token: (location, _, _),
@@ -363,6 +544,91 @@ fn syntax_error(
             "a token where it cannot stand",
             Label::new(file, Span::new(location, location + 1), "here"),
         ),
+    };
+    match fix {
+        Some(f) => d.with_fix(f),
+        None => d,
+    }
+}
+
+/// A fix for a syntax error at token `k` of a term that starts at token `s`, when the slip
+/// is a common one.
+fn syntax_fix(
+    line: Line<'_>,
+    file: FileId,
+    toks: &[Spanned3<'_>],
+    s: usize,
+    k: usize,
+) -> Option<Fix> {
+    let at = toks.get(k)?;
+    match (toks[s].1, at.1, toks.get(k + 1)) {
+        // `C00 = 5`: setting a counter is a calculation.
+        (
+            Tok::Counter(_) | Tok::MsgRef(_),
+            Tok::Eq,
+            Some(&(vs, Tok::Int(_) | Tok::Counter(_) | Tok::MsgRef(_), ve)),
+        ) if s + 1 == k => {
+            let target = line_src(line, toks[s].0, toks[s].2);
+            let value = line_src(line, vs, ve);
+            Some(Fix::replace(
+                format!("set `{target}` with a calculation: `{target} + {value} 0000` adds zero to `{value}`"),
+                file,
+                Span::new(at.0, ve),
+                format!("+ {value} 0000"),
+            ))
+        }
+        // The letter `I` where a number belongs.
+        (_, Tok::OpMin, _) if k > s && matches!(toks[k - 1].1, Tok::Comma) => Some(Fix::replace(
+            "write the digit `1`, not the letter `I`",
+            file,
+            Span::new(at.0, at.2),
+            "1",
+        )),
+        _ => None,
+    }
+}
+
+/// E102 for a character that starts no term, with a fix when it is a slip we know: a
+/// lower-case term letter, the letter O or l for a digit, a `.` or `;` for a comma.
+fn bad_char(line: Line<'_>, file: FileId, start: usize, end: usize) -> Diagnostic {
+    let c = line_src(line, start, end);
+    let d = Diagnostic::new(
+        Code::E102,
+        format!("{} does not start any term", crate::diag::quote_char(c)),
+        Label::new(file, Span::new(start, end), "unexpected character"),
+    )
+    .with_help(
+        "terms start with N, E, F, P, L, Q, A, S, T, M, V, W, X, <, >, =, !, ( \
+         or, in a postcondition, a counter or message slot (see docs/language.md)",
+    );
+    let before = line.text[..start - line.start].chars().next_back();
+    let after = line.text[end - line.start..].chars().next();
+    let word_start = before.is_none_or(|b| crate::lines::is_blank(b) || b == '(' || b == '!');
+    let numeric = |ch: Option<char>| ch.is_some_and(|x| x.is_ascii_digit() || x == ',');
+    let ch = c.chars().next().unwrap_or(' ');
+    let upper = ch.to_ascii_uppercase();
+    let fix = match ch {
+        'o' | 'O' if numeric(before) || numeric(after) || before == Some('-') => {
+            Some(("0", format!("write the digit `0`, not the letter `{ch}`")))
+        }
+        'l' if !word_start && (numeric(before) || numeric(after) || before == Some('-')) => {
+            Some(("1", "write the digit `1`, not the letter `l`".to_string()))
+        }
+        '.' | ';' | ':' if numeric(before) && (numeric(after) || after == Some('-')) => Some((
+            ",",
+            format!("coordinates are separated by commas, not `{ch}`"),
+        )),
+        'a'..='z' if word_start && "NEFLQASTMVWXPC".contains(upper) => Some((
+            &"NEFLQASTMVWXPC"[("NEFLQASTMVWXPC".find(upper).unwrap_or(0))..][..1],
+            format!("term letters are capitals: write `{upper}`"),
+        )),
+        _ => None,
+    };
+    match fix {
+        Some((with, message)) => {
+            d.with_fix(Fix::replace(message, file, Span::new(start, end), with))
+        }
+        None => d,
     }
 }
 

@@ -31,7 +31,7 @@ fn syntax_errors_are_all_reported() {
     assert_eq!(codes("r\n1\nE 1,0 N1***\nS*****\n"), vec![Code::E204]);
     assert_eq!(
         codes("r\n1\n(N1*** ?\nS*****\n"),
-        vec![Code::E102, Code::E203]
+        vec![Code::E203, Code::E102]
     );
     assert_eq!(codes("r\n1\nE1, N1***\nS*****\n"), vec![Code::E201]);
     assert_eq!(codes("r\n1\nN1*** E\nS*****\n"), vec![Code::E202]);
@@ -43,4 +43,17 @@ fn syntax_errors_are_all_reported() {
         codes("r\n1\nE1, N1*** <C00 ) F2,\nS*****\n"),
         vec![Code::E201, Code::E201, Code::E201, Code::E202]
     );
+    // One slip, one error: the rest of a broken term is not read as terms of its own.
+    assert_eq!(
+        codes("r\n1\nS*****\nC00 = 0 #*01 + C00 0000\n"),
+        vec![Code::E201]
+    );
+    assert_eq!(
+        codes("r\n1\nS*****\nC00 = C01 0000 SABCDE\n"),
+        vec![Code::E201]
+    );
+    assert_eq!(codes("r\n1\nsDONE0\nS*****\n"), vec![Code::E102]);
+    assert_eq!(codes("r\n1\nF1.0 N1***\nS*****\n"), vec![Code::E102]);
+    assert_eq!(codes("r\n1\n!Z1,0\nS*****\n"), vec![Code::E102]);
+    assert_eq!(codes("r\n1\n<C00 00x0 E1,0\nS*****\n"), vec![Code::E102]);
 }

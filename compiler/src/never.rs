@@ -1,0 +1,193 @@
+//! W503: an `S` or `T` pattern of a precondition (outside any `!`) that no state can match:
+//! no agent starts in a state it matches and no `S` action can produce one. The rule can
+//! never fire, and a typo (`SINTI0` for `SINIT0`) looks like this; the nearest state that
+//! does occur is suggested, as a fix.
+//!
+//! An `S` action with `*` keeps those characters of the state before it, so it is taken to
+//! produce any character there: the warning is only given when no state can match.
+
+use latticesim_grammar::ast::{AgentsFile, RulesFile, Term};
+use latticesim_grammar::{Code, Diagnostic, FileId, Fix, Label, Spanned};
+
+/// A state, or a state pattern: `None` for `*`.
+type Pat = [Option<u8>; 5];
+
+pub(crate) fn pat(text: &str) -> Option<Pat> {
+    let b: [u8; 5] = text.as_bytes().try_into().ok()?;
+    Some(b.map(|c| (c != b'*').then_some(c)))
+}
+
+fn compatible(a: &Pat, b: &Pat) -> bool {
+    a.iter()
+        .zip(b)
+        .all(|(x, y)| x.is_none() || y.is_none() || x == y)
+}
+
+/// Edits (changed characters, or two neighbours swapped) between a pattern and a state.
+pub(crate) fn distance(p: &Pat, s: &[u8; 5]) -> usize {
+    let same = |i: usize, c: u8| p[i].is_none_or(|x| x == c);
+    let (mut i, mut d) = (0, 0);
+    while i < 5 {
+        if same(i, s[i]) {
+            i += 1;
+        } else if i + 1 < 5 && same(i, s[i + 1]) && same(i + 1, s[i]) {
+            d += 1;
+            i += 2;
+        } else {
+            d += 1;
+            i += 1;
+        }
+    }
+    d
+}
+
+/// The distinct start states of an agents file (`00000` for an agent without `S`).
+pub(crate) fn start_states(agents: &AgentsFile<'_>) -> Vec<[u8; 5]> {
+    let mut out: Vec<[u8; 5]> = Vec::new();
+    let mut seen = std::collections::HashSet::new();
+    for a in &agents.agents {
+        let s = match a.state {
+            Some(s) => match s.node.as_bytes().try_into() {
+                Ok(b) => b,
+                Err(_) => continue,
+            },
+            None => *b"00000",
+        };
+        if seen.insert(s) {
+            out.push(s);
+        }
+    }
+    out
+}
+
+/// The states that occur: start states and `S` actions (with their `*`s).
+fn occurring(rules: &RulesFile<'_>, start: &[[u8; 5]]) -> Vec<Pat> {
+    let mut out: Vec<Pat> = Vec::new();
+    let mut seen = std::collections::HashSet::new();
+    let mut add = |p: Pat| {
+        if seen.insert(p) {
+            out.push(p);
+        }
+    };
+    for s in start {
+        add(s.map(Some));
+    }
+    for r in &rules.rules {
+        for t in r.post.node {
+            if let Term::State(s) = t.node {
+                pat(s.node).into_iter().for_each(&mut add);
+            }
+        }
+    }
+    out
+}
+
+/// The `S` and `T` state patterns of a precondition outside any `!` (true for `T`).
+fn tested<'a>(terms: &[Spanned<Term<'a>>], out: &mut Vec<(Spanned<&'a str>, bool)>) {
+    for t in terms {
+        match t.node {
+            Term::State(s) => out.push((s, false)),
+            Term::RemoteState { state, .. } => out.push((state, true)),
+            Term::Group(ts) => tested(ts, out),
+            _ => {}
+        }
+    }
+}
+
+/// A pattern that matches nothing, and the nearest state that occurs (if one is clearly
+/// nearest, at most two edits away).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) struct Never<'a> {
+    pub pattern: Spanned<&'a str>,
+    pub is_remote: bool,
+    pub rule: &'a str,
+    pub nearest: Option<[u8; 5]>,
+}
+
+/// Every precondition pattern of `rules` that no occurring state matches.
+pub(crate) fn never<'a>(rules: &RulesFile<'a>, start: &[[u8; 5]]) -> Vec<Never<'a>> {
+    let occ = occurring(rules, start);
+    let full: Vec<[u8; 5]> = occ
+        .iter()
+        .filter_map(|p| {
+            let s: Option<Vec<u8>> = p.iter().copied().collect();
+            s.and_then(|s| s.try_into().ok())
+        })
+        .collect();
+    let mut out = Vec::new();
+    for r in &rules.rules {
+        let mut pats = Vec::new();
+        tested(r.pre.node, &mut pats);
+        for (s, is_remote) in pats {
+            let Some(p) = pat(s.node) else { continue };
+            if occ.iter().any(|o| compatible(&p, o)) {
+                continue;
+            }
+            let best = full
+                .iter()
+                .map(|f| distance(&p, f))
+                .min()
+                .filter(|&d| d <= 2);
+            let mut near = full.iter().filter(|f| Some(distance(&p, f)) == best);
+            let first = near.next().copied();
+            out.push(Never {
+                pattern: s,
+                is_remote,
+                rule: r.name.node,
+                nearest: first.filter(|f| near.all(|t| t == f)),
+            });
+        }
+    }
+    out
+}
+
+/// W503 for one pattern that matches nothing. `idle` is where agents start in a state no
+/// rule tests that is near this pattern: the same slip seen from the agents file, shown
+/// here instead of as a W603 of its own.
+pub(crate) fn diagnostic(n: &Never<'_>, file: FileId, idle: Option<Label>) -> Diagnostic {
+    let what = if n.is_remote {
+        "no neighbour can ever be in a state it matches"
+    } else {
+        "no agent can ever be in a state it matches"
+    };
+    let mut d = Diagnostic::new(
+        Code::W503,
+        format!(
+            "the rule `{}` can never fire: `{}` matches no state an agent starts in or a rule sets",
+            n.rule, n.pattern.node
+        ),
+        Label::new(file, n.pattern.span, what),
+    )
+    .with_help(
+        "a state occurs when an agent starts in it or an `S` action sets it; check the spelling",
+    );
+    if let Some(l) = idle {
+        d = d.with_secondary(l);
+    }
+    if let Some(s) = n.nearest {
+        let s = String::from_utf8_lossy(&s).into_owned();
+        d = d.with_fix(Fix::replace(
+            format!("did you mean `{s}`? it occurs"),
+            file,
+            n.pattern.span,
+            s,
+        ));
+    }
+    d
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn distances_count_swaps_once_and_stars_as_any() {
+        let p = pat("INTI0").unwrap();
+        assert_eq!(distance(&p, b"INIT0"), 1);
+        assert_eq!(distance(&p, b"INTI0"), 0);
+        assert_eq!(distance(&pat("IN**0").unwrap(), b"INXY0"), 0);
+        assert_eq!(distance(&pat("ABCDE").unwrap(), b"XBCDY"), 2);
+        assert!(compatible(&pat("A****").unwrap(), &pat("**B**").unwrap()));
+        assert!(!compatible(&pat("A****").unwrap(), &pat("B****").unwrap()));
+    }
+}
