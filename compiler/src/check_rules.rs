@@ -113,19 +113,26 @@ impl Checker<'_> {
         let n: usize = digits.parse().unwrap_or(usize::MAX);
         let max = self.d().counters() - 1;
         if digits.len() != 2 {
-            let fix = if n <= max {
+            let help = if n <= max {
                 format!("write `C{n:02}`")
             } else {
                 format!("counters are C00..C{max}")
             };
-            self.push(
-                Diagnostic::new(
-                    Code::E305,
-                    format!("the counter `C{digits}` must be written with two digits"),
-                    self.label(span, "not two digits"),
-                )
-                .with_help(fix),
-            );
+            let mut d = Diagnostic::new(
+                Code::E305,
+                format!("the counter `C{digits}` must be written with two digits"),
+                self.label(span, "not two digits"),
+            )
+            .with_help(help);
+            if n <= max {
+                d = d.with_fix(Fix::replace(
+                    format!("write `C{n:02}`"),
+                    self.file,
+                    span,
+                    format!("C{n:02}"),
+                ));
+            }
+            self.push(d);
             return None;
         }
         if n > max {
@@ -181,14 +188,22 @@ impl Checker<'_> {
                 None
             }
             None => {
-                self.push(
-                    Diagnostic::new(
-                        Code::E317,
-                        format!("`{c}` is not a direction"),
-                        self.label(span, "expected a direction letter"),
-                    )
-                    .with_help(self.dir_help()),
-                );
+                let mut d = Diagnostic::new(
+                    Code::E317,
+                    format!("`{c}` is not a direction"),
+                    self.label(span, "expected a direction letter"),
+                )
+                .with_help(self.dir_help());
+                let upper = c.to_ascii_uppercase();
+                if Dir::from_char(upper).is_some_and(|d| d.index() < self.d().dirs()) {
+                    d = d.with_fix(Fix::replace(
+                        format!("directions are capitals: write `{upper}`"),
+                        self.file,
+                        span,
+                        upper.to_string(),
+                    ));
+                }
+                self.push(d);
                 None
             }
         }
@@ -239,6 +254,20 @@ impl Checker<'_> {
                     'N'
                 }
             ));
+            let d = if digits.len() != 2
+                && !digits.is_empty()
+                && digits.bytes().all(|b| b.is_ascii_digit())
+                && (1..=slots).contains(&n)
+            {
+                d.with_fix(Fix::replace(
+                    format!("write the slot with two digits: `#{c}{n:02}`"),
+                    self.file,
+                    span,
+                    format!("#{c}{n:02}"),
+                ))
+            } else {
+                d
+            };
             if n > slots && n <= self.d().other().slots() && digits.len() == 2 {
                 self.push_dim(d);
             } else {

@@ -114,7 +114,9 @@ pub fn reconcile(
                     )),
                 );
             }
-            Some(from_flag(f))
+            // The rules are read in the agents' dimension: the help above says the agents
+            // file decides, and a wrong --dim then costs one error, not one per term.
+            Some(a)
         }
         (Some(f), _) => Some(from_flag(f)),
         (None, a) => a,

@@ -324,7 +324,10 @@ fn clean_tokens<'a>(
             continue;
         }
         diags.push(bad_char(line, file, start, end));
-        removed.push(Span::new(ws, we));
+        // The range reaches the next token: a term that starts there and fails is the
+        // rest of this one (`c01 A C01 C02`).
+        let next = toks.iter().find(|t| t.0 >= we).map_or(we, |t| t.0);
+        removed.push(Span::new(ws, next));
         for (i, t) in toks.iter().enumerate() {
             if t.0 >= ws && t.2 <= we && !matches!(t.1, Tok::LParen | Tok::RParen) {
                 drop.push(i);
