@@ -11,7 +11,10 @@ use std::process::ExitCode;
 
 pub mod agents_file;
 pub mod alloc;
+mod explain;
+mod fmt;
 pub mod gen;
+pub mod lsp;
 pub mod merge;
 pub mod output;
 pub mod palette;
@@ -102,6 +105,25 @@ enum Command {
         #[arg(long)]
         dump_bytecode: bool,
     },
+    /// Explain a diagnostic code (`latticesim explain E302`), with an example that gives it
+    /// and the example put right; without a code, list the codes.
+    ///
+    /// Exit status: 0 shown, 2 no such code.
+    Explain {
+        /// The code, e.g. E302 (also `e302`, `302` or `pattern-length`).
+        code: Option<String>,
+        /// Colour in the example's diagnostic.
+        #[arg(long, value_enum, default_value_t = Color::Auto)]
+        color: Color,
+    },
+    /// Write rules files in their canonical layout (comments kept), or check that they are.
+    ///
+    /// Exit status: 0 done (with --check: all formatted), 1 syntax errors (with --check: a
+    /// file not formatted), 2 a file cannot be read or written.
+    Fmt(fmt::FmtArgs),
+    /// Run the language server for rules and agents files over standard input and output
+    /// (for editors; see docs/editors.md).
+    Lsp,
 }
 
 pub(crate) fn read(path: &PathBuf) -> Result<Vec<u8>, ExitCode> {
@@ -318,6 +340,9 @@ pub fn main() -> ExitCode {
         Command::Merge(args) => merge::merge(args),
         Command::Render(args) => render::render(args),
         Command::Serve(args) => serve::serve(args),
+        Command::Explain { code, color } => explain::explain(code, color),
+        Command::Fmt(args) => fmt::fmt(args),
+        Command::Lsp => lsp::run(),
     };
     output::finish(code)
 }

@@ -13,8 +13,10 @@ mod contradict;
 mod idle;
 mod never;
 pub use idle::{idle_states, Idle};
+pub mod describe;
 pub mod diagnostics;
 pub mod dim;
+pub mod explain;
 pub mod fast_agents;
 mod lower;
 
@@ -22,6 +24,7 @@ pub use check_agents::check_agents;
 pub use check_rules::{check_rules, VALUE_MAX};
 pub use checked::{CheckedRules, Columns, Config, Dim};
 pub use diagnostics::Sources;
+pub use latticesim_grammar::format::format_rules;
 pub use lower::{compile, lower};
 
 use bumpalo::Bump;

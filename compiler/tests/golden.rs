@@ -110,8 +110,9 @@ fn every_code_has_a_golden_case() {
     );
 }
 
-/// The diagnostics section of docs/language.md is generated from the golden cases, so the
-/// reference shows every code with real output. Regenerate with UPDATE_GOLDEN=1.
+/// The diagnostics section of docs/language.md is generated from the explanations
+/// (`compiler/src/explain.md`, also shown by `latticesim explain`), with the output each
+/// wrong example really gives. Regenerate with UPDATE_GOLDEN=1.
 #[test]
 fn language_reference_lists_every_code() {
     let doc_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/language.md");
@@ -120,29 +121,8 @@ fn language_reference_lists_every_code() {
     let a = doc.find(begin).expect("begin marker") + begin.len();
     let b = doc.find(end).expect("end marker");
     let mut section = String::new();
-    for case in cases() {
-        let name = case.file_name().unwrap().to_string_lossy().to_string();
-        let code = Code::parse(&name[..4]).unwrap();
-        section += &format!(
-            "### {} {}\n\n{}.\n\n",
-            code.as_str(),
-            code.slug(),
-            capitalise(code.title())
-        );
-        for file in ["agents.txt", "rules.txt"] {
-            if let Ok(text) = fs::read(case.join(file)) {
-                let text = String::from_utf8_lossy(&text).replace('\u{fffd}', "\\xff");
-                let text = shorten_long_lines(&text);
-                section += &format!("{file}:\n\n```\n{text}```\n\n");
-            }
-        }
-        if let Ok(args) = fs::read_to_string(case.join("args")) {
-            section += &format!("checked with `--{}`:\n\n", args.trim().replace('=', " "));
-        }
-        let (out, _) = render(&case);
-        let body: Vec<&str> = out.lines().skip(1).collect();
-        let body = body[..body.len() - 1].join("\n");
-        section += &format!("```\n{}\n```\n\n", body.trim_end());
+    for e in latticesim_compiler::explain::all() {
+        section += &latticesim_compiler::explain::markdown(&e);
     }
     if std::env::var_os("UPDATE_GOLDEN").is_some() {
         let new = format!("{}{}{}", &doc[..a], section, &doc[b..]);
@@ -150,26 +130,4 @@ fn language_reference_lists_every_code() {
         return;
     }
     assert!(doc[a..b] == section, "docs/language.md is out of date: run UPDATE_GOLDEN=1 cargo test -p latticesim-compiler --test golden");
-}
-
-/// Lines longer than 120 characters are shown cut, with their length.
-fn shorten_long_lines(text: &str) -> String {
-    text.lines()
-        .map(|l| {
-            let n = l.chars().count();
-            if n > 120 {
-                let head: String = l.chars().take(100).collect();
-                format!("{head}… ({n} characters in all)\n")
-            } else {
-                format!("{l}\n")
-            }
-        })
-        .collect()
-}
-
-fn capitalise(s: &str) -> String {
-    let mut c = s.chars();
-    c.next()
-        .map(|f| f.to_uppercase().chain(c).collect())
-        .unwrap_or_default()
 }

@@ -43,6 +43,16 @@ fn run(rules: &[u8], agents: Option<&[u8]>, dim: Option<Dim>) -> Checked {
     c
 }
 
+/// `latticesim fmt` on any input: no panic; what it formats, it formats to a fixed point
+/// that reads without errors.
+fn fmt_holds(bytes: &[u8]) {
+    let text = String::from_utf8_lossy(bytes);
+    if let Ok(once) = latticesim_compiler::format_rules(&text, None) {
+        let twice = latticesim_compiler::format_rules(&once, None);
+        assert_eq!(twice.as_deref(), Ok(once.as_str()), "{text:?}");
+    }
+}
+
 const FRAGMENTS: &[&str] = &[
     "N",
     "N1*0*",
@@ -190,6 +200,7 @@ proptest! {
                     dim in proptest::option::of(prop_oneof![Just(Dim::Two), Just(Dim::Three)])) {
         run(&rules, Some(&agents), dim);
         run(&rules, None, dim);
+        fmt_holds(&rules);
     }
 
     #[test]
@@ -197,6 +208,7 @@ proptest! {
         let text = lines.join("\n");
         run(text.as_bytes(), None, None);
         run(text.as_bytes(), Some(text.as_bytes()), None);
+        fmt_holds(text.as_bytes());
     }
 
     #[test]
@@ -206,6 +218,7 @@ proptest! {
         let mutated = apply(base, &edits);
         run(&mutated, None, None);
         run(&seeds[0], Some(&mutated), None);
+        fmt_holds(&mutated);
     }
 }
 

@@ -13,6 +13,7 @@
 pub mod agents;
 pub mod ast;
 pub mod diag;
+pub mod format;
 pub mod lexer;
 pub mod lines;
 mod parser;

@@ -315,24 +315,28 @@ fn clean_tokens<'a>(
     drop.extend(open);
     // A character that starts no term spoils its word (up to the blanks around it): one
     // error for the word, and its pieces are not read (so they cause no more).
+    // Bad characters and tokens are both in line order: one pass over each.
+    let (mut j, mut word_end) = (0, None);
     for (start, end) in bad {
-        let (ws, we) = word_around(line, start, end);
-        if removed
-            .last()
-            .is_some_and(|r: &Span| r.start as usize == ws)
-        {
+        if word_end.is_some_and(|we| start < we) {
             continue;
         }
+        let (ws, we) = word_around(line, start, end);
+        word_end = Some(we);
         diags.push(bad_char(line, file, start, end));
+        while j < toks.len() && toks[j].0 < ws {
+            j += 1;
+        }
+        while j < toks.len() && toks[j].0 < we {
+            if !matches!(toks[j].1, Tok::LParen | Tok::RParen) {
+                drop.push(j);
+            }
+            j += 1;
+        }
         // The range reaches the next token: a term that starts there and fails is the
         // rest of this one (`c01 A C01 C02`).
-        let next = toks.iter().find(|t| t.0 >= we).map_or(we, |t| t.0);
+        let next = toks.get(j).map_or(we, |t| t.0);
         removed.push(Span::new(ws, next));
-        for (i, t) in toks.iter().enumerate() {
-            if t.0 >= ws && t.2 <= we && !matches!(t.1, Tok::LParen | Tok::RParen) {
-                drop.push(i);
-            }
-        }
     }
     drop.sort_unstable();
     drop.dedup();
@@ -351,6 +355,10 @@ fn clean_tokens<'a>(
 fn line_src(line: Line<'_>, start: usize, end: usize) -> &str {
     &line.text[start - line.start..end - line.start]
 }
+
+/// How many syntax errors of one line are recovered from; the checker shows at most ten a
+/// line.
+const MAX_ROUNDS: usize = 24;
 
 /// The bytes of the blank-separated word around `start..end` of a line.
 fn word_around(line: Line<'_>, start: usize, end: usize) -> (usize, usize) {
@@ -406,7 +414,14 @@ fn parse_line<'a>(
     // Recovery: on a syntax error, the broken term (from the last place a term could
     // start, up to the next) is taken out and the line read again, so one slip is one
     // error and nothing is quoted that is not in the file.
+    let mut round = 0;
     loop {
+        round += 1;
+        if round > MAX_ROUNDS {
+            // So many broken terms that more would not be shown: the rest of the line is
+            // not read (each round reads the whole line again).
+            toks.clear();
+        }
         let mut gaps = Vec::new();
         let result = rules_grammar::LineParser::new().parse(
             arena,

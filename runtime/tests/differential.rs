@@ -419,6 +419,29 @@ proptest! {
     fn themes_agree_with_reference_3d(r in themes(true), a in agents(true)) {
         every_option(&r, &a, 1)?;
     }
+
+    /// `latticesim fmt` on generated rules: the formatted file runs exactly as the original
+    /// (same configuration, records and statistics after every step) and formatting it
+    /// again changes nothing.
+    #[test]
+    fn formatted_rules_run_the_same(
+        (d3, r, a) in proptest::bool::ANY.prop_flat_map(|d3| (Just(d3), rules(d3), agents(d3)))
+    ) {
+        let hint = Some(if d3 { 3 } else { 2 });
+        let once = latticesim_compiler::format_rules(&r, hint).expect("generated rules read");
+        let twice = latticesim_compiler::format_rules(&once, hint).expect("formatted rules read");
+        prop_assert_eq!(&once, &twice);
+        let engine = |rules: &str| {
+            let (prog, lat) = common::compile(rules, &a);
+            Engine::new(prog, lat, Options::default())
+        };
+        let (mut original, mut formatted) = (engine(&r), engine(&once));
+        for _ in 0..4 {
+            prop_assert_eq!(original.step(), formatted.step(), "{}\n--\n{}", r, once);
+            prop_assert!(original.lat == formatted.lat, "{}\n--\n{}", r, once);
+        }
+        prop_assert_eq!(&original.stats, &formatted.stats);
+    }
 }
 
 proptest! {

@@ -1,0 +1,500 @@
+//! What the language server answers: diagnostics, hover, completion, formatting, quick
+//! fixes. Each works from the checker's and the parser's results for the document and the
+//! file it pairs with.
+
+use super::text::LineIndex;
+use super::{Kind, Server};
+use bumpalo::Bump;
+use latticesim_compiler::Checked;
+use latticesim_grammar::ast::{Rule, Term};
+use latticesim_grammar::{FileId, Label, Severity, Span, Spanned};
+use lsp_server::{Message, Notification};
+use lsp_types::{
+    CodeAction, CodeActionKind, CodeActionOrCommand, CodeActionParams, CompletionItem,
+    CompletionItemKind, CompletionParams, CompletionResponse, Diagnostic,
+    DiagnosticRelatedInformation, DiagnosticSeverity, DocumentFormattingParams, Hover,
+    HoverContents, HoverParams, Location, MarkupContent, MarkupKind, NumberOrString,
+    PublishDiagnosticsParams, Range, TextEdit, Uri, WorkspaceEdit,
+};
+use std::collections::HashMap;
+use std::str::FromStr;
+
+/// A document checked with its partner: the URIs of the rules (file 0) and agents (file 1)
+/// files and the checker's findings.
+struct Pair {
+    uris: [Option<String>; 2],
+    checked: Checked,
+}
+
+impl Pair {
+    fn uri(&self, f: FileId) -> Option<&str> {
+        self.uris.get(f.0 as usize).and_then(|u| u.as_deref())
+    }
+
+    fn file_of(&self, uri: &str) -> Option<FileId> {
+        (0..2)
+            .find(|&i| self.uris[i].as_deref() == Some(uri))
+            .map(|i| FileId(i as u32))
+    }
+
+    fn range(&self, l: &Label) -> Range {
+        let ix = LineIndex::new(self.checked.sources.text(l.file));
+        ix.range(l.span.start as usize, l.span.end as usize)
+    }
+}
+
+fn name_of(uri: &str) -> String {
+    uri.rsplit('/').next().unwrap_or(uri).to_string()
+}
+
+fn to_uri(s: &str) -> Option<Uri> {
+    Uri::from_str(s).ok()
+}
+
+/// The notification that clears a document's diagnostics.
+pub(super) fn clear(uri: &str) -> Option<Message> {
+    let params = PublishDiagnosticsParams {
+        uri: to_uri(uri)?,
+        diagnostics: Vec::new(),
+        version: None,
+    };
+    Some(Message::Notification(Notification::new(
+        "textDocument/publishDiagnostics".into(),
+        params,
+    )))
+}
+
+impl Server {
+    fn pair(&self, uri: &str) -> Option<Pair> {
+        let kind = self.docs.get(uri)?.kind;
+        let partner = self.partner(uri, kind);
+        let uris = match kind {
+            Kind::Rules => [Some(uri.to_string()), partner],
+            Kind::Agents => [partner, Some(uri.to_string())],
+        };
+        let rules = uris[0]
+            .as_deref()
+            .and_then(|u| self.text_of(u))
+            .unwrap_or_default();
+        let agents = uris[1].as_deref().and_then(|u| self.text_of(u));
+        let rules_name = uris[0].as_deref().map_or("(no rules file)".into(), name_of);
+        let agents_name = uris[1].as_deref().map(name_of).unwrap_or_default();
+        let checked = crate::check_pair(
+            (&rules_name, rules.as_bytes()),
+            agents
+                .as_deref()
+                .map(|a| (agents_name.as_str(), a.as_bytes())),
+            None,
+        );
+        Some(Pair { uris, checked })
+    }
+
+    fn lsp_diagnostic(pair: &Pair, d: &latticesim_grammar::Diagnostic) -> Diagnostic {
+        let related: Vec<DiagnosticRelatedInformation> = d
+            .secondary
+            .iter()
+            .filter_map(|l| {
+                Some(DiagnosticRelatedInformation {
+                    location: Location {
+                        uri: to_uri(pair.uri(l.file)?)?,
+                        range: pair.range(l),
+                    },
+                    message: l.message.clone(),
+                })
+            })
+            .collect();
+        let mut message = d.message.clone();
+        if !d.primary.message.is_empty() {
+            message += &format!(" ({})", d.primary.message);
+        }
+        if let Some(h) = &d.help {
+            message += &format!("\nhelp: {h}");
+        }
+        for f in &d.fixes {
+            message += &format!("\nfix: {}", f.message);
+        }
+        Diagnostic {
+            range: pair.range(&d.primary),
+            severity: Some(match d.severity() {
+                Severity::Error => DiagnosticSeverity::ERROR,
+                Severity::Warning => DiagnosticSeverity::WARNING,
+            }),
+            code: Some(NumberOrString::String(d.code.as_str().into())),
+            source: Some("latticesim".into()),
+            message,
+            related_information: (!related.is_empty()).then_some(related),
+            ..Diagnostic::default()
+        }
+    }
+
+    /// Checks a document with its partner and publishes the diagnostics of both (the
+    /// partner's when it is open).
+    pub(super) fn publish(&self, uri: &str) -> Vec<Message> {
+        let Some(pair) = self.pair(uri) else {
+            return Vec::new();
+        };
+        let mut out = Vec::new();
+        for f in [FileId(0), FileId(1)] {
+            let Some(u) = pair.uri(f) else { continue };
+            if u != uri && !self.docs.contains_key(u) {
+                continue;
+            }
+            let Some(lsp_uri) = to_uri(u) else { continue };
+            let diagnostics = pair
+                .checked
+                .diags
+                .iter()
+                .filter(|d| d.primary.file == f)
+                .map(|d| Self::lsp_diagnostic(&pair, d))
+                .collect();
+            let params = PublishDiagnosticsParams {
+                uri: lsp_uri,
+                diagnostics,
+                version: self.docs.get(u).map(|d| d.version),
+            };
+            out.push(Message::Notification(Notification::new(
+                "textDocument/publishDiagnostics".into(),
+                params,
+            )));
+        }
+        out
+    }
+
+    pub(super) fn hover(&self, p: HoverParams) -> Option<Hover> {
+        let uri = p.text_document_position_params.text_document.uri.as_str();
+        let doc = self.docs.get(uri)?;
+        let ix = LineIndex::new(&doc.text);
+        let at = ix.offset(p.text_document_position_params.position);
+        let (text, span) = match doc.kind {
+            Kind::Rules => rules_hover(&doc.text, at)?,
+            Kind::Agents => agents_hover(&doc.text, at)?,
+        };
+        Some(Hover {
+            contents: HoverContents::Markup(MarkupContent {
+                kind: MarkupKind::Markdown,
+                value: text,
+            }),
+            range: Some(ix.range(span.start as usize, span.end as usize)),
+        })
+    }
+
+    pub(super) fn completion(&self, p: CompletionParams) -> Option<CompletionResponse> {
+        let uri = p.text_document_position.text_document.uri.as_str();
+        let doc = self.docs.get(uri)?;
+        let ix = LineIndex::new(&doc.text);
+        let at = ix.offset(p.text_document_position.position);
+        let line_start = doc.text[..at].rfind('\n').map_or(0, |i| i + 1);
+        let word_start = doc.text[line_start..at]
+            .rfind([' ', '\t', '(', '!'])
+            .map_or(line_start, |i| line_start + i + 1);
+        let word = &doc.text[word_start..at];
+        let pair = self.pair(uri);
+        let three = pair
+            .as_ref()
+            .is_some_and(|p| p.checked.dim.dim == latticesim_vm::model::Dim::Three);
+        let states = || -> Vec<String> {
+            let mut v: Vec<String> = Vec::new();
+            for u in pair.iter().flat_map(|p| p.uris.iter().flatten()) {
+                if let Some(t) = self.text_of(u) {
+                    states_in(&t, &mut v);
+                }
+            }
+            v.sort();
+            v.dedup();
+            v
+        };
+        let items: Vec<CompletionItem> = if word.starts_with('S') || is_t_state(word) {
+            let prefix = if word.starts_with('S') {
+                "S".to_string()
+            } else {
+                word[..word.rfind(',').map_or(0, |i| i + 1)].to_string()
+            };
+            states()
+                .into_iter()
+                .map(|s| CompletionItem {
+                    label: format!("{prefix}{s}"),
+                    kind: Some(CompletionItemKind::VALUE),
+                    detail: Some(format!("the state {s}, used in these files")),
+                    ..CompletionItem::default()
+                })
+                .collect()
+        } else if doc.kind == Kind::Rules {
+            let line_no = doc.text[..line_start].matches('\n').count() as u32 + 1;
+            let role = line_role(&doc.text, line_no);
+            terms(role, three)
+                .into_iter()
+                .map(|(label, insert, detail)| CompletionItem {
+                    label: label.into(),
+                    kind: Some(CompletionItemKind::KEYWORD),
+                    detail: Some(detail.into()),
+                    insert_text: Some(insert),
+                    ..CompletionItem::default()
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        Some(CompletionResponse::Array(items))
+    }
+
+    pub(super) fn formatting(&self, p: DocumentFormattingParams) -> Option<Vec<TextEdit>> {
+        let doc = self.docs.get(p.text_document.uri.as_str())?;
+        if doc.kind != Kind::Rules {
+            return None;
+        }
+        let formatted = latticesim_compiler::format_rules(&doc.text, None).ok()?;
+        if formatted == doc.text {
+            return Some(Vec::new());
+        }
+        let ix = LineIndex::new(&doc.text);
+        Some(vec![TextEdit {
+            range: ix.range(0, doc.text.len()),
+            new_text: formatted,
+        }])
+    }
+
+    pub(super) fn code_actions(&self, p: CodeActionParams) -> Option<Vec<CodeActionOrCommand>> {
+        let uri = p.text_document.uri.as_str();
+        let pair = self.pair(uri)?;
+        let file = pair.file_of(uri)?;
+        let mut out = Vec::new();
+        for d in pair.checked.diags.iter().filter(|d| d.primary.file == file) {
+            let range = pair.range(&d.primary);
+            if range.end < p.range.start || p.range.end < range.start {
+                continue;
+            }
+            for f in &d.fixes {
+                // lsp-types' own map type for workspace edits (its `Uri` caches its parts
+                // inside, which clippy flags; it is never mutated as a key here).
+                #[allow(clippy::mutable_key_type)]
+                let mut changes: HashMap<Uri, Vec<TextEdit>> = HashMap::new();
+                for e in &f.edits {
+                    let Some(u) = pair.uri(e.file).and_then(to_uri) else {
+                        continue;
+                    };
+                    let l = Label::new(e.file, e.span, "");
+                    changes.entry(u).or_default().push(TextEdit {
+                        range: pair.range(&l),
+                        new_text: e.replacement.clone(),
+                    });
+                }
+                out.push(CodeActionOrCommand::CodeAction(CodeAction {
+                    title: f.message.clone(),
+                    kind: Some(CodeActionKind::QUICKFIX),
+                    diagnostics: Some(vec![Self::lsp_diagnostic(&pair, d)]),
+                    edit: Some(WorkspaceEdit {
+                        changes: Some(changes),
+                        ..WorkspaceEdit::default()
+                    }),
+                    is_preferred: Some(true),
+                    ..CodeAction::default()
+                }));
+            }
+        }
+        Some(out)
+    }
+}
+
+/// True for the start of a `T` term up to its state (`T1,0,` or `T1,0,AB`).
+fn is_t_state(word: &str) -> bool {
+    word.starts_with('T') && word.matches(',').count() >= 2
+}
+
+/// The states named in a file: `S` and `T` terms of rules, `S` fields of agents, without
+/// `*`s.
+fn states_in(text: &str, out: &mut Vec<String>) {
+    for word in text.split([' ', '\t', '\n', '\r', '(', ')', '!']) {
+        let state = if let Some(s) = word.strip_prefix('S') {
+            Some(s)
+        } else if word.starts_with('T') {
+            word.rsplit(',').next()
+        } else {
+            None
+        };
+        if let Some(s) = state {
+            if s.chars().count() == 5 && !s.contains('*') && !s.contains("//") {
+                out.push(s.to_string());
+            }
+        }
+    }
+}
+
+/// Which line of a rule line `number` (1-based) is: 2 precondition, 3 postcondition, other
+/// values for the rest (or when the structure is unclear).
+fn line_role(text: &str, number: u32) -> u8 {
+    let lines: Vec<_> = latticesim_grammar::lines::significant_lines(text).collect();
+    for l in latticesim_grammar::structure::layouts(&lines) {
+        if l.pre.is_some_and(|p| p.number == number) {
+            return 2;
+        }
+        if l.post.is_some_and(|p| p.number == number) {
+            return 3;
+        }
+        if l.name.is_some_and(|p| p.number == number)
+            || l.priority.is_some_and(|p| p.number == number)
+        {
+            return 0;
+        }
+    }
+    9
+}
+
+/// Term completions for a line role: (label, text inserted, what it is).
+fn terms(role: u8, three: bool) -> Vec<(&'static str, String, &'static str)> {
+    let dirs = if three { 6 } else { 4 };
+    let pat = |c: char| format!("{c}{}", "*".repeat(dirs));
+    let off = if three { "0,0,1" } else { "0,1" };
+    let tests = vec![
+        (
+            "N",
+            pat('N'),
+            "neighbour cells: 0 empty, 1 filled, * either",
+        ),
+        ("E", format!("E{off}"), "the cell at the offset is empty"),
+        ("F", format!("F{off}"), "the cell at the offset is filled"),
+        (
+            "L",
+            format!("L{off}"),
+            "the agent there has a smaller priority",
+        ),
+        (
+            "Q",
+            format!("Q{off}"),
+            "the agent there has a smaller or equal priority",
+        ),
+        (
+            "T",
+            format!("T{off},*****"),
+            "the agent there is in a matching state",
+        ),
+        (
+            "P<",
+            pat('P'),
+            "neighbour priorities: < smaller, = smaller or equal, * any",
+        ),
+        (
+            "A",
+            pat('A'),
+            "attachments: 0 not attached, 1 attached, * either",
+        ),
+        ("S", "S*****".into(), "the agent's state matches"),
+        (
+            "M",
+            "M*hello".into(),
+            "a text message came (direction or *, 5 characters)",
+        ),
+        ("<", "<C00 0000".into(), "a value is smaller than another"),
+        (">", ">C00 0000".into(), "a value is larger than another"),
+        ("=", "=C00 0000".into(), "two values are equal"),
+        (
+            "V",
+            "V1,0,C00 0000".into(),
+            "a neighbour's counter is smaller (2D)",
+        ),
+        (
+            "W",
+            "W1,0,C00 0000".into(),
+            "a neighbour's counter is smaller or equal (2D)",
+        ),
+        ("!", "!".into(), "the next term must not hold"),
+    ];
+    let actions = vec![
+        ("P", format!("P{off}"), "move by the offset"),
+        ("X", "XN".into(), "swap places with a neighbour"),
+        (
+            "A",
+            pat('A'),
+            "set attachments: 0 detach, 1 attach, * keep, + carry",
+        ),
+        ("S", "S*****".into(), "set the state (* keeps a character)"),
+        (
+            "M",
+            "MNhello".into(),
+            "send a text message (direction or *, 5 characters)",
+        ),
+        ("C", "C00 + C00 0001".into(), "a calculation into a counter"),
+        (
+            "#",
+            "#*01 + C00 0000".into(),
+            "a calculation into a numeric message",
+        ),
+    ];
+    match role {
+        2 => tests,
+        3 => actions,
+        _ => tests.into_iter().chain(actions).collect(),
+    }
+}
+
+/// The innermost term at `at` among `terms`, and whether `in_post`.
+fn term_at<'t, 'a>(terms: &'t [Spanned<Term<'a>>], at: usize) -> Option<&'t Spanned<Term<'a>>> {
+    let t = terms.iter().find(|t| {
+        (t.span.start as usize) <= at && at < (t.span.end as usize).max(t.span.start as usize + 1)
+    })?;
+    match &t.node {
+        Term::Not(inner) => term_at(std::slice::from_ref(*inner), at).or(Some(t)),
+        Term::Group(ts) => term_at(ts, at).or(Some(t)),
+        _ => Some(t),
+    }
+}
+
+fn rules_hover(text: &str, at: usize) -> Option<(String, Span)> {
+    let arena = Bump::new();
+    let (f, _) = latticesim_grammar::parse_rules(text, FileId(0), &arena, None);
+    let within = |s: Span| (s.start as usize) <= at && at <= s.end as usize;
+    let r: &Rule<'_> = f.rules.iter().find(|r| {
+        within(r.name.span) || within(r.priority.span) || within(r.pre.span) || within(r.post.span)
+    })?;
+    if within(r.name.span) {
+        return Some((format!("**Rule** `{}`", r.name.node), r.name.span));
+    }
+    if within(r.priority.span) {
+        let p = r.priority.node.map_or("?".into(), |p| p.to_string());
+        return Some((
+            format!("**Priority** {p} of `{}`: among the rules an agent may apply, the highest priority wins", r.name.node),
+            r.priority.span,
+        ));
+    }
+    let (terms, in_post) = if within(r.pre.span) {
+        (r.pre.node, false)
+    } else {
+        (r.post.node, true)
+    };
+    let t = term_at(terms, at)?;
+    Some((
+        latticesim_compiler::describe::term(&t.node, in_post),
+        t.span,
+    ))
+}
+
+fn agents_hover(text: &str, at: usize) -> Option<(String, Span)> {
+    let (f, _) = latticesim_grammar::parse_agents(text, FileId(1));
+    if let Some(u) = f
+        .universe
+        .as_ref()
+        .filter(|u| (u.span.start as usize) <= at && at <= u.span.end as usize)
+    {
+        let b: Vec<i64> = u.bounds.iter().map(|b| b.node).collect();
+        let axes: Vec<String> = b
+            .chunks(2)
+            .zip(["x", "y", "z"])
+            .map(|(c, a)| format!("{a} from {} to {}", c[0], c.get(1).copied().unwrap_or(c[0])))
+            .collect();
+        return Some((format!("**Universe**: {}", axes.join(", ")), u.span));
+    }
+    let (i, a) = f
+        .agents
+        .iter()
+        .enumerate()
+        .find(|(_, a)| (a.span.start as usize) <= at && at <= a.span.end as usize)?;
+    let pos: Vec<String> = a.pos.iter().map(|p| p.node.to_string()).collect();
+    let mut s = format!("**Agent {i}** at ({})", pos.join(", "));
+    s += &format!(", state `{}`", a.state.map_or("00000", |s| s.node));
+    if let Some(at) = a.attach {
+        s += &format!(", attachments `{}` (N, W, E, S[, A, B])", at.node);
+    }
+    for (c, v) in &a.counters {
+        s += &format!(", C{} = {}", c.node, v.node);
+    }
+    Some((s, a.span))
+}

@@ -1,0 +1,276 @@
+//! `latticesim lsp`: a language server over standard input and output for rules and agents
+//! files (docs/editors.md).
+//!
+//! - Diagnostics as you type: the checker of `latticesim check`, on the document and the file
+//!   it pairs with (a rules file with its agents file, see [`Server::partner`]), with the
+//!   secondary labels as related information (into the other file too).
+//! - Hover: what a term or action under the cursor tests or does; a rule's name and
+//!   priority; an agent's fields.
+//! - Completion: the terms a precondition or postcondition line may hold, and the states
+//!   used in the files after `S` or a `T` offset.
+//! - Formatting: `latticesim fmt`'s layout.
+//! - Code actions: the diagnostics' fixes as quick fixes.
+//!
+//! [`Server::handle`] takes a message and gives the messages to send, so tests drive it
+//! without a process; [`run`] connects it to standard input and output.
+
+mod features;
+pub mod text;
+
+use lsp_server::{Connection, Message, Notification, Request, RequestId, Response};
+use lsp_types::{
+    CodeActionProviderCapability, CompletionOptions, DidChangeTextDocumentParams,
+    DidCloseTextDocumentParams, DidOpenTextDocumentParams, HoverProviderCapability, OneOf,
+    PositionEncodingKind, ServerCapabilities, TextDocumentSyncCapability, TextDocumentSyncKind,
+    Uri,
+};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::str::FromStr;
+
+/// Which language a document is in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kind {
+    /// A rules file.
+    Rules,
+    /// An agents file.
+    Agents,
+}
+
+/// An open document.
+pub struct Doc {
+    /// The text as the editor has it.
+    pub text: String,
+    /// The editor's version.
+    pub version: i32,
+    /// Rules or agents.
+    pub kind: Kind,
+}
+
+/// The server's state: the open documents.
+#[derive(Default)]
+pub struct Server {
+    docs: HashMap<String, Doc>,
+}
+
+/// The capabilities the server announces.
+pub fn capabilities() -> ServerCapabilities {
+    ServerCapabilities {
+        position_encoding: Some(PositionEncodingKind::UTF16),
+        text_document_sync: Some(TextDocumentSyncCapability::Kind(
+            TextDocumentSyncKind::INCREMENTAL,
+        )),
+        hover_provider: Some(HoverProviderCapability::Simple(true)),
+        completion_provider: Some(CompletionOptions {
+            trigger_characters: Some(vec![" ".into(), ",".into(), "S".into()]),
+            ..CompletionOptions::default()
+        }),
+        document_formatting_provider: Some(OneOf::Left(true)),
+        code_action_provider: Some(CodeActionProviderCapability::Simple(true)),
+        ..ServerCapabilities::default()
+    }
+}
+
+/// The file path of a `file:` URI.
+pub fn path_of(uri: &str) -> Option<PathBuf> {
+    url::Url::parse(uri).ok()?.to_file_path().ok()
+}
+
+/// The `file:` URI of a path.
+pub fn uri_of(path: &Path) -> Option<Uri> {
+    let u = url::Url::from_file_path(path).ok()?;
+    Uri::from_str(u.as_str()).ok()
+}
+
+/// The kind of a document from its language id or, failing that, its file name.
+fn kind_of(language: &str, uri: &str) -> Kind {
+    match language {
+        "latticesim-agents" => Kind::Agents,
+        "latticesim-rules" => Kind::Rules,
+        _ => {
+            let name = uri.rsplit('/').next().unwrap_or("");
+            if name.starts_with("agents") {
+                Kind::Agents
+            } else {
+                Kind::Rules
+            }
+        }
+    }
+}
+
+fn params<P: serde::de::DeserializeOwned>(v: serde_json::Value) -> Option<P> {
+    serde_json::from_value(v).ok()
+}
+
+impl Server {
+    /// A server with no document open.
+    pub fn new() -> Server {
+        Server::default()
+    }
+
+    /// The text of an open document.
+    pub fn open_text(&self, uri: &str) -> Option<&str> {
+        self.docs.get(uri).map(|d| d.text.as_str())
+    }
+
+    /// The text of a document: the editor's when it is open, else the file's on disk.
+    fn text_of(&self, uri: &str) -> Option<String> {
+        if let Some(d) = self.docs.get(uri) {
+            return Some(d.text.clone());
+        }
+        let bytes = std::fs::read(path_of(uri)?).ok()?;
+        Some(String::from_utf8_lossy(&bytes).into_owned())
+    }
+
+    /// The file a document is checked with: for `rules-X.txt` the `agents-X.txt` beside it
+    /// (open or on disk), else an open agents file in the same folder, else `agents.txt`;
+    /// for `agents-X.txt` the `rules-X.txt` beside it, else `rules.txt`.
+    pub fn partner(&self, uri: &str, kind: Kind) -> Option<String> {
+        let (dir, name) = uri.rsplit_once('/')?;
+        let (own, other) = match kind {
+            Kind::Rules => ("rules", "agents"),
+            Kind::Agents => ("agents", "rules"),
+        };
+        let suffix = name.strip_prefix(own).unwrap_or(".txt");
+        let exists =
+            |u: &String| self.docs.contains_key(u) || path_of(u).is_some_and(|p| p.is_file());
+        let same = format!("{dir}/{other}{suffix}");
+        if exists(&same) {
+            return Some(same);
+        }
+        if kind == Kind::Rules {
+            let mut open: Vec<&String> = self
+                .docs
+                .iter()
+                .filter(|(u, d)| {
+                    d.kind == Kind::Agents && u.rsplit_once('/').is_some_and(|(d, _)| d == dir)
+                })
+                .map(|(u, _)| u)
+                .collect();
+            open.sort();
+            if let Some(u) = open.first() {
+                return Some((*u).clone());
+            }
+        }
+        let plain = format!("{dir}/{other}.txt");
+        exists(&plain).then_some(plain)
+    }
+
+    /// Handles one message from the client; gives the messages to send back.
+    pub fn handle(&mut self, msg: Message) -> Vec<Message> {
+        match msg {
+            Message::Request(r) => vec![Message::Response(self.request(r))],
+            Message::Notification(n) => self.notification(n),
+            Message::Response(_) => Vec::new(),
+        }
+    }
+
+    fn request(&mut self, r: Request) -> Response {
+        let id: RequestId = r.id.clone();
+        let result = match r.method.as_str() {
+            "textDocument/hover" => params(r.params).map(|p| serde_json::to_value(self.hover(p))),
+            "textDocument/completion" => {
+                params(r.params).map(|p| serde_json::to_value(self.completion(p)))
+            }
+            "textDocument/formatting" => {
+                params(r.params).map(|p| serde_json::to_value(self.formatting(p)))
+            }
+            "textDocument/codeAction" => {
+                params(r.params).map(|p| serde_json::to_value(self.code_actions(p)))
+            }
+            "shutdown" => Some(Ok(serde_json::Value::Null)),
+            _ => {
+                return Response::new_err(
+                    id,
+                    lsp_server::ErrorCode::MethodNotFound as i32,
+                    format!("latticesim lsp does not handle `{}`", r.method),
+                )
+            }
+        };
+        match result {
+            Some(Ok(v)) => Response::new_ok(id, v),
+            _ => Response::new_err(
+                id,
+                lsp_server::ErrorCode::InvalidParams as i32,
+                "the parameters could not be read".into(),
+            ),
+        }
+    }
+
+    fn notification(&mut self, n: Notification) -> Vec<Message> {
+        match n.method.as_str() {
+            "textDocument/didOpen" => {
+                let Some(p) = params::<DidOpenTextDocumentParams>(n.params) else {
+                    return Vec::new();
+                };
+                let uri = p.text_document.uri.as_str().to_string();
+                let kind = kind_of(&p.text_document.language_id, &uri);
+                self.docs.insert(
+                    uri.clone(),
+                    Doc {
+                        text: p.text_document.text,
+                        version: p.text_document.version,
+                        kind,
+                    },
+                );
+                self.publish(&uri)
+            }
+            "textDocument/didChange" => {
+                let Some(p) = params::<DidChangeTextDocumentParams>(n.params) else {
+                    return Vec::new();
+                };
+                let uri = p.text_document.uri.as_str().to_string();
+                let Some(d) = self.docs.get_mut(&uri) else {
+                    return Vec::new();
+                };
+                d.version = p.text_document.version;
+                text::apply_changes(&mut d.text, p.content_changes);
+                self.publish(&uri)
+            }
+            "textDocument/didClose" => {
+                let Some(p) = params::<DidCloseTextDocumentParams>(n.params) else {
+                    return Vec::new();
+                };
+                let uri = p.text_document.uri.as_str().to_string();
+                self.docs.remove(&uri);
+                // Its diagnostics go with it.
+                features::clear(&uri).into_iter().collect()
+            }
+            _ => Vec::new(),
+        }
+    }
+}
+
+/// Runs the server on standard input and output until the client says `exit`.
+pub fn run() -> ExitCode {
+    let (connection, io) = Connection::stdio();
+    let caps = serde_json::to_value(capabilities()).expect("capabilities are plain data");
+    if let Err(e) = connection.initialize(caps) {
+        crate::output::say!("error: the language client did not initialize: {e}");
+        return ExitCode::from(2);
+    }
+    let mut server = Server::new();
+    for msg in &connection.receiver {
+        if let Message::Request(r) = &msg {
+            match connection.handle_shutdown(r) {
+                Ok(true) => break,
+                Ok(false) => {}
+                Err(_) => break,
+            }
+        }
+        for out in server.handle(msg) {
+            if connection.sender.send(out).is_err() {
+                break;
+            }
+        }
+    }
+    drop(connection);
+    match io.join() {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            crate::output::say!("error: the language client's connection failed: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
