@@ -344,12 +344,23 @@ pub struct JsonFix {
     pub edits: Vec<JsonEdit>,
 }
 
-/// One replacement of a fix.
+/// One replacement of a fix: where (as a label's place) and the new text.
 #[derive(Serialize, Debug, Clone, PartialEq, Eq)]
 pub struct JsonEdit {
-    /// Where, as a label (its message is empty).
-    #[serde(flatten)]
-    pub at: JsonLabel,
+    /// File name.
+    pub file: String,
+    /// 1-based line of the start.
+    pub line: usize,
+    /// 1-based column of the start, in characters.
+    pub column: usize,
+    /// 1-based line of the end.
+    pub end_line: usize,
+    /// 1-based column just after the end.
+    pub end_column: usize,
+    /// Byte offset of the start.
+    pub start_byte: u32,
+    /// Byte offset just after the end.
+    pub end_byte: u32,
     /// The new text.
     pub replacement: String,
 }
@@ -401,9 +412,19 @@ pub fn to_json(diags: &[Diagnostic], sources: &Sources) -> Vec<JsonDiagnostic> {
                         edits: f
                             .edits
                             .iter()
-                            .map(|e| JsonEdit {
-                                at: json_label(&Label::new(e.file, e.span, ""), false, sources),
-                                replacement: e.replacement.clone(),
+                            .map(|e| {
+                                let at =
+                                    json_label(&Label::new(e.file, e.span, ""), false, sources);
+                                JsonEdit {
+                                    file: at.file,
+                                    line: at.line,
+                                    column: at.column,
+                                    end_line: at.end_line,
+                                    end_column: at.end_column,
+                                    start_byte: at.start_byte,
+                                    end_byte: at.end_byte,
+                                    replacement: e.replacement.clone(),
+                                }
                             })
                             .collect(),
                     })

@@ -31,6 +31,7 @@ class Diagnostic:
     end_column: int
     help: Optional[str]
     labels: list[dict[str, Any]]
+    fixes: list[dict[str, Any]]
 
 class Record:
     """Something that happened in a step: a conflict, a blocked move, a saturation..."""

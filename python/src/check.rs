@@ -20,7 +20,8 @@ pyo3::create_exception!(
 
 /// One problem found in the rules or agents file, as `latticesim check --format json`
 /// gives it: a code (`E201`, `W603`...), the severity, the message, where it is (file,
-/// line, column, end), every label (the first is the primary one) and a help line.
+/// line, column, end), every label (the first is the primary one), a help line and the
+/// suggested fixes.
 #[pyclass(module = "latticesim", frozen, get_all)]
 pub struct Diagnostic {
     /// The code, e.g. `E201`.
@@ -43,6 +44,9 @@ pub struct Diagnostic {
     help: Option<String>,
     /// Every label as a dict (primary, file, line, column, end_line, end_column, message).
     labels: Py<PyList>,
+    /// Suggested fixes as dicts: `message` and `edits` (each file, line, column, end_line,
+    /// end_column, start_byte, end_byte and `replacement`), as `check --format json`.
+    fixes: Py<PyList>,
 }
 
 #[pymethods]
@@ -67,10 +71,11 @@ pub(crate) fn diagnostics<'py>(py: Python<'py>, c: &Checked) -> PyResult<Bound<'
     let json = py.import("json")?;
     let out = PyList::empty(py);
     for d in latticesim_compiler::diagnostics::to_json(&c.diags, &c.sources) {
-        let labels = serde_json::to_string(&d.labels).expect("plain data");
-        let labels = json
-            .call_method1("loads", (labels,))?
-            .cast_into::<PyList>()?;
+        let as_list = |v: String| -> PyResult<Bound<'py, PyList>> {
+            Ok(json.call_method1("loads", (v,))?.cast_into::<PyList>()?)
+        };
+        let labels = as_list(serde_json::to_string(&d.labels).expect("plain data"))?;
+        let fixes = as_list(serde_json::to_string(&d.fixes).expect("plain data"))?;
         out.append(Diagnostic {
             code: d.code.to_string(),
             severity: d.severity.to_string(),
@@ -82,6 +87,7 @@ pub(crate) fn diagnostics<'py>(py: Python<'py>, c: &Checked) -> PyResult<Bound<'
             end_column: d.end_column,
             help: d.help,
             labels: labels.unbind(),
+            fixes: fixes.unbind(),
         })?;
     }
     Ok(out)

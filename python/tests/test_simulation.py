@@ -163,7 +163,7 @@ def test_ctrl_c_stops_after_the_step(cli, tmp_path):
 
 
 def test_bad_files_raise_with_every_diagnostic(cli, tmp_path):
-    rules = (ROOT / "examples/leader-election/rules.txt").read_text() + "\nbroken\nx\nSINIT0\nSLEAD0\n"
+    rules = (ROOT / "examples/leader-election/rules.txt").read_text() + "\nbroken\nx\nSINIT0\nSLEAD0\n\nfixable\nl\nSINIT0\nSLEAD0\n"
     agents = "0,0 SINIT0\n0,0 SINIT0\n"
     with pytest.raises(latticesim.CheckError) as info:
         latticesim.Simulation.from_text(rules, agents, rules_name="le.txt", agents_name="a.txt")
@@ -187,6 +187,9 @@ def test_bad_files_raise_with_every_diagnostic(cli, tmp_path):
     assert [(d.code, d.line, d.column, d.message) for d in e.diagnostics] == [
         (d["code"], d["line"], d["column"], d["message"]) for d in want
     ]
+    # The fixes too: `l` for the priority 1.
+    assert [d.fixes for d in e.diagnostics] == [d["fixes"] for d in want]
+    assert any(f["edits"][0]["replacement"] == "1" for d in e.diagnostics for f in d.fixes)
 
 
 def test_warnings_are_python_warnings():
