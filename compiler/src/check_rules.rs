@@ -42,6 +42,48 @@ pub(crate) fn chars(n: usize) -> String {
     }
 }
 
+/// True when `b` is `a` with one character added or taken away.
+fn one_edit(a: &str, b: &str) -> bool {
+    let (a, b): (Vec<char>, Vec<char>) = (a.chars().collect(), b.chars().collect());
+    let (short, long) = if a.len() < b.len() { (a, b) } else { (b, a) };
+    if long.len() != short.len() + 1 {
+        return false;
+    }
+    let i = short.iter().zip(&long).take_while(|(x, y)| x == y).count();
+    short[i..] == long[i + 1..]
+}
+
+/// The states a rules file names in full: its `S` and `T` texts of five characters
+/// without `*`, once each.
+fn named_states<'a>(f: &latticesim_grammar::ast::RulesFile<'a>) -> Vec<&'a str> {
+    fn walk<'a>(
+        ts: &[Spanned<Term<'a>>],
+        seen: &mut std::collections::HashSet<&'a str>,
+        out: &mut Vec<&'a str>,
+    ) {
+        for t in ts {
+            match t.node {
+                Term::State(s) | Term::RemoteState { state: s, .. }
+                    if s.node.chars().count() == 5
+                        && !s.node.contains('*')
+                        && seen.insert(s.node) =>
+                {
+                    out.push(s.node)
+                }
+                Term::Not(i) => walk(std::slice::from_ref(i), seen, out),
+                Term::Group(g) => walk(g, seen, out),
+                _ => {}
+            }
+        }
+    }
+    let (mut seen, mut out) = (std::collections::HashSet::new(), Vec::new());
+    for r in &f.rules {
+        walk(r.pre.node, &mut seen, &mut out);
+        walk(r.post.node, &mut seen, &mut out);
+    }
+    out
+}
+
 /// The digit a letter is often typed for (`O` for `0`, `l` or `I` for `1`).
 pub(crate) fn digit_for(c: char) -> Option<char> {
     match c {
@@ -60,6 +102,8 @@ pub(crate) struct Checker<'d> {
     pub src: &'d str,
     pub dim: &'d DimSource,
     pub diags: &'d mut Vec<Diagnostic>,
+    /// The states the rules file names in full (`S` and `T` without `*`), for suggestions.
+    pub states: Vec<&'d str>,
 }
 
 type OffsetAst<'a> = ast::Offset<'a>;
@@ -344,18 +388,29 @@ impl Checker<'_> {
     fn text(&mut self, s: &Spanned<&str>, what: &str, star: bool) -> Option<TextPat> {
         let n = s.node.chars().count();
         if n != 5 {
-            self.push(
-                Diagnostic::new(
-                    Code::E303,
-                    format!("{what} `{}` has {}; it needs exactly 5", s.node, chars(n)),
-                    self.label(s.span, chars(n)),
-                )
-                .with_help(if star {
-                    "write 5 characters; `*` stands for any character".to_string()
-                } else {
-                    "write exactly 5 characters".to_string()
-                }),
-            );
+            let mut d = Diagnostic::new(
+                Code::E303,
+                format!("{what} `{}` has {}; it needs exactly 5", s.node, chars(n)),
+                self.label(s.span, chars(n)),
+            )
+            .with_help(if star {
+                "write 5 characters; `*` stands for any character".to_string()
+            } else {
+                "write exactly 5 characters".to_string()
+            });
+            // A state of the file one character away (`SINT0` for `SINIT0`).
+            let mut near = self.states.iter().filter(|t| one_edit(s.node, t));
+            if what.contains("state") {
+                if let (Some(t), None) = (near.next(), near.next()) {
+                    d = d.with_fix(Fix::replace(
+                        format!("did you mean `{t}`? the rules name it"),
+                        self.file,
+                        s.span,
+                        t.to_string(),
+                    ));
+                }
+            }
+            self.push(d);
             return None;
         }
         let mut pat: TextPat = [None; 5];
@@ -915,6 +970,7 @@ pub fn check_rules(
         src,
         dim,
         diags,
+        states: named_states(f),
     };
     let mut rules = Vec::with_capacity(f.rules.len());
     let mut names: HashMap<&str, Span> = HashMap::with_capacity(f.rules.len());

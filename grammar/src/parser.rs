@@ -3,8 +3,11 @@
 //! syntax error turned into a [`Diagnostic`].
 //!
 //! Recovery: each line is parsed on its own, so one broken line never hides the next. Within
-//! a line, characters that start no token and unbalanced parentheses are reported and removed
-//! before parsing, and the grammar's error productions skip to the next term.
+//! a line, a character that starts no token is reported once for its word, which is left out;
+//! unbalanced parentheses are reported and left out; and a syntax error takes the broken term
+//! out (from the last place a term could start to the next) before the line is read again,
+//! errors in what touches a term already taken out being its consequences, not reported. So
+//! one slip is one error, and every message quotes the file as written.
 
 use crate::ast::{Comp, Operand, Rule, RulesFile, Term, Terms};
 use crate::diag::{Code, Diagnostic, Fix, Label};
@@ -77,8 +80,8 @@ pub fn parse_rules<'a>(
             continue;
         };
         let priority = parse_priority(prio, file, &mut diags);
-        let pre = parse_line(pre, file, arena, dim_hint, &mut diags, &mut toks);
-        let post = parse_line(post, file, arena, dim_hint, &mut diags, &mut toks);
+        let pre = parse_line(pre, false, file, arena, dim_hint, &mut diags, &mut toks);
+        let post = parse_line(post, true, file, arena, dim_hint, &mut diags, &mut toks);
         rules.push(Rule {
             name: Spanned::new(name.text, line_span(name)),
             priority,
@@ -397,8 +400,10 @@ fn resync_at(toks: &[Spanned3<'_>], j: usize) -> bool {
             || matches!(toks[j - 1].1, Tok::LParen | Tok::RParen | Tok::Bang))
 }
 
+/// Parses one precondition (`in_post` false) or postcondition line.
 fn parse_line<'a>(
     line: Line<'a>,
+    in_post: bool,
     file: FileId,
     arena: &'a Bump,
     dim_hint: Option<u8>,
@@ -480,7 +485,8 @@ fn parse_line<'a>(
             .iter()
             .any(|x| (x.start as usize) <= upto && from <= x.end as usize);
         if !touches {
-            diags.push(syntax_error(e, line, file, end, toks, s, k));
+            let fix = syntax_fix(line, in_post, file, toks, s, k);
+            diags.push(syntax_error(e, line, file, (from, end), fix));
         }
         removed.push(Span::new(from, to));
         let before = toks.len();
@@ -513,16 +519,15 @@ fn blank_inside(file: FileId, g: Span) -> Diagnostic {
     .with_fix(Fix::replace("remove the blank", file, g, ""))
 }
 
+/// The diagnostic of a syntax error; `from` is where the broken term starts, `end` where
+/// the line ends (bytes).
 fn syntax_error(
     e: ParseError<usize, Tok<'_>, BadChar>,
     line: Line<'_>,
     file: FileId,
-    end: usize,
-    toks: &[Spanned3<'_>],
-    s: usize,
-    k: usize,
+    (from, end): (usize, usize),
+    fix: Option<Fix>,
 ) -> Diagnostic {
-    let fix = syntax_fix(line, file, toks, s, k);
     let d = match e {
         ParseError::UnrecognizedToken {
             token: (l, _, r),
@@ -541,7 +546,7 @@ fn syntax_error(
             .with_help(help_for(&expected))
         }
         ParseError::UnrecognizedEof { expected, .. } => {
-            let from = toks.get(s).map_or(line.start, |t| t.0);
+            let from = from.min(end);
             Diagnostic::new(
                 Code::E202,
                 "the line ends in the middle of a term",
@@ -573,6 +578,7 @@ fn syntax_error(
 /// is a common one.
 fn syntax_fix(
     line: Line<'_>,
+    in_post: bool,
     file: FileId,
     toks: &[Spanned3<'_>],
     s: usize,
@@ -580,7 +586,7 @@ fn syntax_fix(
 ) -> Option<Fix> {
     let at = toks.get(k)?;
     match (toks[s].1, at.1, toks.get(k + 1)) {
-        // `C00 = 5`: setting a counter is a calculation.
+        // `C00 = 5`: setting a counter is a calculation (in a postcondition).
         (
             Tok::Counter(_) | Tok::MsgRef(_),
             Tok::Eq,
@@ -588,6 +594,15 @@ fn syntax_fix(
         ) if s + 1 == k => {
             let target = line_src(line, toks[s].0, toks[s].2);
             let value = line_src(line, vs, ve);
+            if !in_post {
+                // In a precondition it is a comparison, written with its sign first.
+                return Some(Fix::replace(
+                    format!("a comparison is written sign first: `={target} {value}`"),
+                    file,
+                    Span::new(toks[s].0, ve),
+                    format!("={target} {value}"),
+                ));
+            }
             Some(Fix::replace(
                 format!("set `{target}` with a calculation: `{target} + {value} 0000` adds zero to `{value}`"),
                 file,

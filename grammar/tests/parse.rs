@@ -53,6 +53,17 @@ fn syntax_errors_are_all_reported() {
         vec![Code::E201]
     );
     assert_eq!(codes("r\n1\nsDONE0\nS*****\n"), vec![Code::E102]);
+    // `C00 = 5`: a calculation in a postcondition, a comparison in a precondition.
+    let fix = |src: &str| {
+        let arena = Bump::new();
+        let (_, d) = parse_rules(src, FileId(0), &arena, None);
+        d[0].fixes[0].apply(src, FileId(0))
+    };
+    assert_eq!(
+        fix("r\n1\nS*****\nC00 = 5\n"),
+        "r\n1\nS*****\nC00 + 5 0000\n"
+    );
+    assert_eq!(fix("r\n1\nC00 = 5\nS*****\n"), "r\n1\n=C00 5\nS*****\n");
     assert_eq!(codes("r\n1\nF1.0 N1***\nS*****\n"), vec![Code::E102]);
     assert_eq!(codes("r\n1\n!Z1,0\nS*****\n"), vec![Code::E102]);
     assert_eq!(codes("r\n1\n<C00 00x0 E1,0\nS*****\n"), vec![Code::E102]);
