@@ -192,7 +192,9 @@ fn t_arity_mismatch(f: &RulesFile<'_>, dim: Dim) -> bool {
 
 /// W503 and W603: patterns no state matches, states no rule tests. When a start state that
 /// no rule tests is near a pattern that nothing matches, that is one slip: one W503, with
-/// the agents' place as a secondary label.
+/// the agents' place as a secondary label. When some idle start state is near no pattern,
+/// the agents started in the wrong state and the patterns that match nothing follow from
+/// it: only the W603s are given.
 fn states_warnings(
     ast: &RulesFile<'_>,
     rules: &CheckedRules,
@@ -202,7 +204,20 @@ fn states_warnings(
 ) -> Vec<Diagnostic> {
     let mut idle = idle::diagnostics(rules, agents, aid);
     let mut out = Vec::new();
-    for n in never::never(ast, &never::start_states(agents)) {
+    let never = never::never(ast, &never::start_states(agents));
+    let pats: Vec<_> = never
+        .iter()
+        .map(|n| never::pat(n.pattern.node).expect("a pattern of five characters"))
+        .collect();
+    let far =
+        |d: &idle::IdleDiagnostic| !pats.iter().any(|p| never::distance(p, &d.idle_state) <= 2);
+    if idle.iter().any(far) {
+        // Agents start in a state no rule tests, far from every pattern: the patterns that
+        // match nothing are what follows (`gen` without `--state`), not slips of their own.
+        out.extend(idle.into_iter().map(|d| d.diag));
+        return out;
+    }
+    for n in never {
         let p = never::pat(n.pattern.node).expect("a pattern of five characters");
         let near = idle
             .iter()

@@ -265,3 +265,26 @@ fn agents_configuration() {
     assert_eq!(cfg.agents[1].attach & 0b0001, 0b0001);
     assert_eq!(cfg.agents[0].counters, vec![(3, -7)]);
 }
+
+/// W503 and W603 are one slip each: a misspelt pattern with agents in the right state is
+/// one W503 (the agents' place as a secondary label); agents all started in a state no rule
+/// knows (`gen` without `--state`) are one W603, not a W503 for every pattern that then
+/// matches nothing; a pattern no state matches, with the agents fine, is a W503 of its own.
+#[test]
+fn state_slips_are_one_warning_each() {
+    let rules = "start\n1\nSINIT0\nSLEAD0\n\nlead\n2\nSLEAD0 N1***\nSDONE0\n";
+    let misspelt = rules.replace("SINIT0", "SINTI0");
+    let c = run(&misspelt, Some("0,0 SINIT0\n1,0 SINIT0\n"), None);
+    assert_eq!(codes(&c), [Code::W503]);
+    assert_eq!(c.diags[0].secondary.len(), 1);
+    assert_eq!(c.diags[0].secondary[0].file.0, 1);
+    let c = run(rules, Some("0,0 SXXXX0\n1,0 SXXXX0\n"), None);
+    assert_eq!(codes(&c), [Code::W603]);
+    let c = run(
+        &rules.replace("SLEAD0 N1***", "SLAED0 N1***"),
+        Some("0,0 SINIT0\n"),
+        None,
+    );
+    assert_eq!(codes(&c), [Code::W503]);
+    assert_eq!(c.diags[0].fixes[0].edits[0].replacement, "LEAD0");
+}
