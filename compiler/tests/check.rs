@@ -288,3 +288,12 @@ fn state_slips_are_one_warning_each() {
     assert_eq!(codes(&c), [Code::W503]);
     assert_eq!(c.diags[0].fixes[0].edits[0].replacement, "LEAD0");
 }
+
+/// Root causes come first: a dimension conflict (in the agents file) and a rule cut short
+/// at the end of the file come before the errors earlier in the rules file.
+#[test]
+fn root_causes_come_first() {
+    let rules = "a\n1\nE1,\nS*****\n\nb\n2\n";
+    let c = run(rules, Some("0,0\n"), Some(Dim::Three));
+    assert_eq!(codes(&c), [Code::E103, Code::E301, Code::E202]);
+}
