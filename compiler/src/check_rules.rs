@@ -1012,7 +1012,7 @@ pub fn check_rules(
         };
         let pre = ck.conds(r.pre.node);
         if let Some(conds) = &pre {
-            contradict::check(r.pre.node, conds, (ck.file, ck.d()), ck.diags);
+            contradict::check(r.pre.node, conds, (ck.file, ck.d(), ck.src), ck.diags);
         }
         let post = ck.post(r.post.node);
         if let (Some(priority), Some(pre), Some(post)) = (priority, pre, post) {

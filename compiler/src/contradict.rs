@@ -204,13 +204,14 @@ impl Earliest {
     }
 }
 
-/// W502 for the precondition `terms` of the rules file `file` (in `dim`), whose checked
+/// W502 for the precondition `terms` of the rules file `file` (in `dim`, its text `src`
+/// quoted as written), whose checked
 /// conditions are `conds`: each term that is always false, or that contradicts an earlier
 /// term (the earliest one), pushed onto `diags`.
 pub(crate) fn check(
     terms: &[Spanned<Term<'_>>],
     conds: &[Cond],
-    (file, dim): (FileId, Dim),
+    (file, dim, src): (FileId, Dim, &str),
     diags: &mut Vec<Diagnostic>,
 ) {
     if terms.len() < 2
@@ -225,7 +226,7 @@ pub(crate) fn check(
     let dim3 = dim == Dim::Three;
     let mut earliest = Earliest::default();
     for (j, &(cj, tj)) in facts.iter().enumerate() {
-        let (sj, tj) = (tj.span, &tj.node);
+        let (sj, tj) = (tj.span, crate::written(src, tj.span));
         let pinned = keys(cj);
         let against = pinned
             .iter()
@@ -248,7 +249,7 @@ pub(crate) fn check(
         }
         let Some(i) = against else { continue };
         let (ci, ti) = facts[i];
-        let (si, ti) = (&ti.span, &ti.node);
+        let (si, ti) = (&ti.span, crate::written(src, ti.span));
         if let Some(why) = conflict(ci, cj, dim3) {
             let d = Diagnostic::new(
                 Code::W502,

@@ -123,7 +123,8 @@ pub fn reconcile(
     }
 }
 
-fn evidence<'a>(t: &Spanned<Term<'a>>) -> Option<(Dim, Span, String)> {
+fn evidence<'a>(t: &Spanned<Term<'a>>, src: &str) -> Option<(Dim, Span, String)> {
+    let written = crate::written(src, t.span);
     let by_len = |p: &Spanned<&str>, letter: char| {
         let n = p.node.chars().count();
         let dim = match n {
@@ -162,15 +163,15 @@ fn evidence<'a>(t: &Spanned<Term<'a>>) -> Option<(Dim, Span, String)> {
         Term::Message { dir, .. } if matches!(dir.node, 'A' | 'B') => Some((
             Dim::Three,
             t.span,
-            format!("`{}` names a 3D direction", t.node),
+            format!("`{written}` names a 3D direction"),
         )),
         Term::Swap(d) if matches!(d.node, "A" | "B") => Some((
             Dim::Three,
             t.span,
-            format!("`{}` names a 3D direction", t.node),
+            format!("`{written}` names a 3D direction"),
         )),
         Term::RemoteCompare(_) => {
-            Some((Dim::Two, t.span, format!("`{}` exists only in 2D", t.node)))
+            Some((Dim::Two, t.span, format!("`{written}` exists only in 2D")))
         }
         Term::Calc(c) => {
             let (target, lhs, rhs) = (&c.target, &c.lhs, &c.rhs);
@@ -185,8 +186,8 @@ fn evidence<'a>(t: &Spanned<Term<'a>>) -> Option<(Dim, Span, String)> {
             vals.into_iter().flatten().find_map(by_value)
         }
         Term::Compare(c) => by_value(&c.lhs).or_else(|| by_value(&c.rhs)),
-        Term::Not(inner) => evidence(inner),
-        Term::Group(ts) => ts.iter().find_map(evidence),
+        Term::Not(inner) => evidence(inner, src),
+        Term::Group(ts) => ts.iter().find_map(|t| evidence(t, src)),
         _ => None,
     }
 }
@@ -198,21 +199,22 @@ fn value_of<'o, 'a>(o: &'o Operand<'a>) -> Option<&'o Spanned<Value<'a>>> {
     }
 }
 
-fn collect<'a>(t: &Spanned<Term<'a>>, out: &mut Vec<(Dim, Span, String)>) {
+fn collect<'a>(t: &Spanned<Term<'a>>, src: &str, out: &mut Vec<(Dim, Span, String)>) {
     match &t.node {
-        Term::Not(inner) => collect(inner, out),
-        Term::Group(ts) => ts.iter().for_each(|t| collect(t, out)),
-        _ => out.extend(evidence(t)),
+        Term::Not(inner) => collect(inner, src, out),
+        Term::Group(ts) => ts.iter().for_each(|t| collect(t, src, out)),
+        _ => out.extend(evidence(t, src)),
     }
 }
 
 /// The dimension the rules' own terms show: the one most deciding terms agree on (the
-/// first deciding term breaks a tie), so that a single odd term is the one reported.
-pub fn from_rules(f: &RulesFile<'_>, file: FileId) -> Option<DimSource> {
+/// first deciding term breaks a tie), so that a single odd term is the one reported. `src`
+/// is the file's text, to quote terms as written.
+pub fn from_rules(f: &RulesFile<'_>, file: FileId, src: &str) -> Option<DimSource> {
     let mut all = Vec::new();
     for r in &f.rules {
         for t in r.pre.node.iter().chain(r.post.node.iter()) {
-            collect(t, &mut all);
+            collect(t, src, &mut all);
         }
     }
     let first = all.first()?.0;

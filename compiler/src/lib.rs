@@ -277,7 +277,7 @@ pub fn check(rules: Input<'_>, agents: Option<Input<'_>>, dim: Option<Dim>) -> C
     let dim_src = match fixed {
         Some(d) => d,
         None => {
-            let d = dim::from_rules(&ast, rid).unwrap_or_else(dim::default_2d);
+            let d = dim::from_rules(&ast, rid, text).unwrap_or_else(dim::default_2d);
             if t_arity_mismatch(&ast, d.dim) {
                 (ast, parse_diags) = parse_rules(text, rid, &arena, Some(d.dim.coords() as u8));
             }
