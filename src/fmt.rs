@@ -27,20 +27,22 @@ pub struct FmtArgs {
     color: Color,
 }
 
-/// The first line where two texts differ: its number and both versions.
-fn first_difference<'a>(a: &'a str, b: &'a str) -> (usize, &'a str, &'a str) {
-    let mut la = a.lines();
-    let mut lb = b.lines();
+/// The first line where two texts differ: its number and both versions (a line that
+/// differs only in its CRLF end says so).
+fn first_difference(a: &str, b: &str) -> (usize, String, String) {
+    let mut la = a.split('\n');
+    let mut lb = b.split('\n');
     let mut n = 1;
     loop {
         match (la.next(), lb.next()) {
             (Some(x), Some(y)) if x == y => n += 1,
             (x, y) => {
-                return (
-                    n,
-                    x.unwrap_or("(end of file)"),
-                    y.unwrap_or("(end of file)"),
-                )
+                let show = |l: Option<&str>| match l {
+                    None => "(end of file)".to_string(),
+                    Some(l) if l.ends_with('\r') => format!("{} (CRLF)", l.trim_end_matches('\r')),
+                    Some(l) => l.to_string(),
+                };
+                return (n, show(x), show(y));
             }
         }
     }

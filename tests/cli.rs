@@ -2079,3 +2079,66 @@ fn idle_start_states_and_runs_that_fire_nothing_are_warned_of() {
         stderr(&o)
     );
 }
+
+/// `latticesim explain`: a code's text with its wrong example's real diagnostic; the list
+/// without a code; an unknown code is exit 2.
+#[test]
+fn explain_codes() {
+    let o = run(&["explain", "e104", "--color", "never"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.starts_with("E104 rule-missing-line: "), "{out}");
+    assert!(
+        out.contains("error[E104]: the rule `grow` lacks a line"),
+        "{out}"
+    );
+    assert!(out.contains("Right:"), "{out}");
+    let o = run(&["explain"]);
+    let list = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(
+        list.lines().count(),
+        1 + latticesim_grammar::Code::ALL.len()
+    );
+    let o = run(&["explain", "E999"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("`E999` is not a latticesim diagnostic code"));
+}
+
+/// `latticesim fmt`: `--check` names what differs (exit 1) and changes nothing; without it
+/// the file is rewritten and then passes `--check`; `-` is a filter; a file with a syntax
+/// error is left alone (exit 1, its errors shown).
+#[test]
+fn fmt_rewrites_checks_and_filters() {
+    let messy = b"// keep me\r\ngrow\r\n1\r\n  N1***   E0,1 // and me\r\nC00 + C00 1\r\n\r\n\r\nstop\n2\nSDONE*\nS*****\n";
+    let want =
+        "// keep me\ngrow\n1\nN1*** E0,1 // and me\nC00 + C00 0001\n\nstop\n2\nSDONE*\nS*****\n";
+    let p = tmp("fmt-rules.txt", messy);
+    let path = p.to_str().unwrap();
+    let o = run(&["fmt", "--check", path]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains(":1: not in the canonical layout"),
+        "{}",
+        stderr(&o)
+    );
+    assert_eq!(std::fs::read(&p).unwrap(), messy);
+    let o = run(&["fmt", path]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read_to_string(&p).unwrap(), want);
+    assert!(run(&["fmt", "--check", path]).status.success());
+    let mut child = bin()
+        .args(["fmt", "-"])
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    use std::io::Write;
+    child.stdin.take().unwrap().write_all(messy).unwrap();
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(String::from_utf8_lossy(&o.stdout), want);
+    let broken = tmp("fmt-broken.txt", b"r\n1\nE1,\nS*****\n");
+    let o = run(&["fmt", broken.to_str().unwrap(), "--color", "never"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("error[E202]"), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&broken).unwrap(), b"r\n1\nE1,\nS*****\n");
+}
