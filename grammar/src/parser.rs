@@ -14,7 +14,7 @@ use crate::diag::{Code, Diagnostic, Fix, Label};
 use crate::lexer::{BadChar, Lexer, Spanned3, Tok};
 use crate::lines::{significant_lines, Line};
 use crate::span::{FileId, Span, Spanned};
-use crate::structure::{layouts, Layout};
+use crate::structure::Layout;
 use bumpalo::Bump;
 use lalrpop_util::ParseError;
 
@@ -65,29 +65,37 @@ pub fn parse_rules<'a>(
     dim_hint: Option<u8>,
 ) -> (RulesFile<'a>, Vec<Diagnostic>) {
     let mut diags = Vec::new();
-    let lines: Vec<Line<'a>> = significant_lines(src).collect();
-    let layouts = layouts(&lines);
-    let mut rules = Vec::with_capacity(layouts.len());
+    // About 90 bytes make a rule; reserving avoids doubling a large vector at the end.
+    let mut rules = Vec::with_capacity(src.len() / 128);
     let mut toks = Vec::with_capacity(32);
-    let count = layouts.len();
-    for (i, l) in layouts.into_iter().enumerate() {
+    let mut read = |l: Layout<'a>, last: bool, diags: &mut Vec<Diagnostic>| {
         if let Some((a, b)) = l.extra {
             diags.push(extra_lines(&l, a, b, file));
         }
         let (Some(name), Some(prio), Some(pre), Some(post)) = (l.name, l.priority, l.pre, l.post)
         else {
-            diags.push(missing_lines(&l, i + 1 == count, file));
-            continue;
+            diags.push(missing_lines(&l, last, file));
+            return;
         };
-        let priority = parse_priority(prio, file, &mut diags);
-        let pre = parse_line(pre, false, file, arena, dim_hint, &mut diags, &mut toks);
-        let post = parse_line(post, true, file, arena, dim_hint, &mut diags, &mut toks);
+        let priority = parse_priority(prio, file, diags);
+        let pre = parse_line(pre, false, file, arena, dim_hint, diags, &mut toks);
+        let post = parse_line(post, true, file, arena, dim_hint, diags, &mut toks);
         rules.push(Rule {
             name: Spanned::new(name.text, line_span(name)),
             priority,
             pre,
             post,
         });
+    };
+    // Each rule is read once the next is known (the last one is told so).
+    let mut prev: Option<Layout<'a>> = None;
+    crate::structure::for_each(significant_lines(src), |l| {
+        if let Some(p) = prev.replace(l) {
+            read(p, false, &mut diags);
+        }
+    });
+    if let Some(p) = prev {
+        read(p, true, &mut diags);
     }
     (RulesFile { rules }, diags)
 }

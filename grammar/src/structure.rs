@@ -81,33 +81,72 @@ fn looks_like_post(text: &str) -> bool {
     post_only && !pre_only
 }
 
+/// How many lines of a block without blank lines are held before its whole rules are cut.
+const CLEAN_RUN: usize = 4096;
+
 /// The rules of a file's significant lines, in order.
 pub fn layouts<'a>(lines: &[Line<'a>]) -> Vec<Layout<'a>> {
     let mut out = Vec::with_capacity(lines.len() / 4 + 1);
-    let mut start = 0;
-    while start < lines.len() {
-        let mut end = block_end(lines, start);
-        // A block that is not whole rules, joined to the next when together they are (a
-        // blank line inside a rule).
-        while !(end - start).is_multiple_of(4) && end < lines.len() {
-            let next = block_end(lines, end);
-            if (next - start).is_multiple_of(4) && priorities_every_fourth(&lines[start..next]) {
-                end = next;
-            } else {
-                break;
-            }
-        }
-        block(&lines[start..end], &mut out);
-        start = end;
-    }
+    for_each(lines.iter().copied(), |l| out.push(l));
     out
 }
 
-fn block_end(lines: &[Line<'_>], start: usize) -> usize {
-    lines[start + 1..]
-        .iter()
-        .position(|l| l.after_blank)
-        .map_or(lines.len(), |i| start + 1 + i)
+/// Calls `f` with each rule of a file's significant lines, in order, holding only a block
+/// or two of lines at a time (a large file's lines are never all kept).
+pub fn for_each<'a>(lines: impl Iterator<Item = Line<'a>>, mut f: impl FnMut(Layout<'a>)) {
+    // `pending`: a block that is not whole rules, kept to be joined to the next when
+    // together they are (a blank line inside a rule). `cur`: the block being read.
+    let mut pending: Vec<Line<'a>> = Vec::new();
+    let mut cur: Vec<Line<'a>> = Vec::new();
+    let mut out = Vec::new();
+    for line in lines {
+        if line.after_blank && !cur.is_empty() {
+            finish(&mut pending, &mut cur, &mut out);
+            out.drain(..).for_each(&mut f);
+        }
+        cur.push(line);
+        // A long block without blank lines: its whole rules so far (priorities on every
+        // fourth line and nowhere else) are cut as they come, but for the last two, which a
+        // missing or extra line further on may still concern.
+        if pending.is_empty() && cur.len() >= CLEAN_RUN + 8 && cur.len().is_multiple_of(4) {
+            let done = cur.len() - 8;
+            let clean = cur[..done]
+                .iter()
+                .enumerate()
+                .all(|(i, l)| is_priority(l.text) == (i % 4 == 1));
+            if clean {
+                cur[..done].chunks_exact(4).map(whole).for_each(&mut f);
+                cur.drain(..done);
+            }
+        }
+    }
+    finish(&mut pending, &mut cur, &mut out);
+    finish(&mut pending, &mut cur, &mut out);
+    out.into_iter().for_each(f);
+}
+
+/// Cuts the blocks read so far into rules: `pending` joined to `cur` when together they
+/// are whole rules, else alone; `cur` kept as the next `pending` when it is not whole rules.
+fn finish<'a>(pending: &mut Vec<Line<'a>>, cur: &mut Vec<Line<'a>>, out: &mut Vec<Layout<'a>>) {
+    if !pending.is_empty() {
+        let alone = pending.len();
+        pending.extend(cur.iter().copied());
+        if pending.len().is_multiple_of(4) && priorities_every_fourth(pending) {
+            cur.clear();
+        } else {
+            pending.truncate(alone);
+        }
+        block(pending, out);
+        pending.clear();
+    }
+    if !cur.is_empty() {
+        if cur.len().is_multiple_of(4) {
+            block(cur, out);
+            cur.clear();
+        } else {
+            std::mem::swap(pending, cur);
+        }
+    }
 }
 
 fn priorities_every_fourth(lines: &[Line<'_>]) -> bool {
@@ -289,6 +328,26 @@ mod tests {
         // A line too many.
         let src = "a\n1\nN1***\nSX****\nSY****\nb\n2\nE1,0\nP1,0\n";
         assert_eq!(shape(src), ["a 1 N1*** SX**** +5..5", "b 2 E1,0 P1,0"]);
+        // A long file without blank lines, cut as it is read: a slip far in, and one early.
+        for lost in [2500usize, 10] {
+            let mut src = String::new();
+            for i in 0..3000 {
+                src += &format!("r{i}\n{}\nN1***\n", 1 + i % 7);
+                if i != lost {
+                    src += "SX****\n";
+                }
+            }
+            let got = shape(&src);
+            assert_eq!(got.len(), 3000);
+            for (i, g) in got.iter().enumerate() {
+                let want = format!(
+                    "r{i} {} N1*** {}",
+                    1 + i % 7,
+                    if i == lost { "-" } else { "SX****" }
+                );
+                assert_eq!(g, &want, "rule {i} of the file losing {lost}");
+            }
+        }
         // Rules named by numbers.
         assert_eq!(
             shape("7\n1\nS*****\nS*****\n8\n2\nS*****\n"),
