@@ -285,11 +285,10 @@ pub fn render_text(diags: &[Diagnostic], sources: &Sources, color: bool) -> Stri
     String::from_utf8(ansi.into_inner()).expect("rendered from UTF-8 text")
 }
 
-/// A label in JSON output.
+/// A place in a file, in JSON output: lines and columns (1-based, columns in characters,
+/// the end just past the span) and bytes.
 #[derive(Serialize, Debug, Clone, PartialEq, Eq)]
-pub struct JsonLabel {
-    /// Primary (the exact place) or secondary.
-    pub primary: bool,
+pub struct JsonPlace {
     /// File name.
     pub file: String,
     /// 1-based line of the start.
@@ -300,10 +299,20 @@ pub struct JsonLabel {
     pub end_line: usize,
     /// 1-based column just after the end.
     pub end_column: usize,
-    /// Byte offsets.
+    /// Byte offset of the start.
     pub start_byte: u32,
     /// Byte offset just after the end.
     pub end_byte: u32,
+}
+
+/// A label in JSON output.
+#[derive(Serialize, Debug, Clone, PartialEq, Eq)]
+pub struct JsonLabel {
+    /// Primary (the exact place) or secondary.
+    pub primary: bool,
+    /// Where.
+    #[serde(flatten)]
+    pub at: JsonPlace,
     /// What the label says.
     pub message: String,
 }
@@ -344,40 +353,35 @@ pub struct JsonFix {
     pub edits: Vec<JsonEdit>,
 }
 
-/// One replacement of a fix: where (as a label's place) and the new text.
+/// One replacement of a fix: where and the new text.
 #[derive(Serialize, Debug, Clone, PartialEq, Eq)]
 pub struct JsonEdit {
-    /// File name.
-    pub file: String,
-    /// 1-based line of the start.
-    pub line: usize,
-    /// 1-based column of the start, in characters.
-    pub column: usize,
-    /// 1-based line of the end.
-    pub end_line: usize,
-    /// 1-based column just after the end.
-    pub end_column: usize,
-    /// Byte offset of the start.
-    pub start_byte: u32,
-    /// Byte offset just after the end.
-    pub end_byte: u32,
+    /// Where.
+    #[serde(flatten)]
+    pub at: JsonPlace,
     /// The new text.
     pub replacement: String,
 }
 
-fn json_label(l: &Label, primary: bool, sources: &Sources) -> JsonLabel {
-    let r = clamp(l, sources);
-    let (line, column) = sources.line_col(l.file, r.start as u32);
-    let (end_line, end_column) = sources.line_col(l.file, r.end as u32);
-    JsonLabel {
-        primary,
-        file: sources.name(l.file).to_string(),
+fn json_place(file: FileId, span: latticesim_grammar::Span, sources: &Sources) -> JsonPlace {
+    let r = clamp(&Label::new(file, span, ""), sources);
+    let (line, column) = sources.line_col(file, r.start as u32);
+    let (end_line, end_column) = sources.line_col(file, r.end as u32);
+    JsonPlace {
+        file: sources.name(file).to_string(),
         line,
         column,
         end_line,
         end_column,
         start_byte: r.start as u32,
         end_byte: r.end as u32,
+    }
+}
+
+fn json_label(l: &Label, primary: bool, sources: &Sources) -> JsonLabel {
+    JsonLabel {
+        primary,
+        at: json_place(l.file, l.span, sources),
         message: visible(&l.message),
     }
 }
@@ -397,11 +401,11 @@ pub fn to_json(diags: &[Diagnostic], sources: &Sources) -> Vec<JsonDiagnostic> {
                     Severity::Warning => "warning",
                 },
                 message: visible(&d.message),
-                file: p.file,
-                line: p.line,
-                column: p.column,
-                end_line: p.end_line,
-                end_column: p.end_column,
+                file: p.at.file,
+                line: p.at.line,
+                column: p.at.column,
+                end_line: p.at.end_line,
+                end_column: p.at.end_column,
                 labels,
                 help: d.help.as_deref().map(visible),
                 fixes: d
@@ -412,19 +416,9 @@ pub fn to_json(diags: &[Diagnostic], sources: &Sources) -> Vec<JsonDiagnostic> {
                         edits: f
                             .edits
                             .iter()
-                            .map(|e| {
-                                let at =
-                                    json_label(&Label::new(e.file, e.span, ""), false, sources);
-                                JsonEdit {
-                                    file: at.file,
-                                    line: at.line,
-                                    column: at.column,
-                                    end_line: at.end_line,
-                                    end_column: at.end_column,
-                                    start_byte: at.start_byte,
-                                    end_byte: at.end_byte,
-                                    replacement: e.replacement.clone(),
-                                }
+                            .map(|e| JsonEdit {
+                                at: json_place(e.file, e.span, sources),
+                                replacement: e.replacement.clone(),
                             })
                             .collect(),
                     })
