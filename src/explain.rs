@@ -24,11 +24,7 @@ pub fn explain(code: Option<String>, color: Color) -> ExitCode {
         say!("error: `{typed}` is not a latticesim diagnostic code (`latticesim explain` lists them)");
         return ExitCode::from(2);
     };
-    let color = match color {
-        Color::Always => true,
-        Color::Never => false,
-        Color::Auto => std::io::stdout().is_terminal() && std::env::var_os("NO_COLOR").is_none(),
-    };
+    let color = crate::colour_on(color, std::io::stdout().is_terminal());
     output::stdout(explain::render(&e, color).as_bytes());
     ExitCode::SUCCESS
 }

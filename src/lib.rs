@@ -278,11 +278,18 @@ fn run_check(
     ExitCode::SUCCESS
 }
 
+/// Whether to colour what goes to standard error.
 pub(crate) fn colour(color: Color) -> bool {
+    colour_on(color, std::io::stderr().is_terminal())
+}
+
+/// Whether to colour output to a stream that is (or not) a terminal: `--color`, else a
+/// terminal without `NO_COLOR`.
+pub(crate) fn colour_on(color: Color, terminal: bool) -> bool {
     match color {
         Color::Always => true,
         Color::Never => false,
-        Color::Auto => std::io::stderr().is_terminal() && std::env::var_os("NO_COLOR").is_none(),
+        Color::Auto => terminal && std::env::var_os("NO_COLOR").is_none(),
     }
 }
 

@@ -95,7 +95,8 @@ pub fn idle_states(rules: &CheckedRules, states: &[[u8; 5]]) -> Vec<Idle> {
         .iter()
         .filter(|s| !p.busy(s))
         .map(|s| {
-            let dist = |t: &[u8; 5]| t.iter().zip(s).filter(|(a, b)| a != b).count();
+            // The same nearness as W503's (a swap of two neighbours counts one).
+            let dist = |t: &[u8; 5]| crate::never::distance(&t.map(Some), s);
             let best = full.iter().map(dist).min().filter(|&d| d <= 2);
             let mut near = full.iter().filter(|t| Some(dist(t)) == best);
             let first = near.next().copied();

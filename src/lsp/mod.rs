@@ -22,12 +22,10 @@ use lsp_types::{
     CodeActionProviderCapability, CompletionOptions, DidChangeTextDocumentParams,
     DidCloseTextDocumentParams, DidOpenTextDocumentParams, HoverProviderCapability, OneOf,
     PositionEncodingKind, ServerCapabilities, TextDocumentSyncCapability, TextDocumentSyncKind,
-    Uri,
 };
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
-use std::str::FromStr;
 
 /// Which language a document is in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -75,12 +73,6 @@ pub fn capabilities() -> ServerCapabilities {
 /// The file path of a `file:` URI.
 pub fn path_of(uri: &str) -> Option<PathBuf> {
     url::Url::parse(uri).ok()?.to_file_path().ok()
-}
-
-/// The `file:` URI of a path.
-pub fn uri_of(path: &Path) -> Option<Uri> {
-    let u = url::Url::from_file_path(path).ok()?;
-    Uri::from_str(u.as_str()).ok()
 }
 
 /// The kind of a document from its language id or, failing that, its file name.
