@@ -4,7 +4,7 @@ import { spawn } from 'node:child_process';
 
 // Debian's Chromium as the machine runs it: headless, and without the background
 // connections a closed network refuses.
-const FLAGS = ['--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
+export const FLAGS = ['--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
   '--disable-background-networking', '--disable-component-update', '--disable-sync'];
 
 export function launch() {
@@ -12,8 +12,8 @@ export function launch() {
 }
 
 // Starts `BIN serve RULES AGENTS` on a free port: the process and a promise of its URL.
-export function serve(bin, rules, agents) {
-  const p = spawn(bin, ['serve', rules, agents, '--port', '0'], { stdio: ['ignore', 'pipe', 'inherit'] });
+export function serve(bin, rules, agents, extra = []) {
+  const p = spawn(bin, ['serve', rules, agents, '--port', '0', ...extra], { stdio: ['ignore', 'pipe', 'inherit'] });
   const url = new Promise((resolve, reject) => {
     let out = '';
     p.stdout.on('data', (d) => {

@@ -369,6 +369,50 @@ async function testSlabs(browser) {
   await page.close();
 }
 
+// A file too large for the page's editor (over 4 MiB): not put in the text box, which
+// says so; checking and Apply read it from disk; a run (frames asked for ahead) ends on
+// the configuration `latticesim run` gives.
+async function testLargeFile(browser) {
+  const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'latticesim-e2e-'));
+  const rules = path.join(dir, 'rules.txt'), agents = path.join(dir, 'agents.txt');
+  fs.copyFileSync('examples/gravity/rules.txt', rules);
+  let text = '';
+  for (let i = 0; i < 220_000; i++) text += `${i % 500},${Math.floor(i / 500) * 2 + (i % 3)} SGRAV0 C00 ${i % 1000}\n`;
+  fs.writeFileSync(agents, text);
+  assert.ok(text.length > 4 << 20);
+  const url = await serve(rules, agents);
+  const { page, errors } = await open(browser, url);
+  await page.click('#tab-edit');
+  const box = await page.$eval('#ed-agents textarea', (t) => ({ value: t.value, readOnly: t.readOnly, placeholder: t.placeholder }));
+  assert.equal(box.value, '');
+  assert.ok(box.readOnly, 'the agents editor is read-only');
+  assert.match(box.placeholder, /MB, too much to edit in the page/);
+  assert.match(await page.textContent('#check-summary'), /0 errors.*220000 agents/);
+  await page.click('#apply');
+  await waitStep(page, 0);
+  await page.$eval('#speed', (s) => { s.value = s.max; });
+  await page.click('#run');
+  await page.waitForFunction(() => window.latticesim.frame().step >= 6);
+  await page.click('#run');
+  await page.waitForTimeout(300);
+  const step = await stepNumber(page);
+  const want = execFileSync(BIN, ['run', rules, agents, '--max-steps', String(step), '--quiet'], { encoding: 'utf8', maxBuffer: 1 << 26 })
+    .split('\n').filter((l) => l && !l.startsWith('U')).map((l) => l.split(/\s+/)[0]);
+  const got = await page.evaluate(() => {
+    const f = window.latticesim.frame(), out = [];
+    for (let i = 0; i < f.pos.length / 2; i++) out.push(f.pos[2 * i] + ',' + f.pos[2 * i + 1]);
+    return out;
+  });
+  assert.equal(got.length, want.length);
+  assert.ok(got.every((p, i) => p === want[i]), `the positions at step ${step} are those of latticesim run`);
+  // Paused: Step goes on from the frame shown (the one asked for ahead was dropped).
+  await page.click('#step');
+  await waitStep(page, step + 1);
+  assert.deepEqual(errors, [], 'no script errors in the page');
+  console.log(`ok: a 220,000-agent file (${(text.length / 1e6).toFixed(1)} MB) is read from disk, not edited in the page; run to step ${step} equal to latticesim run, then a step`);
+  await page.close();
+}
+
 // Colouring by a counter: leader election's ids (C00) on the viridis scale, the scale's
 // ends in the legend, the agent with the largest id drawn in its top colour.
 async function testColourBy(browser) {
@@ -451,6 +495,7 @@ try {
   await testColourBy(browser);
   await testTabs(browser);
   await testSlabs(browser);
+  await testLargeFile(browser);
   if (process.env.SCREENSHOTS) {
     await screenshot(browser, 'examples/reconfigure-line/rules.txt', 'examples/reconfigure-line/agents-30.txt', 450, 'viewer-2d.png',
       async (page) => {

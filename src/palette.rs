@@ -9,8 +9,51 @@
 //! background and the grey of walls, up to [`GENERATED`] colours; beyond that they repeat.
 //! A user palette (`--palette FILE`) replaces the sequence, or pins states to colours.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::sync::OnceLock;
+
+/// [`Palette::index`] with a small table in front: a run has few states, so nearly every
+/// lookup is answered without hashing by the map (a mix of the state's bytes and a
+/// comparison or two).
+struct Lookup<'p> {
+    palette: &'p Palette,
+    /// States (their five bytes, with the top bit set, so that 0 is an empty slot) and
+    /// their indices, in open addressing; filled up to half, then the map answers.
+    table: [(u64, Option<u32>); 256],
+    filled: usize,
+}
+
+impl<'p> Lookup<'p> {
+    fn new(palette: &'p Palette) -> Lookup<'p> {
+        Lookup {
+            palette,
+            table: [(0, None); 256],
+            filled: 0,
+        }
+    }
+
+    fn get(&mut self, s: &[u8; 5]) -> Option<u32> {
+        let key = u64::from_le_bytes([s[0], s[1], s[2], s[3], s[4], 0, 0, 0x80]);
+        // splitmix64's finaliser: states that differ in one letter land far apart.
+        let mut h = key;
+        h = (h ^ (h >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        h = (h ^ (h >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        let mut slot = (h ^ (h >> 31)) as usize & 255;
+        loop {
+            match self.table[slot] {
+                (k, index) if k == key => return index,
+                (0, _) if self.filled < 128 => {
+                    let index = self.palette.index(s);
+                    self.table[slot] = (key, index);
+                    self.filled += 1;
+                    return index;
+                }
+                (0, _) => return self.palette.index(s),
+                _ => slot = (slot + 1) & 255,
+            }
+        }
+    }
+}
 
 /// Colour-blind safe: Okabe and Ito's orange, sky blue, bluish green, yellow, blue,
 /// vermillion, reddish purple, and Paul Tol's indigo.
@@ -191,42 +234,24 @@ impl Palette {
 
     /// Gives each state of `states` not seen before its colour, in order.
     pub fn observe(&mut self, states: &[[u8; 5]]) {
-        let mut last: Option<[u8; 5]> = None;
+        // The states not seen before, in order (a million agents are looked at every
+        // step the viewer takes: through the table, not the map), then coloured.
+        let mut lookup = Lookup::new(self);
+        let (mut new, mut listed) = (Vec::new(), HashSet::new());
         for s in states {
-            if last == Some(*s) {
-                continue;
+            if lookup.get(s).is_none() && listed.insert(*s) {
+                new.push(*s);
             }
-            last = Some(*s);
-            if self.fast_index(s).is_none() {
-                self.colour(s);
-            }
+        }
+        for s in &new {
+            self.colour(s);
         }
     }
 
-    /// The indices of `states` (see [`Palette::index`]; 0 for a state never seen), as
-    /// fast as a run of a few states allows: a search of the states seen while they are
-    /// few, the hash map beyond.
+    /// The indices of `states` (see [`Palette::index`]; 0 for a state never seen).
     pub fn indices(&self, states: &[[u8; 5]]) -> Vec<u32> {
-        let mut last: Option<([u8; 5], u32)> = None;
-        (states.iter())
-            .map(|s| match last {
-                Some((l, i)) if l == *s => i,
-                _ => {
-                    let i = self.fast_index(s).unwrap_or(0);
-                    last = Some((*s, i));
-                    i
-                }
-            })
-            .collect()
-    }
-
-    /// [`Palette::index`], by a linear search while the states seen are few.
-    fn fast_index(&self, s: &[u8; 5]) -> Option<u32> {
-        if self.order.len() <= 32 {
-            self.order.iter().position(|o| o == s).map(|i| i as u32)
-        } else {
-            self.index(s)
-        }
+        let mut lookup = Lookup::new(self);
+        states.iter().map(|s| lookup.get(s).unwrap_or(0)).collect()
     }
 
     /// The colour of a state, given it now if it has none yet.
@@ -288,6 +313,37 @@ mod tests {
         assert!(distance([0x42, 0x5f, 0xd7], [0x42, 0x56, 0xd7]) < 0.03);
         // OKLab of white is L = 1.
         assert!((oklab([255, 255, 255])[0] - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn indices_through_the_table_agree_with_the_map() {
+        // Few states (the table answers) and many (past its half: the map answers), with
+        // states one letter apart, which a weak mix would put in one slot.
+        for count in [7usize, 300] {
+            let states: Vec<[u8; 5]> = (0..count * 10)
+                .map(|i| {
+                    let k = (i * 7919) % count;
+                    *format!("G{:04}", k).as_bytes().first_chunk::<5>().unwrap()
+                })
+                .collect();
+            let mut p = Palette::default();
+            p.observe(&states[..count * 5]);
+            p.observe(&states);
+            assert_eq!(p.order().len(), count);
+            let got = p.indices(&states);
+            for (s, i) in states.iter().zip(&got) {
+                assert_eq!(Some(*i), p.index(s));
+            }
+            // First appearance decides the order.
+            let mut first: Vec<[u8; 5]> = Vec::new();
+            for s in &states {
+                if !first.contains(s) {
+                    first.push(*s);
+                }
+            }
+            assert_eq!(p.order(), &first[..]);
+        }
+        assert_eq!(Palette::default().indices(&[*b"NEVER"]), [0]);
     }
 
     #[test]

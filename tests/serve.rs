@@ -126,6 +126,28 @@ impl Server {
         self.json("GET", path, b"")
     }
 
+    /// GET with the token and these header lines (each ending in CRLF): the status, the
+    /// head and the body as sent (not decompressed).
+    fn get_with_head(&self, path: &str, headers: &str) -> (u16, String, Vec<u8>) {
+        let req = format!(
+            "GET {path} HTTP/1.1\r\nHost: {}\r\nX-Latticesim-Token: {}\r\n{headers}Connection: close\r\n\r\n",
+            self.addr, self.token
+        );
+        let mut s = TcpStream::connect(&self.addr).unwrap();
+        s.write_all(req.as_bytes()).unwrap();
+        let mut out = Vec::new();
+        s.read_to_end(&mut out).unwrap();
+        let end = out.windows(4).position(|w| w == b"\r\n\r\n").unwrap();
+        let head = String::from_utf8_lossy(&out[..end]).into_owned();
+        let status = head.split(' ').nth(1).unwrap().parse().unwrap();
+        (status, head, out[end + 4..].to_vec())
+    }
+
+    fn get_bytes(&self, path: &str, headers: &str) -> (u16, Vec<u8>) {
+        let (status, _, body) = self.get_with_head(path, headers);
+        (status, body)
+    }
+
     fn post(&self, path: &str, v: Value) -> (u16, Value) {
         self.json("POST", path, v.to_string().as_bytes())
     }
@@ -322,9 +344,9 @@ fn each_tab_has_its_own_run() {
 /// A frame as the test reads it: its head, and every agent's position and state name.
 type Decoded = (Value, Vec<(Vec<i64>, String)>);
 
-/// A binary frame decoded (docs/viewer.md) onto the one held.
+/// A binary frame decoded (docs/viewer.md, src/serve/binary.rs) onto the one held.
 fn decode_bin(bytes: &[u8], held: Option<&Decoded>) -> Decoded {
-    assert_eq!(&bytes[..4], b"LSF1");
+    assert_eq!(&bytes[..4], b"LSF2");
     let len = u32::from_le_bytes(bytes[4..8].try_into().unwrap()) as usize;
     let head: Value = serde_json::from_slice(&bytes[8..8 + len]).unwrap();
     let (n, dim) = (
@@ -332,81 +354,204 @@ fn decode_bin(bytes: &[u8], held: Option<&Decoded>) -> Decoded {
         head["dim"].as_u64().unwrap() as usize,
     );
     let delta = head["delta"].as_bool().unwrap();
-    let c = if delta {
-        head["changed"].as_u64().unwrap() as usize
-    } else {
-        n
-    };
-    let wide = head["state_bytes"] == 4;
-    let mut at = (8 + len).div_ceil(4) * 4;
-    let mut word = |size: usize| {
-        let v = &bytes[at..at + size];
-        at += size;
-        match size {
-            2 => u16::from_le_bytes(v.try_into().unwrap()) as i64,
-            _ => i32::from_le_bytes(v.try_into().unwrap()) as i64,
-        }
-    };
-    let ids: Vec<usize> = if delta {
-        (0..c).map(|_| word(4) as usize).collect()
-    } else {
-        (0..n).collect()
-    };
-    let pos: Vec<Vec<i64>> = (0..c)
-        .map(|_| (0..dim).map(|_| word(4)).collect())
-        .collect();
-    let st: Vec<usize> = (0..c)
-        .map(|_| word(if wide { 4 } else { 2 }) as usize)
-        .collect();
     let names: Vec<String> = (head["states"].as_array().unwrap().iter())
         .map(|s| s["name"].as_str().unwrap().to_string())
         .collect();
     let mut agents = match (delta, held) {
-        (true, Some(h)) => h.1.clone(),
+        (true, Some(h)) => {
+            assert_eq!(head["base"], h.0["step"], "a delta on the frame held");
+            h.1.clone()
+        }
         (true, None) => panic!("a delta without a frame held"),
-        (false, _) => vec![(Vec::new(), String::new()); n],
+        (false, _) => vec![(vec![0; dim], String::new()); n],
     };
-    for (k, &i) in ids.iter().enumerate() {
-        agents[i] = (pos[k].clone(), names[st[k]].clone());
+    let align = |at: usize| at.div_ceil(4) * 4;
+    let mut at = align(8 + len);
+    let value = |v: &[u8]| -> i64 {
+        match v.len() {
+            1 => v[0] as i64,
+            2 => u16::from_le_bytes(v.try_into().unwrap()) as i64,
+            _ => u32::from_le_bytes(v.try_into().unwrap()) as i64,
+        }
+    };
+    let columns = head["columns"].as_array().unwrap();
+    let names_of: Vec<&str> = columns
+        .iter()
+        .map(|c| c["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(&names_of[..2], ["pos", "state"]);
+    for c in columns {
+        let (count, size) = (
+            c["count"].as_u64().unwrap() as usize,
+            c["bytes"].as_u64().unwrap() as usize,
+        );
+        let ids: Vec<usize> = match c["set"].as_str().unwrap() {
+            "all" => (0..n).collect(),
+            "bits" => {
+                let bits = &bytes[at..at + n.div_ceil(8)];
+                at = align(at + n.div_ceil(8));
+                (0..n)
+                    .filter(|&i| bits[i / 8] & (1 << (i % 8)) != 0)
+                    .collect()
+            }
+            "ids" => {
+                let ids = (0..count)
+                    .map(|k| value(&bytes[at + 4 * k..at + 4 * k + 4]) as usize)
+                    .collect();
+                at = align(at + 4 * count);
+                ids
+            }
+            other => panic!("a set `{other}`"),
+        };
+        assert_eq!(ids.len(), count, "{c}");
+        let width = if c["name"] == "pos" { size * dim } else { size };
+        for (k, &i) in ids.iter().enumerate() {
+            let v = &bytes[at + k * width..at + (k + 1) * width];
+            match c["name"].as_str().unwrap() {
+                "pos" if size == 1 => {
+                    assert!(delta, "moves only in a delta");
+                    for (p, &m) in agents[i].0.iter_mut().zip(v) {
+                        *p += m as i8 as i64;
+                    }
+                }
+                "pos" => {
+                    agents[i].0 = (0..dim)
+                        .map(|d| i32::from_le_bytes(v[4 * d..4 * d + 4].try_into().unwrap()) as i64)
+                        .collect()
+                }
+                "state" => agents[i].1 = names[value(v) as usize].clone(),
+                _ => {}
+            }
+        }
+        at = align(at + count * width);
     }
     (head, agents)
+}
+
+/// Frames of these steps asked for in turn (each a delta on the one before where the
+/// server finds that smaller), decoded, against `latticesim run`: how many were deltas.
+fn frames_match_run(srv: &Server, rules: &str, agents: &str, steps: &[u64]) -> usize {
+    let mut held: Option<Decoded> = None;
+    let mut deltas = 0;
+    for &step in steps {
+        let since = held
+            .as_ref()
+            .map_or(String::new(), |h| format!("&since={}", h.0["step"]));
+        let (status, body) =
+            srv.get_bytes(&format!("/api/frame?format=bin&step={step}{since}"), "");
+        assert_eq!(status, 200);
+        let f = decode_bin(&body, held.as_ref());
+        let at = f.0["step"].as_u64().unwrap();
+        assert_eq!(f.1, run_agents(rules, agents, at), "{rules}, step {at}");
+        deltas += f.0["delta"].as_bool().unwrap() as usize;
+        held = Some(f);
+    }
+    deltas
 }
 
 #[test]
 fn binary_frames_and_their_deltas_match_run() {
     let (rules, agents) = ("examples/gravity/rules.txt", "examples/gravity/agents.txt");
     let srv = start("binary", rules, agents);
-    let token = format!("X-Latticesim-Token: {}\r\n", srv.token);
-    let get = |path: &str| {
-        let req = format!(
-            "GET {path} HTTP/1.1\r\nHost: {}\r\n{token}Connection: close\r\n\r\n",
-            srv.addr
-        );
-        srv.raw_bytes(req.as_bytes())
-    };
-    let mut held: Option<Decoded> = None;
-    let mut deltas = 0;
-    for step in [0u64, 1, 2, 3, 5, 9, 10, 4, 4, 12] {
-        let since = held
-            .as_ref()
-            .map_or(String::new(), |h| format!("&since={}", h.0["step"]));
-        let (status, body) = get(&format!("/api/frame?format=bin&step={step}{since}"));
-        assert_eq!(status, 200);
-        let f = decode_bin(&body, held.as_ref());
-        let at = f.0["step"].as_u64().unwrap();
-        assert_eq!(f.1, run_agents(rules, agents, at), "step {at}");
-        deltas += f.0["delta"].as_bool().unwrap() as usize;
-        held = Some(f);
-    }
+    let deltas = frames_match_run(&srv, rules, agents, &[0, 1, 2, 3, 5, 9, 10, 4, 4, 12]);
     assert!(
         deltas > 0,
-        "late steps of gravity move few agents: sent as deltas"
+        "gravity's agents fall a cell a step: sent as moves"
     );
     // A `since` that is not the frame last sent gets a whole frame.
-    let (_, body) = get("/api/frame?format=bin&step=6&since=2");
+    let (_, body) = srv.get_bytes("/api/frame?format=bin&step=6&since=2", "");
     assert_eq!(decode_bin(&body, None).0["delta"], false);
-    let (status, _) = get("/api/frame?format=xml");
+    let (status, _) = srv.get_bytes("/api/frame?format=xml", "");
     assert_eq!(status, 400);
+    // Bonds made and broken and states changing: the line reconfiguration.
+    let (rules, agents) = (
+        "examples/reconfigure-line/rules.txt",
+        "examples/reconfigure-line/agents-30.txt",
+    );
+    let srv = start("binary-line", rules, agents);
+    let deltas = frames_match_run(&srv, rules, agents, &[0, 1, 2, 3, 4, 8, 20, 21, 60, 2, 3]);
+    assert!(deltas > 0);
+}
+
+#[test]
+fn files_too_large_to_edit_stay_on_the_server() {
+    let srv = start(
+        "large",
+        "examples/gravity/rules.txt",
+        "examples/gravity/agents.txt",
+    );
+    // 6 MB of agents: more than the editor takes (4 MiB).
+    let big: String = (0..300_000)
+        .map(|i| format!("{},{} SGRAV0 C00 7\n", i % 400, i / 400))
+        .collect();
+    assert!(big.len() > 4 << 20);
+    std::fs::write(srv.dir.join("big.txt"), &big).unwrap();
+    let (s, v) = srv.post("/api/file", json!({ "path": "big.txt" }));
+    assert_eq!(s, 200, "{v}");
+    assert!(
+        v["text"].is_null(),
+        "the text of a file too large to edit is not sent"
+    );
+    assert_eq!(v["bytes"], big.len());
+    let rules =
+        std::fs::read_to_string(Path::new(ROOT).join("examples/gravity/rules.txt")).unwrap();
+    // null: the file as it is on disk.
+    let ask = json!({ "rules": rules, "agents": null, "agents_path": "big.txt" });
+    let (s, v) = srv.post("/api/check", ask.clone());
+    assert_eq!(
+        (s, &v["errors"], &v["agents"]),
+        (200, &json!(0), &json!(300_000)),
+        "{v}"
+    );
+    let (s, v) = srv.post("/api/apply", ask);
+    assert_eq!(s, 200, "{v}");
+    let (_, v) = srv.get("/api/session");
+    assert!(
+        v["agents"].is_null(),
+        "the text of a file too large to edit is not sent"
+    );
+    assert_eq!(v["agents_bytes"], big.len());
+    assert_eq!(v["agents_path"], "big.txt");
+    assert!(v["rules"].is_string());
+    // A file that is not there.
+    let (s, v) = srv.post(
+        "/api/check",
+        json!({ "rules": rules, "agents": null, "agents_path": "gone.txt" }),
+    );
+    assert_eq!(s, 404, "{v}");
+}
+
+#[test]
+fn large_answers_are_compressed_for_clients_that_take_zstd() {
+    let srv = start(
+        "zstd",
+        "examples/gravity/rules.txt",
+        "examples/gravity/agents.txt",
+    );
+    let agents: String = (0..5000)
+        .map(|i| format!("{},{} SGRAV0\n", i % 100, 10 + i / 100))
+        .collect();
+    let rules =
+        std::fs::read_to_string(Path::new(ROOT).join("examples/gravity/rules.txt")).unwrap();
+    let (s, v) = srv.post("/api/apply", json!({ "rules": rules, "agents": agents }));
+    assert_eq!(s, 200, "{v}");
+    let path = "/api/frame?format=bin&step=3";
+    let (s, head, packed) = srv.get_with_head(path, "Accept-Encoding: gzip, deflate, br, zstd\r\n");
+    assert_eq!(s, 200);
+    assert!(head.contains("Content-Encoding: zstd"), "{head}");
+    let (_, plain) = srv.get_bytes(path, "Accept-Encoding: gzip, zstd;q=0\r\n");
+    assert!(
+        packed.len() * 4 < plain.len(),
+        "{} of {}",
+        packed.len(),
+        plain.len()
+    );
+    assert_eq!(zstd::decode_all(&packed[..]).unwrap(), plain);
+    // Small answers go as they are.
+    let (s, head, body) = srv.get_with_head("/api/agent?id=0", "Accept-Encoding: zstd\r\n");
+    assert_eq!(s, 200);
+    assert!(!head.contains("Content-Encoding"), "{head}");
+    serde_json::from_slice::<Value>(&body).unwrap();
 }
 
 #[test]

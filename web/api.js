@@ -51,59 +51,126 @@ export function el(tag, attrs, ...children) {
   return e;
 }
 
-// The frame of step `step` in the binary layout (docs/viewer.md, src/serve/binary.rs),
-// as a delta on `held` (the frame shown) when the server finds that smaller: `{ok, status,
-// v}` like `api`, `v` a frame with typed arrays for pos, state and attach.
-export function frameAt(step, held, counter) {
-  const since = (held ? '&since=' + held.step : '') + (counter ? '&counter=' + counter : '');
-  return send('GET', '/api/frame?format=bin&step=' + step + since, undefined,
-    async (r) => decodeFrame(await r.arrayBuffer(), held));
+// Asks for the frame of step `step` in the binary layout (docs/viewer.md,
+// src/serve/binary.rs), as a delta on the frame of step `since` (the one the page holds)
+// when the server finds that smaller: `{ok, status, v}` like `api`, `v` the bytes, to be
+// decoded with decodeFrame onto that frame.
+export function requestFrame(step, since, counter) {
+  const q = (since !== null && since !== undefined ? '&since=' + since : '') + (counter ? '&counter=' + counter : '');
+  return send('GET', '/api/frame?format=bin&step=' + step + q, undefined, (r) => r.arrayBuffer());
 }
 
+// The frame of step `step`, decoded onto `held` (the frame shown): `{ok, status, v}`, `v`
+// a frame (see decodeFrame).
+export async function frameAt(step, held, counter) {
+  return decoded(await requestFrame(step, held ? held.step : null, counter), held);
+}
+
+// An answer of requestFrame decoded onto `held`.
+export function decoded(r, held) {
+  if (!r.ok) return r;
+  try {
+    return { ...r, v: decodeFrame(r.v, held) };
+  } catch (e) {
+    return { ok: false, status: r.status, v: { error: 'a frame could not be read: ' + e.message } };
+  }
+}
+
+// The ids of a bit set (bit i mod 8 of byte i div 8 is agent i), `count` of them.
+function bitIds(bytes, count) {
+  const ids = new Uint32Array(count);
+  let k = 0;
+  for (let j = 0; j < bytes.length; j++) {
+    for (let b = bytes[j]; b; b &= b - 1) ids[k++] = 8 * j + (31 - Math.clz32(b & -b));
+  }
+  return ids;
+}
+
+// The ids in either of two ascending lists, ascending.
+function union(a, b) {
+  if (!a.length) return b;
+  if (!b.length) return a;
+  const out = new Uint32Array(a.length + b.length);
+  let i = 0, j = 0, k = 0;
+  while (i < a.length || j < b.length) {
+    const x = j >= b.length || (i < a.length && a[i] <= b[j]) ? a[i] : b[j];
+    if (i < a.length && a[i] === x) i++;
+    if (j < b.length && b[j] === x) j++;
+    out[k++] = x;
+  }
+  return out.subarray(0, k);
+}
+
+const align4 = (x) => (x + 3) & ~3;
+
+// A frame in the binary layout (src/serve/binary.rs), onto `held` (the frame shown) when
+// it is a delta: a frame with typed arrays for pos, state and attach.
 export function decodeFrame(buf, held) {
   const dv = new DataView(buf);
+  if (dv.getUint32(0, true) !== 0x3246534c) throw new Error('not a frame (LSF2)');
   const len = dv.getUint32(4, true);
-  const head = JSON.parse(new TextDecoder().decode(new Uint8Array(buf, 8, len)));
-  const { n, dim } = head;
-  const c = head.delta ? head.changed : n;
-  let off = (8 + len + 3) & ~3;
-  let ids = null;
-  if (head.delta) { ids = new Uint32Array(buf, off, c); off += 4 * c; }
-  const pos = new Int32Array(buf, off, c * dim);
-  off += 4 * c * dim;
-  const wide = head.state_bytes === 4;
-  const st = wide ? new Uint32Array(buf, off, c) : new Uint16Array(buf, off, c);
-  off = (off + head.state_bytes * c + 3) & ~3;
-  const at = head.attach ? new Uint8Array(buf, off, c) : null;
-  if (at) off += c;
+  const f = JSON.parse(new TextDecoder().decode(new Uint8Array(buf, 8, len)));
+  const { n, dim } = f;
+  let off = align4(8 + len);
+  // Each column: the agents it carries (null: all) and their values.
+  const cols = {};
+  for (const c of f.columns) {
+    let ids = null;
+    if (c.set === 'bits') ids = bitIds(new Uint8Array(buf, off, (n + 7) >> 3), c.count);
+    else if (c.set === 'ids') ids = new Uint32Array(buf, off, c.count);
+    off = align4(off + (c.set === 'bits' ? (n + 7) >> 3 : c.set === 'ids' ? 4 * c.count : 0));
+    const signed = c.name === 'pos';
+    const Type = { 1: signed ? Int8Array : Uint8Array, 2: Uint16Array, 4: signed ? Int32Array : Uint32Array }[c.bytes];
+    const values = new Type(buf, off, c.count * (c.name === 'pos' ? dim : 1));
+    off = align4(off + values.byteLength);
+    cols[c.name] = { ids, values };
+  }
   // The counter asked for, of every agent.
-  const values = head.counter ? new Int16Array(buf, (off + 1) & ~1, n) : null;
-  const f = head;
-  f.values = values;
-  if (!head.delta) {
-    f.pos = pos; f.state = st; f.attach = at;
+  f.values = f.counter ? new Int16Array(buf, off, n) : null;
+  if (f.delta && (!held || held.step !== f.base)) throw new Error(`a change to step ${f.base}, but the page holds another`);
+  if (!f.delta) {
+    f.pos = cols.pos.values;
+    f.state = cols.state.values;
+    f.attach = cols.attach ? cols.attach.values : null;
     return f;
   }
   // The frame held is done with: its columns become the new frame's, patched in place (no
   // copy of a million positions per step). What changed, and the old cells of the agents
   // that changed, are kept so that drawings can be patched, not redone.
+  // (The loops read local variables: a frame is a large object, slow to look into a
+  // million times.)
+  const { pos, state, attach } = cols;
+  const ids = union(union(pos.ids, state.ids), attach ? attach.ids : []);
+  const heldPos = held.pos, oldPos = new Int32Array(ids.length * dim);
+  for (let k = 0; k < ids.length; k++) {
+    for (let d = 0; d < dim; d++) oldPos[k * dim + d] = heldPos[ids[k] * dim + d];
+  }
   f.base = held;
   f.changedIds = ids;
-  f.oldPos = new Int32Array(c * dim);
-  for (let k = 0; k < c; k++) {
-    for (let d = 0; d < dim; d++) f.oldPos[k * dim + d] = held.pos[ids[k] * dim + d];
-  }
+  f.oldPos = oldPos;
   held.base = null;
   held.changedIds = null;
   held.oldPos = null;
-  f.pos = held.pos;
-  f.state = wide && !(held.state instanceof Uint32Array) ? Uint32Array.from(held.state) : held.state;
-  f.attach = head.attach ? (held.attach || new Uint8Array(n)) : null;
-  for (let k = 0; k < c; k++) {
-    const i = ids[k];
-    for (let d = 0; d < dim; d++) f.pos[i * dim + d] = pos[k * dim + d];
-    f.state[i] = st[k];
-    if (at) f.attach[i] = at[k];
+  f.pos = heldPos;
+  // State indices grow wider as the run shows more states.
+  const wider = held.state.BYTES_PER_ELEMENT < state.values.BYTES_PER_ELEMENT;
+  f.state = wider ? state.values.constructor.from(held.state) : held.state;
+  f.attach = attach ? (held.attach || new Uint8Array(n)) : null;
+  const [moved, by] = [pos.ids, pos.values];
+  if (by instanceof Int8Array) {
+    for (let k = 0; k < moved.length; k++) {
+      for (let d = 0; d < dim; d++) heldPos[moved[k] * dim + d] += by[k * dim + d];
+    }
+  } else {
+    for (let k = 0; k < moved.length; k++) {
+      for (let d = 0; d < dim; d++) heldPos[moved[k] * dim + d] = by[k * dim + d];
+    }
+  }
+  const [restated, to, states] = [state.ids, state.values, f.state];
+  for (let k = 0; k < restated.length; k++) states[restated[k]] = to[k];
+  if (attach) {
+    const [ids, bits, all] = [attach.ids, attach.values, f.attach];
+    for (let k = 0; k < ids.length; k++) all[ids[k]] = bits[k];
   }
   return f;
 }

@@ -6,7 +6,7 @@
 import { $, api, setTab, whenGone } from './api.js';
 import { camera } from './camera.js';
 import { draw, pick, project, resize, screenOf, usesWebGL, zoom } from './draw.js';
-import { editors, showDiagnostics, showStatus, showTab } from './editor.js';
+import { editors, setText, showDiagnostics, showStatus, showTab } from './editor.js';
 import { gotoStep, setNote, showFrame, stopRun } from './player.js';
 import { player } from './state.js';
 import './input.js';
@@ -29,8 +29,8 @@ async function start() {
   if (!r.ok) { setNote(r.v.error); return; }
   const s = r.v;
   player.session = s;
-  editors.rules.text.value = s.rules;
-  editors.agents.text.value = s.agents;
+  setText(editors.rules, s.rules, s.rules_bytes);
+  setText(editors.agents, s.agents, s.agents_bytes);
   editors.rules.path.value = s.rules_path;
   editors.agents.path.value = s.agents_path;
   showDiagnostics(s.check);

@@ -19,18 +19,23 @@ function words(f) {
 
 // The image of the frame before, patched where agents changed (a delta frame whose agents
 // all stay inside that image): their old cells cleared, their new cells painted. True when
-// it was done.
+// it was done. (The loops read local variables: a frame is a large object, slow to look
+// into a million times.)
 function patched(f) {
   const b = camera.bmp;
   if (!b || !b.canvas || !f.base || b.frame !== f.base || b.looks !== selection.looksVersion || f.values) return false;
-  const ids = f.changedIds, w = b.hi[0] - b.lo[0] + 1;
-  for (const i of ids) {
-    const x = f.pos[2 * i], y = f.pos[2 * i + 1];
-    if (x < b.lo[0] || x > b.hi[0] || y < b.lo[1] || y > b.hi[1]) return false;
+  const ids = f.changedIds, pos = f.pos, state = f.state, old = f.oldPos, px = b.px;
+  const [lx, ly] = b.lo, [hx, hy] = b.hi, w = hx - lx + 1;
+  for (let k = 0; k < ids.length; k++) {
+    const x = pos[2 * ids[k]], y = pos[2 * ids[k] + 1];
+    if (x < lx || x > hx || y < ly || y > hy) return false;
   }
   const cols = words(f);
-  ids.forEach((i, k) => { b.px[(b.hi[1] - f.oldPos[2 * k + 1]) * w + (f.oldPos[2 * k] - b.lo[0])] = 0; });
-  for (const i of ids) b.px[(b.hi[1] - f.pos[2 * i + 1]) * w + (f.pos[2 * i] - b.lo[0])] = cols[f.state[i]];
+  for (let k = 0; k < ids.length; k++) px[(hy - old[2 * k + 1]) * w + (old[2 * k] - lx)] = 0;
+  for (let k = 0; k < ids.length; k++) {
+    const i = ids[k];
+    px[(hy - pos[2 * i + 1]) * w + (pos[2 * i] - lx)] = cols[state[i]];
+  }
   if (ids.length) b.ctx.putImageData(b.img, 0, 0);
   b.frame = f;
   camera.patches = (camera.patches || 0) + 1;
@@ -55,9 +60,11 @@ function bitmap(f) {
   const px = new Uint32Array(img.data.buffer);
   const cols = words(f);
   const states = stateColours(f);
-  for (let i = 0; i < agentCount(f); i++) {
-    const c = selection.colourBy && f.values ? agentColour(f, states, i) : null;
-    px[(b.hi[1] - f.pos[2 * i + 1]) * w + (f.pos[2 * i] - b.lo[0])] = c === null ? cols[f.state[i]] : word(c);
+  const pos = f.pos, state = f.state, lx = b.lo[0], hy = b.hi[1], n = agentCount(f);
+  const byValue = selection.colourBy && f.values;
+  for (let i = 0; i < n; i++) {
+    const c = byValue ? agentColour(f, states, i) : null;
+    px[(hy - pos[2 * i + 1]) * w + (pos[2 * i] - lx)] = c === null ? cols[state[i]] : word(c);
   }
   cx.putImageData(img, 0, 0);
   Object.assign(camera.bmp, { canvas: c, ctx: cx, img, px });

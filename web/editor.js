@@ -36,6 +36,7 @@ for (const name of ['agents', 'rules']) {
     diags: root.querySelector('.diags'),
     msg: root.querySelector('.filemsg'),
     list: [],
+    large: null, // the size of a file too large to edit here (its text stays on the server)
   };
   ed.text.addEventListener('input', () => { paint(ed); scheduleCheck(); });
   for (const ev of ['click', 'keyup', 'select']) ed.text.addEventListener(ev, () => showCurrent(ed));
@@ -47,18 +48,31 @@ for (const name of ['agents', 'rules']) {
   root.querySelector('.load').onclick = async () => {
     const r = await api('POST', '/api/file', { path: ed.path.value });
     if (!r.ok) { ed.msg.textContent = r.v.error; return; }
-    ed.text.value = r.v.text;
+    setText(ed, r.v.text, r.v.bytes);
     ed.msg.textContent = 'loaded';
-    paint(ed);
     scheduleCheck();
   };
   root.querySelector('.save').onclick = async () => {
+    if (ed.large !== null) { ed.msg.textContent = 'nothing to save: this file is edited elsewhere'; return; }
     const r = await api('POST', '/api/file', { path: ed.path.value, text: ed.text.value });
     ed.msg.textContent = r.ok ? `saved ${r.v.bytes} bytes` : r.v.error;
   };
   editors[name] = ed;
 }
 
+
+// Puts a file's text in its editor; a text of null is a file too large to edit here
+// (`bytes` long): the editor is then read-only and says so, and checking and applying
+// read the file from disk.
+export function setText(ed, text, bytes) {
+  ed.large = text === null ? bytes : null;
+  ed.text.value = text === null ? '' : text;
+  ed.text.readOnly = text === null;
+  ed.text.placeholder = text === null
+    ? `This file has ${(bytes / 1e6).toFixed(1)} MB, too much to edit in the page: checking and Apply read it from the file. Edit it in another editor, save it, and Apply (or Load) here.`
+    : '';
+  paint(ed);
+}
 
 // The string index of 1-based (line, column), columns counting characters.
 function indexOf(text, line, col) {
@@ -144,8 +158,9 @@ function scheduleCheck() {
 
 function texts() {
   return {
-    rules: editors.rules.text.value,
-    agents: editors.agents.text.value,
+    // null: the file on disk (too large to edit here).
+    rules: editors.rules.large === null ? editors.rules.text.value : null,
+    agents: editors.agents.large === null ? editors.agents.text.value : null,
     rules_path: editors.rules.path.value,
     agents_path: editors.agents.path.value,
   };

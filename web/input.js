@@ -53,7 +53,7 @@ document.addEventListener('keydown', (e) => {
   if ($('view').hidden || typing(e.target)) return;
   const keys = {
     ' ': toggleRun,
-    ArrowRight: () => gotoStep(currentStep() + 1),
+    ArrowRight: () => { stopRun(); gotoStep(currentStep() + 1); },
     ArrowLeft: () => { stopRun(); gotoStep(currentStep() - 1); },
     Home: () => { stopRun(); gotoStep(0); },
     '+': () => zoom(1.25),
@@ -66,8 +66,8 @@ document.addEventListener('keydown', (e) => {
   act();
 });
 
-$('step').onclick = () => gotoStep(currentStep() + 1);
-// Back, Reset and Go pause a run.
+// Step, Back, Reset and Go pause a run.
+$('step').onclick = () => { stopRun(); gotoStep(currentStep() + 1); };
 $('back').onclick = () => { stopRun(); gotoStep(currentStep() - 1); };
 $('reset').onclick = () => { stopRun(); gotoStep(0); };
 $('run').onclick = toggleRun;

@@ -1,6 +1,6 @@
 // Stepping: the frame shown, going to a step, running and pausing.
 
-import { $, frameAt } from './api.js';
+import { $, decoded, frameAt, requestFrame } from './api.js';
 import { camera } from './camera.js';
 import { draw, fit } from './draw.js';
 import { inspect, showLegend, showRecords, showSlabs, showStats } from './panel.js';
@@ -11,17 +11,20 @@ import { player, selection } from './state.js';
 export function setNote(text) { $('note').textContent = text || ''; }
 
 // The step the user asked for last (absolute), until it is shown: every key press and
-// click adds to it, even while a request is under way.
+// click adds to it, even while a request is under way. A run is paused first (one loop
+// asks for frames at a time).
 export async function gotoStep(n) {
   if (n < 0) n = 0;
   player.target = n;
   if (player.busy) return; // the loop below picks the newest target up
   player.busy = true;
+  let done;
+  player.idle = new Promise((res) => { done = res; });
   try {
     while (player.target !== null && (!player.frame || player.frame.step !== player.target)) {
       const t = player.target;
       const r = await frameAt(t, player.frame, selection.colourBy);
-      if (!r.ok) { setNote(r.v.error); player.target = null; stopRun(); break; }
+      if (!r.ok) { setNote(r.v.error); player.target = null; break; }
       showFrame(r.v);
       // A run that ended before the step asked for: the target is where it ended.
       if (player.target === t && r.v.step !== t) player.target = r.v.step;
@@ -29,6 +32,7 @@ export async function gotoStep(n) {
   } finally {
     player.target = null;
     player.busy = false;
+    done();
     updateRunButton();
   }
 }
@@ -65,16 +69,28 @@ export function showFrame(f) {
 
 // Running: one loop at a time. Each start takes a new generation; a loop goes on only
 // while its generation is the current one, so Pause then Run at once ends the old loop
-// before the new one takes its first step.
+// before the new one takes its first step. The loop asks for the next step as soon as a
+// frame arrives, before reading and drawing it, so that the server steps while the page
+// draws; an answer that arrives after a pause is dropped.
 async function runLoop(gen) {
   const done = [];
+  if (player.busy) await player.idle;
+  let ahead = null; // the request of the step after the one shown: {step, since, reply}
   while (player.running && player.runGen === gen) {
     const t0 = performance.now();
-    const before = currentStep();
-    await gotoStep(before + 1);
-    if (player.runGen !== gen) return;
-    const f = player.frame;
-    if (!f || f.quiescent || f.note || f.step === before) break;
+    const held = player.frame;
+    const before = held ? held.step : 0;
+    const reply = ahead && ahead.step === before + 1 && ahead.since === before
+      ? ahead.reply : requestFrame(before + 1, held ? before : null, selection.colourBy);
+    ahead = null;
+    const r = await reply;
+    if (!player.running || player.runGen !== gen) return;
+    if (r.ok) ahead = { step: before + 2, since: before + 1, reply: requestFrame(before + 2, before + 1, selection.colourBy) };
+    const d = decoded(r, held);
+    if (!d.ok) { setNote(d.v.error); break; }
+    const f = d.v;
+    showFrame(f);
+    if (f.quiescent || f.note || f.step === before) break;
     done.push(performance.now());
     while (done.length && done[0] < performance.now() - 2000) done.shift();
     showRate(done);

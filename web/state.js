@@ -7,7 +7,8 @@ export const player = {
   running: false,
   runGen: 0,         // the generation of the one run loop that may go on
   target: null,      // step asked for while a request is under way
-  busy: false,
+  busy: false,       // a jump (gotoStep) is under way
+  idle: null,        // resolved when that jump is done
   session: null,
 };
 

@@ -1,16 +1,24 @@
 //! Binary frames (`GET /api/frame?format=bin`): what the viewer draws of a step in a few
-//! bytes per agent, whole or as the agents changed since the frame the tab holds, so that
-//! a million agents step at interactive rates (docs/viewer.md gives the layout).
+//! bytes per agent, whole or as the changes since the frame the tab holds, so that a
+//! million agents step at interactive rates (docs/viewer.md gives the layout).
 //!
-//! Layout, little-endian: `LSF1`, the length of a JSON head (u32), the head (the frame's
-//! step, dim, quiescent, states, universe, records, stats, keyframes, note, and `n`,
-//! `delta`, `base`, `changed`, `attach`, `state_bytes`), zero bytes to a multiple of 4,
-//! then either every agent's columns or, for a delta, the changed agents' ids (u32) first:
-//! positions (i32, `dim` per agent), state indices (u16, or u32 with `state_bytes` 4: an
-//! index into `states`, which lists every state the run has shown, in order of first
-//! appearance, so an index keeps its state for the run), zero bytes to a multiple of 4,
-//! and attachment bits (u8, when `attach`); with `counter` (asked for with `counter=Cnn`),
-//! zero bytes to a multiple of 2 and that counter of every agent (i16), delta or not.
+//! Layout, little-endian: `LSF2`, the length of a JSON head (u32), the head (the frame's
+//! step, dim, quiescent, states, universe, records, stats, keyframes, note, `n`, `delta`,
+//! `base`, `attach`, and `columns`), zero bytes to a multiple of 4, then the columns the
+//! head lists, in its order (`pos`, `state`, and `attach` when the run has bonds), each
+//! starting at a multiple of 4:
+//! - `set` `all`: every agent's value; else (a delta) the agents whose value changed: as a
+//!   bit set (`bits`: ⌈n/8⌉ bytes, agent i is bit i mod 8 of byte i div 8) or as a list of
+//!   ids (`ids`: u32 each, ascending), whichever is smaller; zero bytes to a multiple of 4;
+//! - then their values (`count` of them), `bytes` wide: `pos` is `dim` coordinates an
+//!   agent (i32; or, in a delta where every change fits, i8 with `bytes` 1: how far each
+//!   coordinate moved), `state` an index into `states` (u8, u16 or u32; `states` lists
+//!   every state the run has shown, in order of first appearance, so an index keeps its
+//!   state for the run), `attach` the attachment bits (u8).
+//!
+//! With `counter` (asked for with `counter=Cnn`), that counter of every agent (i16) follows
+//! at a multiple of 4. A falling cloud of a million agents is then about 2 bytes an agent
+//! moved, and the transport compresses it (zstd) to a few kilobytes when the page accepts.
 
 use super::*;
 
@@ -28,6 +36,91 @@ fn pad(out: &mut Vec<u8>) {
     }
 }
 
+/// How a column's agents are named.
+#[derive(Clone, Copy, PartialEq, Debug)]
+enum Set {
+    /// Every agent, in id order.
+    All,
+    /// A bit per agent.
+    Bits,
+    /// A list of ids.
+    Ids,
+}
+
+/// One column of a frame: the agents it carries and how wide a value is.
+struct Column {
+    name: &'static str,
+    /// The agents carried (every one, for [`Set::All`]).
+    ids: Option<Vec<u32>>,
+    set: Set,
+    bytes: usize,
+}
+
+impl Column {
+    /// A column of the agents `ids` (all of them when `None`) of `n`, naming them the
+    /// smaller way.
+    fn new(name: &'static str, ids: Option<Vec<u32>>, n: usize, bytes: usize) -> Column {
+        let set = match &ids {
+            None => Set::All,
+            Some(ids) if ids.len() * 4 > n.div_ceil(8) => Set::Bits,
+            Some(_) => Set::Ids,
+        };
+        Column {
+            name,
+            ids,
+            set,
+            bytes,
+        }
+    }
+
+    fn count(&self, n: usize) -> usize {
+        self.ids.as_ref().map_or(n, Vec::len)
+    }
+
+    /// Its size in the frame (values `width` bytes an agent), padding included.
+    fn size(&self, n: usize, width: usize) -> usize {
+        let set = match self.set {
+            Set::All => 0,
+            Set::Bits => n.div_ceil(8),
+            Set::Ids => 4 * self.count(n),
+        };
+        set.div_ceil(4) * 4 + (self.count(n) * width).div_ceil(4) * 4
+    }
+
+    /// Writes its set, then the value of each of its agents as `value` gives it.
+    fn write(&self, out: &mut Vec<u8>, n: usize, width: usize, value: impl Fn(usize, &mut [u8])) {
+        match (self.set, &self.ids) {
+            (Set::Bits, Some(ids)) => {
+                let at = out.len();
+                out.resize(at + n.div_ceil(8), 0);
+                for &i in ids {
+                    out[at + i as usize / 8] |= 1 << (i % 8);
+                }
+            }
+            (Set::Ids, Some(ids)) => ids.iter().for_each(|i| out.extend(i.to_le_bytes())),
+            _ => {}
+        }
+        pad(out);
+        let at = out.len();
+        out.resize(at + self.count(n) * width, 0);
+        let chunks = out[at..].chunks_exact_mut(width);
+        match &self.ids {
+            Some(ids) => (chunks.zip(ids)).for_each(|(c, &i)| value(i as usize, c)),
+            None => chunks.enumerate().for_each(|(i, c)| value(i, c)),
+        }
+        pad(out);
+    }
+
+    fn head(&self, n: usize) -> Value {
+        let set = match self.set {
+            Set::All => "all",
+            Set::Bits => "bits",
+            Set::Ids => "ids",
+        };
+        json!({ "name": self.name, "set": set, "count": self.count(n), "bytes": self.bytes })
+    }
+}
+
 /// The binary frame of the run's current step; a delta when the tab holds the frame of
 /// step `since` (the last one sent) and that is smaller.
 pub(super) fn frame_bin(run: &mut Run, since: Option<u64>, counter: Option<u8>) -> Vec<u8> {
@@ -36,23 +129,60 @@ pub(super) fn frame_bin(run: &mut Run, since: Option<u64>, counter: Option<u8>) 
     let (n, dim) = (lat.len(), lat.dim.coords());
     let (state, states) = states_view(run);
     let attach = lat.attach.iter().any(|&b| b != 0);
-    let wide = states.len() > u16::MAX as usize;
-    // The agents changed since the frame the tab holds, if it holds the last one sent.
+    let state_bytes = match states.len() {
+        0..=256 => 1,
+        257..=65536 => 2,
+        _ => 4,
+    };
+    let whole = [
+        Column::new("pos", None, n, 4),
+        Column::new("state", None, n, state_bytes),
+        Column::new("attach", None, n, 1),
+    ];
+    // What changed since the frame the tab holds, if it holds the last one sent.
     let base = run
         .sent
         .as_ref()
         .filter(|s| Some(s.step) == since && s.pos.len() == n);
-    let changed: Option<Vec<u32>> = base.map(|b| {
-        (0..n)
-            .filter(|&i| {
-                b.pos[i] != lat.pos[i] || b.state[i] != state[i] || b.attach[i] != lat.attach[i]
-            })
-            .map(|i| i as u32)
-            .collect()
+    let delta = base.map(|b| {
+        let (mut moved, mut restated, mut reattached) = (Vec::new(), Vec::new(), Vec::new());
+        for (i, (s, now)) in b.state.iter().zip(&state).enumerate() {
+            if b.pos[i] != lat.pos[i] {
+                moved.push(i as u32);
+            }
+            if s != now {
+                restated.push(i as u32);
+            }
+            if b.attach[i] != lat.attach[i] {
+                reattached.push(i as u32);
+            }
+        }
+        // Moves of a step are a cell or two: as i8 changes where every one fits.
+        let near = moved.iter().all(|&i| {
+            let (a, b) = (lat.pos[i as usize], b.pos[i as usize]);
+            (0..dim).all(|d| i8::try_from(a[d] as i64 - b[d] as i64).is_ok())
+        });
+        [
+            Column::new("pos", Some(moved), n, if near { 1 } else { 4 }),
+            Column::new("state", Some(restated), n, state_bytes),
+            Column::new("attach", Some(reattached), n, 1),
+        ]
     });
-    // A delta costs an id more per changed agent: sent only when smaller.
-    let per = 4 * dim + if wide { 4 } else { 2 } + attach as usize;
-    let changed = changed.filter(|c| c.len() * (per + 4) < n * per);
+    let width = |c: &Column| {
+        if c.name == "pos" {
+            c.bytes * dim
+        } else {
+            c.bytes
+        }
+    };
+    let size = |cols: &[Column; 3]| -> usize {
+        let cols = &cols[..if attach { 3 } else { 2 }];
+        cols.iter().map(|c| c.size(n, width(c))).sum()
+    };
+    let delta = delta.filter(|d| size(d) < size(&whole));
+    let is_delta = delta.is_some();
+    let all = delta.unwrap_or(whole);
+    let cols = &all[..if attach { 3 } else { 2 }];
     let (k, every) = run.hist.keyframes();
     let s = &e.stats;
     let head = json!({
@@ -67,63 +197,57 @@ pub(super) fn frame_bin(run: &mut Run, since: Option<u64>, counter: Option<u8>) 
         "keyframes": [k as u64, every],
         "note": run.note,
         "attach": attach,
-        "state_bytes": if wide { 4 } else { 2 },
-        "delta": changed.is_some(),
-        "base": changed.as_ref().and(since),
-        "changed": changed.as_ref().map(Vec::len),
+        "delta": is_delta,
+        "base": if is_delta { since } else { None },
+        "columns": cols.iter().map(|c| c.head(n)).collect::<Vec<_>>(),
         "counters": lat.counter_numbers().iter().map(|c| format!("C{c:02}")).collect::<Vec<_>>(),
         "counter": counter.map(|c| format!("C{c:02}")),
     });
     let head = head.to_string();
-    let ids: Vec<usize> = match &changed {
-        Some(c) => c.iter().map(|&i| i as usize).collect(),
-        None => (0..n).collect(),
-    };
-    let mut out = Vec::with_capacity(8 + head.len() + ids.len() * (per + 4) + 8);
-    out.extend_from_slice(b"LSF1");
+    let body: usize = cols.iter().map(|c| c.size(n, width(c))).sum();
+    let mut out = Vec::with_capacity(8 + head.len() + 4 + body + 2 * n + 4);
+    out.extend_from_slice(b"LSF2");
     out.extend_from_slice(&(head.len() as u32).to_le_bytes());
     out.extend_from_slice(head.as_bytes());
     pad(&mut out);
-    if let Some(c) = &changed {
-        for &i in c {
-            out.extend_from_slice(&i.to_le_bytes());
+    for c in cols {
+        match (c.name, c.bytes, base) {
+            ("pos", 1, Some(b)) if is_delta => c.write(&mut out, n, dim, |i, v| {
+                for (d, v) in v.iter_mut().enumerate() {
+                    *v = (lat.pos[i][d] - b.pos[i][d]) as i8 as u8;
+                }
+            }),
+            ("pos", ..) => c.write(&mut out, n, 4 * dim, |i, v| {
+                for d in 0..dim {
+                    v[4 * d..4 * d + 4].copy_from_slice(&lat.pos[i][d].to_le_bytes());
+                }
+            }),
+            ("state", ..) => c.write(&mut out, n, c.bytes, |i, v| {
+                v.copy_from_slice(&state[i].to_le_bytes()[..v.len()])
+            }),
+            _ => c.write(&mut out, n, 1, |i, v| v[0] = lat.attach[i]),
         }
-    }
-    let at = out.len();
-    out.resize(at + ids.len() * 4 * dim, 0);
-    for (chunk, &i) in out[at..].chunks_exact_mut(4 * dim).zip(&ids) {
-        for (d, &v) in lat.pos[i][..dim].iter().enumerate() {
-            chunk[4 * d..4 * d + 4].copy_from_slice(&v.to_le_bytes());
-        }
-    }
-    let width = if wide { 4 } else { 2 };
-    let at = out.len();
-    out.resize(at + ids.len() * width, 0);
-    for (chunk, &i) in out[at..].chunks_exact_mut(width).zip(&ids) {
-        chunk.copy_from_slice(&state[i].to_le_bytes()[..width]);
-    }
-    pad(&mut out);
-    if attach {
-        out.extend(ids.iter().map(|&i| lat.attach[i]));
     }
     if let Some(c) = counter {
-        if out.len() % 2 == 1 {
-            out.push(0);
-        }
         for a in 0..n as u32 {
             out.extend_from_slice(&lat.counter(a, c).to_le_bytes());
         }
     }
     let step = run.hist.steps();
-    match (run.sent.as_mut(), &changed) {
-        // A delta: what the tab holds now is the last frame with the changes.
-        (Some(sent), Some(c)) => {
+    match (run.sent.as_mut(), is_delta) {
+        // A delta: what the tab holds now is the last frame with the changes (bonds all
+        // gone too: a frame without `attach` has none).
+        (Some(sent), true) => {
             sent.step = step;
-            for &i in c {
-                let i = i as usize;
-                sent.pos[i] = lat.pos[i];
-                sent.state[i] = state[i];
-                sent.attach[i] = lat.attach[i];
+            for c in &all {
+                for &i in c.ids.iter().flatten() {
+                    let i = i as usize;
+                    match c.name {
+                        "pos" => sent.pos[i] = lat.pos[i],
+                        "state" => sent.state[i] = state[i],
+                        _ => sent.attach[i] = lat.attach[i],
+                    }
+                }
             }
         }
         _ => {

@@ -41,8 +41,10 @@ use views::*;
 
 /// The largest request body accepted (rules and agents texts travel in bodies).
 pub const MAX_BODY: usize = 8 << 20;
-/// The largest file the editor loads.
-const MAX_FILE: u64 = 8 << 20;
+/// The largest file the editor shows for editing: a larger one stays on the server, read
+/// from its file when checked or applied (a browser's text box slows the whole page down
+/// with tens of megabytes in it).
+const MAX_FILE: u64 = 4 << 20;
 /// How long one request may step forwards before it answers with the step it reached.
 const STEP_BUDGET: Duration = Duration::from_secs(5);
 /// What a client may send, and how slowly (see [`http::Limits`]).

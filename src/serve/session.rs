@@ -73,6 +73,18 @@ pub(super) fn text_field<'v>(v: &'v Value, name: &str) -> Result<&'v str, Reply>
     })
 }
 
+impl Session {
+    /// The text of a file the editor sent (`name`), or, when it sent null (a file too
+    /// large to edit in the page), the file at `path` as it is on disk.
+    pub(super) fn text_or_file(&self, v: &Value, name: &str, path: &str) -> Result<String, Reply> {
+        if !v.get(name).is_some_and(Value::is_null) {
+            return text_field(v, name).map(str::to_string);
+        }
+        let file = self.resolve(path, false)?;
+        std::fs::read_to_string(&file).map_err(|e| error(404, format!("cannot read `{path}`: {e}")))
+    }
+}
+
 /// Checks the editor's texts: the verdict, and the lattice when there are no errors.
 pub(super) fn check_texts(
     rules_name: &str,
@@ -114,12 +126,18 @@ impl Session {
     }
 
     pub(super) fn info(&self) -> Value {
+        // A file too large to edit in the page goes as null and its size.
+        fn editable(t: &str) -> Option<&str> {
+            (t.len() as u64 <= MAX_FILE).then_some(t)
+        }
         json!({
             "root": self.root.display().to_string(),
             "rules_path": self.rules_path,
             "agents_path": self.agents_path,
-            "rules": self.rules,
-            "agents": self.agents,
+            "rules": editable(&self.rules),
+            "agents": editable(&self.agents),
+            "rules_bytes": self.rules.len(),
+            "agents_bytes": self.agents.len(),
             "check": check_json(
                 &check_texts(&self.rules_path, &self.rules, &self.agents_path, &self.agents).0,
                 &self.rules_path,
@@ -242,23 +260,27 @@ impl Session {
 
     pub(super) fn api_check(&mut self, req: &Req) -> Result<Reply, Reply> {
         let v = req.json()?;
-        let (rules, agents) = (text_field(&v, "rules")?, text_field(&v, "agents")?);
         let rules_path = v["rules_path"].as_str().unwrap_or(&self.rules_path);
         let agents_path = v["agents_path"].as_str().unwrap_or(&self.agents_path);
-        let (c, _) = check_texts(rules_path, rules, agents_path, agents);
+        let rules = self.text_or_file(&v, "rules", rules_path)?;
+        let agents = self.text_or_file(&v, "agents", agents_path)?;
+        let (c, _) = check_texts(rules_path, &rules, agents_path, &agents);
         Ok(reply_json(200, &check_json(&c, rules_path)))
     }
 
     pub(super) fn api_apply(&mut self, req: &Req) -> Result<Reply, Reply> {
         let v = req.json()?;
-        self.rules = text_field(&v, "rules")?.to_string();
-        self.agents = text_field(&v, "agents")?.to_string();
-        if let Some(p) = v["rules_path"].as_str() {
-            self.rules_path = p.to_string();
-        }
-        if let Some(p) = v["agents_path"].as_str() {
-            self.agents_path = p.to_string();
-        }
+        let rules_path = v["rules_path"]
+            .as_str()
+            .unwrap_or(&self.rules_path)
+            .to_string();
+        let agents_path = v["agents_path"]
+            .as_str()
+            .unwrap_or(&self.agents_path)
+            .to_string();
+        self.rules = self.text_or_file(&v, "rules", &rules_path)?;
+        self.agents = self.text_or_file(&v, "agents", &agents_path)?;
+        (self.rules_path, self.agents_path) = (rules_path, agents_path);
         match self.apply() {
             (verdict, true) => {
                 let run = self.run.as_ref().expect("just started");
@@ -361,12 +383,10 @@ impl Session {
                     return Err(error(400, format!("`{p}` is not a file")));
                 }
                 if meta.len() > MAX_FILE {
-                    return Err(error(
-                        413,
-                        format!(
-                            "`{p}` has {} bytes; the editor opens files up to {MAX_FILE} bytes",
-                            meta.len()
-                        ),
+                    // Too large to edit in the page: checked and applied from the file.
+                    return Ok(reply_json(
+                        200,
+                        &json!({ "path": p, "text": null, "bytes": meta.len() }),
                     ));
                 }
                 let mut bytes = Vec::new();
