@@ -201,8 +201,38 @@ async function test3d(browser) {
     return window.latticesim.pick(x - r.left, y - r.top);
   }, inner);
   assert.ok(over !== null && over !== inner, `agent ${inner} is covered (picked ${over})`);
+  // The orbit: a drag turns and tilts about the centre (an agent's place on screen moves,
+  // not by the drag); a shift-drag pans (it moves by the drag exactly); a drag straight
+  // down far enough looks from above: the top layer's agents are all drawn and picked.
+  const drag = async (dx, dy, shift) => {
+    const r = await page.evaluate(() => { const b = document.getElementById('canvas').getBoundingClientRect(); return [b.left + 40, b.top + 40]; });
+    if (shift) await page.keyboard.down('Shift');
+    await page.mouse.move(r[0], r[1]);
+    await page.mouse.down();
+    await page.mouse.move(r[0] + dx / 2, r[1] + dy / 2);
+    await page.mouse.move(r[0] + dx, r[1] + dy);
+    await page.mouse.up();
+    if (shift) await page.keyboard.up('Shift');
+  };
+  const where = (id) => page.evaluate((id) => window.latticesim.screenOf(id), id);
+  const a0 = await where(layer[0]);
+  await drag(60, 0, true);
+  const a1 = await where(layer[0]);
+  assert.ok(Math.abs(a1[0] - a0[0] - 60) < 0.5 && Math.abs(a1[1] - a0[1]) < 0.5, `a shift-drag pans: ${a0} -> ${a1}`);
+  await drag(90, 0, false);
+  const a2 = await where(layer[0]);
+  assert.ok(Math.hypot(a2[0] - a1[0] - 90, a2[1] - a1[1]) > 5, `a drag turns the view: ${a1} -> ${a2}`);
+  await drag(0, 400, false);
+  for (const id of layer) {
+    const got = await page.evaluate((id) => {
+      const r = document.getElementById('canvas').getBoundingClientRect();
+      const [x, y] = window.latticesim.screenOf(id);
+      return window.latticesim.pick(x - r.left, y - r.top);
+    }, id);
+    assert.equal(got, id, `seen from above, top-layer agent ${id} is picked where it is drawn`);
+  }
   assert.deepEqual(errors, [], 'no script errors in the page');
-  console.log(`ok: 3D stepped, rotated and zoomed; top-layer agents ${picked.join(" and ")} picked where they are drawn, agent ${inner} covered by agent ${over}`);
+  console.log(`ok: 3D stepped, rotated and zoomed; top-layer agents ${picked.join(" and ")} picked where they are drawn, agent ${inner} covered by agent ${over}; dragging orbits, shift-drag pans, from above every top-layer agent is picked`);
   await page.close();
 }
 

@@ -10,8 +10,11 @@ import { player, selection } from './state.js';
 // ---------------------------------------------------------------- mouse and keys
 
 let drag = null;
+// Dragging pans in 2D; in 3D it orbits (left and right turn about the vertical axis, up
+// and down tilt), and shift-drag or right-drag pans.
 canvas.addEventListener('mousedown', (e) => {
-  drag = { x: e.clientX, y: e.clientY, moved: false, rotate: e.shiftKey || e.button === 2 };
+  const three = player.frame && player.frame.dim === 3;
+  drag = { x: e.clientX, y: e.clientY, moved: false, rotate: three && !e.shiftKey && e.button !== 2 };
   canvas.style.cursor = 'grabbing';
 });
 window.addEventListener('mousemove', (e) => {
@@ -19,7 +22,7 @@ window.addEventListener('mousemove', (e) => {
   const dx = e.clientX - drag.x, dy = e.clientY - drag.y;
   if (Math.abs(dx) + Math.abs(dy) > 3) drag.moved = true;
   if (!drag.moved) return;
-  if (drag.rotate && player.frame && player.frame.dim === 3) { camera.theta += dx * 0.01; tilt(dy * 0.01); }
+  if (drag.rotate) { camera.theta += dx * 0.01; tilt(dy * 0.01); }
   else { camera.ox += dx; camera.oy += dy; }
   drag.x = e.clientX;
   drag.y = e.clientY;
