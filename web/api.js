@@ -76,9 +76,19 @@ export function decoded(r, held) {
   }
 }
 
+// Scratch arrays reused from frame to frame (a million-agent frame would otherwise
+// allocate and clear megabytes each step): `count` elements of `Type`, the one of `name`.
+// What a frame keeps of them (its changed ids and their old cells) is only read until the
+// next frame is decoded.
+const scratch = {};
+function reused(name, Type, count) {
+  if (!scratch[name] || scratch[name].length < count) scratch[name] = new Type(Math.max(count, 1024) * 1.25 | 0);
+  return scratch[name].subarray(0, count);
+}
+
 // The ids of a bit set (bit i mod 8 of byte i div 8 is agent i), `count` of them.
-function bitIds(bytes, count) {
-  const ids = new Uint32Array(count);
+function bitIds(bytes, count, name) {
+  const ids = reused(name, Uint32Array, count);
   let k = 0;
   for (let j = 0; j < bytes.length; j++) {
     for (let b = bytes[j]; b; b &= b - 1) ids[k++] = 8 * j + (31 - Math.clz32(b & -b));
@@ -116,7 +126,7 @@ export function decodeFrame(buf, held) {
   const cols = {};
   for (const c of f.columns) {
     let ids = null;
-    if (c.set === 'bits') ids = bitIds(new Uint8Array(buf, off, (n + 7) >> 3), c.count);
+    if (c.set === 'bits') ids = bitIds(new Uint8Array(buf, off, (n + 7) >> 3), c.count, c.name);
     else if (c.set === 'ids') ids = new Uint32Array(buf, off, c.count);
     off = align4(off + (c.set === 'bits' ? (n + 7) >> 3 : c.set === 'ids' ? 4 * c.count : 0));
     const signed = c.name === 'pos';
@@ -141,9 +151,20 @@ export function decodeFrame(buf, held) {
   // million times.)
   const { pos, state, attach } = cols;
   const ids = union(union(pos.ids, state.ids), attach ? attach.ids : []);
-  const heldPos = held.pos, oldPos = new Int32Array(ids.length * dim);
-  for (let k = 0; k < ids.length; k++) {
-    for (let d = 0; d < dim; d++) oldPos[k * dim + d] = heldPos[ids[k] * dim + d];
+  const heldPos = held.pos, oldPos = reused('old', Int32Array, ids.length * dim);
+  if (dim === 2) {
+    for (let k = 0; k < ids.length; k++) {
+      const i = 2 * ids[k];
+      oldPos[2 * k] = heldPos[i];
+      oldPos[2 * k + 1] = heldPos[i + 1];
+    }
+  } else {
+    for (let k = 0; k < ids.length; k++) {
+      const i = 3 * ids[k];
+      oldPos[3 * k] = heldPos[i];
+      oldPos[3 * k + 1] = heldPos[i + 1];
+      oldPos[3 * k + 2] = heldPos[i + 2];
+    }
   }
   f.base = held;
   f.changedIds = ids;
@@ -156,14 +177,25 @@ export function decodeFrame(buf, held) {
   const wider = held.state.BYTES_PER_ELEMENT < state.values.BYTES_PER_ELEMENT;
   f.state = wider ? state.values.constructor.from(held.state) : held.state;
   f.attach = attach ? (held.attach || new Uint8Array(n)) : null;
+  // Moves (i8) are added, positions (i32) put; a loop for each dimension, each kind.
   const [moved, by] = [pos.ids, pos.values];
-  if (by instanceof Int8Array) {
+  const add = by instanceof Int8Array;
+  if (dim === 2 && add) {
     for (let k = 0; k < moved.length; k++) {
-      for (let d = 0; d < dim; d++) heldPos[moved[k] * dim + d] += by[k * dim + d];
+      const i = 2 * moved[k];
+      heldPos[i] += by[2 * k];
+      heldPos[i + 1] += by[2 * k + 1];
+    }
+  } else if (dim === 2) {
+    for (let k = 0; k < moved.length; k++) {
+      const i = 2 * moved[k];
+      heldPos[i] = by[2 * k];
+      heldPos[i + 1] = by[2 * k + 1];
     }
   } else {
     for (let k = 0; k < moved.length; k++) {
-      for (let d = 0; d < dim; d++) heldPos[moved[k] * dim + d] = by[k * dim + d];
+      const i = 3 * moved[k];
+      for (let d = 0; d < 3; d++) heldPos[i + d] = (add ? heldPos[i + d] : 0) + by[3 * k + d];
     }
   }
   const [restated, to, states] = [state.ids, state.values, f.state];

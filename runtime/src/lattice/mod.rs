@@ -9,7 +9,7 @@
 //! a column reads 0, as does a slot without one.
 
 use crate::bits::{all_bits, no_bits, run_of, sequence_len, set_bits};
-use crate::cells::{CellIndex, Grid, EMPTY, NO_SLOT, RIM};
+use crate::cells::{CellIndex, Grid, AHEAD, EMPTY, NO_SLOT, RIM};
 use latticesim_vm::eval::Cell;
 use latticesim_vm::model::{AgentInit, Bounds, Columns, Config, Dim, Dir};
 
@@ -502,7 +502,10 @@ impl Lattice {
                 let step = g.step(d);
                 // Away from the grid's rim (the common case): one bit read per agent.
                 if codes.iter().fold(true, |ok, &s| ok & (s < RIM)) {
-                    for (t, &s) in out.iter_mut().zip(codes) {
+                    for (j, (t, &s)) in out.iter_mut().zip(codes).enumerate() {
+                        if let Some(&ahead) = codes.get(j + AHEAD) {
+                            g.prefetch_filled(Grid::along(ahead, step));
+                        }
                         *t &= g.filled(Grid::along(s, step)) == want;
                     }
                     return;
@@ -637,7 +640,13 @@ impl Lattice {
         let (pos, code) = (&mut self.pos, &mut self.code);
         if let Some(g) = self.cells.grid_mut() {
             let mut g = g.cells_mut();
-            for (&(a, p), &c) in moves.iter().zip(codes) {
+            for (k, (&(a, p), &c)) in moves.iter().zip(codes).enumerate() {
+                // The cells a few moves ahead leave and take (see `cells::prefetch`).
+                if let (Some(&(next, _)), Some(&to)) = (moves.get(k + AHEAD), codes.get(k + AHEAD))
+                {
+                    g.prefetch((code[next as usize] & !RIM) as usize);
+                    g.prefetch((to & !RIM) as usize);
+                }
                 let old = std::mem::replace(&mut pos[a as usize], p);
                 let was = std::mem::replace(&mut code[a as usize], c);
                 let o = (was & !RIM) as usize;
