@@ -471,6 +471,38 @@ fn binary_frames_and_their_deltas_match_run() {
     let srv = start("binary-line", rules, agents);
     let deltas = frames_match_run(&srv, rules, agents, &[0, 1, 2, 3, 4, 8, 20, 21, 60, 2, 3]);
     assert!(deltas > 0);
+    // In 3D: moves of three coordinates.
+    let (rules, agents) = (
+        "examples/gravity-3d/rules.txt",
+        "examples/gravity-3d/agents.txt",
+    );
+    let srv = start("binary-3d", rules, agents);
+    let deltas = frames_match_run(&srv, rules, agents, &[0, 1, 2, 3, 6, 7, 1]);
+    assert!(deltas > 0);
+}
+
+#[test]
+fn frames_with_more_states_than_a_byte_holds() {
+    // 300 states at step 0 (indices of two bytes), all turning into a 301st at step 1.
+    let dir =
+        std::env::temp_dir().join(format!("latticesim-serve-{}-wide-src", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (rules, agents) = (dir.join("rules.txt"), dir.join("agents.txt"));
+    std::fs::write(&rules, "turn\n1\nSA****\nSZZZZZ\n").unwrap();
+    let text: String = (0..300).map(|i| format!("{i},0 SA{i:04}\n")).collect();
+    std::fs::write(&agents, text).unwrap();
+    let (rules, agents) = (rules.to_str().unwrap(), agents.to_str().unwrap());
+    let srv = start("wide", rules, agents);
+    frames_match_run(&srv, rules, agents, &[0, 1, 2, 0, 1]);
+    let (_, body) = srv.get_bytes("/api/frame?format=bin&step=1", "");
+    let head = decode_bin(&body, None).0;
+    let state = &head["columns"][1];
+    assert_eq!(
+        (&state["name"], &state["bytes"]),
+        (&json!("state"), &json!(2)),
+        "{head}"
+    );
+    assert_eq!(head["states"].as_array().unwrap().len(), 301);
 }
 
 #[test]

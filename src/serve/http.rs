@@ -468,4 +468,42 @@ mod tests {
             assert!(!reason(s).is_empty(), "{s}");
         }
     }
+
+    #[test]
+    fn zstd_only_for_clients_that_take_it_and_large_answers() {
+        let req = |accept: &str| Request {
+            method: "GET".into(),
+            target: "/".into(),
+            headers: vec![("accept-encoding".into(), accept.into())],
+            body: Vec::new(),
+        };
+        for (accept, takes) in [
+            ("gzip, deflate, br, zstd", true),
+            ("zstd;q=0.5", true),
+            ("ZSTD", true),
+            ("gzip, zstd;q=0", false),
+            ("zstd; q=0.0", false),
+            ("gzip", false),
+            ("", false),
+            ("zstdx", false),
+        ] {
+            assert_eq!(accepts(&req(accept), "zstd"), takes, "{accept}");
+        }
+        let answer = |len: usize| Response {
+            status: 200,
+            ctype: "application/octet-stream",
+            headers: Vec::new(),
+            body: vec![7; len],
+        };
+        let big = compressed(&req("zstd"), answer(COMPRESS_FROM));
+        assert!(big.headers.contains(&("Content-Encoding", "zstd".into())));
+        assert_eq!(
+            zstd::decode_all(&big.body[..]).unwrap(),
+            vec![7; COMPRESS_FROM]
+        );
+        let small = compressed(&req("zstd"), answer(COMPRESS_FROM - 1));
+        assert!(small.headers.is_empty() && small.body.len() == COMPRESS_FROM - 1);
+        let refused = compressed(&req("gzip"), answer(COMPRESS_FROM));
+        assert!(refused.headers.is_empty() && refused.body.len() == COMPRESS_FROM);
+    }
 }
