@@ -948,6 +948,20 @@ fn move_cases() -> Vec<(String, String)> {
 /// batch, 3D chains, falling in a crowd.
 fn state_and_calc_cases() -> Vec<(String, String)> {
     vec![
+        // Several states share a list of one rule with a precondition, their agents
+        // interleaved (evaluated in one batch across states); other states have another
+        // rule or none; states change as agents fall.
+        (
+            "fall\n1\nSG**** N***0 >C00 0000\nP0,-1 C00 - C00 0001 SG0000\n\nrise\n1\nSH**** N0*** <C00 0003\nP0,1 C00 + C00 0001\n".into(),
+            block(9, 14, |x, y, k| {
+                let st = ["GA000", "HB000", "GC000", "XX000", "HA000", "GB000"][(x as usize * 7 + y as usize * 3 + k) % 6];
+                if (x * 5 + y * 11) % 7 == 0 {
+                    String::new()
+                } else {
+                    format!(" S{st} C00 {}", (x + 2 * y) % 5)
+                }
+            }),
+        ),
         // States changed at once along chains of state-only rules: into a state without
         // rules, into one whose rule calculates, into one whose rule tests a neighbour (the
         // selection is then evaluated again).

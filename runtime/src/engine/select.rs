@@ -267,7 +267,15 @@ impl Selector {
                 // A run of agents with the same one rule to test: evaluated together.
                 if let [r] = lists[idx][..] {
                     if let Some(pre) = &pre_columns[r as usize] {
-                        let m = run_of(&of[a..(a + BATCH).min(hi)], of[a]);
+                        // The agents next in line with this list, or another state's
+                        // list of just this rule (agents of several states mixed in
+                        // any order still go together).
+                        let next = &of[a..(a + BATCH).min(hi)];
+                        let same = run_of(next, of[a]);
+                        let m = same
+                            + (next[same..].iter())
+                                .take_while(|&&o| o == of[a] || lists[o.index()][..] == [r])
+                                .count();
                         batch_pre(prog, (pre, a), lat, &mut bufs, &mut truth[..m]);
                         for (slot, &t) in one[k..k + m].iter_mut().zip(&truth[..m]) {
                             *slot = if t { r } else { NO_RULE };
