@@ -4,7 +4,8 @@
 //! side's setup is timed. Throughput is in agent-steps.
 //!
 //! Groups (filter with `cargo bench --bench workloads -- <name>`):
-//! `B1-L300-S10`, `B1-L1000-S50` (the size), `B2-W316`, `B3-L1000-k{1,16,256}-S20`,
+//! `B1-L300-S10`, `B1-L1000-S50` (the size), `B2-W316`, `B2-W316-mixed` (B2's agents
+//! scrambled, in seven states), `B3-L1000-k{1,16,256}-S20`,
 //! `B1-L1000-S50-threads` (one and two threads), `P-L300-S10` (priority resolution along
 //! chains of 300 agents). B2 at W = H = 1000 takes 20 s an iteration through the engine:
 //! it is measured by the `scale` bench instead.
@@ -103,6 +104,40 @@ fn b2(c: &mut Criterion) {
     g.finish();
 }
 
+/// B2's cells listed in a scrambled order, in seven states (`SGRAV<y mod 7>`), as files
+/// written in no spatial order are (`latticesim gen cloud`'s): the same falls and the same
+/// checksum (neither depends on the order or the states), beside the same native loop.
+fn b2_mixed(c: &mut Criterion) {
+    let w = 316u64;
+    let (steps_done, sum) = native::b2(w as usize, w as usize);
+    let mut lines: Vec<String> = (b2_cells(w, w).into_iter())
+        .map(|(x, y)| format!("{x},{y} SGRAV{} C00 {y}\n", y % 7))
+        .collect();
+    for i in (1..lines.len()).rev() {
+        lines.swap(i, (i * 7919 + 13) % (i + 1));
+    }
+    let base = engine(B2_RULES, &lines.concat());
+    let n = base.lat.len() as u64;
+    let mut g = group(c, format!("B2-W{w}-mixed"), n * steps_done);
+    let run = |mut e: Engine| {
+        while !e.step().quiescent {}
+        e
+    };
+    let done = run(fresh(&base, base.opts));
+    assert_eq!(
+        (done.stats.steps, b2_checksum(&done)),
+        (steps_done, sum),
+        "engine B2 mixed checksum"
+    );
+    bench_native(
+        &mut g,
+        || native::b2_setup(w as usize, w as usize),
+        native::b2_run,
+    );
+    bench_engine(&mut g, "engine", &base, base.opts, run);
+    g.finish();
+}
+
 fn b3(c: &mut Criterion) {
     let (l, s) = (1000u64, 20u64);
     for k in [1u64, 16, 256] {
@@ -157,5 +192,5 @@ fn priorities(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, b1, b2, b3, b1_threads, priorities);
+criterion_group!(benches, b1, b2, b2_mixed, b3, b1_threads, priorities);
 criterion_main!(benches);
