@@ -78,13 +78,15 @@ fn b1(c: &mut Criterion) {
     b1_group(c, 1000, 50);
 }
 
-fn b2(c: &mut Criterion) {
+/// B2 at W = H = 316 from `agents` (the same cells, in any order and states): run to
+/// quiescence beside the native loop, the checksum checked first.
+fn b2_group(c: &mut Criterion, name: &str, agents: &str) {
     let w = 316u64;
     let (steps_done, sum) = native::b2(w as usize, w as usize);
     assert_eq!((steps_done, sum), (238, 473921339434), "native B2 checksum");
-    let base = engine(B2_RULES, &b2_agents(w, w));
+    let base = engine(B2_RULES, agents);
     let n = base.lat.len() as u64;
-    let mut g = group(c, format!("B2-W{w}"), n * steps_done);
+    let mut g = group(c, name.to_string(), n * steps_done);
     let run = |mut e: Engine| {
         while !e.step().quiescent {}
         e
@@ -93,7 +95,7 @@ fn b2(c: &mut Criterion) {
     assert_eq!(
         (done.stats.steps, b2_checksum(&done)),
         (steps_done, sum),
-        "engine B2 checksum"
+        "engine {name} checksum"
     );
     bench_native(
         &mut g,
@@ -104,38 +106,21 @@ fn b2(c: &mut Criterion) {
     g.finish();
 }
 
+fn b2(c: &mut Criterion) {
+    b2_group(c, "B2-W316", &b2_agents(316, 316));
+}
+
 /// B2's cells listed in a scrambled order, in seven states (`SGRAV<y mod 7>`), as files
 /// written in no spatial order are (`latticesim gen cloud`'s): the same falls and the same
 /// checksum (neither depends on the order or the states), beside the same native loop.
 fn b2_mixed(c: &mut Criterion) {
-    let w = 316u64;
-    let (steps_done, sum) = native::b2(w as usize, w as usize);
-    let mut lines: Vec<String> = (b2_cells(w, w).into_iter())
+    let mut lines: Vec<String> = (b2_cells(316, 316).into_iter())
         .map(|(x, y)| format!("{x},{y} SGRAV{} C00 {y}\n", y % 7))
         .collect();
     for i in (1..lines.len()).rev() {
         lines.swap(i, (i * 7919 + 13) % (i + 1));
     }
-    let base = engine(B2_RULES, &lines.concat());
-    let n = base.lat.len() as u64;
-    let mut g = group(c, format!("B2-W{w}-mixed"), n * steps_done);
-    let run = |mut e: Engine| {
-        while !e.step().quiescent {}
-        e
-    };
-    let done = run(fresh(&base, base.opts));
-    assert_eq!(
-        (done.stats.steps, b2_checksum(&done)),
-        (steps_done, sum),
-        "engine B2 mixed checksum"
-    );
-    bench_native(
-        &mut g,
-        || native::b2_setup(w as usize, w as usize),
-        native::b2_run,
-    );
-    bench_engine(&mut g, "engine", &base, base.opts, run);
-    g.finish();
+    b2_group(c, "B2-W316-mixed", &lines.concat());
 }
 
 fn b3(c: &mut Criterion) {
