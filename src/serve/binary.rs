@@ -47,29 +47,41 @@ enum Set {
     Ids,
 }
 
+/// What a column carries.
+#[derive(Clone, Copy, PartialEq, Debug)]
+enum Kind {
+    Pos,
+    State,
+    Attach,
+}
+
 /// One column of a frame: the agents it carries and how wide a value is.
 struct Column {
-    name: &'static str,
+    kind: Kind,
     /// The agents carried (every one, for [`Set::All`]).
     ids: Option<Vec<u32>>,
     set: Set,
+    /// The bytes of a number (a coordinate, a state index, attachment bits).
     bytes: usize,
+    /// The bytes of an agent's value (`dim` numbers for positions, else one).
+    width: usize,
 }
 
 impl Column {
     /// A column of the agents `ids` (all of them when `None`) of `n`, naming them the
-    /// smaller way.
-    fn new(name: &'static str, ids: Option<Vec<u32>>, n: usize, bytes: usize) -> Column {
+    /// smaller way; `bytes` a number, `per` numbers an agent.
+    fn new(kind: Kind, ids: Option<Vec<u32>>, n: usize, bytes: usize, per: usize) -> Column {
         let set = match &ids {
             None => Set::All,
             Some(ids) if ids.len() * 4 > n.div_ceil(8) => Set::Bits,
             Some(_) => Set::Ids,
         };
         Column {
-            name,
+            kind,
             ids,
             set,
             bytes,
+            width: bytes * per,
         }
     }
 
@@ -77,18 +89,18 @@ impl Column {
         self.ids.as_ref().map_or(n, Vec::len)
     }
 
-    /// Its size in the frame (values `width` bytes an agent), padding included.
-    fn size(&self, n: usize, width: usize) -> usize {
+    /// Its size in the frame, padding included.
+    fn size(&self, n: usize) -> usize {
         let set = match self.set {
             Set::All => 0,
             Set::Bits => n.div_ceil(8),
             Set::Ids => 4 * self.count(n),
         };
-        set.div_ceil(4) * 4 + (self.count(n) * width).div_ceil(4) * 4
+        set.div_ceil(4) * 4 + (self.count(n) * self.width).div_ceil(4) * 4
     }
 
     /// Writes its set, then the value of each of its agents as `value` gives it.
-    fn write(&self, out: &mut Vec<u8>, n: usize, width: usize, value: impl Fn(usize, &mut [u8])) {
+    fn write(&self, out: &mut Vec<u8>, n: usize, value: impl Fn(usize, &mut [u8])) {
         match (self.set, &self.ids) {
             (Set::Bits, Some(ids)) => {
                 let at = out.len();
@@ -102,8 +114,8 @@ impl Column {
         }
         pad(out);
         let at = out.len();
-        out.resize(at + self.count(n) * width, 0);
-        let chunks = out[at..].chunks_exact_mut(width);
+        out.resize(at + self.count(n) * self.width, 0);
+        let chunks = out[at..].chunks_exact_mut(self.width);
         match &self.ids {
             Some(ids) => (chunks.zip(ids)).for_each(|(c, &i)| value(i as usize, c)),
             None => chunks.enumerate().for_each(|(i, c)| value(i, c)),
@@ -117,7 +129,12 @@ impl Column {
             Set::Bits => "bits",
             Set::Ids => "ids",
         };
-        json!({ "name": self.name, "set": set, "count": self.count(n), "bytes": self.bytes })
+        let name = match self.kind {
+            Kind::Pos => "pos",
+            Kind::State => "state",
+            Kind::Attach => "attach",
+        };
+        json!({ "name": name, "set": set, "count": self.count(n), "bytes": self.bytes })
     }
 }
 
@@ -135,9 +152,9 @@ pub(super) fn frame_bin(run: &mut Run, since: Option<u64>, counter: Option<u8>) 
         _ => 4,
     };
     let whole = [
-        Column::new("pos", None, n, 4),
-        Column::new("state", None, n, state_bytes),
-        Column::new("attach", None, n, 1),
+        Column::new(Kind::Pos, None, n, 4, dim),
+        Column::new(Kind::State, None, n, state_bytes, 1),
+        Column::new(Kind::Attach, None, n, 1, 1),
     ];
     // What changed since the frame the tab holds, if it holds the last one sent.
     let base = run
@@ -163,26 +180,18 @@ pub(super) fn frame_bin(run: &mut Run, since: Option<u64>, counter: Option<u8>) 
             (0..dim).all(|d| i8::try_from(a[d] as i64 - b[d] as i64).is_ok())
         });
         [
-            Column::new("pos", Some(moved), n, if near { 1 } else { 4 }),
-            Column::new("state", Some(restated), n, state_bytes),
-            Column::new("attach", Some(reattached), n, 1),
+            Column::new(Kind::Pos, Some(moved), n, if near { 1 } else { 4 }, dim),
+            Column::new(Kind::State, Some(restated), n, state_bytes, 1),
+            Column::new(Kind::Attach, Some(reattached), n, 1, 1),
         ]
     });
-    let width = |c: &Column| {
-        if c.name == "pos" {
-            c.bytes * dim
-        } else {
-            c.bytes
-        }
-    };
-    let size = |cols: &[Column; 3]| -> usize {
-        let cols = &cols[..if attach { 3 } else { 2 }];
-        cols.iter().map(|c| c.size(n, width(c))).sum()
-    };
+    // The columns sent: attachment bits only when the run has bonds.
+    let used = if attach { 3 } else { 2 };
+    let size = |cols: &[Column]| -> usize { cols[..used].iter().map(|c| c.size(n)).sum() };
     let delta = delta.filter(|d| size(d) < size(&whole));
     let is_delta = delta.is_some();
     let all = delta.unwrap_or(whole);
-    let cols = &all[..if attach { 3 } else { 2 }];
+    let cols = &all[..used];
     let (k, every) = run.hist.keyframes();
     let s = &e.stats;
     let head = json!({
@@ -204,28 +213,28 @@ pub(super) fn frame_bin(run: &mut Run, since: Option<u64>, counter: Option<u8>) 
         "counter": counter.map(|c| format!("C{c:02}")),
     });
     let head = head.to_string();
-    let body: usize = cols.iter().map(|c| c.size(n, width(c))).sum();
+    let body = size(cols);
     let mut out = Vec::with_capacity(8 + head.len() + 4 + body + 2 * n + 4);
     out.extend_from_slice(b"LSF2");
     out.extend_from_slice(&(head.len() as u32).to_le_bytes());
     out.extend_from_slice(head.as_bytes());
     pad(&mut out);
     for c in cols {
-        match (c.name, c.bytes, base) {
-            ("pos", 1, Some(b)) if is_delta => c.write(&mut out, n, dim, |i, v| {
+        match (c.kind, c.bytes, base) {
+            (Kind::Pos, 1, Some(b)) if is_delta => c.write(&mut out, n, |i, v| {
                 for (d, v) in v.iter_mut().enumerate() {
                     *v = (lat.pos[i][d] - b.pos[i][d]) as i8 as u8;
                 }
             }),
-            ("pos", ..) => c.write(&mut out, n, 4 * dim, |i, v| {
-                for d in 0..dim {
-                    v[4 * d..4 * d + 4].copy_from_slice(&lat.pos[i][d].to_le_bytes());
+            (Kind::Pos, ..) => c.write(&mut out, n, |i, v| {
+                for (d, v) in v.chunks_exact_mut(4).enumerate() {
+                    v.copy_from_slice(&lat.pos[i][d].to_le_bytes());
                 }
             }),
-            ("state", ..) => c.write(&mut out, n, c.bytes, |i, v| {
+            (Kind::State, ..) => c.write(&mut out, n, |i, v| {
                 v.copy_from_slice(&state[i].to_le_bytes()[..v.len()])
             }),
-            _ => c.write(&mut out, n, 1, |i, v| v[0] = lat.attach[i]),
+            (Kind::Attach, ..) => c.write(&mut out, n, |i, v| v[0] = lat.attach[i]),
         }
     }
     if let Some(c) = counter {
@@ -240,13 +249,11 @@ pub(super) fn frame_bin(run: &mut Run, since: Option<u64>, counter: Option<u8>) 
         (Some(sent), true) => {
             sent.step = step;
             for c in &all {
-                for &i in c.ids.iter().flatten() {
-                    let i = i as usize;
-                    match c.name {
-                        "pos" => sent.pos[i] = lat.pos[i],
-                        "state" => sent.state[i] = state[i],
-                        _ => sent.attach[i] = lat.attach[i],
-                    }
+                let ids = c.ids.iter().flatten().map(|&i| i as usize);
+                match c.kind {
+                    Kind::Pos => ids.for_each(|i| sent.pos[i] = lat.pos[i]),
+                    Kind::State => ids.for_each(|i| sent.state[i] = state[i]),
+                    Kind::Attach => ids.for_each(|i| sent.attach[i] = lat.attach[i]),
                 }
             }
         }

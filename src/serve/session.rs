@@ -80,9 +80,31 @@ impl Session {
         if !v.get(name).is_some_and(Value::is_null) {
             return text_field(v, name).map(str::to_string);
         }
-        let file = self.resolve(path, false)?;
-        std::fs::read_to_string(&file).map_err(|e| error(404, format!("cannot read `{path}`: {e}")))
+        let (file, _) = self.file_of(path)?;
+        read_utf8(&file, path)
     }
+
+    /// The file `p` names (in the working folder, or named on the command line) and its
+    /// size: 404 when it cannot be opened, 400 when it is not a file.
+    fn file_of(&self, p: &str) -> Result<(PathBuf, u64), Reply> {
+        let path = self.resolve(p, false)?;
+        let meta =
+            std::fs::metadata(&path).map_err(|e| error(404, format!("cannot open `{p}`: {e}")))?;
+        if !meta.is_file() {
+            return Err(error(400, format!("`{p}` is not a file")));
+        }
+        Ok((path, meta.len()))
+    }
+}
+
+/// The text of the file at `path` (`p` as the page named it): 404 when it cannot be read,
+/// 415 when it is not UTF-8.
+fn read_utf8(path: &Path, p: &str) -> Result<String, Reply> {
+    let mut bytes = Vec::new();
+    crate::output::open_no_follow(path)
+        .and_then(|mut f| f.read_to_end(&mut bytes))
+        .map_err(|e| error(404, format!("cannot read `{p}`: {e}")))?;
+    String::from_utf8(bytes).map_err(|_| error(415, format!("`{p}` is not UTF-8 text")))
 }
 
 /// Checks the editor's texts: the verdict, and the lattice when there are no errors.
@@ -376,25 +398,15 @@ impl Session {
         let p = text_field(&v, "path")?;
         match v.get("text") {
             None => {
-                let path = self.resolve(p, false)?;
-                let meta = std::fs::metadata(&path)
-                    .map_err(|e| error(404, format!("cannot open `{p}`: {e}")))?;
-                if !meta.is_file() {
-                    return Err(error(400, format!("`{p}` is not a file")));
-                }
-                if meta.len() > MAX_FILE {
+                let (path, len) = self.file_of(p)?;
+                if len > MAX_FILE {
                     // Too large to edit in the page: checked and applied from the file.
                     return Ok(reply_json(
                         200,
-                        &json!({ "path": p, "text": null, "bytes": meta.len() }),
+                        &json!({ "path": p, "text": null, "bytes": len }),
                     ));
                 }
-                let mut bytes = Vec::new();
-                crate::output::open_no_follow(&path)
-                    .and_then(|f| f.take(MAX_FILE + 1).read_to_end(&mut bytes))
-                    .map_err(|e| error(404, format!("cannot read `{p}`: {e}")))?;
-                let text = String::from_utf8(bytes)
-                    .map_err(|_| error(415, format!("`{p}` is not UTF-8 text")))?;
+                let text = read_utf8(&path, p)?;
                 Ok(reply_json(200, &json!({ "path": p, "text": text })))
             }
             Some(t) => {
