@@ -712,6 +712,7 @@ pub fn render(args: RenderArgs) -> ExitCode {
         order: args.order.into(),
         static_first: args.static_first,
         trace: false,
+        skip: Default::default(),
     };
     let mut engine = Engine::new(ready.prog, ready.lat, opts);
     let agent_frames = engine.lat.len() as u64 * (last - first + 1);

@@ -7,7 +7,8 @@ use crate::{colour, read, Color, RECORDS_SHOWN_PER_KIND};
 use clap::ValueEnum;
 use latticesim_compiler::compile;
 use latticesim_runtime::{
-    checkpoint, Engine, Lattice, Options, Order, RecordKind, Stats, StepCost, StepReport, Undo,
+    checkpoint, Engine, Lattice, Options, Order, RecordKind, Skip, Stats, StepCost, StepReport,
+    Undo,
 };
 use serde_json::json;
 use std::collections::BTreeMap;
@@ -69,6 +70,10 @@ pub struct RunArgs {
     /// any number.
     #[arg(long)]
     threads: Option<usize>,
+    /// Evaluate every agent at every step, even those that had no valid rule and saw
+    /// nothing change since (which are skipped by default); the results are the same.
+    #[arg(long)]
+    no_skip: bool,
     /// Print no records or summary (errors in the input files are still printed).
     #[arg(long, short)]
     quiet: bool,
@@ -496,6 +501,7 @@ fn start(
         order: args.order.into(),
         static_first: args.static_first,
         trace,
+        skip: if args.no_skip { Skip::Off } else { Skip::Auto },
     };
     match (&args.resume, &args.agents) {
         (Some(from), _) => resume(&args.rules, from, opts, args.threads, args.quiet, colour),

@@ -18,7 +18,7 @@ mod series;
 pub mod shapes;
 mod trace;
 
-pub use engine::{Engine, Options, Order, Stats, StepReport, AGENTS_PER_THREAD};
+pub use engine::{Engine, Options, Order, Skip, Stats, StepReport, AGENTS_PER_THREAD};
 pub use history::History;
 pub use lattice::{Defect, Lattice, LatticeBuilder, Undo, Writes};
 pub use record::{Record, RecordKind};

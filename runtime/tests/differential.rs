@@ -11,7 +11,7 @@ mod common;
 mod reference;
 
 use latticesim_compiler::compile;
-use latticesim_runtime::{Engine, Lattice, Options, Order, TraceEvent};
+use latticesim_runtime::{Engine, Lattice, Options, Order, Skip, TraceEvent};
 use proptest::prelude::*;
 use reference::{Rec, World};
 
@@ -270,22 +270,39 @@ fn compare(e: &Engine, w: &World, step: u64) -> Result<(), TestCaseError> {
     Ok(())
 }
 
+/// Runs the rules with quiet agents skipped whenever they can be (`Skip::Eager`), as by
+/// default (`Skip::Auto`) and without skipping.
 fn differential(
     rules: &str,
     agents: &str,
     order: Order,
     static_first: bool,
 ) -> Result<(), TestCaseError> {
-    differential_on(rules, agents, order, static_first, 1)
+    for skip in [Skip::Eager, Skip::Auto, Skip::Off] {
+        differential_on(rules, agents, (order, static_first, skip), 1)
+            .map_err(|e| TestCaseError::fail(format!("{skip:?}: {e}")))?;
+    }
+    Ok(())
 }
 
-/// Runs the rules under all four combinations of `--order` and `--static-first`.
+/// Runs the rules under all four combinations of `--order` and `--static-first`, with
+/// quiet agents skipped whenever they can be; and without skipping under two of them.
 fn every_option(rules: &str, agents: &str, threads: usize) -> Result<(), TestCaseError> {
     for order in [Order::ActionsFirst, Order::MessagesFirst] {
         for static_first in [false, true] {
-            differential_on(rules, agents, order, static_first, threads).map_err(|e| {
-                TestCaseError::fail(format!("{order:?}, static-first {static_first}: {e}"))
-            })?;
+            let mut skips = vec![Skip::Eager];
+            if static_first == (order == Order::MessagesFirst) {
+                skips.push(Skip::Off);
+            }
+            for skip in skips {
+                differential_on(rules, agents, (order, static_first, skip), threads).map_err(
+                    |e| {
+                        TestCaseError::fail(format!(
+                            "{order:?}, static-first {static_first}, {skip:?}: {e}"
+                        ))
+                    },
+                )?;
+            }
         }
     }
     Ok(())
@@ -294,8 +311,7 @@ fn every_option(rules: &str, agents: &str, threads: usize) -> Result<(), TestCas
 fn differential_on(
     rules: &str,
     agents: &str,
-    order: Order,
-    static_first: bool,
+    (order, static_first, skip): (Order, bool, Skip),
     threads: usize,
 ) -> Result<(), TestCaseError> {
     let c = common::checked(rules, agents);
@@ -321,6 +337,7 @@ fn differential_on(
             // Tracing only reports; half the cases run with it to show that it changes nothing.
             trace: static_first,
             threads,
+            skip,
         },
     );
     let mut w = World::new(
@@ -329,7 +346,11 @@ fn differential_on(
         order == Order::MessagesFirst,
         static_first,
     );
-    for step in 1..=6u64 {
+    // A case may say how many steps it runs (`// steps N` first), else six.
+    let steps = (rules.strip_prefix("// steps "))
+        .and_then(|r| r.split_whitespace().next()?.parse().ok())
+        .unwrap_or(6);
+    for step in 1..=steps {
         let rep = e.step();
         let (quiet, recs) = w.step();
         prop_assert_eq!(
@@ -803,6 +824,91 @@ fn optimisations_agree_with_reference() {
     }
 }
 
+/// Quiet agents (no valid rule) that something wakes later, each case for one cause of
+/// waking (see the engine's `activity.rs`): a message arriving, an inbox emptied a step
+/// after a message, a state read at an offset, a counter read at an offset (`V`), a bond
+/// made, agents swapped under a reader, groups carried past readers, walkers leaving the
+/// box in every direction and far, a rule whose offset depends on a counter. Each runs
+/// with skipping (whenever possible, and as by default) and without, against the
+/// reference, in every order.
+#[test]
+fn skipping_agrees_with_reference() {
+    let cases = skipping_cases();
+    for (i, (rules, agents)) in cases.iter().enumerate() {
+        for order in [Order::ActionsFirst, Order::MessagesFirst] {
+            for static_first in [false, true] {
+                if let Err(e) = differential(rules, agents, order, static_first) {
+                    panic!("skipping case {i}, {order:?}, static-first {static_first}: {e}");
+                }
+            }
+        }
+    }
+}
+
+/// The cases of [`skipping_agrees_with_reference`]: `// steps N` first says how many steps
+/// each runs.
+fn skipping_cases() -> Vec<(String, String)> {
+    let countdown = "tick\n1\nSA0000 >C00 0000\nC00 - C00 0001\n\n";
+    vec![
+        // A message arriving wakes its quiet recipient.
+        (
+            "// steps 8\ntick\n1\nSA0000 >C00 0001\nC00 - C00 0001\n\nsend\n1\nSA0000 =C00 0001\n#E01 + 0005 0000 C00 - C00 0001\n\ngo\n1\nSWAIT0 >#W01 0000\nSDONE0\n".into(),
+            "0,0 SA0000 C00 3\n1,0 SWAIT0\n5,5 SWAIT0\n".into(),
+        ),
+        // An inbox emptied a step after a message wakes its agent: the sender sends at
+        // steps 3 and 4; its neighbour, woken by the first message (it changes state), is
+        // quiet at step 5 with the second and must see its empty inbox at step 6 (an agent
+        // counting down far away keeps the run going).
+        (
+            "// steps 10\ntick\n1\nSA0000 >C00 0002\nC00 - C00 0001\n\nsend\n1\nSA0000 <C00 0003 >C00 0000\n#E01 + 0005 0000 C00 - C00 0001\n\npre\n1\nSPRE00 =#W01 0005\nSWAIT0\n\ngo\n1\nSWAIT0 =#W01 0000\nSDONE0\n\nkeep\n1\nST0000 >C00 0000\nC00 - C00 0001\n".into(),
+            "0,0 SA0000 C00 4\n1,0 SPRE00\n9,9 ST0000 C00 20\n".into(),
+        ),
+        // The same, with text messages.
+        (
+            "// steps 10\ntick\n1\nSA0000 >C00 0002\nC00 - C00 0001\n\nsend\n1\nSA0000 <C00 0003 >C00 0000\nMEHELLO C00 - C00 0001\n\npre\n1\nSPRE00 MWHELLO\nSWAIT0\n\ngo\n1\nSWAIT0 !MWH****\nSDONE0\n\nkeep\n1\nST0000 >C00 0000\nC00 - C00 0001\n".into(),
+            "0,0 SA0000 C00 4\n1,0 SPRE00\n9,9 ST0000 C00 20\n".into(),
+        ),
+        // A state read at an offset.
+        (
+            format!("// steps 8\n{countdown}flip\n1\nSA0000 =C00 0000\nSGO000\n\ngo\n1\nSWAIT0 T-2,0,GO000\nSDONE0\n"),
+            "0,0 SA0000 C00 3\n2,0 SWAIT0\n1,0 SWAIT0\n".into(),
+        ),
+        // A counter read at an offset.
+        (
+            format!("// steps 8\n{countdown}go\n1\nSWAIT0 V-1,0,C00 0001\nSDONE0\n"),
+            "0,0 SA0000 C00 3\n1,0 SWAIT0\n".into(),
+        ),
+        // A bond made by a neighbour.
+        (
+            format!("// steps 8\n{countdown}bond\n1\nSA0000 =C00 0000 !A**1*\nA**1*\n\ngo\n1\nSWAIT0 A*1**\nSDONE0\n"),
+            "0,0 SA0000 C00 3\n1,0 SWAIT0\n".into(),
+        ),
+        // Two agents swapped under a reader of one's state.
+        (
+            format!("// steps 8\n{countdown}swap\n1\nSA0000 =C00 0000\nXE SB0000\n\ngo\n1\nSWAIT0 T0,-1,C0000\nSDONE0\n"),
+            "0,0 SA0000 C00 2\n1,0 SC0000\n1,1 SWAIT0\n0,1 SWAIT0\n".into(),
+        ),
+        // A group carried past readers of its cells: a rigid pair moving east under a row
+        // of agents waiting for the cell below to fill, one waiting for it to empty, and
+        // the carried agent waiting to pass over an agent.
+        (
+            "// steps 10\nmove\n1\nSM0000 >C00 0000\nP1,0 A**+* C00 - C00 0001\n\nfull\n1\nSWAIT0 N***1\nSDONE0\n\nempty\n1\nSEMPT0 N***0\nSDONE0\n\nland\n1\nSC0000 N***1\nSDONE0\n".into(),
+            "0,0 SM0000 A0010 C00 4\n1,0 SC0000 A0100\n3,1 SWAIT0\n4,1 SWAIT0\n5,1 SWAIT0\n0,1 SEMPT0\n1,1 SEMPT0\n3,-1\n".into(),
+        ),
+        // Walkers leaving the box in every direction, one far, beside resting agents that
+        // watch their paths.
+        (
+            "// steps 12\nwalk\n1\nSE0000 >C01 0000\nP1,0 C01 - C01 0001\n\nwest\n1\nSW0000 >C01 0000\nP-1,0 C01 - C01 0001\n\nnorth\n1\nSN0000 >C01 0000\nP0,1 C01 - C01 0001\n\nsouth\n1\nSS0000 >C01 0000\nP0,-1 C01 - C01 0001\n\nfar\n1\nSF0000 >C01 0000\nP9999,-7777 C01 - C01 0001\n\nsee\n1\nSREST0 N1***\nSSEEN0\n".into(),
+            "0,0 SREST0\n1,0 SREST0\n0,1 SREST0\n1,1 SREST0\n2,0 SE0000 C01 9\n-1,1 SW0000 C01 9\n0,-1 SS0000 C01 9\n1,-3 SN0000 C01 9\n5,5 SF0000 C01 3\n10004,-7771 SREST0\n10003,-7774 SREST0\n".into(),
+        ),
+        // A rule whose offset depends on a counter: its agents are evaluated every step.
+        (
+            format!("// steps 8\n{countdown}go\n1\nSWAIT0 FC01,0\nSDONE0\n\nmove\n1\nSM0000 >C00 0000\nP0,1 C00 - C00 0001\n"),
+            "0,0 SWAIT0 C01 3\n3,-2 SM0000 C00 2\n".into(),
+        ),
+    ]
+}
+
 /// Flooding, falling, cycles of states, priority chains, messages left with their senders,
 /// sends to all directions and to one, bounded and sparse universes.
 fn counter_and_message_cases() -> Vec<(String, String)> {
@@ -1117,11 +1223,13 @@ fn resume_and_undo(rules: &str, agents: &str) -> Result<(), TestCaseError> {
     let (prog, lat) = common::compile(rules, agents);
     for order in [Order::ActionsFirst, Order::MessagesFirst] {
         for static_first in [false, true] {
+            // Checkpoints and undo points are taken while quiet agents are being skipped.
             let opts = Options {
                 order,
                 static_first,
                 trace: true,
                 threads: 1,
+                skip: Skip::Eager,
             };
             let mut whole = Engine::new(prog.clone(), lat.clone(), opts);
             let before: Vec<(String, String)> =
@@ -1214,6 +1322,7 @@ fn traced_as_untraced(rules: &str, agents: &str) -> Result<(), TestCaseError> {
                 static_first,
                 trace,
                 threads: 1,
+                skip: Skip::Eager,
             };
             let mut plain = Engine::new(prog.clone(), lat.clone(), opts(false));
             let mut traced = Engine::new(prog.clone(), lat.clone(), opts(true));

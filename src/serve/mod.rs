@@ -172,6 +172,7 @@ pub fn serve(args: ServeArgs) -> ExitCode {
             order: Order::ActionsFirst,
             static_first: false,
             trace: false,
+            skip: Default::default(),
         },
         keyframe_every: args.keyframe_every.max(1),
         rules_path: "rules.txt".into(),

@@ -102,6 +102,8 @@ pub(super) struct ActionBufs {
     later: Vec<(u32, Intent)>,
     /// Per-cell and per-agent marks for the moves (allocated at the first move).
     scratch: MoveScratch,
+    /// What the actions changed, for the activity (see `activity.rs`).
+    pub(super) changes: Changes,
 }
 
 /// The actions phase (paper step 2) with the parts of the engine it borrows: it reads the
@@ -196,9 +198,17 @@ impl Act<'_> {
         let hops = simple && keep && self.plan.acting == Acting::States;
         if plain_moves {
             let plain = &self.plan.plain_moves;
-            for (a, &r) in sel.one.iter().enumerate() {
-                if let Some(&Some(o)) = plain.get(r as usize) {
-                    todo.moves.push((a as u32, o));
+            if sel.listed {
+                for &a in &sel.list {
+                    if let Some(&Some(o)) = plain.get(sel.one[a as usize] as usize) {
+                        todo.moves.push((a, o));
+                    }
+                }
+            } else {
+                for (a, &r) in sel.one.iter().enumerate() {
+                    if let Some(&Some(o)) = plain.get(r as usize) {
+                        todo.moves.push((a as u32, o));
+                    }
                 }
             }
         } else if hops {
@@ -222,9 +232,15 @@ impl Act<'_> {
                 a += 1;
             }
         }
-        // Otherwise, every agent in turn.
-        let agents = if plain_moves || hops { 0 } else { n };
-        for a in 0..agents {
+        // Otherwise, every agent in turn (or every listed one: the others execute nothing).
+        let list = sel.listed.then(|| std::mem::take(&mut sel.list));
+        let agents = match &list {
+            _ if plain_moves || hops => 0,
+            Some(l) => l.len(),
+            None => n,
+        };
+        for i in 0..agents {
+            let a = list.as_ref().map_or(i, |l| l[i] as usize);
             let r = sel.one[a];
             if r == NO_RULE {
                 continue;
@@ -265,6 +281,9 @@ impl Act<'_> {
                 }
             }
         }
+        if let Some(l) = list {
+            sel.list = l;
+        }
         self.dispatch.count_hops(self.counts, self.active);
         self.carry_out(todo, states_before, (changed, lookups), rep)
     }
@@ -286,10 +305,16 @@ impl Act<'_> {
             .iter()
             .any(|l| l.1.iter().any(|&l| l != AttachLetter::Keep));
         let moves = !todo.moves.is_empty() || !todo.blocked.is_empty();
-        // Bonds change only with attachment letters, or when attached agents move.
-        // (A fold rather than `any`: it runs over whole vectors of bonds.)
-        let attached = || self.lat.attach.iter().fold(0, |acc, &b| acc | b) != 0;
-        if letters || (moves && attached()) {
+        // Bonds change only with attachment letters, or when an agent with bonds is asked
+        // to move (a group is then more than one agent; otherwise every group is its
+        // mover alone, and no bond is broken or made).
+        let bonded = || {
+            let attach = &self.lat.attach;
+            (todo.moves.iter().map(|m| m.0))
+                .chain(todo.blocked.iter().copied())
+                .any(|a| attach[a as usize] != 0)
+        };
+        if letters || (moves && bonded()) {
             let dense = todo.dense(n);
             self.detach_move_attach(&dense, rep);
         } else if moves {
@@ -303,6 +328,7 @@ impl Act<'_> {
             else {
                 continue;
             };
+            self.bufs.changes.state(a);
             changed = true;
             lookups |= !known;
         }
@@ -495,9 +521,15 @@ impl Act<'_> {
         } else if self.plan.has_actions[r as usize] {
             match self.plan.direct_bits[r as usize] {
                 Some(bits) => {
+                    let before = self.lat.state[a];
                     let agent = (&mut self.lat.state[..], &mut sel.one[..]);
                     let computes = &self.plan.computes;
-                    return (self.dispatch).set_state_at_once(agent, (a, r, bits), keep, computes);
+                    let done =
+                        (self.dispatch).set_state_at_once(agent, (a, r, bits), keep, computes);
+                    if self.lat.state[a] != before {
+                        self.bufs.changes.state(a as u32);
+                    }
+                    return done;
                 }
                 _ => self.add_rule_actions(todo, a as u32, r),
             }

@@ -104,11 +104,49 @@ pub(super) fn column_pre(code: &[Op]) -> Option<ColumnPre> {
     Some(steps)
 }
 
+/// The agents a column program runs over: a run of consecutive agents from the first,
+/// or agents listed by id (in any order).
+#[derive(Clone, Copy)]
+pub(super) enum Rows<'a> {
+    Run(usize),
+    Ids(&'a [u32]),
+}
+
+impl Rows<'_> {
+    /// The values of a column for the rows, into `out` (as many as it holds).
+    #[inline]
+    fn gather<T: Copy, U>(self, col: &[T], out: &mut [U], f: impl Fn(T) -> U) {
+        match self {
+            Rows::Run(first) => {
+                let m = out.len();
+                for (t, &s) in out.iter_mut().zip(&col[first..first + m]) {
+                    *t = f(s);
+                }
+            }
+            Rows::Ids(ids) => {
+                for (t, &a) in out.iter_mut().zip(ids) {
+                    *t = f(col[a as usize]);
+                }
+            }
+        }
+    }
+
+    /// The `j`-th agent.
+    #[inline]
+    fn agent(self, j: usize) -> usize {
+        match self {
+            Rows::Run(first) => first + j,
+            Rows::Ids(ids) => ids[j] as usize,
+        }
+    }
+}
+
 /// Evaluates a precondition made by [`column_pre`] (in a program without priority terms)
-/// for agents `first..first + out.len()` at once, one instruction over all of them.
+/// for the agents `rows` (as many as `out` holds) at once, one instruction over all of
+/// them.
 pub(super) fn batch_pre(
     prog: &Program,
-    (pre, first): (&[PreStep], usize),
+    (pre, rows): (&[PreStep], Rows<'_>),
     lat: &Lattice,
     bufs: &mut PreBufs,
     out: &mut [bool],
@@ -121,18 +159,11 @@ pub(super) fn batch_pre(
         ColVal::Lit(c) => into.fill(c as i32),
         ColVal::Counter(c) => match lat.counter_col[c as usize] {
             NO_COL => into.fill(0),
-            col => {
-                for (t, &s) in into
-                    .iter_mut()
-                    .zip(&lat.counters[col as usize][first..first + m])
-                {
-                    *t = s as i32;
-                }
-            }
+            col => rows.gather(&lat.counters[col as usize], into, |s| s as i32),
         },
         ColVal::Msg { dir, slot } => {
             for (j, t) in into.iter_mut().enumerate() {
-                *t = lat.inbox((first + j) as u32, dir, slot) as i32;
+                *t = lat.inbox(rows.agent(j) as u32, dir, slot) as i32;
             }
         }
     };
@@ -148,20 +179,33 @@ pub(super) fn batch_pre(
                 top.fill(true);
                 for d in (0..nd).filter(|d| mask & (1 << d) != 0) {
                     let filled = want & (1 << d) != 0;
-                    lat.keep_if_filled(first, d, filled, top);
+                    match rows {
+                        Rows::Run(first) => lat.keep_if_filled(first, d, filled, top),
+                        Rows::Ids(ids) => lat.keep_if_filled_ids(&ids[..m], d, filled, top),
+                    }
                 }
                 sp += 1;
             }
             PreStep::Att { mask, want } => {
-                for (t, &at) in stack[sp][..m].iter_mut().zip(&lat.attach[first..first + m]) {
-                    *t = at & mask == want & mask;
-                }
+                rows.gather(&lat.attach, &mut stack[sp][..m], |at| {
+                    at & mask == want & mask
+                });
                 sp += 1;
             }
             PreStep::State { pat } => {
                 let p = &prog.pats[pat as usize];
-                for (t, st) in stack[sp][..m].iter_mut().zip(&lat.state[first..first + m]) {
-                    *t = latticesim_vm::eval::matches(p, st);
+                let top = &mut stack[sp][..m];
+                match rows {
+                    Rows::Run(first) => {
+                        for (t, st) in top.iter_mut().zip(&lat.state[first..first + m]) {
+                            *t = latticesim_vm::eval::matches(p, st);
+                        }
+                    }
+                    Rows::Ids(ids) => {
+                        for (t, &a) in top.iter_mut().zip(ids) {
+                            *t = latticesim_vm::eval::matches(p, &lat.state[a as usize]);
+                        }
+                    }
                 }
                 sp += 1;
             }
@@ -171,12 +215,12 @@ pub(super) fn batch_pre(
                 a: ColVal::Counter(c),
                 b: ColVal::Lit(v),
             } if lat.counter_col[c as usize] != NO_COL => {
-                let col = &lat.counters[lat.counter_col[c as usize] as usize][first..first + m];
-                let top = stack[sp][..m].iter_mut().zip(col);
+                let col = &lat.counters[lat.counter_col[c as usize] as usize];
+                let top = &mut stack[sp][..m];
                 match op {
-                    CmpOp::Lt => top.for_each(|(t, &p)| *t = p < v),
-                    CmpOp::Gt => top.for_each(|(t, &p)| *t = p > v),
-                    CmpOp::Eq => top.for_each(|(t, &p)| *t = p == v),
+                    CmpOp::Lt => rows.gather(col, top, |p| p < v),
+                    CmpOp::Gt => rows.gather(col, top, |p| p > v),
+                    CmpOp::Eq => rows.gather(col, top, |p| p == v),
                 }
                 sp += 1;
             }

@@ -63,25 +63,59 @@ impl Post {
             let mut issues: Vec<(u32, u32, CalcIssue)> = Vec::new();
             let mut events = Vec::new();
             let mut bufs = CalcBufs::new();
+            // The runs of agents to visit: from the selection's list when it has one (the
+            // others execute nothing), else found in the entries.
+            let mine = sel.listed.then(|| {
+                let l = &sel.list[..];
+                let lo = l.partition_point(|&a| (a as usize) < ch.lo);
+                let hi = l.partition_point(|&a| (a as usize) < ch.lo + ch.len);
+                &l[lo..hi]
+            });
             let mut k = 0;
-            while k < ch.len {
-                let a = ch.lo + k;
-                if sel.one[a] == NO_RULE {
-                    // A run of agents executing nothing.
-                    k += run_of(&sel.one[a..ch.lo + ch.len], NO_RULE);
-                    continue;
+            let mut i = 0;
+            loop {
+                // The next agent that executes a rule, as `k` (from the chunk's start).
+                match mine {
+                    Some(ids) => match ids.get(i) {
+                        Some(&a) => k = a as usize - ch.lo,
+                        None => break,
+                    },
+                    None => {
+                        if k >= ch.len {
+                            break;
+                        }
+                        let a = ch.lo + k;
+                        if sel.one[a] == NO_RULE {
+                            // A run of agents executing nothing.
+                            k += run_of(&sel.one[a..ch.lo + ch.len], NO_RULE);
+                            continue;
+                        }
+                    }
                 }
+                let a = ch.lo + k;
                 let rs = sel.of(a);
                 if let [r] = *rs {
                     if !prog.rules[r as usize].computes {
                         k += 1;
+                        i += 1;
                         continue;
                     }
                     if let Some(post) = &post_columns[r as usize] {
-                        let end = if uniform {
-                            ch.len
-                        } else {
-                            k + run_of(&sel.one[ch.lo + k..ch.lo + ch.len], r)
+                        let end = match mine {
+                            // Listed agents with consecutive ids and the same rule.
+                            Some(ids) => {
+                                let m = ids[i..]
+                                    .iter()
+                                    .enumerate()
+                                    .take_while(|&(j, &b)| {
+                                        b as usize == a + j && sel.one[b as usize] == r
+                                    })
+                                    .count();
+                                i += m;
+                                k + m
+                            }
+                            None if uniform => ch.len,
+                            None => k + run_of(&sel.one[ch.lo + k..ch.lo + ch.len], r),
                         };
                         // Traced, the run takes the same path; its counters before are kept
                         // to say which changed, agent by agent as the path of one agent does.
@@ -100,6 +134,7 @@ impl Post {
                     run_alone(prog, view, (&mut ch, k, &snapshot), r, trace, found);
                 }
                 k += 1;
+                i += 1;
             }
             let counted = if count {
                 Tally::of(&ch.out_has, has_nbr, ch.lo / 64, nd, ch.len)

@@ -165,6 +165,17 @@ impl Dispatch {
         self.dirty || self.of.len() != n
     }
 
+    /// Whether agent `a`'s candidate list has a rule marked in `unbounded` (one whose
+    /// offsets depend on counters: its agents are evaluated at every step). False for an
+    /// agent whose list is to be looked up (its state changed, which wakes it anyway).
+    pub(super) fn always(&self, a: usize, unbounded: &[bool]) -> bool {
+        let idx = self.of[a];
+        idx != ListId::NONE
+            && self.lists[idx.index()]
+                .iter()
+                .any(|&r| unbounded[r as usize])
+    }
+
     /// Some agents' states changed to states whose lists were not known (`lookups`):
     /// they are looked up at the next [`Dispatch::update`].
     pub(super) fn lookups(&mut self, lookups: bool) {

@@ -24,6 +24,7 @@ use std::collections::BTreeMap;
 
 // The parts of the step, each in its own module (docs/architecture.md).
 mod actions;
+mod activity;
 mod batch;
 mod calc;
 mod chunk;
@@ -34,6 +35,8 @@ mod select;
 mod selection;
 mod threads;
 use actions::*;
+pub use activity::Skip;
+use activity::*;
 use batch::*;
 use chunk::*;
 use dispatch::*;
@@ -66,6 +69,9 @@ pub struct Options {
     pub trace: bool,
     /// Threads for the per-agent work (0 or 1: none); the results do not depend on it.
     pub threads: usize,
+    /// Whether agents that had no valid rule, and whose inputs did not change since, are
+    /// skipped; the results do not depend on it.
+    pub skip: Skip,
 }
 
 /// Counts over a run.
@@ -151,6 +157,8 @@ pub struct Engine {
     post: Post,
     /// How per-agent work is split over threads.
     threads: Threads,
+    /// Which agents the next selection evaluates.
+    activity: Activity,
 }
 
 /// An agent's attachment letters and swap, for the agents whose rules have either.
@@ -209,6 +217,7 @@ impl Engine {
             actions: ActionBufs::default(),
             post: Post::new(&prog, &lat, plan.defer, uses.texts),
             threads: Threads::new(opts.threads, n),
+            activity: Activity::new(opts.skip, n),
             plan,
             prog,
             lat,
@@ -224,7 +233,8 @@ impl Engine {
             + self.post.bytes()
             + self.dispatch.of.capacity() * 4
             + sel.one.capacity() * 4
-            + (sel.starts.capacity() + sel.many.capacity()) * 4
+            + (sel.starts.capacity() + sel.many.capacity() + sel.list.capacity()) * 4
+            + self.activity.bytes()
     }
 
     /// What a step of this program can change in the lattice (for [`Lattice::undo_point`]).
@@ -259,8 +269,15 @@ impl Engine {
     pub fn step(&mut self) -> StepReport {
         let mut rep = StepReport::default();
         self.lat.refresh_neighbours();
+        self.activity.begin(self.plan.any_prio);
         self.select(&mut rep);
         let mut sel = std::mem::take(&mut self.selection.sel);
+        // The phases after the selection visit only the agents that execute a rule when
+        // they are few (and the activity needs them listed).
+        let active = self.selection.active;
+        if !sel.listed && !self.selection.by_state && self.activity.lists(active) {
+            sel.make_list();
+        }
         rep.executing = self.selection.active;
         rep.quiescent = rep.executing == 0;
         for (f, &k) in self
@@ -278,14 +295,17 @@ impl Engine {
             Order::ActionsFirst => {
                 self.act(&mut sel, &mut rep);
                 self.calculate(&sel, &mut rep);
-                self.deliver(&mut rep);
+                self.deliver(&sel, &mut rep);
             }
             Order::MessagesFirst => {
                 self.calculate(&sel, &mut rep);
-                self.deliver(&mut rep);
+                self.deliver(&sel, &mut rep);
                 self.act(&mut sel, &mut rep);
             }
         }
+        let view = (&self.plan, &self.lat);
+        let how = (&sel, self.selection.active, self.selection.reused());
+        self.activity.after_step(view, how, &self.dispatch);
         self.selection.sel = sel;
         self.stats.steps += 1;
         self.stats.quiescent = rep.quiescent;
@@ -295,7 +315,8 @@ impl Engine {
     /// 1. Selection: the rules each agent executes, and how many execute each rule.
     fn select(&mut self, rep: &mut StepReport) {
         let view = (&*self.prog, &self.plan, &self.lat);
-        let circles = (self.selection).select(view, &mut self.dispatch, &mut self.threads);
+        let listed = self.activity.listed.then_some(&self.activity.list[..]);
+        let circles = (self.selection).select(view, &mut self.dispatch, &mut self.threads, listed);
         for (circle, msg) in circles {
             let kind = RecordKind::CircularPriority;
             record((&mut self.stats, &self.lat), rep, kind, &circle, msg);
@@ -317,8 +338,10 @@ impl Engine {
             bufs: &mut self.actions,
             by_state: self.selection.by_state,
         };
+        act.bufs.changes.on = self.activity.wanted();
         let changed = act.all_actions(sel, rep);
         self.selection.states_changed(changed);
+        (self.activity).after_actions(&self.lat, &self.plan.reads, &mut self.actions.changes);
     }
 
     /// 3. (first half) Calculations and sends, into the outboxes.
@@ -332,7 +355,12 @@ impl Engine {
     }
 
     /// 3. (second half) The post office: the outboxes into the inboxes.
-    fn deliver(&mut self, rep: &mut StepReport) {
+    fn deliver(&mut self, sel: &Selection, rep: &mut StepReport) {
+        if self.post.sends() {
+            let senders = sel.listed.then_some(&sel.list[..]);
+            let post = &self.post;
+            (self.activity).before_delivery(&self.lat, senders, |a| post.sent_dirs(&self.lat, a));
+        }
         let (post, stats, lat) = (&mut self.post, &mut self.stats, &mut self.lat);
         let how = (self.plan.defer, self.opts.trace);
         (self.threads).tuned(Phase::Deliver, |th| {

@@ -15,6 +15,7 @@
 //! | literal offsets (`literal_offsets`) | an offset has no counter in it: its value is known once | the offset evaluated per agent | `engine_agrees_with_reference_*` |
 //! | calculations over runs (`post_columns`) | no calculation of the rule reads an external counter or a message from any direction: `batch::column_post` translates the postcondition into `batch::PostStep`s (chains of in-place `max`/`min` found then), which `batch::run_batch` runs over runs of agents (with `fast_calc` for the most frequent ones); any instruction it does not know makes no column program | `run_post` one agent at a time | `optimisations_agree_with_reference` (runs calculating together, chains of in-place max/min, saturation and division by zero inside runs) |
 //! | no calculations (`any_computes`, `computes`) | no rule calculates or sends: the calculation phase is skipped; per rule, agents of rules that do not compute are passed over | `calc.rs` | `engine_agrees_with_reference_*` |
+//! | skipping quiet agents (`reads`, `activity.rs`) | an agent that had no valid rule at its last evaluation is evaluated again only when something it reads changed: its own state, counters, bonds or inbox, or a cell at an offset some precondition reads (`reads`: occupancy, states, counters), known here; agents in a state with a rule whose offset depends on a counter (`Reads::unbounded`) are evaluated at every step; no skipping with priority terms, `Skip::Off`, or when more than a quarter of the agents are woken | every agent evaluated (`select_plain` and the dense phases) | `differential.rs` every generated case with `Skip::Eager` and `Skip::Off`, `skipping_agrees_with_reference` |
 //! | messages left with their senders (`defer`) | numeric slots are used, no text message, and no rule moves or swaps: sends stay in the outboxes and are read through the plan of senders (`Pending` in lattice.rs, `post.rs`) | copying every message into its recipient's inbox (`post::deliver`) | `optimisations_agree_with_reference` (messages left with their senders, stale outboxes, sends to all and to one direction), `threads_join_chunks_in_order` |
 
 use super::*;
@@ -57,6 +58,114 @@ pub(super) struct Plan {
     pub(super) defer: bool,
     /// What a step can change in the lattice (what `--strict` keeps to undo a step).
     pub(super) writes: Writes,
+    /// What the preconditions read around an agent (for skipping quiet agents).
+    pub(super) reads: Reads,
+}
+
+/// What the rules' preconditions read beyond the agent's own state, counters and inbox,
+/// taken together over all rules: the offsets of the cells whose occupancy, occupant's
+/// state or occupant's counters some precondition reads (none is `[0, 0, 0]`), whether one
+/// reads the agent's own bonds, and per rule whether an offset depends on a counter (the
+/// cells it reads are then not known in advance). Priorities are not listed: an agent
+/// without a valid rule has priority 0 whatever its neighbours' priorities.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub(super) struct Reads {
+    pub(super) occupancy: Vec<[i32; 3]>,
+    pub(super) states: Vec<[i32; 3]>,
+    pub(super) counters: Vec<[i32; 3]>,
+    pub(super) bonds: bool,
+    pub(super) unbounded: Vec<bool>,
+    /// The same offsets backwards: where the readers of a cell stand.
+    pub(super) back: ReadsBack,
+}
+
+/// Per kind of read, the offsets from a cell to the agents that read it ([`Back`]).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub(super) struct ReadsBack {
+    pub(super) occupancy: Vec<Back>,
+    pub(super) states: Vec<Back>,
+    pub(super) counters: Vec<Back>,
+}
+
+/// An offset from a cell to an agent that reads it, and its direction index when it is one
+/// step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Back {
+    pub(super) off: [i32; 3],
+    pub(super) dir: Option<usize>,
+}
+
+impl Back {
+    fn of(read: &[[i32; 3]], dim: latticesim_vm::model::Dim) -> Vec<Back> {
+        (read.iter())
+            .map(|o| {
+                let off = [-o[0], -o[1], -o[2]];
+                let dir = (0..dim.dirs()).find(|&d| Dir::ALL[d].offset() == off);
+                Back { off, dir }
+            })
+            .collect()
+    }
+}
+
+impl Reads {
+    /// The reads of `prog`'s preconditions.
+    pub(super) fn of(prog: &Program) -> Reads {
+        let mut r = Reads {
+            unbounded: vec![false; prog.rules.len()],
+            ..Reads::default()
+        };
+        fn add(set: &mut Vec<[i32; 3]>, o: [i32; 3]) {
+            if o != [0, 0, 0] && !set.contains(&o) {
+                set.push(o);
+            }
+        }
+        for (k, rule) in prog.rules.iter().enumerate() {
+            for op in &prog.code[rule.pre.start as usize..rule.pre.end as usize] {
+                let (off, state, counter) = match *op {
+                    Op::Nbr { mask, .. } => {
+                        for d in (0..prog.dim.dirs()).filter(|d| mask & (1 << d) != 0) {
+                            add(&mut r.occupancy, Dir::ALL[d].offset());
+                        }
+                        continue;
+                    }
+                    Op::Att { .. } => {
+                        r.bonds = true;
+                        continue;
+                    }
+                    Op::Empty { off }
+                    | Op::Filled { off }
+                    | Op::Less { off }
+                    | Op::LessEq { off } => (off, false, false),
+                    Op::RState { off, .. } => (off, true, false),
+                    Op::RCmp { off, .. } => (off, false, true),
+                    _ => continue,
+                };
+                match literal(&prog.offsets[off as usize]) {
+                    Some(o) => {
+                        add(&mut r.occupancy, o);
+                        if state {
+                            add(&mut r.states, o);
+                        }
+                        if counter {
+                            add(&mut r.counters, o);
+                        }
+                    }
+                    None => r.unbounded[k] = true,
+                }
+            }
+        }
+        r.back = ReadsBack {
+            occupancy: Back::of(&r.occupancy, prog.dim),
+            states: Back::of(&r.states, prog.dim),
+            counters: Back::of(&r.counters, prog.dim),
+        };
+        r
+    }
+
+    /// Some rule reads cells at offsets that depend on counters.
+    pub(super) fn any_unbounded(&self) -> bool {
+        self.unbounded.contains(&true)
+    }
 }
 
 impl Plan {
@@ -107,6 +216,7 @@ impl Plan {
             .collect();
         Plan {
             writes: writes(prog),
+            reads: Reads::of(prog),
             trivial,
             pre_columns,
             any_prio: prog.rules.iter().any(|r| r.reads_priorities),

@@ -160,6 +160,30 @@ impl Post {
         }
     }
 
+    /// Whether the program sends messages (numeric or text) at all.
+    pub(super) fn sends(&self) -> bool {
+        !self.out_has.is_empty() || !self.out_text_bits.is_empty()
+    }
+
+    /// The directions (bit i = direction index i) agent `a` sends a message towards in
+    /// this step's outboxes.
+    pub(super) fn sent_dirs(&self, lat: &Lattice, a: usize) -> u8 {
+        let (nd, ns) = (lat.dim.dirs(), lat.slots as usize);
+        let (w, b) = (a / 64, 1u64 << (a % 64));
+        let mut dirs = self.out_text_bits.get(a).copied().unwrap_or(0);
+        for (c, bits) in self.out_has.iter().enumerate() {
+            if bits[w] & b != 0 {
+                // Past the direction columns: the columns of sends to all directions.
+                dirs |= if c < nd * ns {
+                    1 << (c / ns)
+                } else {
+                    (1 << nd) - 1
+                };
+            }
+        }
+        dirs
+    }
+
     /// Bytes the outboxes hold.
     pub(super) fn bytes(&self) -> usize {
         self.out_num.iter().map(|c| c.capacity() * 2).sum::<usize>()

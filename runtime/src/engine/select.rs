@@ -41,11 +41,14 @@ impl Selector {
     /// agents' candidate lists are brought up to date; kept from the last step when that
     /// was decided by states alone and no state changed since. Returns the circles of
     /// priorities found, with their messages.
+    /// `listed`: the agents to evaluate (in id order; every other agent is quiet), or
+    /// `None` for every agent.
     pub(super) fn select(
         &mut self,
         (prog, plan, lat): (&Program, &Plan, &Lattice),
         dispatch: &mut Dispatch,
         threads: &mut Threads,
+        listed: Option<&[u32]>,
     ) -> Vec<(Vec<u32>, String)> {
         let changed = dispatch.stale(lat.len()) || self.states_changed;
         self.states_changed = false;
@@ -55,15 +58,24 @@ impl Selector {
             return Vec::new();
         }
         let dispatch = &*dispatch;
+        let listed = listed.filter(|_| self.sel.one.len() == lat.len());
         threads.tuned(Phase::Select, |th| {
             if plan.any_prio {
                 let view = Prio { prog, plan, lat };
                 view.select(&mut self.sel, dispatch, th)
+            } else if let Some(list) = listed {
+                self.select_listed((prog, plan, lat), dispatch, th, list);
+                Vec::new()
             } else {
                 self.select_plain((prog, plan, lat), dispatch, th);
                 Vec::new()
             }
         })
+    }
+
+    /// Whether the last selection was kept from the step before.
+    pub(super) fn reused(&self) -> bool {
+        self.reused
     }
 
     /// The firing counts of the selection: runs of agents with the same single rule are
@@ -74,6 +86,13 @@ impl Selector {
         }
         let (sel, counts) = (&self.sel, &mut self.fire_counts);
         counts.fill(0);
+        if sel.listed {
+            self.active = sel.count_listed(counts);
+            for &r in &sel.many {
+                counts[r as usize] += 1;
+            }
+            return;
+        }
         // With few rules and no agent executing several, one vectorised count per rule
         // (agents alternating between a rule and none would make runs of one); otherwise
         // runs of agents with the same entry are counted at once.
@@ -276,7 +295,7 @@ impl Selector {
                             + (next[same..].iter())
                                 .take_while(|&&o| o == of[a] || lists[o.index()][..] == [r])
                                 .count();
-                        batch_pre(prog, (pre, a), lat, &mut bufs, &mut truth[..m]);
+                        batch_pre(prog, (pre, Rows::Run(a)), lat, &mut bufs, &mut truth[..m]);
                         for (slot, &t) in one[k..k + m].iter_mut().zip(&truth[..m]) {
                             *slot = if t { r } else { NO_RULE };
                         }
@@ -284,34 +303,8 @@ impl Selector {
                         continue;
                     }
                 }
-                let slot = &mut one[k];
+                one[k] = eval_one(prog, (trivial, &lists[idx]), lat, a, (&mut buf, &mut multi));
                 k += 1;
-                let env = SelEnv {
-                    lat,
-                    a: a as u32,
-                    prio: None,
-                };
-                buf.clear();
-                let mut top = None;
-                for &r in &lists[idx] {
-                    let p = prog.rules[r as usize].priority;
-                    if top.is_some_and(|t| p < t) {
-                        break;
-                    }
-                    if trivial[r as usize] || eval_pre(prog, r as usize, &env) == Tri::T {
-                        top = Some(p);
-                        buf.push(r);
-                    }
-                }
-                *slot = match buf[..] {
-                    [] => NO_RULE,
-                    [r] => r,
-                    _ => {
-                        buf.sort_unstable();
-                        multi.push((a as u32, buf.clone()));
-                        MANY
-                    }
-                };
             }
             (multi, evaluated)
         };
@@ -322,6 +315,7 @@ impl Selector {
         self.sel.one = one;
         self.sel.starts.clear();
         self.sel.many.clear();
+        self.sel.listed = false;
         self.by_state = true;
         for (multi, evaluated) in parts {
             self.by_state &= !evaluated;
@@ -329,6 +323,164 @@ impl Selector {
                 self.sel.set(a as usize, &rules);
             }
         }
+    }
+}
+
+/// The entry of agent `a` whose candidate list `list` must be evaluated: its true rules of
+/// the highest priority among them ([`MANY`] with the rules pushed to `multi`, in file
+/// order, when there are several; `buf` is scratch).
+#[inline]
+fn eval_one(
+    prog: &Program,
+    (trivial, list): (&[bool], &[u32]),
+    lat: &Lattice,
+    a: usize,
+    (buf, multi): (&mut Vec<u32>, &mut Vec<(u32, Vec<u32>)>),
+) -> u32 {
+    let env = SelEnv {
+        lat,
+        a: a as u32,
+        prio: None,
+    };
+    buf.clear();
+    let mut top = None;
+    for &r in list {
+        let p = prog.rules[r as usize].priority;
+        if top.is_some_and(|t| p < t) {
+            break;
+        }
+        if trivial[r as usize] || eval_pre(prog, r as usize, &env) == Tri::T {
+            top = Some(p);
+            buf.push(r);
+        }
+    }
+    match buf[..] {
+        [] => NO_RULE,
+        [r] => r,
+        _ => {
+            buf.sort_unstable();
+            multi.push((a as u32, buf.clone()));
+            MANY
+        }
+    }
+}
+
+/// Entries of a column written from several threads, each at its own indices (the column
+/// stays borrowed while the `Scatter` lives).
+struct Scatter<'a, T>(*mut T, usize, std::marker::PhantomData<&'a mut [T]>);
+
+// SAFETY: a `Scatter` is only written through `set`, whose callers write distinct indices
+// from different threads (each index is one agent of a list without repeats).
+unsafe impl<T: Send> Sync for Scatter<'_, T> {}
+unsafe impl<T: Send> Send for Scatter<'_, T> {}
+
+impl<'a, T> Scatter<'a, T> {
+    fn new(v: &'a mut [T]) -> Scatter<'a, T> {
+        Scatter(v.as_mut_ptr(), v.len(), std::marker::PhantomData)
+    }
+
+    /// Writes entry `i`.
+    ///
+    /// # Safety
+    /// No other thread reads or writes entry `i` while the `Scatter` lives.
+    #[inline]
+    unsafe fn set(&self, i: usize, v: T) {
+        assert!(i < self.1, "an index inside the column");
+        // SAFETY: in bounds (checked), and no other thread touches entry `i` (the caller's
+        // promise).
+        unsafe { self.0.add(i).write(v) }
+    }
+}
+
+impl Selector {
+    /// [`Selector::select_plain`] for the agents of `list` (in id order) alone: every other
+    /// agent keeps its entry, which is [`NO_RULE`] (see `activity.rs`). Makes the
+    /// selection's list of the agents that execute a rule.
+    fn select_listed(
+        &mut self,
+        (prog, plan, lat): (&Program, &Plan, &Lattice),
+        dispatch: &Dispatch,
+        th: &Threads,
+        list: &[u32],
+    ) {
+        let trivial = &plan.trivial;
+        let (lists, single, of) = (&dispatch.lists, &dispatch.single, &dispatch.of);
+        let pre_columns = &plan.pre_columns;
+        let one = Scatter::new(&mut self.sel.one);
+        let work = |lo: usize, hi: usize| {
+            let ids = &list[lo..hi];
+            let mut multi: Vec<(u32, Vec<u32>)> = Vec::new();
+            let mut chosen: Vec<u32> = Vec::new();
+            let mut buf: Vec<u32> = Vec::new();
+            let mut truth = [false; BATCH];
+            let mut bufs = PreBufs::new();
+            let mut k = 0;
+            // SAFETY (every `set` below): the agents of `list` are distinct, and each
+            // chunk writes only its own agents' entries.
+            while k < ids.len() {
+                let a = ids[k] as usize;
+                let idx = of[a].index();
+                match single[idx] {
+                    EVALUATE => {}
+                    r => {
+                        unsafe { one.set(a, r) };
+                        if r != NO_RULE {
+                            chosen.push(a as u32);
+                        }
+                        k += 1;
+                        continue;
+                    }
+                }
+                // Agents next in the list with the same one rule to test: evaluated
+                // together, their columns gathered.
+                if let [r] = lists[idx][..] {
+                    if let Some(pre) = &pre_columns[r as usize] {
+                        let next = &ids[k..(k + BATCH).min(ids.len())];
+                        let m = (next.iter())
+                            .take_while(|&&b| {
+                                let o = of[b as usize];
+                                o == of[a] || lists[o.index()][..] == [r]
+                            })
+                            .count();
+                        batch_pre(
+                            prog,
+                            (pre, Rows::Ids(&next[..m])),
+                            lat,
+                            &mut bufs,
+                            &mut truth[..m],
+                        );
+                        for (&b, &t) in next[..m].iter().zip(&truth[..m]) {
+                            unsafe { one.set(b as usize, if t { r } else { NO_RULE }) };
+                            if t {
+                                chosen.push(b);
+                            }
+                        }
+                        k += m;
+                        continue;
+                    }
+                }
+                let e = eval_one(prog, (trivial, &lists[idx]), lat, a, (&mut buf, &mut multi));
+                unsafe { one.set(a, e) };
+                if e != NO_RULE {
+                    chosen.push(a as u32);
+                }
+                k += 1;
+            }
+            (multi, chosen)
+        };
+        let parts = th.par_chunks(list.len(), &work);
+        let sel = &mut self.sel;
+        sel.starts.clear();
+        sel.many.clear();
+        sel.list.clear();
+        for (multi, chosen) in parts {
+            for (a, rules) in multi {
+                sel.set(a as usize, &rules);
+            }
+            sel.list.extend(chosen);
+        }
+        sel.listed = true;
+        self.by_state = false;
     }
 }
 

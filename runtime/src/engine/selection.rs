@@ -8,6 +8,10 @@ pub(super) struct Selection {
     pub(super) one: Vec<u32>,
     pub(super) starts: Vec<u32>,
     pub(super) many: Vec<u32>,
+    /// When `listed`: every agent that executes a rule, in id order (every other entry
+    /// is [`NO_RULE`]), so that the phases after the selection visit only these.
+    pub(super) list: Vec<u32>,
+    pub(super) listed: bool,
 }
 
 pub(super) const NO_RULE: u32 = u32::MAX;
@@ -49,6 +53,28 @@ impl Selection {
         self.one.resize(n, NO_RULE);
         self.starts.clear();
         self.many.clear();
+        self.listed = false;
+    }
+
+    /// Lists the agents that execute a rule (`listed`), from the entries.
+    pub(super) fn make_list(&mut self) {
+        self.list.clear();
+        let one = &self.one;
+        self.list
+            .extend((0..one.len() as u32).filter(|&a| one[a as usize] != NO_RULE));
+        self.listed = true;
+    }
+
+    /// Adds to `counts` how many agents execute each rule, from the list; returns how many
+    /// execute any.
+    pub(super) fn count_listed(&self, counts: &mut [u64]) -> u64 {
+        for &a in &self.list {
+            let r = self.one[a as usize];
+            if r & MANY == 0 {
+                counts[r as usize] += 1;
+            }
+        }
+        self.list.len() as u64
     }
 }
 

@@ -446,6 +446,36 @@ impl Lattice {
         self.cells.get(p)
     }
 
+    /// Agent `a`'s cell as a slot code ([`CellIndex::code`]).
+    #[inline]
+    pub(crate) fn code_of(&self, a: u32) -> u32 {
+        self.code[a as usize]
+    }
+
+    /// The agent `off` away from cell `p` (whose slot code is `code`), if any; `dir`: the
+    /// direction index of `off` when it is one step (then a cell away from the grid's rim
+    /// answers with one load).
+    #[inline]
+    pub(crate) fn agent_near(
+        &self,
+        (p, code): ([i32; 3], u32),
+        off: [i32; 3],
+        dir: Option<usize>,
+    ) -> Option<u32> {
+        if let Some(d) = dir {
+            if code < RIM {
+                return match self.cells.next_to(code, d) {
+                    EMPTY => None,
+                    b => Some(b),
+                };
+            }
+        }
+        match self.cell_at(p, off) {
+            Cell::Agent(b) => Some(b),
+            _ => None,
+        }
+    }
+
     /// The neighbour of agent `a` in direction `d`, if any.
     #[inline]
     pub fn neighbour(&self, a: u32, d: Dir) -> Option<u32> {
@@ -521,6 +551,36 @@ impl Lattice {
             _ => {
                 for (j, t) in out.iter_mut().enumerate() {
                     *t &= self.neighbour_filled((first + j) as u32, d) == Some(want);
+                }
+            }
+        }
+    }
+
+    /// [`Lattice::keep_if_filled`] for the agents `ids` (any, in any order): clears
+    /// `out[j]` unless the cell next to agent `ids[j]` in direction index `d` is filled
+    /// (`want`) or empty and inside the universe.
+    pub fn keep_if_filled_ids(&self, ids: &[u32], d: usize, want: bool, out: &mut [bool]) {
+        match self.cells.grid() {
+            Some(g) if !self.nbr_valid && self.universe.is_none() => {
+                let step = g.step(d);
+                for (j, (t, &a)) in out.iter_mut().zip(ids).enumerate() {
+                    if let Some(&ahead) = ids.get(j + AHEAD) {
+                        let s = self.code[ahead as usize];
+                        if s < RIM {
+                            g.prefetch_filled(Grid::along(s, step));
+                        }
+                    }
+                    let s = self.code[a as usize];
+                    *t &= if s < RIM {
+                        g.filled(Grid::along(s, step)) == want
+                    } else {
+                        self.neighbour_filled(a, d) == Some(want)
+                    };
+                }
+            }
+            _ => {
+                for (t, &a) in out.iter_mut().zip(ids) {
+                    *t &= self.neighbour_filled(a, d) == Some(want);
                 }
             }
         }

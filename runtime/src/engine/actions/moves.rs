@@ -181,12 +181,18 @@ impl Act<'_> {
         } else {
             Vec::new()
         };
+        // The cells the movers leave, for the activity (kept only when the moves are made).
+        let noted = self.bufs.changes.moved.len();
+        for &(a, _) in live.iter() {
+            self.bufs.changes.moved(self.lat, a);
+        }
         if move_free(self.lat, live, &mut sc, one_offset) {
             self.bufs.scratch = sc;
             rep.trace.extend(traced);
             self.stats.moves += live.len() as u64;
             return;
         }
+        self.bufs.changes.moved.truncate(noted);
         loop {
             let mut count: FxHashMap<[i32; 3], u32> = FxHashMap::default();
             for &(a, t) in live.iter() {
@@ -238,6 +244,9 @@ impl Act<'_> {
         }
         self.bufs.scratch = sc;
         self.count_moves(live, rep);
+        for &(a, _) in live.iter() {
+            self.bufs.changes.moved(self.lat, a);
+        }
         self.lat.relocate(live);
     }
 
@@ -346,6 +355,9 @@ impl Act<'_> {
             for d in 0..nd {
                 keep_partner[a][d] = partner(self.lat, a, d);
             }
+        }
+        for &(m, _) in &moves {
+            self.bufs.changes.moved(self.lat, m);
         }
         self.lat.relocate(&moves);
         self.attach_after_moves(intents, (&old_attach, rigid, &keep_partner), rep);
@@ -511,6 +523,13 @@ impl Act<'_> {
                 }
             }
         }
+        if self.bufs.changes.on {
+            for (a, (old, new)) in old_attach.iter().zip(&new_attach).enumerate() {
+                if old != new {
+                    self.bufs.changes.bonds(a as u32);
+                }
+            }
+        }
         self.lat.attach = new_attach;
     }
 
@@ -575,11 +594,16 @@ impl Act<'_> {
                             if o != x && o != y {
                                 self.lat.attach[o as usize] &=
                                     !(1 << Dir::ALL[k].opposite().index());
+                                self.bufs.changes.bonds(o);
                             }
                         }
                     }
                 }
                 self.lat.attach[s as usize] = 0;
+            }
+            for s in [x, y] {
+                self.bufs.changes.moved(self.lat, s);
+                self.bufs.changes.bonds(s);
             }
             self.lat.relocate(&[(x, py), (y, px)]);
             if bonded {

@@ -1,0 +1,377 @@
+//! Activity: which agents the next selection evaluates. An agent that had no valid rule at
+//! its last evaluation ("quiet") would have none again while nothing it reads changes, so
+//! it is skipped until something does: its own state, counters or bonds, its inbox, or a
+//! cell at an offset some precondition reads ([`Reads`], from the plan). Every change of
+//! a step wakes the agents that read it, and the next selection evaluates only the agents
+//! woken (in id order); the others keep their entry `NO_RULE`. The results are exactly
+//! those of evaluating everyone (`Skip::Off`), which the differential tests check.
+//!
+//! What wakes an agent for the next step:
+//! - it had a valid rule (it executes, or may with priorities): it is evaluated again;
+//! - it moved (alone, carried or swapped): itself, and the readers of its old and new
+//!   cells (the agents at those cells minus each occupancy offset);
+//! - its state changed: the readers of its state (state offsets);
+//! - it calculated: the readers of its counters (counter offsets);
+//! - its bonds changed, when a precondition reads bonds;
+//! - it received a message in the last delivery or the one before (its inbox changed);
+//! - its state has a rule whose offsets depend on a counter: at every step.
+//!
+//! When more than a quarter of the agents are woken (or with priority terms, or after a
+//! selection kept from the step before), the next selection evaluates every agent, as
+//! without skipping: its dense paths are faster than a list that long.
+
+use super::*;
+
+/// Whether quiet agents are skipped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Skip {
+    /// Skip quiet agents, and evaluate everyone when many are woken (the default).
+    #[default]
+    Auto,
+    /// Evaluate every agent at every step.
+    Off,
+    /// Skip quiet agents whenever any is quiet, however many are woken (for tests: the
+    /// lists of woken agents are used even on small lattices).
+    Eager,
+}
+
+/// A share of the agents: more woken than `n / SPARSE_SHARE`, and the next selection
+/// evaluates every agent.
+const SPARSE_SHARE: usize = 4;
+
+/// A set of agents as a bit per agent and a bit per word of those (so that taking the set
+/// in order costs its size and `n / 4096`, not `n`), with its count; `all` once it holds
+/// more than `limit`.
+#[derive(Default)]
+pub(super) struct WakeSet {
+    words: Vec<u64>,
+    tops: Vec<u64>,
+    count: usize,
+    limit: usize,
+    pub(super) all: bool,
+}
+
+impl WakeSet {
+    /// An empty set of `n` agents that turns into "all" beyond `limit`.
+    fn new(n: usize, limit: usize) -> WakeSet {
+        let words = n.div_ceil(64);
+        WakeSet {
+            words: vec![0; words],
+            tops: vec![0; words.div_ceil(64)],
+            count: 0,
+            limit,
+            all: false,
+        }
+    }
+
+    /// Adds agent `a`.
+    #[inline]
+    pub(super) fn add(&mut self, a: u32) {
+        if self.all {
+            return;
+        }
+        let (w, b) = (a as usize / 64, 1u64 << (a % 64));
+        let word = &mut self.words[w];
+        if *word & b == 0 {
+            *word |= b;
+            self.tops[w / 64] |= 1 << (w % 64);
+            self.count += 1;
+            self.all = self.count > self.limit;
+        }
+    }
+
+    /// Moves the agents of the set into `out` (cleared first), in id order, and empties it.
+    fn take(&mut self, out: &mut Vec<u32>) {
+        out.clear();
+        for (t, top) in self.tops.iter_mut().enumerate() {
+            let mut tb = std::mem::take(top);
+            while tb != 0 {
+                let w = t * 64 + tb.trailing_zeros() as usize;
+                tb &= tb - 1;
+                let mut bits = std::mem::take(&mut self.words[w]);
+                while bits != 0 {
+                    out.push((w * 64) as u32 + bits.trailing_zeros());
+                    bits &= bits - 1;
+                }
+            }
+        }
+        self.count = 0;
+        self.all = false;
+    }
+}
+
+/// What the actions of a step changed, as the activity needs it (kept only while the next
+/// selection may skip agents): agents that moved, with the cell they left; agents whose
+/// state changed; agents whose bonds changed.
+#[derive(Default)]
+pub(super) struct Changes {
+    pub(super) on: bool,
+    pub(super) moved: Vec<(u32, [i32; 3], u32)>,
+    pub(super) states: Vec<u32>,
+    pub(super) bonds: Vec<u32>,
+}
+
+impl Changes {
+    /// Notes that agent `a` leaves its cell in `lat` (before it moves).
+    #[inline]
+    pub(super) fn moved(&mut self, lat: &Lattice, a: u32) {
+        if self.on {
+            self.moved.push((a, lat.pos[a as usize], lat.code_of(a)));
+        }
+    }
+
+    /// Notes that agent `a`'s state changed.
+    #[inline]
+    pub(super) fn state(&mut self, a: u32) {
+        if self.on {
+            self.states.push(a);
+        }
+    }
+
+    /// Notes that agent `a`'s bonds changed.
+    #[inline]
+    pub(super) fn bonds(&mut self, a: u32) {
+        if self.on {
+            self.bonds.push(a);
+        }
+    }
+
+    fn clear(&mut self) {
+        self.moved.clear();
+        self.states.clear();
+        self.bonds.clear();
+    }
+}
+
+/// The activity part of the engine: the agents woken for the next selection, the agents
+/// of the current one, and the recipients of the last delivery.
+pub(super) struct Activity {
+    skip: Skip,
+    n: usize,
+    /// The agents to evaluate at the next selection.
+    next: WakeSet,
+    /// The agents the current selection evaluates, in id order (when `listed`).
+    pub(super) list: Vec<u32>,
+    /// The current selection evaluates only `list`.
+    pub(super) listed: bool,
+    /// The recipients of the last delivery (`None` when not known: the next selection
+    /// then evaluates everyone, as their inboxes may have been emptied).
+    recipients: Option<Vec<u32>>,
+    /// This step's recipients, being found.
+    found: Vec<u32>,
+}
+
+impl Activity {
+    /// The activity of `n` agents: the first selection evaluates everyone.
+    pub(super) fn new(skip: Skip, n: usize) -> Activity {
+        let limit = match skip {
+            Skip::Auto => n / SPARSE_SHARE,
+            Skip::Off | Skip::Eager => usize::MAX,
+        };
+        let mut next = WakeSet::new(n, limit);
+        next.all = true;
+        Activity {
+            skip,
+            n,
+            next,
+            list: Vec::new(),
+            listed: false,
+            recipients: None,
+            found: Vec::new(),
+        }
+    }
+
+    /// Bytes held.
+    pub(super) fn bytes(&self) -> usize {
+        (self.next.words.capacity() + self.next.tops.capacity()) * 8
+            + (self.list.capacity() + self.found.capacity()) * 4
+            + self.recipients.as_ref().map_or(0, |r| r.capacity() * 4)
+    }
+
+    /// At the start of a step: takes the agents woken for this selection into `list`
+    /// (`listed`), or none when every agent is evaluated.
+    pub(super) fn begin(&mut self, prog_reads_priorities: bool) {
+        let all = self.next.all;
+        // (When the set turned into "all", this clears what was marked before.)
+        self.next.take(&mut self.list);
+        if all {
+            self.list.clear();
+        }
+        self.listed = !all;
+        // Without skipping, or with priorities, the next selection evaluates everyone:
+        // nothing of this step is noted for it.
+        self.next.all = self.skip == Skip::Off || prog_reads_priorities;
+        self.listed &= !self.next.all;
+    }
+
+    /// Whether the selection's `active` agents are to be listed for the phases after it
+    /// and for waking them (few enough, and skipping on).
+    ///
+    /// Past the limit, the next selection evaluates everyone (these agents are woken),
+    /// and nothing more of this step is noted for it.
+    pub(super) fn lists(&mut self, active: u64) -> bool {
+        if active as usize > self.next.limit {
+            self.next.all = true;
+        }
+        !self.next.all
+    }
+
+    /// Whether the changes of this step are needed (the next selection may skip agents).
+    pub(super) fn wanted(&self) -> bool {
+        !self.next.all
+    }
+
+    /// Wakes the agents that read cell `at` (its position and slot code): those at `at`
+    /// minus each of `offsets`.
+    #[inline]
+    fn wake_readers(&mut self, lat: &Lattice, at: ([i32; 3], u32), offsets: &[Back]) {
+        for o in offsets {
+            if let Some(b) = lat.agent_near(at, o.off, o.dir) {
+                self.next.add(b);
+            }
+        }
+    }
+
+    /// After the actions: wakes the agents that moved, changed state or bonds, and those
+    /// that read their cells; `changes` is emptied.
+    pub(super) fn after_actions(&mut self, lat: &Lattice, reads: &Reads, changes: &mut Changes) {
+        if !self.next.all {
+            let back = &reads.back;
+            for &(a, from, code) in &changes.moved {
+                self.next.add(a);
+                let to = (lat.pos[a as usize], lat.code_of(a));
+                // (Every offset read for a state or counter is read for occupancy too.)
+                self.wake_readers(lat, (from, code), &back.occupancy);
+                self.wake_readers(lat, to, &back.occupancy);
+            }
+            // (An agent whose state changed executed a rule: it is woken as such.)
+            for &a in &changes.states {
+                let at = (lat.pos[a as usize], lat.code_of(a));
+                self.wake_readers(lat, at, &back.states);
+            }
+            if reads.bonds {
+                for &a in &changes.bonds {
+                    self.next.add(a);
+                }
+            }
+        }
+        changes.clear();
+        changes.on = !self.next.all;
+    }
+
+    /// After the selection and the calculations: the agents that executed a rule (`sel`,
+    /// with its list when it has one) are evaluated again, and the readers of the
+    /// counters of those that calculated; agents whose candidate list is evaluated at
+    /// every step (`always`) too. `evaluated`: the agents this selection evaluated.
+    pub(super) fn after_step(
+        &mut self,
+        (plan, lat): (&Plan, &Lattice),
+        (sel, active, reused): (&Selection, u64, bool),
+        dispatch: &Dispatch,
+    ) {
+        if reused && !sel.listed {
+            // Kept from the step before, whose agents are not listed.
+            self.next.all = true;
+        }
+        if self.next.all {
+            return;
+        }
+        if !sel.listed && active as usize > self.next.limit {
+            self.next.all = true;
+            return;
+        }
+        let reads = &plan.reads;
+        let each = |a: u32, next: &mut WakeSet| {
+            next.add(a);
+            let offs = &reads.back.counters;
+            if !offs.is_empty()
+                && sel
+                    .of(a as usize)
+                    .iter()
+                    .any(|&r| plan.computes[r as usize])
+            {
+                let at = (lat.pos[a as usize], lat.code_of(a));
+                for o in offs {
+                    if let Some(b) = lat.agent_near(at, o.off, o.dir) {
+                        next.add(b);
+                    }
+                }
+            }
+        };
+        if sel.listed {
+            for &a in &sel.list {
+                each(a, &mut self.next);
+            }
+        } else {
+            for (a, &r) in sel.one.iter().enumerate() {
+                if r != NO_RULE {
+                    each(a as u32, &mut self.next);
+                }
+            }
+        }
+        if reads.any_unbounded() {
+            let always = |a: usize| dispatch.always(a, &reads.unbounded);
+            if self.listed {
+                for k in 0..self.list.len() {
+                    let a = self.list[k];
+                    if always(a as usize) {
+                        self.next.add(a);
+                    }
+                }
+            } else {
+                for a in 0..self.n {
+                    if always(a) {
+                        self.next.add(a as u32);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Before a delivery: the recipients of this step's messages (`sent(a)`: the
+    /// directions agent `a` sends in, for the senders among `senders`) are woken, and so
+    /// are those of the last delivery (their inboxes are emptied now).
+    pub(super) fn before_delivery(
+        &mut self,
+        lat: &Lattice,
+        senders: Option<&[u32]>,
+        sent: impl Fn(usize) -> u8,
+    ) {
+        let prev = self.recipients.take();
+        if self.next.all {
+            return;
+        }
+        let Some(senders) = senders else {
+            self.next.all = true;
+            return;
+        };
+        let mut found = std::mem::take(&mut self.found);
+        found.clear();
+        let nd = lat.dim.dirs();
+        for &a in senders {
+            let dirs = sent(a as usize);
+            if dirs == 0 {
+                continue;
+            }
+            for d in 0..nd {
+                if dirs & (1 << d) != 0 {
+                    if let Cell::Agent(b) = lat.neighbour_cell(a, d) {
+                        found.push(b);
+                        self.next.add(b);
+                    }
+                }
+            }
+        }
+        match prev {
+            Some(prev) => {
+                for &a in &prev {
+                    self.next.add(a);
+                }
+                self.found = prev;
+            }
+            // Who received the last messages is not known: everyone is evaluated.
+            None => self.next.all = true,
+        }
+        self.recipients = Some(found);
+    }
+}
