@@ -1,9 +1,12 @@
 //! The cell-to-agent index: a flat grid where the agents are dense, a hash map where they
-//! are sparse. The grid covers the agents' bounding box (with a margin) when that box has
-//! at most a few cells per agent; cells outside it fall back to a hash map, so agents may
-//! go anywhere. A sparse set in a huge universe costs memory in proportion to the agents.
+//! are sparse. The grid covers the agents' bounding box (with a margin), or a bounded
+//! universe when it is small enough, when that box has at most a few cells per agent;
+//! cells outside it fall back to a hash map, so agents may go anywhere. When many agents
+//! have left the grid, it is made again over where the agents are now, with room to grow
+//! ([`CellIndex::regrow`]), when that box is within the same budget. A sparse set in a
+//! huge universe costs memory in proportion to the agents.
 
-use latticesim_vm::model::Dir;
+use latticesim_vm::model::{Bounds, Dir};
 use rustc_hash::FxHashMap;
 
 /// In the grid and in neighbour lists: no agent.
@@ -13,8 +16,9 @@ pub const NO_SLOT: u32 = u32::MAX;
 /// The flag of a slot code for a cell on the grid's rim (some of its neighbours are
 /// outside the grid).
 pub const RIM: u32 = 1 << 31;
-/// Grid cells allowed per agent before the index is a hash map.
-const CELLS_PER_AGENT: i64 = 4;
+/// Grid cells allowed per agent before the index is a hash map (a grid of eight cells per
+/// agent holds about what a hash map and a neighbour table hold, and answers faster).
+const CELLS_PER_AGENT: i64 = 8;
 /// Cells added around the agents' bounding box.
 const MARGIN: i32 = 2;
 
@@ -43,6 +47,10 @@ pub(crate) fn prefetch<T>(p: *const T) {
 pub struct CellIndex {
     grid: Option<Grid>,
     map: FxHashMap<[i32; 3], u32>,
+    /// The universe's bounds, when it is bounded (the grid stays inside them), and the
+    /// axes of the dimension.
+    walls: Option<Bounds>,
+    coords: usize,
 }
 
 /// The dense part of the index: a box of cells, each an agent id or [`EMPTY`], with an
@@ -180,61 +188,93 @@ impl CellsMut<'_> {
     }
 }
 
+/// The kind of lattice an index is for: 3D or not, and the universe's bounds if bounded.
+pub type Shape = (bool, Option<Bounds>);
+
 impl CellIndex {
     /// An index for agents at these positions (z = 0 in 2D).
-    pub fn new(pos: &[[i32; 3]], three_d: bool) -> CellIndex {
-        let mut idx = CellIndex {
-            grid: CellIndex::grid_for(pos, three_d),
-            map: FxHashMap::default(),
-        };
-        for (i, p) in pos.iter().enumerate() {
-            idx.insert(*p, i as u32);
-        }
-        idx
+    pub fn new(pos: &[[i32; 3]], shape: Shape) -> CellIndex {
+        CellIndex::new_coded(pos, shape).0
     }
 
-    /// The grid over the agents' bounding box (with a margin), when it has few enough
-    /// cells per agent.
-    fn grid_for(pos: &[[i32; 3]], three_d: bool) -> Option<Grid> {
-        let mut grid = None;
-        if !pos.is_empty() {
-            let mut lo = [i32::MAX; 3];
-            let mut hi = [i32::MIN; 3];
-            for p in pos {
-                for ((l, h), &c) in lo.iter_mut().zip(hi.iter_mut()).zip(p) {
-                    *l = (*l).min(c);
-                    *h = (*h).max(c);
-                }
-            }
-            let margin = |k: usize| if k == 2 && !three_d { 0 } else { MARGIN };
-            let lo = [0, 1, 2].map(|k| lo[k].saturating_sub(margin(k)));
-            let size = [0, 1, 2].map(|k| hi[k].saturating_add(margin(k)) as i64 - lo[k] as i64 + 1);
-            let volume = size[0].saturating_mul(size[1]).saturating_mul(size[2]);
-            if volume <= CELLS_PER_AGENT * pos.len() as i64 + 4096 {
-                let delta = Dir::ALL.map(|d| d.offset()).map(|d| {
-                    ((d[0] as i64 * size[1] + d[1] as i64) * size[2] + d[2] as i64) as isize
-                });
-                grid = Some(Grid {
-                    lo,
-                    size,
-                    cells: vec![EMPTY; volume as usize],
-                    occ: vec![0; (volume as usize).div_ceil(64)],
-                    delta,
-                    first: size.map(|s| (s > 1) as u32),
-                    span: size.map(|s| if s > 1 { s as u32 - 2 } else { 1 }),
-                });
+    /// The grid over the agents' bounding box with `margin` cells around it per axis (or
+    /// over a bounded universe small enough, or the box clipped to the universe), when it
+    /// has few enough cells per agent.
+    fn grid_for(pos: &[[i32; 3]], (three_d, universe): Shape, margin: [i32; 3]) -> Option<Grid> {
+        let coords = if three_d { 3 } else { 2 };
+        let (mut lo, mut hi) = ([i32::MAX; 3], [i32::MIN; 3]);
+        for p in pos {
+            for ((l, h), &c) in lo.iter_mut().zip(hi.iter_mut()).zip(p) {
+                *l = (*l).min(c);
+                *h = (*h).max(c);
             }
         }
-        grid
+        if pos.is_empty() {
+            return None;
+        }
+        let budget = CELLS_PER_AGENT * pos.len() as i64 + 4096;
+        let volume = |lo: [i32; 3], hi: [i32; 3]| {
+            (0..3).fold(1i64, |v, k| {
+                v.saturating_mul(hi[k] as i64 - lo[k] as i64 + 1)
+            })
+        };
+        let mut lo =
+            [0, 1, 2].map(|k| lo[k].saturating_sub(if k < coords { margin[k] } else { 0 }));
+        let mut hi =
+            [0, 1, 2].map(|k| hi[k].saturating_add(if k < coords { margin[k] } else { 0 }));
+        if let Some(u) = universe {
+            // No cell outside the universe holds an agent: the grid need not cover it.
+            let (ul, uh) = ([0, 1, 2].map(|k| u[k].0), [0, 1, 2].map(|k| u[k].1));
+            let (ul, uh) = (
+                [0, 1, 2].map(|k| if k < coords { ul[k] } else { lo[k] }),
+                [0, 1, 2].map(|k| if k < coords { uh[k] } else { hi[k] }),
+            );
+            if volume(ul, uh) <= budget {
+                (lo, hi) = (ul, uh);
+            } else {
+                lo = [0, 1, 2].map(|k| lo[k].max(ul[k]));
+                hi = [0, 1, 2].map(|k| hi[k].min(uh[k]));
+            }
+        }
+        let size = [0, 1, 2].map(|k| hi[k] as i64 - lo[k] as i64 + 1);
+        let volume = volume(lo, hi);
+        if volume > budget {
+            return None;
+        }
+        let delta = Dir::ALL
+            .map(|d| d.offset())
+            .map(|d| ((d[0] as i64 * size[1] + d[1] as i64) * size[2] + d[2] as i64) as isize);
+        Some(Grid {
+            lo,
+            size,
+            cells: vec![EMPTY; volume as usize],
+            occ: vec![0; (volume as usize).div_ceil(64)],
+            delta,
+            first: size.map(|s| (s > 1) as u32),
+            span: size.map(|s| if s > 1 { s as u32 - 2 } else { 1 }),
+        })
     }
 
     /// [`CellIndex::new`], whether every agent has a cell of its own (false when a later
     /// agent stands on an earlier one's cell, and took it in the index), and every agent's
     /// [`CellIndex::code`], in one pass.
-    pub fn new_coded(pos: &[[i32; 3]], three_d: bool) -> (CellIndex, bool, Vec<u32>) {
+    pub fn new_coded(pos: &[[i32; 3]], shape: Shape) -> (CellIndex, bool, Vec<u32>) {
+        let margin = [MARGIN; 3];
+        CellIndex::made(CellIndex::grid_for(pos, shape, margin), pos, shape)
+    }
+
+    /// The index with this grid (or none) of agents at `pos`, whether every agent has a
+    /// cell of its own, and every agent's code.
+    fn made(
+        grid: Option<Grid>,
+        pos: &[[i32; 3]],
+        (three_d, walls): Shape,
+    ) -> (CellIndex, bool, Vec<u32>) {
         let mut idx = CellIndex {
-            grid: CellIndex::grid_for(pos, three_d),
+            grid,
             map: FxHashMap::default(),
+            walls,
+            coords: if three_d { 3 } else { 2 },
         };
         let mut one_each = true;
         let mut code = Vec::with_capacity(pos.len());
@@ -251,6 +291,32 @@ impl CellIndex {
             }
         }
         (idx, one_each, code)
+    }
+
+    /// The agents outside the grid (all of them without one).
+    pub fn outside(&self) -> usize {
+        self.map.len()
+    }
+
+    /// The index made again for agents at `pos` (each on a cell of its own) over where
+    /// they are now, with a quarter of each axis's extent as room to grow on every side
+    /// (less when that is over the budget), and every agent's code; `None` when even the
+    /// agents' box with the usual margin is over the budget.
+    pub fn regrow(&self, pos: &[[i32; 3]]) -> Option<(CellIndex, Vec<u32>)> {
+        let shape = (self.coords == 3, self.walls);
+        let (mut lo, mut hi) = ([i32::MAX; 3], [i32::MIN; 3]);
+        for p in pos {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let room = [0, 1, 2]
+            .map(|k| ((hi[k] as i64 - lo[k] as i64) / 4).clamp(MARGIN as i64, 1 << 20) as i32);
+        let grid = CellIndex::grid_for(pos, shape, room)
+            .or_else(|| CellIndex::grid_for(pos, shape, [MARGIN; 3]))?;
+        let (idx, _, code) = CellIndex::made(Some(grid), pos, shape);
+        Some((idx, code))
     }
 
     /// The agent on a cell.
@@ -353,6 +419,8 @@ impl CellIndex {
                     return NO_SLOT;
                 }
                 let s = ((o[0] * g.size[1] as u64 + o[1]) * g.size[2] as u64 + o[2]) as u32;
+                // (The grid never reaches outside the universe: a cell with a blocked
+                // neighbour is on its rim.)
                 let rim = (0..3).any(|k| o[k].wrapping_sub(g.first[k] as u64) >= g.span[k] as u64);
                 s | if rim { RIM } else { 0 }
             }
@@ -450,7 +518,7 @@ mod tests {
         let dense: Vec<[i32; 3]> = (0..100).map(|i| [i % 10, i / 10, 0]).collect();
         let sparse: Vec<[i32; 3]> = (0..100).map(|i| [i * 100_000, -i * 7_000, 0]).collect();
         for (pos, grid) in [(dense, true), (sparse, false)] {
-            let mut idx = CellIndex::new(&pos, false);
+            let mut idx = CellIndex::new(&pos, (false, None));
             assert_eq!(idx.is_grid(), grid);
             for (i, p) in pos.iter().enumerate() {
                 assert_eq!(idx.get(*p), Some(i as u32));

@@ -845,6 +845,86 @@ fn skipping_agrees_with_reference() {
     }
 }
 
+/// The cell index as agents move (see `cells.rs`): clusters far apart (a hash map with a
+/// neighbour table, changed where agents move), a block walking out of its grid (made
+/// again over where the agents are), agents jumping far in every direction, and a
+/// bounded universe with a grid over all of it, or over the agents' box clipped to it.
+#[test]
+fn the_cell_index_follows_the_agents() {
+    // Walkers east (E must be empty), falling agents (S empty), and agents that watch
+    // the cell north of them fill and empty (they count in C02).
+    let rules = "// steps 14\nwalk\n1\nSE0000 >C01 0000 N**0*\nP1,0 C01 - C01 0001\n\nfall\n1\nSF0000 >C01 0000 N***0\nP0,-1 C01 - C01 0001\n\njump\n1\nSJ0000 >C01 0000\nP-3000,2500 C01 - C01 0001\n\nwatch\n1\nSR0000 N1*** <C02 0003\nC02 + C02 0001 SR0000\n\nlook\n1\nSR0000 N0*** >C02 0000\nC02 - C02 0001\n";
+    let block = |x0: i32, y0: i32, w: i32, h: i32, st: &str, c01: i32| -> String {
+        (0..w)
+            .flat_map(|x| (0..h).map(move |y| (x, y)))
+            .map(|(x, y)| format!("{},{} S{st} C01 {c01}\n", x0 + x, y0 + y))
+            .collect()
+    };
+    let row = |x0: i32, y: i32, w: i32, st: &str| -> String {
+        (0..w).map(|x| format!("{},{y} S{st}\n", x0 + x)).collect()
+    };
+    let cases = [
+        // Three clusters far apart: no grid.
+        [
+            block(0, 0, 3, 3, "E0000", 6),
+            row(0, -1, 10, "R0000"),
+            // A lone walker that comes up against an agent.
+            block(20, 0, 1, 1, "E0000", 9),
+            row(25, 0, 1, "R0000"),
+            block(100_000, 50_000, 2, 4, "F0000", 5),
+            row(100_000, 44_000, 2, "R0000"),
+            block(-90_000, 7, 3, 2, "J0000", 2),
+            row(-93_000, 2510, 4, "R0000"),
+        ]
+        .concat(),
+        // A block walking out of its grid, over a row of watchers, past a wall.
+        [
+            block(0, 0, 12, 10, "E0000", 12),
+            row(0, -1, 30, "R0000"),
+            block(20, 0, 1, 3, "R0000", 0),
+        ]
+        .concat(),
+        // A falling block that leaves its grid downwards, and jumpers.
+        [
+            block(0, 0, 10, 10, "F0000", 12),
+            row(-2, -14, 14, "R0000"),
+            block(30, 0, 2, 2, "J0000", 1),
+        ]
+        .concat(),
+    ];
+    let bounded = [
+        // A universe small enough for a grid over all of it.
+        format!(
+            "U-3,20,-14,12\n{}",
+            [
+                block(0, 0, 6, 5, "E0000", 9),
+                row(0, -1, 18, "R0000"),
+                block(3, 8, 2, 3, "F0000", 30)
+            ]
+            .concat()
+        ),
+        // A universe too large for that: the grid over the agents' box clipped to it.
+        format!(
+            "U-1,100000,-14,100000\n{}",
+            [
+                block(0, 0, 6, 5, "E0000", 9),
+                row(-1, -1, 18, "R0000"),
+                block(3, 8, 2, 3, "F0000", 30)
+            ]
+            .concat()
+        ),
+    ];
+    for (i, agents) in cases.iter().chain(&bounded).enumerate() {
+        for order in [Order::ActionsFirst, Order::MessagesFirst] {
+            for static_first in [false, true] {
+                if let Err(e) = differential(rules, agents, order, static_first) {
+                    panic!("index case {i}, {order:?}, static-first {static_first}: {e}");
+                }
+            }
+        }
+    }
+}
+
 /// The cases of [`skipping_agrees_with_reference`]: `// steps N` first says how many steps
 /// each runs.
 fn skipping_cases() -> Vec<(String, String)> {

@@ -59,11 +59,14 @@ pub struct Lattice {
     /// from the grid's rim finds its neighbours without reading its position.
     code: Vec<u32>,
     /// What stands next to each agent when the cell index is a hash map: one column per
-    /// direction ([`NO_AGENT`], [`BLOCKED`] or an id), valid while `nbr_valid`. Positions
-    /// change only in the actions phase, so the table is rebuilt at most once a step, and
-    /// only after a move or swap. A grid answers as fast without it.
+    /// direction ([`NO_AGENT`], [`BLOCKED`] or an id), valid while `nbr_valid`: made at
+    /// the first step, and then changed only where agents move. A grid answers as fast
+    /// without it.
     nbr: Vec<Vec<u32>>,
     nbr_valid: bool,
+    /// How many agents may be outside the grid before it is made again over where the
+    /// agents are ([`CellIndex::regrow`]).
+    regrow_at: usize,
 }
 
 /// Why agents read as columns do not make a lattice as they are ([`Lattice::from_columns`]).
@@ -115,10 +118,11 @@ impl LatticeBuilder {
                 inbox_text: Vec::new(),
                 inbox_text_has: Vec::new(),
                 pending: None,
-                cells: CellIndex::new(&[], false),
+                cells: CellIndex::new(&[], (false, None)),
                 code: Vec::new(),
                 nbr: Vec::new(),
                 nbr_valid: false,
+                regrow_at: 0,
             },
         }
     }
@@ -153,8 +157,9 @@ impl LatticeBuilder {
             col.shrink_to_fit();
         }
         let lat = &mut self.lat;
-        let (cells, one_each, code) = CellIndex::new_coded(&lat.pos, lat.dim == Dim::Three);
+        let (cells, one_each, code) = CellIndex::new_coded(&lat.pos, lat.shape());
         (lat.cells, lat.code) = (cells, code);
+        lat.regrow_at = lat.first_regrow();
         (self.lat, one_each)
     }
 }
@@ -234,6 +239,16 @@ impl Lattice {
             b.push(*pos, *state, *attach, counters);
         }
         b.finish()
+    }
+
+    /// The shape of the lattice as the cell index needs it.
+    pub(crate) fn shape(&self) -> crate::cells::Shape {
+        (self.dim == Dim::Three, self.universe)
+    }
+
+    /// How many agents outside the grid make it worth making again.
+    fn first_regrow(&self) -> usize {
+        (self.len() / 16).max(64)
     }
 
     /// Number of agents.
@@ -497,7 +512,7 @@ impl Lattice {
         }
         // In a grid, away from its rim and from the universe's walls, one load answers.
         let s = self.code[a as usize];
-        if s < RIM && self.universe.is_none() {
+        if s < RIM {
             return match self.cells.next_to(s, d) {
                 EMPTY => Cell::Empty,
                 b => Cell::Agent(b),
@@ -511,7 +526,7 @@ impl Lattice {
     #[inline(always)]
     pub fn neighbour_filled(&self, a: u32, d: usize) -> Option<bool> {
         let s = self.code[a as usize];
-        if !self.nbr_valid && s < RIM && self.universe.is_none() {
+        if !self.nbr_valid && s < RIM {
             return Some(self.cells.filled_next_to(s, d));
         }
         match self.neighbour_cell(a, d) {
@@ -528,7 +543,7 @@ impl Lattice {
     pub fn keep_if_filled(&self, first: usize, d: usize, want: bool, out: &mut [bool]) {
         let codes = &self.code[first..first + out.len()];
         match self.cells.grid() {
-            Some(g) if !self.nbr_valid && self.universe.is_none() => {
+            Some(g) if !self.nbr_valid => {
                 let step = g.step(d);
                 // Away from the grid's rim (the common case): one bit read per agent.
                 if codes.iter().fold(true, |ok, &s| ok & (s < RIM)) {
@@ -561,7 +576,7 @@ impl Lattice {
     /// (`want`) or empty and inside the universe.
     pub fn keep_if_filled_ids(&self, ids: &[u32], d: usize, want: bool, out: &mut [bool]) {
         match self.cells.grid() {
-            Some(g) if !self.nbr_valid && self.universe.is_none() => {
+            Some(g) if !self.nbr_valid => {
                 let step = g.step(d);
                 for (j, (t, &a)) in out.iter_mut().zip(ids).enumerate() {
                     if let Some(&ahead) = ids.get(j + AHEAD) {
@@ -601,7 +616,7 @@ impl Lattice {
             return;
         }
         let s = self.code[a as usize];
-        if s < RIM && self.universe.is_none() {
+        if s < RIM {
             for (d, o) in out.iter_mut().enumerate().take(nd) {
                 *o = self.cells.next_to(s, d);
             }
@@ -615,13 +630,13 @@ impl Lattice {
         }
     }
 
-    /// For agents from `first` (at most `len`) standing on consecutive cells of a grid with
-    /// no universe walls: how many do, and per direction the ids next to them
-    /// (`u32::MAX` for none), read straight from the grid. `None` when the grid cannot
-    /// answer for a run of them at once.
+    /// For agents from `first` (at most `len`) standing on consecutive cells of a grid: how
+    /// many do, and per direction the ids next to them (`u32::MAX` for none: the grid never
+    /// reaches outside the universe), read straight from the grid. `None` when the grid
+    /// cannot answer for a run of them at once.
     #[inline]
     pub fn neighbour_run(&self, first: usize, len: usize) -> Option<(usize, [&[u32]; 6])> {
-        if self.nbr_valid || self.universe.is_some() {
+        if self.nbr_valid {
             return None;
         }
         self.cells
@@ -667,17 +682,65 @@ impl Lattice {
 
     /// Moves agents to new positions all at once (the caller guarantees no two share a cell).
     pub fn relocate(&mut self, moves: &[(u32, [i32; 3])]) {
-        if !moves.is_empty() {
-            self.nbr_valid = false;
-        }
         for &(a, _) in moves {
             let old = self.pos[a as usize];
             self.cells.remove(old, a);
+        }
+        if self.nbr_valid {
+            // What stood next to the cells left sees them empty (or a mover, below).
+            for &(a, _) in moves {
+                self.see_cell(self.pos[a as usize], NO_AGENT);
+            }
         }
         for &(a, p) in moves {
             self.pos[a as usize] = p;
             self.cells.insert(p, a);
             self.code[a as usize] = self.cells.code(p);
+        }
+        if self.nbr_valid {
+            for &(a, p) in moves {
+                self.see_cell(p, a);
+                let nd = self.dim.dirs();
+                for d in 0..nd {
+                    self.nbr[d][a as usize] = match self.cell_at(p, Dir::ALL[d].offset()) {
+                        Cell::Agent(b) => b,
+                        Cell::Empty => NO_AGENT,
+                        Cell::Blocked => BLOCKED,
+                    };
+                }
+            }
+        }
+        self.after_moves();
+    }
+
+    /// In the neighbour table: the agents next to cell `p` see `a` (an agent or
+    /// [`NO_AGENT`]) there.
+    fn see_cell(&mut self, p: [i32; 3], a: u32) {
+        for d in 0..self.dim.dirs() {
+            if let Cell::Agent(b) = self.cell_at(p, Dir::ALL[d].offset()) {
+                self.nbr[Dir::ALL[d].opposite().index()][b as usize] = a;
+            }
+        }
+    }
+
+    /// After moves: when many agents have left the grid, the cell index is made again over
+    /// where they are (within its budget of cells; tried again only when twice as many
+    /// are out after a box over budget), and the neighbour table is dropped with a grid.
+    fn after_moves(&mut self) {
+        let out = self.cells.outside();
+        if out < self.regrow_at {
+            return;
+        }
+        match self.cells.regrow(&self.pos) {
+            Some((cells, code)) => {
+                (self.cells, self.code) = (cells, code);
+                self.regrow_at = self.first_regrow().max(self.cells.outside() * 2);
+                if self.cells.is_grid() {
+                    self.nbr = Vec::new();
+                    self.nbr_valid = false;
+                }
+            }
+            None => self.regrow_at = out * 2,
         }
     }
 
@@ -692,9 +755,7 @@ impl Lattice {
         codes: &[u32],
         targeted: impl Fn(usize) -> bool,
     ) {
-        if !moves.is_empty() {
-            self.nbr_valid = false;
-        }
+        // (With a grid there is no neighbour table.)
         // Movers that come from outside the grid leave the hash map after the loop.
         let mut outside = Vec::new();
         let (pos, code) = (&mut self.pos, &mut self.code);
@@ -721,12 +782,78 @@ impl Lattice {
         for (old, a) in outside {
             self.cells.remove(old, a);
         }
+        self.after_moves();
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A block that walks out of its grid is given a grid again where it is, a few times
+    /// over a long walk (the room to grow amortises it); agents that jump far away stay in
+    /// the hash map (a box over both places is over budget), and every neighbour still
+    /// answers as the cells do.
+    #[test]
+    fn the_grid_follows_a_block_that_walks_away() {
+        let mut b = LatticeBuilder::new(Dim::Two, None, 0);
+        for x in 0..40 {
+            for y in 0..25 {
+                b.push([x, y, 0], *b"AAAAA", 0, &[]);
+            }
+        }
+        let mut lat = b.finish();
+        let n = lat.len() as u32;
+        assert!(lat.cells.is_grid());
+        let (mut remade, mut out) = (0, 0);
+        for step in 1..=400 {
+            let moves: Vec<(u32, [i32; 3])> = (0..n)
+                .map(|a| (a, [lat.pos[a as usize][0] + 1, lat.pos[a as usize][1], 0]))
+                .collect();
+            lat.relocate(&moves);
+            // Agents pile up outside the grid until it is made again (then none is).
+            let now = lat.cells.outside();
+            remade += (out > 0 && now == 0) as u32;
+            out = now;
+            assert!(now < lat.first_regrow(), "step {step}");
+        }
+        assert!(
+            (3..40).contains(&remade),
+            "the grid was made {remade} times"
+        );
+        for a in 0..n {
+            assert_eq!(lat.agent_at(lat.pos[a as usize]), Some(a));
+        }
+        // Far away: the hash map, with its table of neighbours kept as agents move.
+        let moves: Vec<(u32, [i32; 3])> = (0..n)
+            .map(|a| {
+                (
+                    a,
+                    [
+                        lat.pos[a as usize][0] + 5_000_000,
+                        lat.pos[a as usize][1],
+                        0,
+                    ],
+                )
+            })
+            .filter(|m| m.0 % 3 == 0)
+            .collect();
+        lat.relocate(&moves);
+        lat.refresh_neighbours();
+        for k in 0..5 {
+            let moves: Vec<(u32, [i32; 3])> = (0..n)
+                .filter(|a| a % 3 == 0 && a % 2 == k % 2)
+                .map(|a| (a, [lat.pos[a as usize][0], lat.pos[a as usize][1] - 1, 0]))
+                .collect();
+            lat.relocate(&moves);
+            for a in 0..n {
+                for d in 0..4 {
+                    let cell = lat.cell_at(lat.pos[a as usize], Dir::ALL[d].offset());
+                    assert_eq!(lat.neighbour_cell(a, d), cell, "agent {a}, direction {d}");
+                }
+            }
+        }
+    }
 
     /// The plan of senders is the same whatever ranges of agents it is made from: agents
     /// in columns with gaps, some far away (one by one), cut into parts of every size.

@@ -61,9 +61,10 @@ impl Lattice {
     pub fn undo(&mut self, u: Undo) {
         if let Some(p) = u.pos {
             self.pos = p;
-            let (cells, _, code) = CellIndex::new_coded(&self.pos, self.dim == Dim::Three);
+            let (cells, _, code) = CellIndex::new_coded(&self.pos, self.shape());
             (self.cells, self.code) = (cells, code);
             self.nbr_valid = false;
+            self.regrow_at = self.first_regrow();
         }
         if let Some(s) = u.state {
             self.state = s;
