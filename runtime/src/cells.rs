@@ -69,9 +69,51 @@ pub(crate) struct Grid {
     /// minus its outer layer; a one-cell axis is all interior).
     first: [u32; 3],
     span: [u32; 3],
+    /// A bit per cell on the grid's outer layer (the rim: some neighbour is outside).
+    rim: Vec<u64>,
 }
 
 impl Grid {
+    /// A grid of `size` cells from `lo`, all empty.
+    fn empty(lo: [i32; 3], size: [i64; 3]) -> Grid {
+        let volume = (size[0] * size[1] * size[2]) as usize;
+        let delta = Dir::ALL
+            .map(|d| d.offset())
+            .map(|d| ((d[0] as i64 * size[1] + d[1] as i64) * size[2] + d[2] as i64) as isize);
+        let mut rim = vec![0u64; volume.div_ceil(64)];
+        let at = |o: [i64; 3]| ((o[0] * size[1] + o[1]) * size[2] + o[2]) as usize;
+        // The outer layer, face by face (a one-cell axis has none).
+        for k in (0..3).filter(|&k| size[k] > 1) {
+            let (a, b) = ((k + 1) % 3, (k + 2) % 3);
+            for side in [0, size[k] - 1] {
+                for i in 0..size[a] {
+                    for j in 0..size[b] {
+                        let mut o = [0i64; 3];
+                        (o[k], o[a], o[b]) = (side, i, j);
+                        let c = at(o);
+                        rim[c / 64] |= 1 << (c % 64);
+                    }
+                }
+            }
+        }
+        Grid {
+            lo,
+            size,
+            cells: vec![EMPTY; volume],
+            occ: vec![0; volume.div_ceil(64)],
+            delta,
+            first: size.map(|s| (s > 1) as u32),
+            span: size.map(|s| if s > 1 { s as u32 - 2 } else { 1 }),
+            rim,
+        }
+    }
+
+    /// Cell `i`'s slot code: `i`, with [`RIM`] when it is on the rim.
+    #[inline]
+    pub(crate) fn code_of_slot(&self, i: usize) -> u32 {
+        i as u32 | ((self.rim[i / 64] >> (i % 64) & 1) as u32) << 31
+    }
+
     /// Puts `a` (an agent or [`EMPTY`]) into cell `i`.
     #[inline]
     pub(crate) fn put(&mut self, i: usize, a: u32) {
@@ -101,6 +143,7 @@ impl Grid {
         CellsMut {
             cells: &mut self.cells,
             occ: &mut self.occ,
+            rim: &self.rim,
         }
     }
 
@@ -159,13 +202,88 @@ impl Grid {
     }
 }
 
+/// The grid's cells and occupancy bits, for moving agents from several threads at once
+/// ([`Grid::shared`]): each cell is written by one thread (its mover's), and the
+/// occupancy bits, which cells of different threads share by the word, atomically.
+pub(crate) struct SharedCells<'a> {
+    cells: *mut u32,
+    occ: *const std::sync::atomic::AtomicU64,
+    len: usize,
+    /// Only one thread moves: the bits are written without atomics.
+    alone: bool,
+    _grid: std::marker::PhantomData<&'a mut Grid>,
+}
+
+// SAFETY: cells are written only through `SharedCells::moved`, whose callers write each
+// cell from one thread; the occupancy words are atomics (plain words only when one thread
+// moves).
+unsafe impl Sync for SharedCells<'_> {}
+unsafe impl Send for SharedCells<'_> {}
+
+impl SharedCells<'_> {
+    /// Agent `a` leaves cell `from` for cell `to` (both in the grid).
+    ///
+    /// # Safety
+    /// While the `SharedCells` lives, no other thread writes cells `from` or `to`.
+    #[inline]
+    pub(crate) unsafe fn moved(&self, a: u32, from: usize, to: usize) {
+        use std::sync::atomic::Ordering::Relaxed;
+        assert!(from < self.len && to < self.len, "cells of the grid");
+        // SAFETY: in bounds (checked); the caller writes these cells alone; the words of
+        // bits are atomics (`AtomicU64` has the layout of `u64`).
+        unsafe {
+            *self.cells.add(from) = EMPTY;
+            *self.cells.add(to) = a;
+            let (wf, wt) = (from / 64, to / 64);
+            let (bf, bt) = (1u64 << (from % 64), 1u64 << (to % 64));
+            if self.alone {
+                let occ = self.occ.cast::<u64>().cast_mut();
+                *occ.add(wf) &= !bf;
+                *occ.add(wt) |= bt;
+            } else if wf == wt {
+                (*self.occ.add(wf)).fetch_xor(bf | bt, Relaxed);
+            } else {
+                (*self.occ.add(wf)).fetch_and(!bf, Relaxed);
+                (*self.occ.add(wt)).fetch_or(bt, Relaxed);
+            }
+        }
+    }
+}
+
+impl Grid {
+    /// The cells and bits for moves made from several threads ([`SharedCells`]), or
+    /// from this one `alone`.
+    pub(crate) fn shared(&mut self, alone: bool) -> SharedCells<'_> {
+        SharedCells {
+            cells: self.cells.as_mut_ptr(),
+            occ: self.occ.as_mut_ptr().cast(),
+            len: self.cells.len(),
+            alone,
+            _grid: std::marker::PhantomData,
+        }
+    }
+}
+
 /// The grid's cells and occupancy bits, borrowed for writing ([`Grid::cells_mut`]).
 pub(crate) struct CellsMut<'a> {
     cells: &'a mut [u32],
     occ: &'a mut [u64],
+    rim: &'a [u64],
 }
 
 impl CellsMut<'_> {
+    /// Whether cell `i` holds an agent.
+    #[inline]
+    pub(crate) fn filled(&self, i: usize) -> bool {
+        self.occ[i / 64] >> (i % 64) & 1 != 0
+    }
+
+    /// Cell `i`'s slot code (see [`Grid::code_of_slot`]).
+    #[inline]
+    pub(crate) fn code_of(&self, i: usize) -> u32 {
+        i as u32 | ((self.rim[i / 64] >> (i % 64) & 1) as u32) << 31
+    }
+
     /// Puts agent `a` into cell `i`.
     #[inline]
     pub(crate) fn occupy(&mut self, i: usize, a: u32) {
@@ -241,18 +359,7 @@ impl CellIndex {
         if volume > budget {
             return None;
         }
-        let delta = Dir::ALL
-            .map(|d| d.offset())
-            .map(|d| ((d[0] as i64 * size[1] + d[1] as i64) * size[2] + d[2] as i64) as isize);
-        Some(Grid {
-            lo,
-            size,
-            cells: vec![EMPTY; volume as usize],
-            occ: vec![0; (volume as usize).div_ceil(64)],
-            delta,
-            first: size.map(|s| (s > 1) as u32),
-            span: size.map(|s| if s > 1 { s as u32 - 2 } else { 1 }),
-        })
+        Some(Grid::empty(lo, size))
     }
 
     /// [`CellIndex::new`], whether every agent has a cell of its own (false when a later

@@ -925,6 +925,72 @@ fn the_cell_index_follows_the_agents() {
     }
 }
 
+/// Moves made at once (every acting rule moves one step east, `plain_step`): a row that
+/// moves as a chain, listed west to east and east to west (made in place only when each
+/// target is empty when its mover comes to it; else undone and made the general way), a
+/// row running into an agent that stays (in the second step, while the pool of threads
+/// is tried first), a bonded mover among free ones, movers on the grid's rim; on one
+/// thread and on three.
+#[test]
+fn moves_at_once_agree_with_reference() {
+    let rules = "// steps 8\ngo\n1\nSE0000 >C01 0000\nP1,0 C01 - C01 0001\n\nhold\n1\nSH0000 N1***\nC02 + C02 0001\n";
+    let row = |xs: &mut dyn Iterator<Item = i32>, y: i32, st: &str, c: i32| -> String {
+        xs.map(|x| format!("{x},{y} S{st} C01 {c}\n")).collect()
+    };
+    let spaced = |y: i32, c: i32| row(&mut (0..4).map(|k| k * 2), y, "E0000", c);
+    let cases = [
+        row(&mut (0..12), 0, "E0000", 5),
+        row(&mut (0..12).rev(), 0, "E0000", 5),
+        // The third step's front mover runs into the holder after the others moved.
+        [spaced(0, 6), "9,0 SH0000\n".into(), spaced(1, 2)].concat(),
+        // The bonded mover (to the holder north of it) makes the second step go the
+        // general way.
+        [
+            spaced(0, 3),
+            "3,1 SE0000 A1000 C01 3\n".into(),
+            row(&mut (0..5), 2, "H0000", 0),
+        ]
+        .concat(),
+        [
+            row(&mut (0..40).map(|k| k * 2), 0, "E0000", 4),
+            row(&mut (0..40).map(|k| k * 2), 9, "E0000", 4),
+        ]
+        .concat(),
+    ];
+    // Every case also as 300 copies one above the other, for the pool of threads (more
+    // agents than a thread takes alone).
+    for (i, agents) in cases.iter().enumerate() {
+        let ys = || {
+            agents
+                .lines()
+                .map(|l| l.split([',', ' ']).nth(1).unwrap().parse::<i32>().unwrap())
+        };
+        let stride = ys().max().unwrap() + 2;
+        let many: String = (0..300)
+            .map(|k| {
+                agents
+                    .lines()
+                    .map(|l| {
+                        let (xy, rest) = l.split_once(' ').unwrap();
+                        let (x, y) = xy.split_once(',').unwrap();
+                        let y: i32 = y.parse().unwrap();
+                        format!("{x},{} {rest}\n", y + stride * k)
+                    })
+                    .collect::<String>()
+            })
+            .collect();
+        for (text, threads) in [(agents, 1), (&many, 3)] {
+            for skip in [Skip::Eager, Skip::Off] {
+                for order in [Order::ActionsFirst, Order::MessagesFirst] {
+                    if let Err(e) = differential_on(rules, text, (order, false, skip), threads) {
+                        panic!("case {i}, {threads} threads, {skip:?}, {order:?}: {e}");
+                    }
+                }
+            }
+        }
+    }
+}
+
 /// The cases of [`skipping_agrees_with_reference`]: `// steps N` first says how many steps
 /// each runs.
 fn skipping_cases() -> Vec<(String, String)> {

@@ -104,6 +104,10 @@ pub(super) struct ActionBufs {
     scratch: MoveScratch,
     /// What the actions changed, for the activity (see `activity.rs`).
     pub(super) changes: Changes,
+    /// Steps for which [`Act::plain_moves_at_once`] is not tried (it did not hold lately),
+    /// and its parts (for their allocations).
+    pub(super) fused_pause: u32,
+    fused: Vec<moves::FusedPart>,
 }
 
 /// The actions phase (paper step 2) with the parts of the engine it borrows: it reads the
@@ -122,6 +126,8 @@ pub(super) struct Act<'e> {
     pub(super) bufs: &'e mut ActionBufs,
     /// The selection was decided by states alone (see [`Selector::by_state`]).
     pub(super) by_state: bool,
+    /// How per-agent work is split.
+    pub(super) threads: &'e Threads,
 }
 
 impl Act<'_> {
@@ -196,6 +202,11 @@ impl Act<'_> {
         // in one tight loop (`hop_run`); the loop stops at each agent whose list has no hop
         // yet (or whose new state's rules need evaluating), which goes the general way.
         let hops = simple && keep && self.plan.acting == Acting::States;
+        if plain_moves && self.plain_moves_at_once(sel) {
+            // Plain moves change no state, bond or selection.
+            self.bufs.todo = todo;
+            return false;
+        }
         if plain_moves {
             let plain = &self.plan.plain_moves;
             if sel.listed {

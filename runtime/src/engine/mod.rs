@@ -326,20 +326,24 @@ impl Engine {
 
     /// 2. Actions: moves, bonds, states and swaps.
     fn act(&mut self, sel: &mut Selection, rep: &mut StepReport) {
-        let mut act = Act {
-            prog: &self.prog,
-            plan: &self.plan,
-            opts: self.opts,
-            lat: &mut self.lat,
-            dispatch: &mut self.dispatch,
-            counts: &mut self.selection.fire_counts,
-            active: &mut self.selection.active,
-            stats: &mut self.stats,
-            bufs: &mut self.actions,
-            by_state: self.selection.by_state,
-        };
-        act.bufs.changes.on = self.activity.wanted();
-        let changed = act.all_actions(sel, rep);
+        let on = self.activity.wanted();
+        let changed = (self.threads).tuned(Phase::Act, |th| {
+            let mut act = Act {
+                prog: &self.prog,
+                plan: &self.plan,
+                opts: self.opts,
+                lat: &mut self.lat,
+                dispatch: &mut self.dispatch,
+                counts: &mut self.selection.fire_counts,
+                active: &mut self.selection.active,
+                stats: &mut self.stats,
+                bufs: &mut self.actions,
+                by_state: self.selection.by_state,
+                threads: th,
+            };
+            act.bufs.changes.on = on;
+            act.all_actions(sel, rep)
+        });
         self.selection.states_changed(changed);
         (self.activity).after_actions(&self.lat, &self.plan.reads, &mut self.actions.changes);
     }

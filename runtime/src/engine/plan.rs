@@ -11,6 +11,7 @@
 //! | priorities (`any_prio`, `prio_offsets`) | no rule reads `P`, `L` or `Q`: the plain selection (`select_plain`); with literal `L`/`Q` offsets, priorities are resolved only where read | `select_with_priorities` over every agent | `semantics.rs` priority tests, `optimisations_agree_with_reference` (priority chains) |
 //! | no actions (`acting` = `Nothing`) | no rule moves, swaps, attaches or sets a state: the actions phase is skipped | `actions.rs` | `engine_agrees_with_reference_*` |
 //! | plain moves (`acting` = `PlainMoves`, `plain_moves`) | every acting rule only moves by a literal, non-zero offset: movers are collected without intents (`actions.rs`), and a mover without bonds moves alone (`moves::move_free`) | intents per agent and `detach_move_attach` | `optimisations_agree_with_reference` (programs of plain moves only, single-agent moves) |
+//! | moves at once (`plain_step`) | every acting rule only moves one step, all in one direction, and in this step every mover stands on the grid away from its rim, none is bonded, and every target is empty: movers found and moved in two passes over chunks of agents, on the pool (`moves.rs`, `plain_moves_at_once`) | `move_alone` (not tried for 16 steps after it did not hold) | `differential.rs` `skipping_agrees_with_reference`, `the_cell_index_follows_the_agents`, `threads_give_the_same_results` |
 //! | state hops (`acting` = `States`, `direct_bits`) | every acting rule only sets a state: runs of agents in one state take its hop at once (`dispatch.rs`) | `set_state_at_once` per agent | `optimisations_agree_with_reference` (chains of state-only rules taken as hops) |
 //! | literal offsets (`literal_offsets`) | an offset has no counter in it: its value is known once | the offset evaluated per agent | `engine_agrees_with_reference_*` |
 //! | calculations over runs (`post_columns`) | no calculation of the rule reads an external counter or a message from any direction: `batch::column_post` translates the postcondition into `batch::PostStep`s (chains of in-place `max`/`min` found then), which `batch::run_batch` runs over runs of agents (with `fast_calc` for the most frequent ones); any instruction it does not know makes no column program | `run_post` one agent at a time | `optimisations_agree_with_reference` (runs calculating together, chains of in-place max/min, saturation and division by zero inside runs) |
@@ -40,6 +41,11 @@ pub(super) struct Plan {
     /// Per rule whose only action is a move by an offset without counters (not zero):
     /// that offset.
     pub(super) plain_moves: Vec<Option<[i32; 3]>>,
+    /// When every rule with an action only moves, all by one step in one direction: that
+    /// offset and its direction index (the moves of a step can then be made at once).
+    pub(super) plain_step: Option<([i32; 3], usize)>,
+    /// Per rule, and one more entry for none: it only moves by a literal offset.
+    pub(super) plain_mask: Vec<bool>,
     /// Per rule whose only action sets the state: that state pattern as [`pat_bits`].
     pub(super) direct_bits: Vec<Option<(u64, u64)>>,
     /// Per entry of the program's offsets: its value when it has no counter in it.
@@ -214,14 +220,27 @@ impl Plan {
             })
             .map(|off| literal(&prog.offsets[off as usize]))
             .collect();
+        let acting = Acting::of(&has_actions, &plain_moves, &direct_bits);
+        let mut offsets = plain_moves.iter().flatten();
+        let plain_step = match (acting, offsets.next()) {
+            (Acting::PlainMoves, Some(&o)) if offsets.all(|&p| p == o) => (0..prog.dim.dirs())
+                .find(|&d| Dir::ALL[d].offset() == o)
+                .map(|d| (o, d)),
+            _ => None,
+        };
+        let plain_mask = (plain_moves.iter().map(Option::is_some))
+            .chain([false])
+            .collect();
         Plan {
             writes: writes(prog),
             reads: Reads::of(prog),
+            plain_step,
+            plain_mask,
             trivial,
             pre_columns,
             any_prio: prog.rules.iter().any(|r| r.reads_priorities),
             prio_offsets,
-            acting: Acting::of(&has_actions, &plain_moves, &direct_bits),
+            acting,
             has_actions,
             plain_moves,
             direct_bits,

@@ -134,6 +134,7 @@ pub(super) enum Phase {
     Select,
     Calculate,
     Deliver,
+    Act,
 }
 
 /// Chooses, per phase, whether it runs on the pool or on the stepping thread alone: every
@@ -151,7 +152,7 @@ pub(super) enum Phase {
 pub(super) struct Tuner {
     /// Per phase: how often it ran, how long its last run on one thread took, and
     /// whether one thread was faster at the last trial.
-    pub(super) phases: [(u64, std::time::Duration, bool); 3],
+    pub(super) phases: [(u64, std::time::Duration, bool); 4],
 }
 
 impl Tuner {

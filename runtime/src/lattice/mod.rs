@@ -744,6 +744,62 @@ impl Lattice {
         }
     }
 
+    /// The moves of agents by one offset `off` between cells of the grid (`None` without
+    /// a grid), made a part at a time by [`Shift::part`], from any thread.
+    /// `alone`: only this thread moves them.
+    pub(crate) fn shift(&mut self, off: [i32; 3], alone: bool) -> Option<Shift<'_>> {
+        let n = self.pos.len();
+        let (pos, code) = (self.pos.as_mut_ptr(), self.code.as_mut_ptr());
+        let cells = self.cells.grid_mut()?.shared(alone);
+        Some(Shift {
+            cells,
+            pos,
+            code,
+            n,
+            off,
+        })
+    }
+
+    /// Moves agents `movers` (distinct, in any order) by one offset `off`, which is one
+    /// step of direction index `d`, each into an empty cell of the grid, and returns true;
+    /// or, when one of them is not on the grid away from its rim, is bonded, or finds its
+    /// target filled (at the start of the step, or by an agent that has not moved yet),
+    /// moves none and returns false. A target emptied by a mover before is taken: with one
+    /// offset for all, agents that follow each other do not collide.
+    pub(crate) fn shift_alone(&mut self, movers: &[u32], off: [i32; 3], d: usize) -> bool {
+        let Some(g) = self.cells.grid_mut() else {
+            return false;
+        };
+        let step = g.step(d);
+        let mut cells = g.cells_mut();
+        let (code, pos, attach) = (&mut self.code, &mut self.pos, &self.attach);
+        for (k, &a) in movers.iter().enumerate() {
+            let a = a as usize;
+            let c = code[a];
+            let to = Grid::along(c, step);
+            if c >= RIM || attach[a] != 0 || cells.filled(to) {
+                // Back, the last moved first: every cell is as it was.
+                for &b in movers[..k].iter().rev() {
+                    let b = b as usize;
+                    let from = (code[b] & !RIM) as usize;
+                    let back = (from as isize - step) as usize;
+                    cells.vacate(from);
+                    cells.occupy(back, b as u32);
+                    code[b] = cells.code_of(back);
+                    let p = pos[b];
+                    pos[b] = [p[0] - off[0], p[1] - off[1], p[2] - off[2]];
+                }
+                return false;
+            }
+            cells.vacate(c as usize);
+            cells.occupy(to, a as u32);
+            code[a] = cells.code_of(to);
+            let p = pos[a];
+            pos[a] = [p[0] + off[0], p[1] + off[1], p[2] + off[2]];
+        }
+        true
+    }
+
     /// Moves agents to their targets in the grid, given as slot codes
     /// ([`CellIndex::code`], none [`NO_SLOT`]), which no two share and which are empty or
     /// left by movers: the same as [`Lattice::relocate`]. `targeted` tells whether a slot
@@ -783,6 +839,52 @@ impl Lattice {
             self.cells.remove(old, a);
         }
         self.after_moves();
+    }
+}
+
+/// Agents moving by one offset between cells of the grid ([`Lattice::shift`]), in parts
+/// that threads make at once: each mover's position and slot code, its old cell emptied
+/// and its new one filled.
+pub(crate) struct Shift<'a> {
+    cells: crate::cells::SharedCells<'a>,
+    pos: *mut [i32; 3],
+    code: *mut u32,
+    n: usize,
+    off: [i32; 3],
+}
+
+// SAFETY: written only through `Shift::part`, whose callers give each thread agents and
+// cells of its own.
+unsafe impl Sync for Shift<'_> {}
+unsafe impl Send for Shift<'_> {}
+
+impl Shift<'_> {
+    /// Moves each agent of `movers` (to the cell of the slot code in `targets` beside it)
+    /// by the offset.
+    ///
+    /// # Safety
+    /// Across all parts, the agents are distinct, each stands on a cell of the grid (its
+    /// code is not [`NO_SLOT`]), and the targets are distinct, empty before the moves and
+    /// none of them a mover's cell; no other thread reads the lattice meanwhile.
+    pub(crate) unsafe fn part(&self, movers: &[u32], targets: &[u32]) {
+        for (&a, &to) in movers.iter().zip(targets) {
+            let a = a as usize;
+            assert!(a < self.n, "an agent of the lattice");
+            // SAFETY: in bounds (checked); agent `a` and its cells belong to this part
+            // alone (the caller's promise).
+            unsafe {
+                let code = &mut *self.code.add(a);
+                let pos = &mut *self.pos.add(a);
+                self.cells
+                    .moved(a as u32, (*code & !RIM) as usize, (to & !RIM) as usize);
+                *code = to;
+                *pos = [
+                    pos[0] + self.off[0],
+                    pos[1] + self.off[1],
+                    pos[2] + self.off[2],
+                ];
+            }
+        }
     }
 }
 

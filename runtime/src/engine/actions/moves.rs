@@ -49,6 +49,167 @@ pub(super) fn move_free(
     free
 }
 
+/// One chunk's part of [`Act::plain_moves_at_once`]: its movers and their targets' slot
+/// codes (kept between steps for their allocations).
+#[derive(Default)]
+pub(super) struct FusedPart {
+    movers: Vec<u32>,
+    to: Vec<u32>,
+}
+
+impl FusedPart {
+    /// The movers among `agents` (their entries in `one`; `mover`: per rule, and one more
+    /// entry for none, whether it moves), into `movers`.
+    #[inline]
+    fn collect(
+        &mut self,
+        agents: impl ExactSizeIterator<Item = usize>,
+        (one, mover): (&[u32], &[bool]),
+    ) {
+        let movers = &mut self.movers;
+        // Without a branch per agent: each is written, and kept when it moves.
+        let last = mover.len() - 1;
+        let mut m = 0;
+        movers.resize(agents.len() + 1, 0);
+        for a in agents {
+            movers[m] = a as u32;
+            m += mover[(one[a] as usize).min(last)] as usize;
+        }
+        movers.truncate(m);
+    }
+
+    /// Finds the movers among `agents` ([`FusedPart::collect`]) and their targets one
+    /// `step` away in grid `g`; false when one of them is not on the grid away from its
+    /// rim, is bonded, or has a target that is not empty.
+    #[inline]
+    fn find(
+        &mut self,
+        agents: impl ExactSizeIterator<Item = usize>,
+        (one, mover): (&[u32], &[bool]),
+        (lat, g, step): (&Lattice, &crate::cells::Grid, isize),
+    ) -> bool {
+        self.collect(agents, (one, mover));
+        let (movers, to) = (&self.movers, &mut self.to);
+        let m = movers.len();
+        to.clear();
+        to.reserve(m);
+        let mut ok = true;
+        for &a in movers.iter() {
+            let c = lat.code_of(a);
+            if c >= RIM {
+                return false;
+            }
+            let slot = crate::cells::Grid::along(c, step);
+            ok &= lat.attach[a as usize] == 0;
+            ok &= !g.filled(slot);
+            to.push(g.code_of_slot(slot));
+        }
+        ok
+    }
+}
+
+impl Act<'_> {
+    /// The plain moves of a step at once, on the pool when it pays (see `plan.rs`): when
+    /// every rule that acts only moves one step in one direction (`Plan::plain_step`),
+    /// every mover stands on the grid away from its rim, none is bonded, and every target
+    /// is empty at the start of the step. Then no move can be blocked or collide and no
+    /// bond changes: the movers of each chunk of agents are found with their targets in
+    /// one pass that reads, and moved in one that writes. Returns false, having changed
+    /// nothing, when that does not hold (the moves then go the general way), and then does
+    /// not try for the next 16 steps.
+    pub(super) fn plain_moves_at_once(&mut self, sel: &Selection) -> bool {
+        let Some((off, d)) = self.plan.plain_step else {
+            return false;
+        };
+        if self.opts.trace {
+            return false;
+        }
+        if self.bufs.fused_pause > 0 {
+            self.bufs.fused_pause -= 1;
+            return false;
+        }
+        let lat = &*self.lat;
+        let Some(g) = lat.cells.grid() else {
+            return false;
+        };
+        let step = g.step(d);
+        let (one, mover) = (&sel.one[..], &self.plan.plain_mask[..]);
+        let th = self.threads;
+        let len = if sel.listed {
+            sel.list.len()
+        } else {
+            one.len()
+        };
+        let (par, size, chunks) = th.chunks(len);
+        if par.is_none() {
+            // One thread: the movers, then their moves checked as they are made.
+            let mut part = self.bufs.fused.pop().unwrap_or_default();
+            if sel.listed {
+                part.collect(sel.list.iter().map(|&a| a as usize), (one, mover));
+            } else {
+                part.collect(0..one.len(), (one, mover));
+            }
+            if self.bufs.changes.on {
+                for &a in &part.movers {
+                    self.bufs.changes.moved(self.lat, a);
+                }
+            }
+            let done = self.lat.shift_alone(&part.movers, off, d);
+            if done {
+                self.stats.moves += part.movers.len() as u64;
+            } else {
+                self.bufs.changes.moved.clear();
+                self.bufs.fused_pause = 16;
+            }
+            self.bufs.fused.push(part);
+            return done;
+        }
+        let mut parts = std::mem::take(&mut self.bufs.fused);
+        parts.resize_with(chunks, FusedPart::default);
+        let list = &sel.list;
+        let find = |(c, part): (usize, &mut FusedPart)| {
+            let (lo, hi) = (c * size, ((c + 1) * size).min(len));
+            let view = (lat, g, step);
+            if sel.listed {
+                part.find(list[lo..hi].iter().map(|&a| a as usize), (one, mover), view)
+            } else {
+                part.find(lo..hi, (one, mover), view)
+            }
+        };
+        let found: Vec<bool> = match par {
+            Some((pool, _)) => pool.map(parts.iter_mut().enumerate().collect(), find),
+            None => parts.iter_mut().enumerate().map(find).collect(),
+        };
+        if found.contains(&false) {
+            self.bufs.fused = parts;
+            self.bufs.fused_pause = 16;
+            return false;
+        }
+        if self.bufs.changes.on {
+            for p in &parts {
+                for &a in &p.movers {
+                    self.bufs.changes.moved(self.lat, a);
+                }
+            }
+        }
+        let moved: usize = parts.iter().map(|p| p.movers.len()).sum();
+        let shift = self.lat.shift(off, par.is_none()).expect("a grid");
+        // SAFETY: the movers are distinct agents (each found once, in one chunk) on cells
+        // of the grid; their targets are distinct (one step from distinct cells) and empty
+        // before the moves (so none is a mover's cell); nothing else reads the lattice.
+        let work = |p: &FusedPart| unsafe { shift.part(&p.movers, &p.to) };
+        match par {
+            Some((pool, _)) => {
+                pool.map(parts.iter().collect(), work);
+            }
+            None => parts.iter().for_each(work),
+        }
+        self.bufs.fused = parts;
+        self.stats.moves += moved as u64;
+        true
+    }
+}
+
 /// Marks for deciding moves, all clear between rounds: per grid cell, a bit when a mover
 /// targets it and one when more than one does; per agent, a bit when it is moving.
 #[derive(Default)]
