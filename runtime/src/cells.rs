@@ -209,34 +209,42 @@ pub(crate) struct SharedCells<'a> {
     cells: *mut u32,
     occ: *const std::sync::atomic::AtomicU64,
     len: usize,
-    /// Only one thread moves: the bits are written without atomics.
-    alone: bool,
     _grid: std::marker::PhantomData<&'a mut Grid>,
 }
 
 // SAFETY: cells are written only through `SharedCells::moved`, whose callers write each
-// cell from one thread; the occupancy words are atomics (plain words only when one thread
-// moves).
+// cell from one thread, and each occupancy word plainly only from one thread (atomically
+// otherwise).
 unsafe impl Sync for SharedCells<'_> {}
 unsafe impl Send for SharedCells<'_> {}
 
 impl SharedCells<'_> {
-    /// Agent `a` leaves cell `from` for cell `to` (both in the grid).
+    /// Agent `a` leaves cell `from` for cell `to` (both in the grid). The words of bits
+    /// are written atomically, but for `edges` `Some((first, last))`: then only those two
+    /// are, the others plainly.
     ///
     /// # Safety
-    /// While the `SharedCells` lives, no other thread writes cells `from` or `to`.
+    /// While the `SharedCells` lives, no other thread writes cells `from` or `to`, nor,
+    /// with `edges`, a word of bits but those two that this thread writes.
     #[inline]
-    pub(crate) unsafe fn moved(&self, a: u32, from: usize, to: usize) {
+    pub(crate) unsafe fn moved(
+        &self,
+        a: u32,
+        (from, to): (usize, usize),
+        edges: Option<(usize, usize)>,
+    ) {
         use std::sync::atomic::Ordering::Relaxed;
         assert!(from < self.len && to < self.len, "cells of the grid");
-        // SAFETY: in bounds (checked); the caller writes these cells alone; the words of
-        // bits are atomics (`AtomicU64` has the layout of `u64`).
+        // SAFETY: in bounds (checked); the caller writes these cells alone, and the words
+        // but the edges alone; the words of bits are atomics (`AtomicU64` has the
+        // layout of `u64`).
         unsafe {
             *self.cells.add(from) = EMPTY;
             *self.cells.add(to) = a;
             let (wf, wt) = (from / 64, to / 64);
             let (bf, bt) = (1u64 << (from % 64), 1u64 << (to % 64));
-            if self.alone {
+            let atomic = |w: usize| edges.is_none_or(|e| w == e.0 || w == e.1);
+            if !atomic(wf) && !atomic(wt) {
                 let occ = self.occ.cast::<u64>().cast_mut();
                 *occ.add(wf) &= !bf;
                 *occ.add(wt) |= bt;
@@ -251,14 +259,12 @@ impl SharedCells<'_> {
 }
 
 impl Grid {
-    /// The cells and bits for moves made from several threads ([`SharedCells`]), or
-    /// from this one `alone`.
-    pub(crate) fn shared(&mut self, alone: bool) -> SharedCells<'_> {
+    /// The cells and bits for moves made from several threads ([`SharedCells`]).
+    pub(crate) fn shared(&mut self) -> SharedCells<'_> {
         SharedCells {
             cells: self.cells.as_mut_ptr(),
             occ: self.occ.as_mut_ptr().cast(),
             len: self.cells.len(),
-            alone,
             _grid: std::marker::PhantomData,
         }
     }

@@ -746,11 +746,10 @@ impl Lattice {
 
     /// The moves of agents by one offset `off` between cells of the grid (`None` without
     /// a grid), made a part at a time by [`Shift::part`], from any thread.
-    /// `alone`: only this thread moves them.
-    pub(crate) fn shift(&mut self, off: [i32; 3], alone: bool) -> Option<Shift<'_>> {
+    pub(crate) fn shift(&mut self, off: [i32; 3]) -> Option<Shift<'_>> {
         let n = self.pos.len();
         let (pos, code) = (self.pos.as_mut_ptr(), self.code.as_mut_ptr());
-        let cells = self.cells.grid_mut()?.shared(alone);
+        let cells = self.cells.grid_mut()?.shared();
         Some(Shift {
             cells,
             pos,
@@ -865,8 +864,16 @@ impl Shift<'_> {
     /// # Safety
     /// Across all parts, the agents are distinct, each stands on a cell of the grid (its
     /// code is not [`NO_SLOT`]), and the targets are distinct, empty before the moves and
-    /// none of them a mover's cell; no other thread reads the lattice meanwhile.
-    pub(crate) unsafe fn part(&self, movers: &[u32], targets: &[u32]) {
+    /// none of them a mover's cell; no other thread reads the lattice meanwhile; no two
+    /// parts made at once write a word of occupancy bits but their `edges`.
+    /// `edges`: when `Some`, the only two words of occupancy bits other parts may write
+    /// too (else any may be).
+    pub(crate) unsafe fn part(
+        &self,
+        movers: &[u32],
+        targets: &[u32],
+        edges: Option<(usize, usize)>,
+    ) {
         for (&a, &to) in movers.iter().zip(targets) {
             let a = a as usize;
             assert!(a < self.n, "an agent of the lattice");
@@ -875,8 +882,8 @@ impl Shift<'_> {
             unsafe {
                 let code = &mut *self.code.add(a);
                 let pos = &mut *self.pos.add(a);
-                self.cells
-                    .moved(a as u32, (*code & !RIM) as usize, (to & !RIM) as usize);
+                let cells = ((*code & !RIM) as usize, (to & !RIM) as usize);
+                self.cells.moved(a as u32, cells, edges);
                 *code = to;
                 *pos = [
                     pos[0] + self.off[0],

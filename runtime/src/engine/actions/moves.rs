@@ -55,6 +55,8 @@ pub(super) fn move_free(
 pub(super) struct FusedPart {
     movers: Vec<u32>,
     to: Vec<u32>,
+    /// The first and last cells its movers leave or take.
+    span: (usize, usize),
 }
 
 impl FusedPart {
@@ -94,6 +96,7 @@ impl FusedPart {
         to.clear();
         to.reserve(m);
         let mut ok = true;
+        let (mut lo, mut hi) = (usize::MAX, 0);
         for &a in movers.iter() {
             let c = lat.code_of(a);
             if c >= RIM {
@@ -103,7 +106,10 @@ impl FusedPart {
             ok &= lat.attach[a as usize] == 0;
             ok &= !g.filled(slot);
             to.push(g.code_of_slot(slot));
+            lo = lo.min(slot.min(c as usize));
+            hi = hi.max(slot.max(c as usize));
         }
+        self.span = (lo, hi);
         ok
     }
 }
@@ -193,11 +199,22 @@ impl Act<'_> {
             }
         }
         let moved: usize = parts.iter().map(|p| p.movers.len()).sum();
-        let shift = self.lat.shift(off, par.is_none()).expect("a grid");
+        // Where the chunks' movers keep to ranges of cells that overlap at most in one
+        // word of occupancy bits with the next (agents listed in spatial order), only the
+        // first and last words of each range are written atomically; else all are.
+        let mut spans: Vec<(usize, usize)> = (parts.iter())
+            .filter(|p| !p.movers.is_empty())
+            .map(|p| (p.span.0 / 64, p.span.1 / 64))
+            .collect();
+        spans.sort_unstable();
+        let apart = spans.windows(2).all(|w| w[0].1 <= w[1].0);
+        let shift = self.lat.shift(off).expect("a grid");
+        let edges = |p: &FusedPart| apart.then_some((p.span.0 / 64, p.span.1 / 64));
         // SAFETY: the movers are distinct agents (each found once, in one chunk) on cells
         // of the grid; their targets are distinct (one step from distinct cells) and empty
-        // before the moves (so none is a mover's cell); nothing else reads the lattice.
-        let work = |p: &FusedPart| unsafe { shift.part(&p.movers, &p.to) };
+        // before the moves (so none is a mover's cell); nothing else reads the lattice;
+        // the words of bits two chunks may share are written atomically.
+        let work = |p: &FusedPart| unsafe { shift.part(&p.movers, &p.to, edges(p)) };
         match par {
             Some((pool, _)) => {
                 pool.map(parts.iter().collect(), work);
