@@ -258,6 +258,15 @@ impl SharedCells<'_> {
     }
 }
 
+impl SharedCells<'_> {
+    /// Asks for cell `i` and its occupancy bit ahead of writing them (any `i`).
+    #[inline]
+    pub(crate) fn prefetch_cell(&self, i: usize) {
+        prefetch(self.cells.wrapping_add(i).cast_const());
+        prefetch(self.occ.wrapping_add(i / 64));
+    }
+}
+
 impl Grid {
     /// The cells and bits for moves made from several threads ([`SharedCells`]).
     pub(crate) fn shared(&mut self) -> SharedCells<'_> {
@@ -278,6 +287,13 @@ pub(crate) struct CellsMut<'a> {
 }
 
 impl CellsMut<'_> {
+    /// Asks for cell `i` and its occupancy bit ahead of reading or writing them (any `i`).
+    #[inline]
+    pub(crate) fn prefetch_cell(&self, i: usize) {
+        prefetch(self.cells.as_ptr().wrapping_add(i));
+        prefetch(self.occ.as_ptr().wrapping_add(i / 64));
+    }
+
     /// Whether cell `i` holds an agent.
     #[inline]
     pub(crate) fn filled(&self, i: usize) -> bool {

@@ -773,6 +773,10 @@ impl Lattice {
         let mut cells = g.cells_mut();
         let (code, pos, attach) = (&mut self.code, &mut self.pos, &self.attach);
         for (k, &a) in movers.iter().enumerate() {
+            // The cells a dozen moves ahead (see `cells::prefetch`).
+            if let Some(&b) = movers.get(k + AHEAD) {
+                cells.prefetch_cell((code[b as usize] & !RIM) as usize);
+            }
             let a = a as usize;
             let c = code[a];
             let to = Grid::along(c, step);
@@ -874,7 +878,10 @@ impl Shift<'_> {
         targets: &[u32],
         edges: Option<(usize, usize)>,
     ) {
-        for (&a, &to) in movers.iter().zip(targets) {
+        for (k, (&a, &to)) in movers.iter().zip(targets).enumerate() {
+            if let Some(&t) = targets.get(k + AHEAD) {
+                self.cells.prefetch_cell((t & !RIM) as usize);
+            }
             let a = a as usize;
             assert!(a < self.n, "an agent of the lattice");
             // SAFETY: in bounds (checked); agent `a` and its cells belong to this part

@@ -97,7 +97,10 @@ impl FusedPart {
         to.reserve(m);
         let mut ok = true;
         let (mut lo, mut hi) = (usize::MAX, 0);
-        for &a in movers.iter() {
+        for (k, &a) in movers.iter().enumerate() {
+            if let Some(&b) = movers.get(k + crate::cells::AHEAD) {
+                g.prefetch_filled(crate::cells::Grid::along(lat.code_of(b) & !RIM, step));
+            }
             let c = lat.code_of(a);
             if c >= RIM {
                 return false;
