@@ -17,38 +17,14 @@
 //! about 10 GB of disk and a few minutes); `FILE_QUICK=1` runs L <= 316 only.
 
 use latticesim_benches::plot::*;
+use latticesim_benches::process::{fresh, latticesim, measure, root, same_files};
 use plotters::prelude::*;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 const RULES: &str = "flood\n1\nS*****\nC00 A C00 #N01 C00 A C00 #W01 C00 A C00 #E01 C00 A C00 #S01 #*01 + C00 0000\n";
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-/// Builds the release `latticesim` and gives its path.
-fn latticesim() -> PathBuf {
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let ok = Command::new(cargo)
-        .args([
-            "build",
-            "--release",
-            "--quiet",
-            "-p",
-            "latticesim",
-            "--bin",
-            "latticesim",
-        ])
-        .current_dir(root())
-        .status()
-        .expect("run cargo build")
-        .success();
-    assert!(ok, "cargo build --release of latticesim failed");
-    root().join("target/release/latticesim")
-}
 
 /// Writes the B1F agents file of side `l` (once).
 fn agents_file(dir: &Path, l: u64) -> PathBuf {
@@ -69,27 +45,6 @@ fn agents_file(dir: &Path, l: u64) -> PathBuf {
     p
 }
 
-/// Runs a command to its end: wall time and peak resident bytes of the child (reaped by
-/// `wait4`, which gives its own peak, rather than by `Child::wait`).
-#[allow(clippy::zombie_processes)]
-fn measure(cmd: &mut Command) -> (Duration, u64) {
-    let t = Instant::now();
-    let child = cmd
-        .stdout(std::process::Stdio::null())
-        .spawn()
-        .expect("start the command");
-    let mut status = 0;
-    // SAFETY: wait4 writes the status and the usage of the child it reaps.
-    let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
-    let r = unsafe { libc::wait4(child.id() as i32, &mut status, 0, &mut ru) };
-    let wall = t.elapsed();
-    assert!(
-        r > 0 && libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0,
-        "{cmd:?} failed"
-    );
-    (wall, ru.ru_maxrss as u64 * 1024)
-}
-
 /// The sum of C00 of an agents.txt text written by either program, read a line at a time
 /// (this process stays small: a child's peak memory as `wait4` reports it can include the
 /// parent's memory at the time it was started).
@@ -103,36 +58,6 @@ fn checksum(p: &Path) -> u64 {
             std::str::from_utf8(&l[i + 5..]).ok()?.parse::<u64>().ok()
         })
         .sum()
-}
-
-/// Whether two files hold the same bytes, read a block at a time.
-fn same_files(a: &Path, b: &Path) -> bool {
-    use std::io::Read;
-    let (mut fa, mut fb) = (
-        std::fs::File::open(a).unwrap(),
-        std::fs::File::open(b).unwrap(),
-    );
-    let (mut ba, mut bb) = (vec![0u8; 1 << 20], vec![0u8; 1 << 20]);
-    loop {
-        let na = read_full(&mut fa, &mut ba);
-        let nb = read_full(&mut fb, &mut bb);
-        if na != nb || ba[..na] != bb[..nb] {
-            return false;
-        }
-        if na == 0 {
-            return true;
-        }
-    }
-    fn read_full(f: &mut std::fs::File, buf: &mut [u8]) -> usize {
-        let mut n = 0;
-        while n < buf.len() {
-            match f.read(&mut buf[n..]).unwrap() {
-                0 => break,
-                k => n += k,
-            }
-        }
-        n
-    }
 }
 
 struct Row {
@@ -197,14 +122,8 @@ fn one_size(
     let mut best_native = (Duration::MAX, 0);
     let reps = if l >= 10000 { 1 } else { reps };
     for _ in 0..reps {
-        // Each run writes a new file on a quiet disk: its output of the last run is
-        // removed and every dirty page written out first, so that neither program pays
-        // for the other's writing (or for replacing a file of gigabytes).
-        let fresh = |out: &Path| {
-            let _ = std::fs::remove_file(out);
-            // SAFETY: sync takes no arguments and cannot fail.
-            unsafe { libc::sync() };
-        };
+        // Each run writes a new file on a quiet disk (see `fresh`), so that neither
+        // program pays for the other's writing (or for replacing a file of gigabytes).
         fresh(&o1);
         let a = measure(
             Command::new(exe)
@@ -305,9 +224,7 @@ fn compressed(exe: &Path, (dir, rules): (&Path, &Path), zl: u64, zs: u64) -> (Du
         assert!(ok);
     }
     let zout = dir.join("out-latticesim.txt.zst");
-    let _ = std::fs::remove_file(&zout);
-    // SAFETY: as above.
-    unsafe { libc::sync() };
+    fresh(&zout);
     let z = measure(
         Command::new(exe)
             .args(["run", "-q", "--max-steps", &zs.to_string(), "--out"])

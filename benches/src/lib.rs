@@ -3,6 +3,7 @@
 
 pub mod native;
 pub mod plot;
+pub mod process;
 
 /// A small deterministic generator (PCG-style LCG), so inputs are the same on every machine.
 pub struct Lcg(u64);

@@ -1,0 +1,490 @@
+//! Agents that move, for docs/performance.md ("Agents that move"), through the command a
+//! user runs (`latticesim run RULES AGENTS --out OUT --stats STATS`), each figure the
+//! fastest of three runs, alternating the programs:
+//!
+//! - **B2F** (shared/bench/WORKLOADS.md): gravity from file to file, whole process, by
+//!   `latticesim run` on one and on two threads and by the plain hand-written program
+//!   `b2f_native` (this crate's `src/bin/b2f_native.rs`) on the same file in the same run;
+//!   the outputs must be byte-identical, with the steps and checksum of WORKLOADS.md.
+//! - **B4 walkers** beside resting agents (WORKLOADS.md): 1,000 walkers alone, beside 10^5
+//!   and beside 10^7 resting agents, one and two threads; the figure is the stepping time
+//!   (`--stats`' `steps_s`); every walker must end 1,000 cells east, every resting agent
+//!   where it was.
+//! - **Threads**: stepping time on one and two threads for B1F (L = 1000, 50 steps), B2F
+//!   and the walkers, and a gravity cloud of 10^6 agents listed at random (`gen cloud`,
+//!   1,340 steps; the outputs of both runs must be the same).
+//!
+//! `cargo bench -p latticesim-benches --bench moving` writes the files under
+//! target/moving/ (once), docs/data/performance-moving.csv and
+//! docs/img/performance-moving-{b2f,walkers}.svg, and prints the tables of
+//! docs/performance.md. `MOVING_QUICK=1` leaves out the largest sizes and the cloud.
+
+use latticesim_benches::plot::*;
+use latticesim_benches::process::{fresh, latticesim, measure, root, same_files};
+use plotters::prelude::*;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Duration;
+
+const B1_RULES: &str = latticesim_benches::workloads::B1_RULES;
+const B2_RULES: &str = latticesim_benches::workloads::B2_RULES;
+const WALK_RULES: &str = "walk\n1\nSWALK0 N**0* >C01 0000\nP1,0 C01 - C01 0001\n\nrest\n1\nSREST0 >C00 0000\nC00 - C00 0001\n";
+
+/// Writes a file once (through a part file renamed at the end), with `f` writing its text.
+fn once(p: &Path, f: impl FnOnce(&mut dyn Write)) -> PathBuf {
+    if !p.exists() {
+        let part = p.with_extension("part");
+        let mut w =
+            std::io::BufWriter::with_capacity(1 << 20, std::fs::File::create(&part).unwrap());
+        f(&mut w);
+        w.flush().unwrap();
+        drop(w);
+        std::fs::rename(&part, p).unwrap();
+    }
+    p.to_path_buf()
+}
+
+/// B2F's input of side `w`: `x,y C00 y` (`x,y` when y = 0), x-major.
+fn b2f_file(dir: &Path, w: u64) -> PathBuf {
+    once(&dir.join(format!("b2f_{w}.txt")), |out| {
+        for (x, y) in latticesim_benches::workloads::b2_cells(w, w) {
+            if y == 0 {
+                writeln!(out, "{x},{y}").unwrap();
+            } else {
+                writeln!(out, "{x},{y} C00 {y}").unwrap();
+            }
+        }
+    })
+}
+
+/// B4's input: an `r` x `r` block of resting agents and 1,000 walkers above it.
+fn walkers_file(dir: &Path, r: u64) -> PathBuf {
+    once(&dir.join(format!("walkers_{r}.txt")), |out| {
+        for x in 0..r {
+            for y in 0..r {
+                writeln!(out, "{x},{y} SREST0").unwrap();
+            }
+        }
+        for i in 0..1000 {
+            writeln!(out, "{},{} SWALK0 C01 1000", 2 * i, r + 1).unwrap();
+        }
+    })
+}
+
+/// B1F's input of side `l`.
+fn b1f_file(dir: &Path, l: u64) -> PathBuf {
+    once(&dir.join(format!("b1f_{l}.txt")), |out| {
+        for x in 0..l {
+            for y in 0..l {
+                writeln!(out, "{x},{y} C00 {}", ((x * l + y) * 7919) % 32749 + 1).unwrap();
+            }
+        }
+    })
+}
+
+/// A gravity cloud: 10^6 cells at random in a 1825 x 1825 box (`latticesim gen cloud`,
+/// listed as drawn), `C00 = y`.
+fn cloud_file(exe: &Path, dir: &Path) -> PathBuf {
+    let p = dir.join("cloud.txt");
+    if !p.exists() {
+        let out = Command::new(exe)
+            .args([
+                "gen", "cloud", "--n", "1000000", "--width", "1825", "--height", "1825",
+            ])
+            .args(["--seed", "1"])
+            .output()
+            .expect("latticesim gen");
+        assert!(out.status.success());
+        let text = String::from_utf8(out.stdout).unwrap();
+        once(&p, |w| {
+            for l in text.lines() {
+                let y = l.split(',').nth(1).unwrap();
+                writeln!(w, "{l} C00 {y}").unwrap();
+            }
+        });
+    }
+    p
+}
+
+/// The sum of x * 100003 + y over the agents of an agents.txt text (B2's checksum), and
+/// the number of agents.
+fn positions_checksum(p: &Path) -> (u64, u64) {
+    use std::io::BufRead;
+    let f = std::io::BufReader::with_capacity(1 << 20, std::fs::File::open(p).unwrap());
+    let (mut sum, mut n) = (0u64, 0u64);
+    for l in f.split(b'\n') {
+        let l = l.unwrap();
+        let Some(sp) = l.iter().position(|&c| c == b' ').or(Some(l.len())) else {
+            continue;
+        };
+        let xy = std::str::from_utf8(&l[..sp]).unwrap();
+        if let Some((x, y)) = xy.split_once(',') {
+            let (x, y): (i64, i64) = (x.parse().unwrap(), y.parse().unwrap());
+            sum = sum.wrapping_add((x * 100003 + y) as u64);
+            n += 1;
+        }
+    }
+    (sum, n)
+}
+
+/// One run of `latticesim run` to its end: wall time, peak memory, and the stepping time
+/// and steps of its statistics.
+struct Run {
+    wall: Duration,
+    peak: u64,
+    steps_s: f64,
+    steps: u64,
+}
+
+fn run_latticesim(
+    exe: &Path,
+    (rules, agents): (&Path, &Path),
+    threads: u32,
+    out: &Path,
+    extra: &[&str],
+) -> Run {
+    let stats = out.with_extension("stats.json");
+    fresh(out);
+    let (wall, peak) = measure(
+        Command::new(exe)
+            .args(["run", "-q", "--threads", &threads.to_string(), "--out"])
+            .arg(out)
+            .arg("--stats")
+            .arg(&stats)
+            .args(extra)
+            .arg(rules)
+            .arg(agents),
+    );
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
+    Run {
+        wall,
+        peak,
+        steps_s: v["times"]["steps_s"].as_f64().unwrap(),
+        steps: v["steps"].as_u64().unwrap(),
+    }
+}
+
+/// The fastest of `reps` runs of each of `jobs` (run in turn, `reps` rounds).
+fn best_of<T>(reps: usize, jobs: &mut [&mut dyn FnMut() -> T], key: impl Fn(&T) -> f64) -> Vec<T> {
+    let mut best: Vec<Option<T>> = jobs.iter().map(|_| None).collect();
+    for _ in 0..reps {
+        for (b, job) in best.iter_mut().zip(jobs.iter_mut()) {
+            let r = job();
+            if b.as_ref().is_none_or(|x| key(&r) < key(x)) {
+                *b = Some(r);
+            }
+        }
+    }
+    best.into_iter()
+        .map(|b| b.expect("at least one run"))
+        .collect()
+}
+
+struct B2fRow {
+    w: u64,
+    n: u64,
+    steps: u64,
+    native: (Duration, u64),
+    one: Run,
+    two: Run,
+}
+
+struct WalkRow {
+    resting: u64,
+    one: Run,
+    two: Run,
+}
+
+fn main() {
+    if std::env::args()
+        .skip(1)
+        .any(|a| !a.starts_with("--") && a != "moving")
+    {
+        return;
+    }
+    let quick = std::env::var_os("MOVING_QUICK").is_some();
+    let exe = latticesim();
+    let native = PathBuf::from(env!("CARGO_BIN_EXE_b2f_native"));
+    let dir = root().join("target/moving");
+    std::fs::create_dir_all(&dir).unwrap();
+    let rules = |name: &str, text: &str| {
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    };
+    let (b1r, b2r, walkr) = (
+        rules("b1.txt", B1_RULES),
+        rules("b2.txt", B2_RULES),
+        rules("walk.txt", WALK_RULES),
+    );
+    let reps = 3;
+
+    // B2F beside the plain program.
+    let sizes: &[u64] = if quick { &[316] } else { &[316, 1000] };
+    let mut b2f = Vec::new();
+    for &w in sizes {
+        let input = b2f_file(&dir, w);
+        let (o0, o1, o2) = (
+            dir.join("b2f-native.txt"),
+            dir.join("b2f-1.txt"),
+            dir.join("b2f-2.txt"),
+        );
+        let mut nat = || {
+            fresh(&o0);
+            measure(Command::new(&native).arg(&input).arg(&o0))
+        };
+        let nat = best_of(reps, &mut [&mut nat], |r| r.0.as_secs_f64()).remove(0);
+        let mut one = || run_latticesim(&exe, (&b2r, &input), 1, &o1, &[]);
+        let mut two = || run_latticesim(&exe, (&b2r, &input), 2, &o2, &[]);
+        let mut runs = best_of(reps, &mut [&mut one, &mut two], |r| r.wall.as_secs_f64());
+        let (two, one) = (runs.pop().unwrap(), runs.pop().unwrap());
+        assert!(
+            same_files(&o0, &o1) && same_files(&o0, &o2),
+            "B2F W = {w}: the outputs differ"
+        );
+        let (sum, n) = positions_checksum(&o1);
+        let expected = match w {
+            316 => Some((238, 473921339434)),
+            1000 => Some((754, 14959134065689)),
+            _ => None,
+        };
+        if let Some(e) = expected {
+            assert_eq!(
+                (one.steps, sum),
+                e,
+                "WORKLOADS.md's steps and checksum of B2 W = {w}"
+            );
+        }
+        eprintln!(
+            "B2F W = {w}: native {:.3} s, latticesim {:.3} s ({:.2}x) one thread, {:.3} s ({:.2}x) two",
+            nat.0.as_secs_f64(),
+            one.wall.as_secs_f64(),
+            one.wall.as_secs_f64() / nat.0.as_secs_f64(),
+            two.wall.as_secs_f64(),
+            two.wall.as_secs_f64() / nat.0.as_secs_f64()
+        );
+        b2f.push(B2fRow {
+            w,
+            n,
+            steps: one.steps,
+            native: nat,
+            one,
+            two,
+        });
+    }
+
+    // Walkers beside resting agents.
+    let rs: &[u64] = if quick { &[0, 316] } else { &[0, 316, 3162] };
+    let mut walk = Vec::new();
+    for &r in rs {
+        let input = walkers_file(&dir, r);
+        let (o1, o2) = (dir.join("walk-1.txt"), dir.join("walk-2.txt"));
+        let mut one = || run_latticesim(&exe, (&walkr, &input), 1, &o1, &[]);
+        let mut two = || run_latticesim(&exe, (&walkr, &input), 2, &o2, &[]);
+        let mut runs = best_of(reps, &mut [&mut one, &mut two], |r| r.steps_s);
+        let (two, one) = (runs.pop().unwrap(), runs.pop().unwrap());
+        // Every walker 1,000 cells east, every resting agent in place: computed apart.
+        let rest: u64 = (0..r)
+            .flat_map(|x| (0..r).map(move |y| x * 100003 + y))
+            .sum();
+        let walkers: u64 = (0..1000).map(|i| (2 * i + 1000) * 100003 + r + 1).sum();
+        assert_eq!(
+            positions_checksum(&o1),
+            (rest + walkers, r * r + 1000),
+            "walkers R = {r}"
+        );
+        assert!(
+            same_files(&o1, &o2),
+            "walkers R = {r}: one and two threads differ"
+        );
+        assert_eq!(one.steps, 1001);
+        eprintln!(
+            "walkers beside {} resting: stepping {:.3} s one thread, {:.3} s two; whole {:.3} s, {:.1} MB",
+            r * r,
+            one.steps_s,
+            two.steps_s,
+            one.wall.as_secs_f64(),
+            one.peak as f64 / 1e6
+        );
+        walk.push(WalkRow {
+            resting: r * r,
+            one,
+            two,
+        });
+    }
+
+    // Threads on B1F and the cloud (B2F and the walkers above).
+    let mut threads: Vec<(String, f64, f64)> = Vec::new();
+    for row in &b2f {
+        threads.push((
+            format!("B2F W = {}", row.w),
+            row.one.steps_s,
+            row.two.steps_s,
+        ));
+    }
+    for row in &walk {
+        threads.push((
+            format!("walkers beside {}", row.resting),
+            row.one.steps_s,
+            row.two.steps_s,
+        ));
+    }
+    {
+        let l = if quick { 316 } else { 1000 };
+        let input = b1f_file(&dir, l);
+        let (o1, o2) = (dir.join("b1f-1.txt"), dir.join("b1f-2.txt"));
+        let mut one = || run_latticesim(&exe, (&b1r, &input), 1, &o1, &["--max-steps", "50"]);
+        let mut two = || run_latticesim(&exe, (&b1r, &input), 2, &o2, &["--max-steps", "50"]);
+        let mut runs = best_of(reps, &mut [&mut one, &mut two], |r| r.steps_s);
+        let (two, one) = (runs.pop().unwrap(), runs.pop().unwrap());
+        assert!(same_files(&o1, &o2), "B1F: one and two threads differ");
+        threads.push((format!("B1F L = {l}, 50 steps"), one.steps_s, two.steps_s));
+    }
+    if !quick {
+        let input = cloud_file(&exe, &dir);
+        let (o1, o2) = (dir.join("cloud-1.txt"), dir.join("cloud-2.txt"));
+        let one = run_latticesim(&exe, (&b2r, &input), 1, &o1, &[]);
+        let two = run_latticesim(&exe, (&b2r, &input), 2, &o2, &[]);
+        assert!(
+            same_files(&o1, &o2),
+            "the cloud: one and two threads differ"
+        );
+        eprintln!(
+            "gravity cloud: {} steps, {:.3} s one thread, {:.3} s two",
+            one.steps, one.steps_s, two.steps_s
+        );
+        threads.push((
+            "gravity cloud of 10^6, listed at random".into(),
+            one.steps_s,
+            two.steps_s,
+        ));
+    }
+    report(&b2f, &walk, &threads);
+}
+
+/// The CSV in docs/data, the plots in docs/img, and the tables of docs/performance.md.
+fn report(b2f: &[B2fRow], walk: &[WalkRow], threads: &[(String, f64, f64)]) {
+    let (data, img) = (root().join("docs/data"), root().join("docs/img"));
+    std::fs::create_dir_all(&data).unwrap();
+    std::fs::create_dir_all(&img).unwrap();
+    let mut csv = String::from("workload,size,agents,steps,native_s,latticesim_1_s,latticesim_2_s,steps_1_s,steps_2_s,peak_1_bytes\n");
+    for r in b2f {
+        csv += &format!(
+            "b2f,{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{}\n",
+            r.w,
+            r.n,
+            r.steps,
+            r.native.0.as_secs_f64(),
+            r.one.wall.as_secs_f64(),
+            r.two.wall.as_secs_f64(),
+            r.one.steps_s,
+            r.two.steps_s,
+            r.one.peak
+        );
+    }
+    for r in walk {
+        csv += &format!(
+            "walkers,{},{},{},,{:.4},{:.4},{:.4},{:.4},{}\n",
+            r.resting,
+            r.resting + 1000,
+            r.one.steps,
+            r.one.wall.as_secs_f64(),
+            r.two.wall.as_secs_f64(),
+            r.one.steps_s,
+            r.two.steps_s,
+            r.one.peak
+        );
+    }
+    std::fs::write(data.join("performance-moving.csv"), csv).unwrap();
+    let b2f_series: Vec<Series> = vec![
+        (
+            "latticesim run, one thread (whole process)",
+            b2f.iter()
+                .map(|r| (r.n as f64, r.one.wall.as_secs_f64()))
+                .collect(),
+            RED,
+        ),
+        (
+            "latticesim run, two threads",
+            b2f.iter()
+                .map(|r| (r.n as f64, r.two.wall.as_secs_f64()))
+                .collect(),
+            MAGENTA,
+        ),
+        (
+            "plain hand-written program",
+            b2f.iter()
+                .map(|r| (r.n as f64, r.native.0.as_secs_f64()))
+                .collect(),
+            BLUE,
+        ),
+    ];
+    plot_lines(
+        &img.join("performance-moving-b2f.svg"),
+        "B2F gravity from file to file: wall time of the whole process",
+        ("agents", "seconds"),
+        (power_of_ten, plain),
+        &b2f_series,
+    )
+    .expect("plot");
+    let walk_series: Vec<Series> = vec![
+        (
+            "one thread",
+            walk.iter()
+                .map(|r| ((r.resting + 1000) as f64, r.one.steps_s))
+                .collect(),
+            RED,
+        ),
+        (
+            "two threads",
+            walk.iter()
+                .map(|r| ((r.resting + 1000) as f64, r.two.steps_s))
+                .collect(),
+            MAGENTA,
+        ),
+    ];
+    plot_lines(
+        &img.join("performance-moving-walkers.svg"),
+        "1,000 walkers for 1,000 steps beside resting agents: stepping time",
+        ("agents in all (1,000 walking)", "seconds"),
+        (power_of_ten, plain),
+        &walk_series,
+    )
+    .expect("plot");
+    println!("| B2F W | agents | steps | plain program | latticesim, 1 thread | / plain | latticesim, 2 threads | / plain |");
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for r in b2f {
+        let nat = r.native.0.as_secs_f64();
+        println!(
+            "| {} | {} | {} | {:.3} s | {:.3} s | {:.2} | {:.3} s | {:.2} |",
+            r.w,
+            r.n,
+            r.steps,
+            nat,
+            r.one.wall.as_secs_f64(),
+            r.one.wall.as_secs_f64() / nat,
+            r.two.wall.as_secs_f64(),
+            r.two.wall.as_secs_f64() / nat
+        );
+    }
+    println!("\n| resting agents | stepping, 1 thread | / walkers alone | stepping, 2 threads | whole process, 1 thread | peak |");
+    println!("|---:|---:|---:|---:|---:|---:|");
+    let alone = walk.first().map_or(1.0, |r| r.one.steps_s);
+    for r in walk {
+        println!(
+            "| {} | {:.3} s | {:.2} | {:.3} s | {:.3} s | {:.1} MB |",
+            r.resting,
+            r.one.steps_s,
+            r.one.steps_s / alone,
+            r.two.steps_s,
+            r.one.wall.as_secs_f64(),
+            r.one.peak as f64 / 1e6
+        );
+    }
+    println!("\n| workload | stepping, 1 thread | 2 threads | 1 / 2 |");
+    println!("|---|---:|---:|---:|");
+    for (name, one, two) in threads {
+        println!("| {name} | {one:.3} s | {two:.3} s | {:.2} |", one / two);
+    }
+}

@@ -1,0 +1,94 @@
+//! Running `latticesim` and the plain hand-written programs as processes, as a user does:
+//! the release binary built once, a command timed from start to end with its peak
+//! resident memory, outputs compared byte for byte. Used by the benchmarks that measure
+//! the user's whole path (`file_to_file`, `moving`).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+/// The workspace's root.
+pub fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// Builds the release `latticesim` and gives its path.
+pub fn latticesim() -> PathBuf {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let ok = Command::new(cargo)
+        .args([
+            "build",
+            "--release",
+            "--quiet",
+            "-p",
+            "latticesim",
+            "--bin",
+            "latticesim",
+        ])
+        .current_dir(root())
+        .status()
+        .expect("run cargo build")
+        .success();
+    assert!(ok, "cargo build --release of latticesim failed");
+    root().join("target/release/latticesim")
+}
+
+/// Runs a command to its end: wall time and peak resident bytes of the child (reaped by
+/// `wait4`, which gives its own peak, rather than by `Child::wait`).
+#[allow(clippy::zombie_processes)]
+pub fn measure(cmd: &mut Command) -> (Duration, u64) {
+    let t = Instant::now();
+    let child = cmd
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .expect("start the command");
+    let mut status = 0;
+    // SAFETY: wait4 writes the status and the usage of the child it reaps.
+    let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
+    let r = unsafe { libc::wait4(child.id() as i32, &mut status, 0, &mut ru) };
+    let wall = t.elapsed();
+    assert!(
+        r > 0 && libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0,
+        "{cmd:?} failed"
+    );
+    (wall, ru.ru_maxrss as u64 * 1024)
+}
+
+/// Removes `out` (a program's output of the last run) and writes every dirty page out, so
+/// that the next program timed neither pays for another's writing nor replaces a file.
+pub fn fresh(out: &Path) {
+    let _ = std::fs::remove_file(out);
+    // SAFETY: sync takes no arguments and cannot fail.
+    unsafe { libc::sync() };
+}
+
+/// Whether two files hold the same bytes, read a block at a time.
+pub fn same_files(a: &Path, b: &Path) -> bool {
+    let (mut fa, mut fb) = (
+        std::fs::File::open(a).unwrap(),
+        std::fs::File::open(b).unwrap(),
+    );
+    let (mut ba, mut bb) = (vec![0u8; 1 << 20], vec![0u8; 1 << 20]);
+    loop {
+        let na = read_full(&mut fa, &mut ba);
+        let nb = read_full(&mut fb, &mut bb);
+        if na != nb || ba[..na] != bb[..nb] {
+            return false;
+        }
+        if na == 0 {
+            return true;
+        }
+    }
+}
+
+fn read_full(f: &mut std::fs::File, buf: &mut [u8]) -> usize {
+    use std::io::Read;
+    let mut n = 0;
+    while n < buf.len() {
+        match f.read(&mut buf[n..]).unwrap() {
+            0 => break,
+            k => n += k,
+        }
+    }
+    n
+}
