@@ -69,7 +69,8 @@ pub(crate) struct Grid {
     /// minus its outer layer; a one-cell axis is all interior).
     first: [u32; 3],
     span: [u32; 3],
-    /// A bit per cell on the grid's outer layer (the rim: some neighbour is outside).
+    /// A bit per cell on the grid's outer layer (the rim: some neighbour is outside),
+    /// made when first needed ([`Grid::ready_rim`]: only moves made at once need it).
     rim: Vec<u64>,
 }
 
@@ -80,6 +81,24 @@ impl Grid {
         let delta = Dir::ALL
             .map(|d| d.offset())
             .map(|d| ((d[0] as i64 * size[1] + d[1] as i64) * size[2] + d[2] as i64) as isize);
+        Grid {
+            lo,
+            size,
+            cells: vec![EMPTY; volume],
+            occ: vec![0; volume.div_ceil(64)],
+            delta,
+            first: size.map(|s| (s > 1) as u32),
+            span: size.map(|s| if s > 1 { s as u32 - 2 } else { 1 }),
+            rim: Vec::new(),
+        }
+    }
+
+    /// Makes the bits of the rim ([`Grid::code_of_slot`]), if not made yet.
+    pub(crate) fn ready_rim(&mut self) {
+        if !self.rim.is_empty() {
+            return;
+        }
+        let (size, volume) = (self.size, self.cells.len());
         let mut rim = vec![0u64; volume.div_ceil(64)];
         let at = |o: [i64; 3]| ((o[0] * size[1] + o[1]) * size[2] + o[2]) as usize;
         // The outer layer, face by face (a one-cell axis has none).
@@ -96,19 +115,11 @@ impl Grid {
                 }
             }
         }
-        Grid {
-            lo,
-            size,
-            cells: vec![EMPTY; volume],
-            occ: vec![0; volume.div_ceil(64)],
-            delta,
-            first: size.map(|s| (s > 1) as u32),
-            span: size.map(|s| if s > 1 { s as u32 - 2 } else { 1 }),
-            rim,
-        }
+        self.rim = rim;
     }
 
-    /// Cell `i`'s slot code: `i`, with [`RIM`] when it is on the rim.
+    /// Cell `i`'s slot code: `i`, with [`RIM`] when it is on the rim (after
+    /// [`Grid::ready_rim`]).
     #[inline]
     pub(crate) fn code_of_slot(&self, i: usize) -> u32 {
         i as u32 | ((self.rim[i / 64] >> (i % 64) & 1) as u32) << 31

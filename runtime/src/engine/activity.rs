@@ -52,15 +52,22 @@ pub(super) struct WakeSet {
 }
 
 impl WakeSet {
-    /// An empty set of `n` agents that turns into "all" beyond `limit`.
-    fn new(n: usize, limit: usize) -> WakeSet {
-        let words = n.div_ceil(64);
+    /// A set of agents that turns into "all" beyond `limit`, "all" now; its bits are
+    /// made for `n` agents by [`WakeSet::ready`] (runs that evaluate every agent at every
+    /// step never need them).
+    fn new(limit: usize) -> WakeSet {
         WakeSet {
-            words: vec![0; words],
-            tops: vec![0; words.div_ceil(64)],
-            count: 0,
             limit,
-            all: false,
+            all: true,
+            ..WakeSet::default()
+        }
+    }
+
+    /// Makes the bits for `n` agents, if not made yet.
+    fn ready(&mut self, n: usize) {
+        if self.words.is_empty() && n > 0 {
+            self.words = vec![0; n.div_ceil(64)];
+            self.tops = vec![0; n.div_ceil(64).div_ceil(64)];
         }
     }
 
@@ -168,12 +175,10 @@ impl Activity {
             Skip::Auto => n / SPARSE_SHARE,
             Skip::Off | Skip::Eager => usize::MAX,
         };
-        let mut next = WakeSet::new(n, limit);
-        next.all = true;
         Activity {
             skip,
             n,
-            next,
+            next: WakeSet::new(limit),
             list: Vec::new(),
             listed: false,
             recipients: None,
@@ -209,9 +214,13 @@ impl Activity {
     ///
     /// Past the limit, the next selection evaluates everyone (these agents are woken),
     /// and nothing more of this step is noted for it.
+    /// Called at every step, before anything is woken.
     pub(super) fn lists(&mut self, active: u64) -> bool {
         if active as usize > self.next.limit {
             self.next.all = true;
+        }
+        if !self.next.all {
+            self.next.ready(self.n);
         }
         !self.next.all
     }

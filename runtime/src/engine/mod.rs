@@ -275,7 +275,8 @@ impl Engine {
         // The phases after the selection visit only the agents that execute a rule when
         // they are few (and the activity needs them listed).
         let active = self.selection.active;
-        if !sel.listed && !self.selection.by_state && self.activity.lists(active) {
+        let listing = self.activity.lists(active);
+        if listing && !sel.listed && !self.selection.by_state {
             sel.make_list();
         }
         rep.executing = self.selection.active;

@@ -752,6 +752,7 @@ impl Lattice {
         let cells = self.cells.grid_mut()?.shared();
         Some(Shift {
             cells,
+            ahead: false,
             pos,
             code,
             n,
@@ -765,7 +766,13 @@ impl Lattice {
     /// target filled (at the start of the step, or by an agent that has not moved yet),
     /// moves none and returns false. A target emptied by a mover before is taken: with one
     /// offset for all, agents that follow each other do not collide.
-    pub(crate) fn shift_alone(&mut self, movers: &[u32], off: [i32; 3], d: usize) -> bool {
+    /// `ahead`: ask for the cells of the movers a dozen ahead (when they are scattered).
+    pub(crate) fn shift_alone(
+        &mut self,
+        movers: &[u32],
+        (off, d): ([i32; 3], usize),
+        ahead: bool,
+    ) -> bool {
         let Some(g) = self.cells.grid_mut() else {
             return false;
         };
@@ -774,7 +781,7 @@ impl Lattice {
         let (code, pos, attach) = (&mut self.code, &mut self.pos, &self.attach);
         for (k, &a) in movers.iter().enumerate() {
             // The cells a dozen moves ahead (see `cells::prefetch`).
-            if let Some(&b) = movers.get(k + AHEAD) {
+            if let Some(&b) = movers.get(k + AHEAD).filter(|_| ahead) {
                 cells.prefetch_cell((code[b as usize] & !RIM) as usize);
             }
             let a = a as usize;
@@ -850,6 +857,8 @@ impl Lattice {
 /// and its new one filled.
 pub(crate) struct Shift<'a> {
     cells: crate::cells::SharedCells<'a>,
+    /// Ask for the cells a dozen movers ahead.
+    pub(crate) ahead: bool,
     pos: *mut [i32; 3],
     code: *mut u32,
     n: usize,
@@ -879,7 +888,7 @@ impl Shift<'_> {
         edges: Option<(usize, usize)>,
     ) {
         for (k, (&a, &to)) in movers.iter().zip(targets).enumerate() {
-            if let Some(&t) = targets.get(k + AHEAD) {
+            if let Some(&t) = targets.get(k + AHEAD).filter(|_| self.ahead) {
                 self.cells.prefetch_cell((t & !RIM) as usize);
             }
             let a = a as usize;

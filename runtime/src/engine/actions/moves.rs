@@ -49,6 +49,18 @@ pub(super) fn move_free(
     free
 }
 
+/// Whether the cells of `movers` lie scattered over the grid (agents listed in no
+/// spatial order), judged on the first of them: then loops over them ask for the cells
+/// ahead (see `cells::prefetch`); in order, the processor finds them by itself and asking
+/// costs more than it saves.
+fn scattered(lat: &Lattice, movers: &[u32]) -> bool {
+    let first = &movers[..movers.len().min(65)];
+    let jumps = (first.windows(2))
+        .filter(|w| lat.code_of(w[0]).abs_diff(lat.code_of(w[1])) > 4096)
+        .count();
+    jumps > first.len() / 4
+}
+
 /// One chunk's part of [`Act::plain_moves_at_once`]: its movers and their targets' slot
 /// codes (kept between steps for their allocations).
 #[derive(Default)]
@@ -97,8 +109,9 @@ impl FusedPart {
         to.reserve(m);
         let mut ok = true;
         let (mut lo, mut hi) = (usize::MAX, 0);
+        let ahead = scattered(lat, movers);
         for (k, &a) in movers.iter().enumerate() {
-            if let Some(&b) = movers.get(k + crate::cells::AHEAD) {
+            if let Some(&b) = movers.get(k + crate::cells::AHEAD).filter(|_| ahead) {
                 g.prefetch_filled(crate::cells::Grid::along(lat.code_of(b) & !RIM, step));
             }
             let c = lat.code_of(a);
@@ -137,10 +150,12 @@ impl Act<'_> {
             self.bufs.fused_pause -= 1;
             return false;
         }
+        match self.lat.cells.grid_mut() {
+            Some(g) => g.ready_rim(),
+            None => return false,
+        }
         let lat = &*self.lat;
-        let Some(g) = lat.cells.grid() else {
-            return false;
-        };
+        let g = lat.cells.grid().expect("a grid");
         let step = g.step(d);
         let (one, mover) = (&sel.one[..], &self.plan.plain_mask[..]);
         let th = self.threads;
@@ -163,7 +178,8 @@ impl Act<'_> {
                     self.bufs.changes.moved(self.lat, a);
                 }
             }
-            let done = self.lat.shift_alone(&part.movers, off, d);
+            let ahead = scattered(self.lat, &part.movers);
+            let done = self.lat.shift_alone(&part.movers, (off, d), ahead);
             if done {
                 self.stats.moves += part.movers.len() as u64;
             } else {
@@ -211,7 +227,9 @@ impl Act<'_> {
             .collect();
         spans.sort_unstable();
         let apart = spans.windows(2).all(|w| w[0].1 <= w[1].0);
-        let shift = self.lat.shift(off).expect("a grid");
+        let ahead = parts.iter().any(|p| scattered(self.lat, &p.movers));
+        let mut shift = self.lat.shift(off).expect("a grid");
+        shift.ahead = ahead;
         let edges = |p: &FusedPart| apart.then_some((p.span.0 / 64, p.span.1 / 64));
         // SAFETY: the movers are distinct agents (each found once, in one chunk) on cells
         // of the grid; their targets are distinct (one step from distinct cells) and empty
