@@ -93,7 +93,7 @@ impl Grid {
         }
     }
 
-    /// Makes the bits of the rim ([`Grid::code_of_slot`]), if not made yet.
+    /// Makes the bits of the rim (for slot codes made from slots), if not made yet.
     pub(crate) fn ready_rim(&mut self) {
         if !self.rim.is_empty() {
             return;
@@ -116,13 +116,6 @@ impl Grid {
             }
         }
         self.rim = rim;
-    }
-
-    /// Cell `i`'s slot code: `i`, with [`RIM`] when it is on the rim (after
-    /// [`Grid::ready_rim`]).
-    #[inline]
-    pub(crate) fn code_of_slot(&self, i: usize) -> u32 {
-        i as u32 | ((self.rim[i / 64] >> (i % 64) & 1) as u32) << 31
     }
 
     /// Puts `a` (an agent or [`EMPTY`]) into cell `i`.
@@ -214,47 +207,74 @@ impl Grid {
 }
 
 /// The grid's cells and occupancy bits, for moving agents from several threads at once
-/// ([`Grid::shared`]): each cell is written by one thread (its mover's), and the
-/// occupancy bits, which cells of different threads share by the word, atomically.
+/// ([`Grid::shared`]): cells are read and written atomically (each is written by one mover
+/// at most, but read by others), and the occupancy bits, which cells of different threads
+/// share by the word, atomically but where a caller knows a word is its own.
 pub(crate) struct SharedCells<'a> {
-    cells: *mut u32,
+    cells: *const std::sync::atomic::AtomicU32,
     occ: *const std::sync::atomic::AtomicU64,
+    rim: *const u64,
     len: usize,
     _grid: std::marker::PhantomData<&'a mut Grid>,
 }
 
-// SAFETY: cells are written only through `SharedCells::moved`, whose callers write each
-// cell from one thread, and each occupancy word plainly only from one thread (atomically
-// otherwise).
+// SAFETY: cells are only read and written atomically; occupancy words are written through
+// `SharedCells::moved_bits` plainly only from the one thread that owns them (the caller's
+// promise), atomically otherwise; the rim bits are only read.
 unsafe impl Sync for SharedCells<'_> {}
 unsafe impl Send for SharedCells<'_> {}
 
 impl SharedCells<'_> {
-    /// Agent `a` leaves cell `from` for cell `to` (both in the grid). The words of bits
-    /// are written atomically, but for `edges` `Some((first, last))`: then only those two
-    /// are, the others plainly.
+    /// Moves agent `a` from cell `from` to cell `to` when `to` is empty now, and says
+    /// whether it did. The bits of occupancy are left as they were
+    /// ([`SharedCells::moved_bits`]).
     ///
     /// # Safety
-    /// While the `SharedCells` lives, no other thread writes cells `from` or `to`, nor,
-    /// with `edges`, a word of bits but those two that this thread writes.
+    /// No other thread moves an agent from `from` or into `to` meanwhile.
     #[inline]
-    pub(crate) unsafe fn moved(
+    pub(crate) unsafe fn take(&self, a: u32, from: usize, to: usize) -> bool {
+        use std::sync::atomic::Ordering::Relaxed;
+        assert!(from < self.len && to < self.len, "cells of the grid");
+        // SAFETY: in bounds (checked); atomics (`AtomicU32` has the layout of `u32`).
+        unsafe {
+            if (*self.cells.add(to)).load(Relaxed) != EMPTY {
+                return false;
+            }
+            (*self.cells.add(from)).store(EMPTY, Relaxed);
+            (*self.cells.add(to)).store(a, Relaxed);
+        }
+        true
+    }
+
+    /// Cell `i`'s slot code: `i`, with [`RIM`] when it is on the rim.
+    #[inline]
+    pub(crate) fn code_of_slot(&self, i: usize) -> u32 {
+        assert!(i < self.len, "a cell of the grid");
+        // SAFETY: in bounds (checked); the rim bits are not written while shared.
+        let word = unsafe { *self.rim.add(i / 64) };
+        i as u32 | ((word >> (i % 64) & 1) as u32) << 31
+    }
+
+    /// The occupancy bits of a move from cell `from` to cell `to`. The words are written
+    /// atomically, but for `edges` `Some((first, last))`: then only those two are, the
+    /// others plainly.
+    ///
+    /// # Safety
+    /// With `edges`, no other thread writes a word of bits this one writes, but those two.
+    #[inline]
+    pub(crate) unsafe fn moved_bits(
         &self,
-        a: u32,
         (from, to): (usize, usize),
         edges: Option<(usize, usize)>,
     ) {
         use std::sync::atomic::Ordering::Relaxed;
         assert!(from < self.len && to < self.len, "cells of the grid");
-        // SAFETY: in bounds (checked); the caller writes these cells alone, and the words
-        // but the edges alone; the words of bits are atomics (`AtomicU64` has the
-        // layout of `u64`).
+        let (wf, wt) = (from / 64, to / 64);
+        let (bf, bt) = (1u64 << (from % 64), 1u64 << (to % 64));
+        let atomic = |w: usize| edges.is_none_or(|e| w == e.0 || w == e.1);
+        // SAFETY: in bounds (checked); the words but the edges are this thread's alone
+        // (the caller's promise); `AtomicU64` has the layout of `u64`.
         unsafe {
-            *self.cells.add(from) = EMPTY;
-            *self.cells.add(to) = a;
-            let (wf, wt) = (from / 64, to / 64);
-            let (bf, bt) = (1u64 << (from % 64), 1u64 << (to % 64));
-            let atomic = |w: usize| edges.is_none_or(|e| w == e.0 || w == e.1);
             if !atomic(wf) && !atomic(wt) {
                 let occ = self.occ.cast::<u64>().cast_mut();
                 *occ.add(wf) &= !bf;
@@ -267,23 +287,23 @@ impl SharedCells<'_> {
             }
         }
     }
-}
 
-impl SharedCells<'_> {
     /// Asks for cell `i` and its occupancy bit ahead of writing them (any `i`).
     #[inline]
     pub(crate) fn prefetch_cell(&self, i: usize) {
-        prefetch(self.cells.wrapping_add(i).cast_const());
+        prefetch(self.cells.wrapping_add(i));
         prefetch(self.occ.wrapping_add(i / 64));
     }
 }
 
 impl Grid {
-    /// The cells and bits for moves made from several threads ([`SharedCells`]).
+    /// The cells and bits for moves made from several threads ([`SharedCells`]), after
+    /// [`Grid::ready_rim`].
     pub(crate) fn shared(&mut self) -> SharedCells<'_> {
         SharedCells {
-            cells: self.cells.as_mut_ptr(),
+            cells: self.cells.as_mut_ptr().cast(),
             occ: self.occ.as_mut_ptr().cast(),
+            rim: self.rim.as_ptr(),
             len: self.cells.len(),
             _grid: std::marker::PhantomData,
         }
@@ -311,7 +331,7 @@ impl CellsMut<'_> {
         self.occ[i / 64] >> (i % 64) & 1 != 0
     }
 
-    /// Cell `i`'s slot code (see [`Grid::code_of_slot`]).
+    /// Cell `i`'s slot code: `i`, with [`RIM`] when it is on the rim.
     #[inline]
     pub(crate) fn code_of(&self, i: usize) -> u32 {
         i as u32 | ((self.rim[i / 64] >> (i % 64) & 1) as u32) << 31
@@ -336,6 +356,12 @@ impl CellsMut<'_> {
     pub(crate) fn vacate(&mut self, i: usize) {
         self.cells[i] = EMPTY;
         self.occ[i / 64] &= !(1 << (i % 64));
+    }
+
+    /// Sets cell `i` to `a` (an agent or [`EMPTY`]), leaving its occupancy bit.
+    #[inline]
+    pub(crate) fn set_cell(&mut self, i: usize, a: u32) {
+        self.cells[i] = a;
     }
 }
 

@@ -127,6 +127,16 @@ impl Changes {
         }
     }
 
+    /// Notes that agent `a` left the cell `off` behind it (after it moved by `off`).
+    #[inline]
+    pub(super) fn moved_back(&mut self, lat: &Lattice, a: u32, off: [i32; 3]) {
+        if self.on {
+            let p = lat.pos[a as usize];
+            let from = [p[0] - off[0], p[1] - off[1], p[2] - off[2]];
+            self.moved.push((a, from, lat.cells.code(from)));
+        }
+    }
+
     /// Notes that agent `a`'s state changed.
     #[inline]
     pub(super) fn state(&mut self, a: u32) {

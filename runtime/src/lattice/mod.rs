@@ -744,20 +744,50 @@ impl Lattice {
         }
     }
 
-    /// The moves of agents by one offset `off` between cells of the grid (`None` without
-    /// a grid), made a part at a time by [`Shift::part`], from any thread.
-    pub(crate) fn shift(&mut self, off: [i32; 3]) -> Option<Shift<'_>> {
+    /// The moves of agents by one offset `off`, one step of direction index `d`, between
+    /// cells of the grid (`None` without a grid), made in parts from any thread.
+    pub(crate) fn shift(&mut self, (off, d): ([i32; 3], usize)) -> Option<Shift<'_>> {
         let n = self.pos.len();
-        let (pos, code) = (self.pos.as_mut_ptr(), self.code.as_mut_ptr());
-        let cells = self.cells.grid_mut()?.shared();
+        let (pos, code, attach) = (
+            self.pos.as_mut_ptr(),
+            self.code.as_mut_ptr(),
+            self.attach.as_ptr(),
+        );
+        let g = self.cells.grid_mut()?;
+        g.ready_rim();
+        let step = g.step(d);
         Some(Shift {
-            cells,
+            cells: g.shared(),
             ahead: false,
             pos,
             code,
+            attach,
             n,
             off,
+            step,
         })
+    }
+
+    /// Undoes the moves of one step `off` (of direction index `d`) made by
+    /// [`Shift::in_place`] for the agents of `moved` (in any order): their targets are
+    /// emptied, then their cells filled again (the bits of occupancy were not changed).
+    pub(crate) fn unshift(&mut self, moved: &[&[u32]], (off, d): ([i32; 3], usize)) {
+        let Some(g) = self.cells.grid_mut() else {
+            return;
+        };
+        let step = g.step(d);
+        let mut cells = g.cells_mut();
+        for &a in moved.iter().flat_map(|m| m.iter()) {
+            cells.set_cell((self.code[a as usize] & !RIM) as usize, EMPTY);
+        }
+        for &a in moved.iter().flat_map(|m| m.iter()) {
+            let a = a as usize;
+            let back = ((self.code[a] & !RIM) as isize - step) as usize;
+            cells.set_cell(back, a as u32);
+            self.code[a] = cells.code_of(back);
+            let p = self.pos[a];
+            self.pos[a] = [p[0] - off[0], p[1] - off[1], p[2] - off[2]];
+        }
     }
 
     /// Moves agents `movers` (distinct, in any order) by one offset `off`, which is one
@@ -852,60 +882,106 @@ impl Lattice {
     }
 }
 
-/// Agents moving by one offset between cells of the grid ([`Lattice::shift`]), in parts
-/// that threads make at once: each mover's position and slot code, its old cell emptied
-/// and its new one filled.
+/// Agents moving one step between cells of the grid ([`Lattice::shift`]), in parts that
+/// threads make at once ([`Shift::in_place`], then [`Shift::bits`]), or all undone
+/// ([`Lattice::unshift`]).
 pub(crate) struct Shift<'a> {
     cells: crate::cells::SharedCells<'a>,
     /// Ask for the cells a dozen movers ahead.
     pub(crate) ahead: bool,
     pos: *mut [i32; 3],
     code: *mut u32,
+    attach: *const u8,
     n: usize,
     off: [i32; 3],
+    step: isize,
 }
 
-// SAFETY: written only through `Shift::part`, whose callers give each thread agents and
-// cells of its own.
+// SAFETY: written only through `Shift::in_place` and `Shift::bits`, whose callers give each
+// thread agents of its own; cells are atomics (see `SharedCells`).
 unsafe impl Sync for Shift<'_> {}
 unsafe impl Send for Shift<'_> {}
 
 impl Shift<'_> {
-    /// Moves each agent of `movers` (to the cell of the slot code in `targets` beside it)
-    /// by the offset.
+    /// Moves the agents of `movers`, in turn, one step each, as long as each stands on the
+    /// grid away from its rim, is not bonded, and finds its target empty now (empty at the
+    /// start of the step, or just left by an agent moving the same way); stops at the
+    /// first that does not. Returns how many moved, whether all did, and the first and
+    /// last cells they left or took. The occupancy bits are left for [`Shift::bits`].
     ///
     /// # Safety
-    /// Across all parts, the agents are distinct, each stands on a cell of the grid (its
-    /// code is not [`NO_SLOT`]), and the targets are distinct, empty before the moves and
-    /// none of them a mover's cell; no other thread reads the lattice meanwhile; no two
-    /// parts made at once write a word of occupancy bits but their `edges`.
-    /// `edges`: when `Some`, the only two words of occupancy bits other parts may write
-    /// too (else any may be).
-    pub(crate) unsafe fn part(
-        &self,
-        movers: &[u32],
-        targets: &[u32],
-        edges: Option<(usize, usize)>,
-    ) {
-        for (k, (&a, &to)) in movers.iter().zip(targets).enumerate() {
-            if let Some(&t) = targets.get(k + AHEAD).filter(|_| self.ahead) {
-                self.cells.prefetch_cell((t & !RIM) as usize);
-            }
+    /// Across all parts made at once, the agents are distinct; no other thread reads or
+    /// writes the lattice but through this `Shift`.
+    pub(crate) unsafe fn in_place(&self, movers: &[u32]) -> (usize, bool, (usize, usize)) {
+        let (mut lo, mut hi) = (usize::MAX, 0);
+        for (k, &a) in movers.iter().enumerate() {
             let a = a as usize;
             assert!(a < self.n, "an agent of the lattice");
-            // SAFETY: in bounds (checked); agent `a` and its cells belong to this part
-            // alone (the caller's promise).
+            // SAFETY: in bounds (checked); agent `a` belongs to this part alone (the
+            // caller's promise), and its target's cell only it may fill (one offset from
+            // distinct cells); cells are atomics.
             unsafe {
+                if let Some(&b) = movers.get(k + AHEAD).filter(|_| self.ahead) {
+                    let c = *self.code.add((b as usize).min(self.n - 1));
+                    self.cells.prefetch_cell((c & !RIM) as usize);
+                }
                 let code = &mut *self.code.add(a);
+                let c = *code;
+                if c >= RIM || *self.attach.add(a) != 0 {
+                    return (k, false, (lo, hi));
+                }
+                let (from, to) = (c as usize, Grid::along(c, self.step));
+                if !self.cells.take(a as u32, from, to) {
+                    return (k, false, (lo, hi));
+                }
+                *code = self.cells.code_of_slot(to);
                 let pos = &mut *self.pos.add(a);
-                let cells = ((*code & !RIM) as usize, (to & !RIM) as usize);
-                self.cells.moved(a as u32, cells, edges);
-                *code = to;
                 *pos = [
                     pos[0] + self.off[0],
                     pos[1] + self.off[1],
                     pos[2] + self.off[2],
                 ];
+                (lo, hi) = (lo.min(from.min(to)), hi.max(from.max(to)));
+            }
+        }
+        (movers.len(), true, (lo, hi))
+    }
+
+    /// Whether the cells of `agents` lie scattered over the grid (agents listed in no
+    /// spatial order), judged on the first 65 of them: then loops over them ask for the
+    /// cells ahead (see `cells::prefetch`); in order, the processor finds them by itself.
+    ///
+    /// # Safety
+    /// No thread writes the codes meanwhile.
+    pub(crate) unsafe fn scattered(&self, agents: &[usize]) -> bool {
+        let first = &agents[..agents.len().min(65)];
+        // SAFETY: only reads, in bounds (clamped), with no writer (the caller's promise).
+        let code = |a: usize| unsafe { *self.code.add(a.min(self.n - 1)) };
+        let jumps = (first.windows(2))
+            .filter(|w| code(w[0]).abs_diff(code(w[1])) > 4096)
+            .count();
+        jumps > first.len() / 4
+    }
+
+    /// The occupancy bits of the moves [`Shift::in_place`] made for `movers`; `edges`: when
+    /// `Some`, the only two words of bits other parts may write too (else any may be).
+    ///
+    /// # Safety
+    /// As for [`Shift::in_place`], every mover moved; no two parts made at once write a
+    /// word of bits but their `edges`.
+    pub(crate) unsafe fn bits(&self, movers: &[u32], edges: Option<(usize, usize)>) {
+        for (k, &a) in movers.iter().enumerate() {
+            assert!((a as usize) < self.n, "an agent of the lattice");
+            // SAFETY: in bounds (checked); the words are this part's but the edges (the
+            // caller's promise).
+            unsafe {
+                if let Some(&b) = movers.get(k + AHEAD).filter(|_| self.ahead) {
+                    let c = *self.code.add((b as usize).min(self.n - 1));
+                    self.cells.prefetch_cell((c & !RIM) as usize);
+                }
+                let to = (*self.code.add(a as usize) & !RIM) as usize;
+                let from = (to as isize - self.step) as usize;
+                self.cells.moved_bits((from, to), edges);
             }
         }
     }

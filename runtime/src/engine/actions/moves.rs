@@ -66,7 +66,6 @@ fn scattered(lat: &Lattice, movers: &[u32]) -> bool {
 #[derive(Default)]
 pub(super) struct FusedPart {
     movers: Vec<u32>,
-    to: Vec<u32>,
     /// The first and last cells its movers leave or take.
     span: (usize, usize),
 }
@@ -90,43 +89,6 @@ impl FusedPart {
             m += mover[(one[a] as usize).min(last)] as usize;
         }
         movers.truncate(m);
-    }
-
-    /// Finds the movers among `agents` ([`FusedPart::collect`]) and their targets one
-    /// `step` away in grid `g`; false when one of them is not on the grid away from its
-    /// rim, is bonded, or has a target that is not empty.
-    #[inline]
-    fn find(
-        &mut self,
-        agents: impl ExactSizeIterator<Item = usize>,
-        (one, mover): (&[u32], &[bool]),
-        (lat, g, step): (&Lattice, &crate::cells::Grid, isize),
-    ) -> bool {
-        self.collect(agents, (one, mover));
-        let (movers, to) = (&self.movers, &mut self.to);
-        let m = movers.len();
-        to.clear();
-        to.reserve(m);
-        let mut ok = true;
-        let (mut lo, mut hi) = (usize::MAX, 0);
-        let ahead = scattered(lat, movers);
-        for (k, &a) in movers.iter().enumerate() {
-            if let Some(&b) = movers.get(k + crate::cells::AHEAD).filter(|_| ahead) {
-                g.prefetch_filled(crate::cells::Grid::along(lat.code_of(b) & !RIM, step));
-            }
-            let c = lat.code_of(a);
-            if c >= RIM {
-                return false;
-            }
-            let slot = crate::cells::Grid::along(c, step);
-            ok &= lat.attach[a as usize] == 0;
-            ok &= !g.filled(slot);
-            to.push(g.code_of_slot(slot));
-            lo = lo.min(slot.min(c as usize));
-            hi = hi.max(slot.max(c as usize));
-        }
-        self.span = (lo, hi);
-        ok
     }
 }
 
@@ -154,9 +116,6 @@ impl Act<'_> {
             Some(g) => g.ready_rim(),
             None => return false,
         }
-        let lat = &*self.lat;
-        let g = lat.cells.grid().expect("a grid");
-        let step = g.step(d);
         let (one, mover) = (&sel.one[..], &self.plan.plain_mask[..]);
         let th = self.threads;
         let len = if sel.listed {
@@ -189,35 +148,50 @@ impl Act<'_> {
             self.bufs.fused.push(part);
             return done;
         }
+        let Some((pool, _)) = par else {
+            unreachable!("one thread went above")
+        };
+        // On the pool: each block of chunks finds its movers and moves them in place,
+        // each checked as it goes (as on one thread; a target seen empty was empty at the
+        // start or left by an agent moving the same way), the occupancy bits in a second
+        // pass; when one of them cannot move, every move is undone.
         let mut parts = std::mem::take(&mut self.bufs.fused);
         parts.resize_with(chunks, FusedPart::default);
         let list = &sel.list;
-        let find = |(c, part): (usize, &mut FusedPart)| {
+        let mut shift = self.lat.shift((off, d)).expect("a grid");
+        // Scattered movers are asked for ahead (judged on the first chunk's agents).
+        shift.ahead = {
+            let first: Vec<usize> = match sel.listed {
+                true => list.iter().take(65).map(|&a| a as usize).collect(),
+                false => (0..len.min(65)).collect(),
+            };
+            // SAFETY: only codes are read, and no thread moves yet.
+            unsafe { shift.scattered(&first) }
+        };
+        let moves = |(c, part): (usize, &mut FusedPart)| {
             let (lo, hi) = (c * size, ((c + 1) * size).min(len));
-            let view = (lat, g, step);
             if sel.listed {
-                part.find(list[lo..hi].iter().map(|&a| a as usize), (one, mover), view)
+                part.collect(list[lo..hi].iter().map(|&a| a as usize), (one, mover));
             } else {
-                part.find(lo..hi, (one, mover), view)
+                part.collect(lo..hi, (one, mover));
             }
+            // SAFETY: every chunk's movers are its own agents (each agent in one chunk),
+            // and no other thread uses the lattice but through `shift`.
+            let (k, all, span) = unsafe { shift.in_place(&part.movers) };
+            part.span = span;
+            (k, all)
         };
-        let found: Vec<bool> = match par {
-            Some((pool, _)) => pool.map(parts.iter_mut().enumerate().collect(), find),
-            None => parts.iter_mut().enumerate().map(find).collect(),
-        };
-        if found.contains(&false) {
+        let made: Vec<(usize, bool)> = pool.map(parts.iter_mut().enumerate().collect(), moves);
+        if made.iter().any(|m| !m.1) {
+            drop(shift);
+            let undo: Vec<&[u32]> = (parts.iter().zip(&made))
+                .map(|(p, m)| &p.movers[..m.0])
+                .collect();
+            self.lat.unshift(&undo, (off, d));
             self.bufs.fused = parts;
             self.bufs.fused_pause = 16;
             return false;
         }
-        if self.bufs.changes.on {
-            for p in &parts {
-                for &a in &p.movers {
-                    self.bufs.changes.moved(self.lat, a);
-                }
-            }
-        }
-        let moved: usize = parts.iter().map(|p| p.movers.len()).sum();
         // Where the chunks' movers keep to ranges of cells that overlap at most in one
         // word of occupancy bits with the next (agents listed in spatial order), only the
         // first and last words of each range are written atomically; else all are.
@@ -227,20 +201,19 @@ impl Act<'_> {
             .collect();
         spans.sort_unstable();
         let apart = spans.windows(2).all(|w| w[0].1 <= w[1].0);
-        let ahead = parts.iter().any(|p| scattered(self.lat, &p.movers));
-        let mut shift = self.lat.shift(off).expect("a grid");
-        shift.ahead = ahead;
         let edges = |p: &FusedPart| apart.then_some((p.span.0 / 64, p.span.1 / 64));
-        // SAFETY: the movers are distinct agents (each found once, in one chunk) on cells
-        // of the grid; their targets are distinct (one step from distinct cells) and empty
-        // before the moves (so none is a mover's cell); nothing else reads the lattice;
-        // the words of bits two chunks may share are written atomically.
-        let work = |p: &FusedPart| unsafe { shift.part(&p.movers, &p.to, edges(p)) };
-        match par {
-            Some((pool, _)) => {
-                pool.map(parts.iter().collect(), work);
+        // SAFETY: every mover moved; the words of bits two chunks may share are written
+        // atomically.
+        let bits = |p: &FusedPart| unsafe { shift.bits(&p.movers, edges(p)) };
+        pool.map(parts.iter().collect(), bits);
+        drop(shift);
+        let moved: usize = parts.iter().map(|p| p.movers.len()).sum();
+        if self.bufs.changes.on {
+            for p in &parts {
+                for &a in &p.movers {
+                    self.bufs.changes.moved_back(self.lat, a, off);
+                }
             }
-            None => parts.iter().for_each(work),
         }
         self.bufs.fused = parts;
         self.stats.moves += moved as u64;
