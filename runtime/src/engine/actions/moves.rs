@@ -183,7 +183,6 @@ impl Act<'_> {
         };
         let made: Vec<(usize, bool)> = pool.map(parts.iter_mut().enumerate().collect(), moves);
         if made.iter().any(|m| !m.1) {
-            drop(shift);
             let undo: Vec<&[u32]> = (parts.iter().zip(&made))
                 .map(|(p, m)| &p.movers[..m.0])
                 .collect();
@@ -206,7 +205,7 @@ impl Act<'_> {
         // atomically.
         let bits = |p: &FusedPart| unsafe { shift.bits(&p.movers, edges(p)) };
         pool.map(parts.iter().collect(), bits);
-        drop(shift);
+
         let moved: usize = parts.iter().map(|p| p.movers.len()).sum();
         if self.bufs.changes.on {
             for p in &parts {
