@@ -208,8 +208,8 @@ impl Grid {
 
 /// The grid's cells and occupancy bits, for moving agents from several threads at once
 /// ([`Grid::shared`]): cells are read and written atomically (each is written by one mover
-/// at most, but read by others), and the occupancy bits, which cells of different threads
-/// share by the word, atomically but where a caller knows a word is its own.
+/// at most, but read by others), and so are the occupancy bits, which cells of different
+/// threads share by the word.
 pub(crate) struct SharedCells<'a> {
     cells: *const std::sync::atomic::AtomicU32,
     occ: *const std::sync::atomic::AtomicU64,
@@ -218,16 +218,14 @@ pub(crate) struct SharedCells<'a> {
     _grid: std::marker::PhantomData<&'a mut Grid>,
 }
 
-// SAFETY: cells are only read and written atomically; occupancy words are written through
-// `SharedCells::moved_bits` plainly only from the one thread that owns them (the caller's
-// promise), atomically otherwise; the rim bits are only read.
+// SAFETY: cells and occupancy words are only read and written atomically; the rim bits
+// are only read.
 unsafe impl Sync for SharedCells<'_> {}
 unsafe impl Send for SharedCells<'_> {}
 
 impl SharedCells<'_> {
-    /// Moves agent `a` from cell `from` to cell `to` when `to` is empty now, and says
-    /// whether it did. The bits of occupancy are left as they were
-    /// ([`SharedCells::moved_bits`]).
+    /// Moves agent `a` from cell `from` to cell `to` when `to` is empty now (its bit of
+    /// occupancy too, atomically), and says whether it did.
     ///
     /// # Safety
     /// No other thread moves an agent from `from` or into `to` meanwhile.
@@ -242,6 +240,14 @@ impl SharedCells<'_> {
             }
             (*self.cells.add(from)).store(EMPTY, Relaxed);
             (*self.cells.add(to)).store(a, Relaxed);
+            let (wf, wt) = (from / 64, to / 64);
+            let (bf, bt) = (1u64 << (from % 64), 1u64 << (to % 64));
+            if wf == wt {
+                (*self.occ.add(wf)).fetch_xor(bf | bt, Relaxed);
+            } else {
+                (*self.occ.add(wf)).fetch_and(!bf, Relaxed);
+                (*self.occ.add(wt)).fetch_or(bt, Relaxed);
+            }
         }
         true
     }
@@ -253,39 +259,6 @@ impl SharedCells<'_> {
         // SAFETY: in bounds (checked); the rim bits are not written while shared.
         let word = unsafe { *self.rim.add(i / 64) };
         i as u32 | ((word >> (i % 64) & 1) as u32) << 31
-    }
-
-    /// The occupancy bits of a move from cell `from` to cell `to`. The words are written
-    /// atomically, but for `edges` `Some((first, last))`: then only those two are, the
-    /// others plainly.
-    ///
-    /// # Safety
-    /// With `edges`, no other thread writes a word of bits this one writes, but those two.
-    #[inline]
-    pub(crate) unsafe fn moved_bits(
-        &self,
-        (from, to): (usize, usize),
-        edges: Option<(usize, usize)>,
-    ) {
-        use std::sync::atomic::Ordering::Relaxed;
-        assert!(from < self.len && to < self.len, "cells of the grid");
-        let (wf, wt) = (from / 64, to / 64);
-        let (bf, bt) = (1u64 << (from % 64), 1u64 << (to % 64));
-        let atomic = |w: usize| edges.is_none_or(|e| w == e.0 || w == e.1);
-        // SAFETY: in bounds (checked); the words but the edges are this thread's alone
-        // (the caller's promise); `AtomicU64` has the layout of `u64`.
-        unsafe {
-            if !atomic(wf) && !atomic(wt) {
-                let occ = self.occ.cast::<u64>().cast_mut();
-                *occ.add(wf) &= !bf;
-                *occ.add(wt) |= bt;
-            } else if wf == wt {
-                (*self.occ.add(wf)).fetch_xor(bf | bt, Relaxed);
-            } else {
-                (*self.occ.add(wf)).fetch_and(!bf, Relaxed);
-                (*self.occ.add(wt)).fetch_or(bt, Relaxed);
-            }
-        }
     }
 
     /// Asks for cell `i` and its occupancy bit ahead of writing them (any `i`).
@@ -356,12 +329,6 @@ impl CellsMut<'_> {
     pub(crate) fn vacate(&mut self, i: usize) {
         self.cells[i] = EMPTY;
         self.occ[i / 64] &= !(1 << (i % 64));
-    }
-
-    /// Sets cell `i` to `a` (an agent or [`EMPTY`]), leaving its occupancy bit.
-    #[inline]
-    pub(crate) fn set_cell(&mut self, i: usize, a: u32) {
-        self.cells[i] = a;
     }
 }
 

@@ -770,7 +770,7 @@ impl Lattice {
 
     /// Undoes the moves of one step `off` (of direction index `d`) made by
     /// [`Shift::in_place`] for the agents of `moved` (in any order): their targets are
-    /// emptied, then their cells filled again (the bits of occupancy were not changed).
+    /// emptied, then their cells filled again.
     pub(crate) fn unshift(&mut self, moved: &[&[u32]], (off, d): ([i32; 3], usize)) {
         let Some(g) = self.cells.grid_mut() else {
             return;
@@ -778,12 +778,12 @@ impl Lattice {
         let step = g.step(d);
         let mut cells = g.cells_mut();
         for &a in moved.iter().flat_map(|m| m.iter()) {
-            cells.set_cell((self.code[a as usize] & !RIM) as usize, EMPTY);
+            cells.vacate((self.code[a as usize] & !RIM) as usize);
         }
         for &a in moved.iter().flat_map(|m| m.iter()) {
             let a = a as usize;
             let back = ((self.code[a] & !RIM) as isize - step) as usize;
-            cells.set_cell(back, a as u32);
+            cells.occupy(back, a as u32);
             self.code[a] = cells.code_of(back);
             let p = self.pos[a];
             self.pos[a] = [p[0] - off[0], p[1] - off[1], p[2] - off[2]];
@@ -883,8 +883,7 @@ impl Lattice {
 }
 
 /// Agents moving one step between cells of the grid ([`Lattice::shift`]), in parts that
-/// threads make at once ([`Shift::in_place`], then [`Shift::bits`]), or all undone
-/// ([`Lattice::unshift`]).
+/// threads make at once ([`Shift::in_place`]), or all undone ([`Lattice::unshift`]).
 pub(crate) struct Shift<'a> {
     cells: crate::cells::SharedCells<'a>,
     /// Ask for the cells a dozen movers ahead.
@@ -897,8 +896,8 @@ pub(crate) struct Shift<'a> {
     step: isize,
 }
 
-// SAFETY: written only through `Shift::in_place` and `Shift::bits`, whose callers give each
-// thread agents of its own; cells are atomics (see `SharedCells`).
+// SAFETY: written only through `Shift::in_place`, whose callers give each thread agents of
+// its own; cells and their bits are atomics (see `SharedCells`).
 unsafe impl Sync for Shift<'_> {}
 unsafe impl Send for Shift<'_> {}
 
@@ -906,14 +905,12 @@ impl Shift<'_> {
     /// Moves the agents of `movers`, in turn, one step each, as long as each stands on the
     /// grid away from its rim, is not bonded, and finds its target empty now (empty at the
     /// start of the step, or just left by an agent moving the same way); stops at the
-    /// first that does not. Returns how many moved, whether all did, and the first and
-    /// last cells they left or took. The occupancy bits are left for [`Shift::bits`].
+    /// first that does not. Returns how many moved, and whether all did.
     ///
     /// # Safety
     /// Across all parts made at once, the agents are distinct; no other thread reads or
     /// writes the lattice but through this `Shift`.
-    pub(crate) unsafe fn in_place(&self, movers: &[u32]) -> (usize, bool, (usize, usize)) {
-        let (mut lo, mut hi) = (usize::MAX, 0);
+    pub(crate) unsafe fn in_place(&self, movers: &[u32]) -> (usize, bool) {
         for (k, &a) in movers.iter().enumerate() {
             let a = a as usize;
             assert!(a < self.n, "an agent of the lattice");
@@ -928,11 +925,11 @@ impl Shift<'_> {
                 let code = &mut *self.code.add(a);
                 let c = *code;
                 if c >= RIM || *self.attach.add(a) != 0 {
-                    return (k, false, (lo, hi));
+                    return (k, false);
                 }
                 let (from, to) = (c as usize, Grid::along(c, self.step));
                 if !self.cells.take(a as u32, from, to) {
-                    return (k, false, (lo, hi));
+                    return (k, false);
                 }
                 *code = self.cells.code_of_slot(to);
                 let pos = &mut *self.pos.add(a);
@@ -941,10 +938,9 @@ impl Shift<'_> {
                     pos[1] + self.off[1],
                     pos[2] + self.off[2],
                 ];
-                (lo, hi) = (lo.min(from.min(to)), hi.max(from.max(to)));
             }
         }
-        (movers.len(), true, (lo, hi))
+        (movers.len(), true)
     }
 
     /// Whether the cells of `agents` lie scattered over the grid (agents listed in no
@@ -961,29 +957,6 @@ impl Shift<'_> {
             .filter(|w| code(w[0]).abs_diff(code(w[1])) > 4096)
             .count();
         jumps > first.len() / 4
-    }
-
-    /// The occupancy bits of the moves [`Shift::in_place`] made for `movers`; `edges`: when
-    /// `Some`, the only two words of bits other parts may write too (else any may be).
-    ///
-    /// # Safety
-    /// As for [`Shift::in_place`], every mover moved; no two parts made at once write a
-    /// word of bits but their `edges`.
-    pub(crate) unsafe fn bits(&self, movers: &[u32], edges: Option<(usize, usize)>) {
-        for (k, &a) in movers.iter().enumerate() {
-            assert!((a as usize) < self.n, "an agent of the lattice");
-            // SAFETY: in bounds (checked); the words are this part's but the edges (the
-            // caller's promise).
-            unsafe {
-                if let Some(&b) = movers.get(k + AHEAD).filter(|_| self.ahead) {
-                    let c = *self.code.add((b as usize).min(self.n - 1));
-                    self.cells.prefetch_cell((c & !RIM) as usize);
-                }
-                let to = (*self.code.add(a as usize) & !RIM) as usize;
-                let from = (to as isize - self.step) as usize;
-                self.cells.moved_bits((from, to), edges);
-            }
-        }
     }
 }
 

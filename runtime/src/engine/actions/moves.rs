@@ -66,8 +66,6 @@ fn scattered(lat: &Lattice, movers: &[u32]) -> bool {
 #[derive(Default)]
 pub(super) struct FusedPart {
     movers: Vec<u32>,
-    /// The first and last cells its movers leave or take.
-    span: (usize, usize),
 }
 
 impl FusedPart {
@@ -153,8 +151,8 @@ impl Act<'_> {
         };
         // On the pool: each block of chunks finds its movers and moves them in place,
         // each checked as it goes (as on one thread; a target seen empty was empty at the
-        // start or left by an agent moving the same way), the occupancy bits in a second
-        // pass; when one of them cannot move, every move is undone.
+        // start or left by an agent moving the same way); when one of them cannot move,
+        // every move is undone.
         let mut parts = std::mem::take(&mut self.bufs.fused);
         parts.resize_with(chunks, FusedPart::default);
         let list = &sel.list;
@@ -177,9 +175,7 @@ impl Act<'_> {
             }
             // SAFETY: every chunk's movers are its own agents (each agent in one chunk),
             // and no other thread uses the lattice but through `shift`.
-            let (k, all, span) = unsafe { shift.in_place(&part.movers) };
-            part.span = span;
-            (k, all)
+            unsafe { shift.in_place(&part.movers) }
         };
         let made: Vec<(usize, bool)> = pool.map(parts.iter_mut().enumerate().collect(), moves);
         if made.iter().any(|m| !m.1) {
@@ -191,21 +187,6 @@ impl Act<'_> {
             self.bufs.fused_pause = 16;
             return false;
         }
-        // Where the chunks' movers keep to ranges of cells that overlap at most in one
-        // word of occupancy bits with the next (agents listed in spatial order), only the
-        // first and last words of each range are written atomically; else all are.
-        let mut spans: Vec<(usize, usize)> = (parts.iter())
-            .filter(|p| !p.movers.is_empty())
-            .map(|p| (p.span.0 / 64, p.span.1 / 64))
-            .collect();
-        spans.sort_unstable();
-        let apart = spans.windows(2).all(|w| w[0].1 <= w[1].0);
-        let edges = |p: &FusedPart| apart.then_some((p.span.0 / 64, p.span.1 / 64));
-        // SAFETY: every mover moved; the words of bits two chunks may share are written
-        // atomically.
-        let bits = |p: &FusedPart| unsafe { shift.bits(&p.movers, edges(p)) };
-        pool.map(parts.iter().collect(), bits);
-
         let moved: usize = parts.iter().map(|p| p.movers.len()).sum();
         if self.bufs.changes.on {
             for p in &parts {
