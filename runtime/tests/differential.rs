@@ -1074,6 +1074,13 @@ fn skipping_cases() -> Vec<(String, String)> {
             "// steps 12\nwalk\n1\nSE0000 >C01 0000\nP1,0 C01 - C01 0001\n\nwest\n1\nSW0000 >C01 0000\nP-1,0 C01 - C01 0001\n\nnorth\n1\nSN0000 >C01 0000\nP0,1 C01 - C01 0001\n\nsouth\n1\nSS0000 >C01 0000\nP0,-1 C01 - C01 0001\n\nfar\n1\nSF0000 >C01 0000\nP9999,-7777 C01 - C01 0001\n\nsee\n1\nSREST0 N1***\nSSEEN0\n".into(),
             "0,0 SREST0\n1,0 SREST0\n0,1 SREST0\n1,1 SREST0\n2,0 SE0000 C01 9\n-1,1 SW0000 C01 9\n0,-1 SS0000 C01 9\n1,-3 SN0000 C01 9\n5,5 SF0000 C01 3\n10004,-7771 SREST0\n10003,-7774 SREST0\n".into(),
         ),
+        // Walkers passing over a row of resting agents, sending each step to the agent
+        // below them (after their move): messages delivered while agents move, to agents
+        // quiet before and after; one walker's messages fall off the row's end.
+        (
+            "// steps 14\nwalk\n1\nSWALK0 >C01 0000 N**0*\nP1,0 C01 - C01 0001 #S01 + C01 0000 #E02 + 0007 0000\n\nhear\n1\nSREST0 >#N01 0000\nC02 + C02 #N01\n\nnext\n1\nSWALK0 >#W02 0000\nC03 + C03 0001\n".into(),
+            "0,1 SWALK0 C01 9\n-3,1 SWALK0 C01 12\n0,0 SREST0\n1,0 SREST0\n2,0 SREST0\n3,0 SREST0\n4,0 SREST0\n6,0 SREST0\n".into(),
+        ),
         // A rule whose offset depends on a counter: its agents are evaluated every step.
         (
             format!("// steps 8\n{countdown}go\n1\nSWAIT0 FC01,0\nSDONE0\n\nmove\n1\nSM0000 >C00 0000\nP0,1 C00 - C00 0001\n"),

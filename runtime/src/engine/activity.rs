@@ -349,20 +349,22 @@ impl Activity {
 
     /// Before a delivery: the recipients of this step's messages (`sent(a)`: the
     /// directions agent `a` sends in, for the senders among `senders`) are woken, and so
-    /// are those of the last delivery (their inboxes are emptied now).
+    /// are those of the last delivery (their inboxes are emptied now). Returns whether the
+    /// recipients of the last delivery are known ([`Activity::emptied`]): no other agent
+    /// has anything in its inbox.
     pub(super) fn before_delivery(
         &mut self,
         lat: &Lattice,
         senders: Option<&[u32]>,
         sent: impl Fn(usize) -> u8,
-    ) {
+    ) -> bool {
         let prev = self.recipients.take();
         if self.next.all {
-            return;
+            return false;
         }
         let Some(senders) = senders else {
             self.next.all = true;
-            return;
+            return false;
         };
         let mut found = std::mem::take(&mut self.found);
         found.clear();
@@ -381,6 +383,7 @@ impl Activity {
                 }
             }
         }
+        let known = prev.is_some();
         match prev {
             Some(prev) => {
                 for &a in &prev {
@@ -392,5 +395,12 @@ impl Activity {
             None => self.next.all = true,
         }
         self.recipients = Some(found);
+        known
+    }
+
+    /// After [`Activity::before_delivery`] said they are known: the recipients of the last
+    /// delivery (possibly with repeats).
+    pub(super) fn emptied(&self) -> &[u32] {
+        &self.found
     }
 }

@@ -361,10 +361,23 @@ impl Engine {
 
     /// 3. (second half) The post office: the outboxes into the inboxes.
     fn deliver(&mut self, sel: &Selection, rep: &mut StepReport) {
+        let mut known = false;
         if self.post.sends() {
             let senders = sel.listed.then_some(&sel.list[..]);
             let post = &self.post;
-            (self.activity).before_delivery(&self.lat, senders, |a| post.sent_dirs(&self.lat, a));
+            known = (self.activity)
+                .before_delivery(&self.lat, senders, |a| post.sent_dirs(&self.lat, a));
+        }
+        // When every sender is listed and the last recipients are known, only their
+        // inboxes and the senders' outboxes are visited.
+        if known && sel.listed && !self.plan.defer && !self.opts.trace {
+            let senders = &sel.list[..];
+            (self.post).deliver_listed(
+                &mut self.lat,
+                (senders, self.activity.emptied()),
+                &mut self.stats,
+            );
+            return;
         }
         let (post, stats, lat) = (&mut self.post, &mut self.stats, &mut self.lat);
         let how = (self.plan.defer, self.opts.trace);

@@ -261,6 +261,76 @@ impl Post {
         stats.dropped += sent - delivered;
     }
 
+    /// [`Post::deliver`] when the agents that sent are among `senders` (in id order) and
+    /// every inbox that holds anything is among `emptied` (the last delivery's
+    /// recipients): those inboxes are emptied, then each sender's messages put into the
+    /// inbox of its neighbour in their direction, and the senders' outboxes cleared. The
+    /// same inboxes and counts as the delivery over all agents, in time that follows the
+    /// senders and recipients.
+    pub(super) fn deliver_listed(
+        &mut self,
+        lat: &mut Lattice,
+        (senders, emptied): (&[u32], &[u32]),
+        stats: &mut Stats,
+    ) {
+        let (nd, ns) = (lat.dim.dirs(), lat.slots as usize);
+        let texts = !self.out_text_bits.is_empty();
+        for &b in emptied {
+            let b = b as usize;
+            for col in lat.inbox_num.iter_mut() {
+                col[b] = 0;
+            }
+            if texts {
+                lat.inbox_text_has[b] = 0;
+            }
+        }
+        let (mut sent, mut delivered) = (0u64, 0u64);
+        for &a in senders {
+            let a = a as usize;
+            let (w, bit) = (a / 64, 1u64 << (a % 64));
+            let texts_of = if texts {
+                std::mem::take(&mut self.out_text_bits[a])
+            } else {
+                0
+            };
+            for d in 0..nd {
+                let from_text = texts_of & (1 << d) != 0;
+                let any_num = (0..ns).any(|s| self.out_has[d * ns + s][w] & bit != 0);
+                if !from_text && !any_num {
+                    continue;
+                }
+                let to = match lat.neighbour_cell(a as u32, d) {
+                    Cell::Agent(b) => Some(b as usize),
+                    _ => None,
+                };
+                let od = OPPOSITE[d];
+                for s in 0..ns {
+                    let col = d * ns + s;
+                    if self.out_has[col][w] & bit == 0 {
+                        continue;
+                    }
+                    self.out_has[col][w] &= !bit;
+                    sent += 1;
+                    if let Some(b) = to {
+                        lat.inbox_num[od * ns + s][b] = self.out_num[col][a];
+                        delivered += 1;
+                    }
+                }
+                if from_text {
+                    sent += 1;
+                    if let Some(b) = to {
+                        lat.inbox_text[b * nd + od] = self.out_text[a * nd + d];
+                        lat.inbox_text_has[b] |= 1 << od;
+                        delivered += 1;
+                    }
+                }
+            }
+        }
+        stats.sent += sent;
+        stats.delivered += delivered;
+        stats.dropped += sent - delivered;
+    }
+
     /// Delivery without copying: this step's outboxes become the lattice's pending
     /// messages (and the last step's pending columns the next outboxes). A message is
     /// delivered when its sender has a neighbour in the direction it was sent.
