@@ -1081,6 +1081,13 @@ fn skipping_cases() -> Vec<(String, String)> {
             "// steps 14\nwalk\n1\nSWALK0 >C01 0000 N**0*\nP1,0 C01 - C01 0001 #S01 + C01 0000 #E02 + 0007 0000\n\nhear\n1\nSREST0 >#N01 0000\nC02 + C02 #N01\n\nnext\n1\nSWALK0 >#W02 0000\nC03 + C03 0001\n".into(),
             "0,1 SWALK0 C01 9\n-3,1 SWALK0 C01 12\n0,0 SREST0\n1,0 SREST0\n2,0 SREST0\n3,0 SREST0\n4,0 SREST0\n6,0 SREST0\n".into(),
         ),
+        // External counters read while few agents calculate: one of an agent that
+        // calculated before in the same phase (its value at the phase's start), one of an
+        // agent at rest, one where nobody stands.
+        (
+            "// steps 8\ncnt\n1\nSCOUNT >C00 0000\nC00 - C00 0001 C01 + 1,0,C00 0000\n".into(),
+            "1,0 SCOUNT C00 3\n0,0 SCOUNT C00 5\n5,0 SCOUNT C00 4\n6,0 SREST0 C00 7\n9,9 SREST0\n".into(),
+        ),
         // A rule whose offset depends on a counter: its agents are evaluated every step.
         (
             format!("// steps 8\n{countdown}go\n1\nSWAIT0 FC01,0\nSDONE0\n\nmove\n1\nSM0000 >C00 0000\nP0,1 C00 - C00 0001\n"),

@@ -723,6 +723,31 @@ fn store_batch(
     }
 }
 
+/// The counters as they were at the start of the calculations, for external counters:
+/// every column copied, or, when only the agents of a list calculate (the others' counters
+/// do not change in the phase), the columns of those agents alone (in list order).
+pub(super) enum Snapshot {
+    None,
+    All(Vec<Vec<i16>>),
+    Listed(Vec<u32>, Vec<Vec<i16>>),
+}
+
+impl Snapshot {
+    /// Counter column `c` of agent `b` at the start of the phase (`now`: its value as it
+    /// is, for an agent the snapshot does not hold, which has not changed).
+    #[inline]
+    pub(super) fn counter(&self, c: usize, b: u32, now: impl Fn() -> i16) -> i16 {
+        match self {
+            Snapshot::All(cols) => cols[c][b as usize],
+            Snapshot::Listed(list, cols) => match list.binary_search(&b) {
+                Ok(k) => cols[c][k],
+                Err(_) => now(),
+            },
+            Snapshot::None => now(),
+        }
+    }
+}
+
 /// What the calculations of agent `a` (the `k`-th of its chunk) read and write: the
 /// lattice for positions and inboxes, and the chunk's own counters and outbox.
 pub(super) struct CalcCtx<'a, 'c, 'd> {
@@ -730,7 +755,7 @@ pub(super) struct CalcCtx<'a, 'c, 'd> {
     pub(super) a: usize,
     pub(super) k: usize,
     pub(super) ch: &'c mut CalcChunk<'d>,
-    pub(super) snapshot: &'a [Vec<i16>],
+    pub(super) snapshot: &'a Snapshot,
     pub(super) issues: Vec<(usize, CalcIssue)>,
 }
 
@@ -749,7 +774,10 @@ impl CalcEnv for CalcCtx<'_, '_, '_> {
         match self.lat.cell_at(self.lat.pos[self.a], [off[0], off[1], 0]) {
             Cell::Agent(b) => Some(match self.lat.counter_col[counter as usize] {
                 NO_COL => 0,
-                c => self.snapshot[c as usize][b as usize],
+                // (With a list, the phase is one chunk of all agents: `ch` holds them.)
+                c => (self.snapshot).counter(c as usize, b, || {
+                    self.ch.counters[c as usize][b as usize - self.ch.lo]
+                }),
             }),
             _ => None,
         }

@@ -30,16 +30,26 @@ impl Post {
         let nd = lat.dim.dirs();
         // External counters read the values at the start of this phase.
         let snapshot = if prog.externals.is_empty() {
-            Vec::new()
+            Snapshot::None
+        } else if sel.listed {
+            let cols = (lat.counters.iter())
+                .map(|col| sel.list.iter().map(|&a| col[a as usize]).collect())
+                .collect();
+            Snapshot::Listed(sel.list.clone(), cols)
         } else {
-            lat.counters.clone()
+            Snapshot::All(lat.counters.clone())
         };
         let mut counters = std::mem::take(&mut lat.counters);
         let mut out_num = std::mem::take(&mut self.out_num);
         let mut out_has = std::mem::take(&mut self.out_has);
         let mut out_text = std::mem::take(&mut self.out_text);
         let mut out_text_bits = std::mem::take(&mut self.out_text_bits);
-        let (par, size, chunks) = th.chunks(n);
+        // External counters of agents outside the list are read from the one chunk that
+        // then holds all agents.
+        let (par, size, chunks) = match snapshot {
+            Snapshot::Listed(..) => (None, n.max(1), 1),
+            _ => th.chunks(n),
+        };
         let cols = (
             &mut out_num[..],
             &mut out_has[..],
@@ -231,7 +241,7 @@ fn counter_events(
 fn run_alone(
     prog: &Program,
     lat: &Lattice,
-    (ch, k, snapshot): (&mut CalcChunk<'_>, usize, &[Vec<i16>]),
+    (ch, k, snapshot): (&mut CalcChunk<'_>, usize, &Snapshot),
     r: u32,
     trace: bool,
     (issues, events): (&mut Vec<(u32, u32, CalcIssue)>, &mut Vec<TraceEvent>),
