@@ -1068,6 +1068,26 @@ fn skipping_cases() -> Vec<(String, String)> {
             "// steps 10\nmove\n1\nSM0000 >C00 0000\nP1,0 A**+* C00 - C00 0001\n\nfull\n1\nSWAIT0 N***1\nSDONE0\n\nempty\n1\nSEMPT0 N***0\nSDONE0\n\nland\n1\nSC0000 N***1\nSDONE0\n".into(),
             "0,0 SM0000 A0010 C00 4\n1,0 SC0000 A0100\n3,1 SWAIT0\n4,1 SWAIT0\n5,1 SWAIT0\n0,1 SEMPT0\n1,1 SEMPT0\n3,-1\n".into(),
         ),
+        // Bonds changed by a few agents beside many resting ones (only the agents concerned
+        // are visited): a rigid pair whose carried agent also has a plain bond to one at
+        // rest (dropped as it moves on); a chain carried through an agent that holds a
+        // rigid bond without moving, to one with a plain bond to an agent at rest; the
+        // movers attaching with `1` to agents under them that have no rule; an agent
+        // detaching with `0` from one at rest; bonded resting agents that keep their bonds.
+        (
+            "// steps 6\nmove\n1\nSM0000 >C00 0000\nP1,0 A**+1 C00 - C00 0001\n\nhold\n1\nSH0000\nA**+*\n\ncut\n1\nSD0000 A1***\nA0*** SE0000\n\nsee\n1\nSR0000 A***1\nC01 + C01 0001\n\ntop\n1\nSR0000 A1***\nC02 + C02 0001\n".into(),
+            format!(
+                "0,0 SM0000 A0010 C00 3\n1,0 SC0000 A1100\n1,1 SR0000 A0001\n1,-1 SR0000\n2,-1 SR0000\n3,-1\n0,10 SM0000 A0010 C00 3\n1,10 SH0000 A0110\n2,10 SC0000 A1100\n2,11 SR0000 A0001\n10,5 SD0000 A1000\n10,6 SR0000 A0001\n{}",
+                (0..64)
+                    .map(|k| {
+                        let (x, y) = (20 + k % 4, k / 4);
+                        let a = ["A0010", "A0100"][(x % 2) as usize];
+                        let st = ["SR0000", "SQ0000"][(y % 3 == 0) as usize];
+                        format!("{x},{y} {st} {a}\n")
+                    })
+                    .collect::<String>()
+            ),
+        ),
         // Walkers leaving the box in every direction, one far, beside resting agents that
         // watch their paths.
         (

@@ -310,7 +310,6 @@ impl Act<'_> {
         (mut changed, mut lookups): (bool, bool),
         rep: &mut StepReport,
     ) -> bool {
-        let n = self.lat.len();
         let letters = todo
             .links
             .iter()
@@ -326,8 +325,7 @@ impl Act<'_> {
                 .any(|a| attach[a as usize] != 0)
         };
         if letters || (moves && bonded()) {
-            let dense = todo.dense(n);
-            self.detach_move_attach(&dense, rep);
+            self.detach_move_attach(&todo, rep);
         } else if moves {
             self.move_alone(&mut todo.moves, rep);
         }

@@ -254,6 +254,139 @@ impl MoveScratch {
     }
 }
 
+/// Whether a bond stays rigid through the moves, from the letters of its two ends: one
+/// says `+` and neither `0`.
+fn rigid_bond(la: AttachLetter, lb: AttachLetter) -> bool {
+    la != AttachLetter::Detach
+        && lb != AttachLetter::Detach
+        && (la == AttachLetter::Rigid || lb == AttachLetter::Rigid)
+}
+
+/// The agents the bonds and groups of a step concern, each with its index among them (in
+/// id order) and its intent: the agents with a move or attachment letters, the groups
+/// their rigid bonds carry, and the bonded partners of all of these (whose bonds to a
+/// mover break, or to an agent saying `0`). Any other agent's bonds are to agents that
+/// neither move nor change them, and stay. When these are many (or `all`), every agent.
+pub(super) struct Among {
+    /// The agents, in id order (empty when every agent is among them).
+    ids: Vec<u32>,
+    /// Every agent's index is its id.
+    every: usize,
+    index: FxHashMap<u32, u32>,
+    /// Per index, the intent.
+    intents: Vec<Intent>,
+}
+
+impl Among {
+    fn of(todo: &Actions, lat: &Lattice, all: bool) -> Among {
+        let n = lat.len();
+        let mut sparse: FxHashMap<u32, Intent> = FxHashMap::default();
+        for &(a, o) in &todo.moves {
+            sparse.entry(a).or_default().mv = Some(o);
+        }
+        for &a in &todo.blocked {
+            sparse.entry(a).or_default().mv_bad = true;
+        }
+        for &(a, letters, _) in &todo.links {
+            if letters.iter().any(|&l| l != AttachLetter::Keep) {
+                sparse.entry(a).or_default().letters = letters;
+            }
+        }
+        let every = || Among {
+            ids: Vec::new(),
+            every: n,
+            index: FxHashMap::default(),
+            intents: todo.dense(n),
+        };
+        if all || sparse.len() > n / 8 {
+            return every();
+        }
+        let intent = |a: u32| sparse.get(&a).copied().unwrap_or_default();
+        let nd = lat.dim.dirs();
+        let partners = |a: u32| {
+            let bits = lat.attach[a as usize];
+            (0..nd)
+                .filter(move |d| bits & (1 << d) != 0)
+                .filter_map(move |d| lat.neighbour(a, Dir::ALL[d]).map(|b| (d, b)))
+        };
+        // The movers' groups, through rigid bonds (a member need not have an intent: a
+        // partner's `+` holds it).
+        let mut members: rustc_hash::FxHashSet<u32> = (sparse.iter())
+            .filter(|(_, it)| it.mv.is_some() || it.mv_bad)
+            .map(|(&a, _)| a)
+            .collect();
+        let mut stack: Vec<u32> = members.iter().copied().collect();
+        while let Some(x) = stack.pop() {
+            for (d, b) in partners(x) {
+                let od = Dir::ALL[d].opposite().index();
+                if rigid_bond(intent(x).letters[d], intent(b).letters[od]) && members.insert(b) {
+                    stack.push(b);
+                }
+            }
+        }
+        // With the agents with intents, and the partners of all of these.
+        let mut found: rustc_hash::FxHashSet<u32> = sparse.keys().copied().collect();
+        found.extend(members.iter().copied());
+        for &a in sparse.keys().chain(&members) {
+            found.extend(partners(a).map(|(_, b)| b));
+        }
+        if found.len() > n / 4 {
+            return every();
+        }
+        let mut ids: Vec<u32> = found.into_iter().collect();
+        ids.sort_unstable();
+        let index = ids
+            .iter()
+            .enumerate()
+            .map(|(i, &a)| (a, i as u32))
+            .collect();
+        let intents = ids.iter().map(|&a| intent(a)).collect();
+        Among {
+            ids,
+            every: 0,
+            index,
+            intents,
+        }
+    }
+
+    fn len(&self) -> usize {
+        self.every.max(self.ids.len())
+    }
+
+    /// The agent of index `i`.
+    #[inline]
+    fn id(&self, i: usize) -> u32 {
+        if self.every > 0 {
+            i as u32
+        } else {
+            self.ids[i]
+        }
+    }
+
+    /// Agent `a`'s index, when it is among them.
+    #[inline]
+    fn local(&self, a: u32) -> Option<u32> {
+        if self.every > 0 {
+            Some(a)
+        } else {
+            self.index.get(&a).copied()
+        }
+    }
+
+    /// The intent of the agent of index `i`.
+    #[inline]
+    fn intent_at(&self, i: usize) -> &Intent {
+        &self.intents[i]
+    }
+
+    /// Agent `a`'s intent (none when it is not among them).
+    #[inline]
+    fn intent(&self, a: u32) -> Intent {
+        self.local(a)
+            .map_or_else(Intent::default, |i| self.intents[i as usize])
+    }
+}
+
 /// Per direction, an agent's partner before the moves.
 pub(super) type Partners = [Option<u32>; 6];
 
@@ -402,41 +535,45 @@ impl Act<'_> {
         self.lat.relocate(live);
     }
 
-    /// Steps 1 to 4: detach, decide, move rigid groups, attach.
-    pub(super) fn detach_move_attach(&mut self, intents: &[Intent], rep: &mut StepReport) {
-        let n = self.lat.len();
-        let nd = self.lat.dim.dirs();
-        let old_attach = self.lat.attach.clone();
-        // Partner before detaching, per agent and direction.
-        let partner = |lat: &Lattice, a: usize, d: usize| -> Option<u32> {
-            (old_attach[a] & (1 << d) != 0)
-                .then(|| lat.neighbour(a as u32, Dir::ALL[d]))
+    /// Steps 1 to 4: detach, decide, move rigid groups, attach, for the agents `among`
+    /// concerns (see [`Among`]); every other agent's bonds stay as they were, as those steps
+    /// over all agents would leave them.
+    pub(super) fn detach_move_attach(&mut self, todo: &Actions, rep: &mut StepReport) {
+        let all = self.opts.trace;
+        let among = Among::of(todo, self.lat, all);
+        let (m, nd) = (among.len(), self.lat.dim.dirs());
+        let old: Vec<u8> = (0..m)
+            .map(|i| self.lat.attach[among.id(i) as usize])
+            .collect();
+        // Partner before detaching, per agent (by its index among them) and direction.
+        let partner = |lat: &Lattice, i: usize, d: usize| -> Option<u32> {
+            (old[i] & (1 << d) != 0)
+                .then(|| lat.neighbour(among.id(i), Dir::ALL[d]))
                 .flatten()
         };
         // 1. Detach: keep rigid bonds only.
-        let mut rigid = vec![0u8; n];
-        for a in 0..n {
+        let mut rigid = vec![0u8; m];
+        for i in 0..m {
             for d in 0..nd {
-                let Some(b) = partner(self.lat, a, d) else {
+                let Some(b) = partner(self.lat, i, d) else {
                     continue;
                 };
                 let od = Dir::ALL[d].opposite().index();
-                let (la, lb) = (intents[a].letters[d], intents[b as usize].letters[od]);
-                if la != AttachLetter::Detach
-                    && lb != AttachLetter::Detach
-                    && (la == AttachLetter::Rigid || lb == AttachLetter::Rigid)
-                {
-                    rigid[a] |= 1 << d;
+                if rigid_bond(among.intent_at(i).letters[d], among.intent(b).letters[od]) {
+                    rigid[i] |= 1 << d;
                 }
             }
         }
-        // 3. Move: groups of rigid bonds.
-        let mut parent: Vec<u32> = (0..n as u32).collect();
-        for a in 0..n {
+        // 3. Move: groups of rigid bonds (a group's root: its first agent).
+        let mut parent: Vec<u32> = (0..m as u32).collect();
+        for i in 0..m {
             for d in 0..nd {
-                if rigid[a] & (1 << d) != 0 {
-                    if let Some(b) = partner(self.lat, a, d) {
-                        let (x, y) = (find(&mut parent, a as u32), find(&mut parent, b));
+                if rigid[i] & (1 << d) != 0 {
+                    if let Some(b) = partner(self.lat, i, d) {
+                        let j = among
+                            .local(b)
+                            .expect("both ends of a rigid bond are among them");
+                        let (x, y) = (find(&mut parent, i as u32), find(&mut parent, j));
                         if x != y {
                             parent[x.max(y) as usize] = x.min(y);
                         }
@@ -445,18 +582,18 @@ impl Act<'_> {
             }
         }
         let mut members: BTreeMap<u32, Vec<u32>> = BTreeMap::new();
-        let movers: Vec<usize> = (0..n)
-            .filter(|&a| intents[a].mv.is_some() || intents[a].mv_bad)
-            .collect();
-        for &a in &movers {
-            let root = find(&mut parent, a as u32);
-            members.entry(root).or_default();
+        for i in 0..m {
+            let it = among.intent_at(i);
+            if it.mv.is_some() || it.mv_bad {
+                let root = find(&mut parent, i as u32);
+                members.entry(root).or_default();
+            }
         }
         if !members.is_empty() {
-            for a in 0..n as u32 {
-                let root = find(&mut parent, a);
-                if let Some(m) = members.get_mut(&root) {
-                    m.push(a);
+            for i in 0..m as u32 {
+                let root = find(&mut parent, i);
+                if let Some(ms) = members.get_mut(&root) {
+                    ms.push(among.id(i as usize));
                 }
             }
         }
@@ -466,8 +603,8 @@ impl Act<'_> {
             let mut off: Option<[i32; 3]> = None;
             let mut bad = false;
             let mut differ = false;
-            for &m in ms {
-                let it = &intents[m as usize];
+            for &a in ms {
+                let it = among.intent(a);
                 bad |= it.mv_bad;
                 if let Some(o) = it.mv {
                     match off {
@@ -489,30 +626,33 @@ impl Act<'_> {
             }
         }
         self.cancel_blocked_groups(&mut group_off, &members, rep);
-        self.cancel_group_collisions(&mut group_off, &members, &mut parent, rep);
+        self.cancel_group_collisions(&mut group_off, &members, (&mut parent, &among), rep);
         let mut moves: Vec<(u32, [i32; 3])> = Vec::new();
         for (root, o) in &group_off {
-            for &m in &members[root] {
-                let p = self.lat.pos[m as usize];
-                moves.push((m, [p[0] + o[0], p[1] + o[1], p[2] + o[2]]));
+            for &a in &members[root] {
+                let p = self.lat.pos[a as usize];
+                moves.push((a, [p[0] + o[0], p[1] + o[1], p[2] + o[2]]));
             }
         }
         moves.sort_unstable();
         self.count_moves(&moves, rep);
-        let carried = moves.iter().filter(|m| intents[m.0 as usize].mv.is_none());
+        let carried = moves.iter().filter(|m| among.intent(m.0).mv.is_none());
         self.stats.carried += carried.count() as u64;
         // Partners for `*` must be read before the moves.
-        let mut keep_partner: Vec<[Option<u32>; 6]> = vec![[None; 6]; n];
-        for a in 0..n {
-            for d in 0..nd {
-                keep_partner[a][d] = partner(self.lat, a, d);
-            }
-        }
-        for &(m, _) in &moves {
-            self.bufs.changes.moved(self.lat, m);
+        let keep_partner: Vec<Partners> = (0..m)
+            .map(|i| {
+                let mut ps = [None; 6];
+                for (d, p) in ps.iter_mut().enumerate().take(nd) {
+                    *p = partner(self.lat, i, d);
+                }
+                ps
+            })
+            .collect();
+        for &(a, _) in &moves {
+            self.bufs.changes.moved(self.lat, a);
         }
         self.lat.relocate(&moves);
-        self.attach_after_moves(intents, (&old_attach, rigid, &keep_partner), rep);
+        self.attach_after_moves(&among, (&old, rigid, &keep_partner), rep);
     }
 
     /// Groups whose move would take an agent out of the universe stay, with a record.
@@ -552,7 +692,7 @@ impl Act<'_> {
         &mut self,
         group_off: &mut BTreeMap<u32, [i32; 3]>,
         members: &BTreeMap<u32, Vec<u32>>,
-        parent: &mut Vec<u32>,
+        (parent, among): (&mut Vec<u32>, &Among),
         rep: &mut StepReport,
     ) {
         // Cancel every group involved, until none is left.
@@ -567,7 +707,9 @@ impl Act<'_> {
                         .push(m);
                 }
             }
-            let moving = |a: u32, parent: &mut Vec<u32>| group_off.contains_key(&find(parent, a));
+            let moving = |a: u32, parent: &mut Vec<u32>| {
+                (among.local(a)).is_some_and(|i| group_off.contains_key(&find(parent, i)))
+            };
             // One record per cell where agents would meet, naming them all; every group
             // with an agent there stays.
             let mut events: Vec<([i32; 3], Vec<u32>, Vec<u32>)> = Vec::new();
@@ -587,7 +729,8 @@ impl Act<'_> {
             }
             for (cell, ms, involved) in events {
                 for &m in &ms {
-                    let root = find(parent, m);
+                    let i = among.local(m).expect("a mover is among them");
+                    let root = find(parent, i);
                     group_off.remove(&root);
                 }
                 let msg = collision_text(self.lat, cell, &ms, &involved);
@@ -597,92 +740,99 @@ impl Act<'_> {
     }
 
     /// Step 4: attach after the moves: rigid bonds stay; a bond forms where one side
-    /// decided to attach and neither side said 0. `old_attach`: the bonds before the step;
-    /// `keep_partner`: per agent and direction, its partner before the moves.
+    /// decided to attach and neither side said 0. For the agents `among` concerns, by
+    /// their index there: `old`, their bonds before the step; `keep_partner`, per
+    /// direction, their partner before the moves. An agent not among them keeps its bonds,
+    /// and gains those the others make with it.
     pub(super) fn attach_after_moves(
         &mut self,
-        intents: &[Intent],
-        (old_attach, rigid, keep_partner): (&[u8], Vec<u8>, &[Partners]),
+        among: &Among,
+        (old, rigid, keep_partner): (&[u8], Vec<u8>, &[Partners]),
         rep: &mut StepReport,
     ) {
-        let (n, nd) = (self.lat.len(), self.lat.dim.dirs());
-        // 4. Attach: rigid bonds stay; a bond forms where one side decided to attach and
-        // neither side said 0.
+        let nd = self.lat.dim.dirs();
         let mut new_attach = rigid;
-        for a in 0..n {
+        // Bonds made with agents not among them.
+        let mut outside: Vec<(u32, u8)> = Vec::new();
+        for i in 0..among.len() {
+            let a = among.id(i);
             for d in 0..nd {
-                if new_attach[a] & (1 << d) != 0 {
+                if new_attach[i] & (1 << d) != 0 {
                     continue;
                 }
-                let la = intents[a].letters[d];
+                let la = among.intent_at(i).letters[d];
                 // Only `1`, or `*`/`+` towards a former partner, can form a bond: look up
                 // the neighbour only then.
                 let wants = match la {
                     AttachLetter::Attach => true,
-                    AttachLetter::Keep | AttachLetter::Rigid => keep_partner[a][d].is_some(),
+                    AttachLetter::Keep | AttachLetter::Rigid => keep_partner[i][d].is_some(),
                     AttachLetter::Detach => false,
                 };
                 if !wants {
                     continue;
                 }
-                let Some(b) = self.lat.neighbour(a as u32, Dir::ALL[d]) else {
+                let Some(b) = self.lat.neighbour(a, Dir::ALL[d]) else {
                     continue;
                 };
-                if la != AttachLetter::Attach && keep_partner[a][d] != Some(b) {
+                if la != AttachLetter::Attach && keep_partner[i][d] != Some(b) {
                     continue;
                 }
                 let od = Dir::ALL[d].opposite().index();
-                let lb = intents[b as usize].letters[od];
+                let lb = among.intent(b).letters[od];
                 if lb == AttachLetter::Detach {
                     if la == AttachLetter::Attach {
                         let msg = format!(
                             "agent {a} wants to attach towards {} to agent {b}, which says 0; no bond",
                             Dir::ALL[d].letter()
                         );
-                        self.record(rep, RecordKind::AttachRefused, &[a as u32, b], msg);
+                        self.record(rep, RecordKind::AttachRefused, &[a, b], msg);
                     }
                     continue;
                 }
-                new_attach[a] |= 1 << d;
-                new_attach[b as usize] |= 1 << od;
+                new_attach[i] |= 1 << d;
+                match among.local(b) {
+                    Some(j) => new_attach[j as usize] |= 1 << od,
+                    None => outside.push((b, 1 << od)),
+                }
             }
         }
         if self.opts.trace {
-            for a in 0..n {
+            // (Traced, every agent is among them: the events come in agent order.)
+            for i in 0..among.len() {
+                let a = among.id(i);
                 for d in 0..nd {
-                    let was = old_attach[a] & (1 << d) != 0;
-                    let now = new_attach[a] & (1 << d) != 0;
-                    let b_now = self.lat.neighbour(a as u32, Dir::ALL[d]);
-                    let b_was = keep_partner[a][d];
+                    let was = old[i] & (1 << d) != 0;
+                    let now = new_attach[i] & (1 << d) != 0;
+                    let b_now = self.lat.neighbour(a, Dir::ALL[d]);
+                    let b_was = keep_partner[i][d];
                     if was && (!now || b_now != b_was) {
-                        if let Some(b) = b_was.filter(|&b| b > a as u32) {
+                        if let Some(b) = b_was.filter(|&b| b > a) {
                             rep.trace.push(TraceEvent::Bond {
-                                a: a as u32,
+                                a,
                                 b,
                                 formed: false,
                             });
                         }
                     }
                     if now && (!was || b_now != b_was) {
-                        if let Some(b) = b_now.filter(|&b| b > a as u32) {
-                            rep.trace.push(TraceEvent::Bond {
-                                a: a as u32,
-                                b,
-                                formed: true,
-                            });
+                        if let Some(b) = b_now.filter(|&b| b > a) {
+                            rep.trace.push(TraceEvent::Bond { a, b, formed: true });
                         }
                     }
                 }
             }
         }
-        if self.bufs.changes.on {
-            for (a, (old, new)) in old_attach.iter().zip(&new_attach).enumerate() {
-                if old != new {
-                    self.bufs.changes.bonds(a as u32);
-                }
+        for (i, (&o, &new)) in old.iter().zip(&new_attach).enumerate() {
+            let a = among.id(i);
+            if o != new {
+                self.bufs.changes.bonds(a);
             }
+            self.lat.attach[a as usize] = new;
         }
-        self.lat.attach = new_attach;
+        for (b, bit) in outside {
+            self.lat.attach[b as usize] |= bit;
+            self.bufs.changes.bonds(b);
+        }
     }
 
     /// Step 6: swaps. `no_swap` (in agent order) take part in none: a request towards one
