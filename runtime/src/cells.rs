@@ -30,6 +30,23 @@ pub(crate) const AHEAD: usize = 12;
 /// touch cells all over the grid; a loop that asks for the cells a few agents ahead waits
 /// on memory once for several agents instead of once for each (a step of a million
 /// agents listed at random took 40 % less time).
+/// Whether cells given by their slot codes (in the order a loop visits them, the first
+/// 65 of them) lie scattered over the grid: then the loop asks for the cells ahead
+/// ([`prefetch`]); in order, the processor finds them by itself and asking costs more
+/// than it saves.
+pub(crate) fn scattered(codes: impl Iterator<Item = u32>) -> bool {
+    let (mut jumps, mut count, mut last) = (0, 0, None);
+    for c in codes.take(65) {
+        let c = c & !RIM;
+        if last.is_some_and(|l: u32| l.abs_diff(c) > 4096) {
+            jumps += 1;
+        }
+        last = Some(c);
+        count += 1;
+    }
+    jumps > count / 4
+}
+
 #[inline(always)]
 pub(crate) fn prefetch<T>(p: *const T) {
     #[cfg(target_arch = "x86_64")]

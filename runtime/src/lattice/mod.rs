@@ -547,11 +547,17 @@ impl Lattice {
                 let step = g.step(d);
                 // Away from the grid's rim (the common case): one bit read per agent.
                 if codes.iter().fold(true, |ok, &s| ok & (s < RIM)) {
-                    for (j, (t, &s)) in out.iter_mut().zip(codes).enumerate() {
-                        if let Some(&ahead) = codes.get(j + AHEAD) {
-                            g.prefetch_filled(Grid::along(ahead, step));
+                    if crate::cells::scattered(codes.iter().copied()) {
+                        for (j, (t, &s)) in out.iter_mut().zip(codes).enumerate() {
+                            if let Some(&ahead) = codes.get(j + AHEAD) {
+                                g.prefetch_filled(Grid::along(ahead, step));
+                            }
+                            *t &= g.filled(Grid::along(s, step)) == want;
                         }
-                        *t &= g.filled(Grid::along(s, step)) == want;
+                    } else {
+                        for (t, &s) in out.iter_mut().zip(codes) {
+                            *t &= g.filled(Grid::along(s, step)) == want;
+                        }
                     }
                     return;
                 }
@@ -578,8 +584,9 @@ impl Lattice {
         match self.cells.grid() {
             Some(g) if !self.nbr_valid => {
                 let step = g.step(d);
+                let ahead = crate::cells::scattered(ids.iter().map(|&a| self.code[a as usize]));
                 for (j, (t, &a)) in out.iter_mut().zip(ids).enumerate() {
-                    if let Some(&ahead) = ids.get(j + AHEAD) {
+                    if let Some(&ahead) = ids.get(j + AHEAD).filter(|_| ahead) {
                         let s = self.code[ahead as usize];
                         if s < RIM {
                             g.prefetch_filled(Grid::along(s, step));
@@ -950,13 +957,9 @@ impl Shift<'_> {
     /// # Safety
     /// No thread writes the codes meanwhile.
     pub(crate) unsafe fn scattered(&self, agents: &[usize]) -> bool {
-        let first = &agents[..agents.len().min(65)];
         // SAFETY: only reads, in bounds (clamped), with no writer (the caller's promise).
         let code = |a: usize| unsafe { *self.code.add(a.min(self.n - 1)) };
-        let jumps = (first.windows(2))
-            .filter(|w| code(w[0]).abs_diff(code(w[1])) > 4096)
-            .count();
-        jumps > first.len() / 4
+        crate::cells::scattered(agents.iter().map(|&a| code(a)))
     }
 }
 

@@ -49,16 +49,9 @@ pub(super) fn move_free(
     free
 }
 
-/// Whether the cells of `movers` lie scattered over the grid (agents listed in no
-/// spatial order), judged on the first of them: then loops over them ask for the cells
-/// ahead (see `cells::prefetch`); in order, the processor finds them by itself and asking
-/// costs more than it saves.
+/// Whether the cells of `movers` lie scattered over the grid (see `cells::scattered`).
 fn scattered(lat: &Lattice, movers: &[u32]) -> bool {
-    let first = &movers[..movers.len().min(65)];
-    let jumps = (first.windows(2))
-        .filter(|w| lat.code_of(w[0]).abs_diff(lat.code_of(w[1])) > 4096)
-        .count();
-    jumps > first.len() / 4
+    crate::cells::scattered(movers.iter().map(|&a| lat.code_of(a)))
 }
 
 /// One chunk's part of [`Act::plain_moves_at_once`]: its movers and their targets' slot
