@@ -344,3 +344,32 @@ fn ctrl_c_writes_a_checkpoint_that_resumes() {
     );
     assert_eq!(std::fs::read(&s1).unwrap(), std::fs::read(&s2).unwrap());
 }
+
+/// A checkpoint written while quiet agents are skipped (walkers passing over resting
+/// agents that hear them, most agents quiet at every step) resumes to the end of the run
+/// without a stop, with skipping and without.
+#[test]
+fn a_checkpoint_of_a_skipping_run_resumes_to_the_same_end() {
+    let d = dir("skipping");
+    let rules = d.join("rules.txt");
+    std::fs::write(
+        &rules,
+        "walk\n1\nSWALK0 >C01 0000 N**0*\nP1,0 C01 - C01 0001 #S01 + C01 0000\n\n\
+         hear\n1\nSREST0 >#N01 0000\nC02 + C02 #N01 SHEARD\n",
+    )
+    .unwrap();
+    let agents = d.join("agents.txt");
+    let mut text = String::new();
+    for x in 0..40 {
+        for y in 0..10 {
+            text += &format!("{x},{y} SREST0\n");
+        }
+    }
+    for i in 0..5 {
+        text += &format!("{},10 SWALK0 C01 {}\n", -3 * i, 20 + i);
+    }
+    std::fs::write(&agents, text).unwrap();
+    for extra in [&[][..], &["--no-skip"][..], &["--threads", "2"][..]] {
+        same_as_straight(&rules, &agents, 30, &[1, 7, 16, 24], extra);
+    }
+}
