@@ -6,11 +6,14 @@
 //! reader of `latticesim_compiler::fast_agents` first; when it (or the lattice's check of
 //! cells and bonds, or the rules checked against the file's head) says no, the whole pair
 //! is read and checked by `latticesim_compiler::check`, whose diagnostics are the project's
-//! one source of truth.
+//! one source of truth. The warnings that follow from the states agents start in (W503,
+//! W603) are found on the fast path from the states read, with the checker's own code
+//! (`states_warnings_of`); the first agent of each idle state is quoted from its line, read
+//! again, and the file is held as its head and those lines (`Sources::excerpt`).
 
 use crate::output::say;
 use latticesim_compiler::fast_agents::{check_with_head, read_head, read_lines, Head};
-use latticesim_compiler::{check, Checked, Columns, Input};
+use latticesim_compiler::{check, Checked, Columns, Input, StartState};
 use latticesim_runtime::{Defect, Lattice};
 use std::fs::File;
 use std::io::{self, BufReader, BufWriter, Read, Write};
@@ -322,7 +325,7 @@ fn too_large(
         )
     };
     let (checked, note) = match declined {
-        Declined::Head | Declined::Line(_) | Declined::Idle => {
+        Declined::Head | Declined::Line(_) => {
             let at = match declined {
                 Declined::Line(at) => at,
                 _ => 0,
@@ -343,7 +346,9 @@ fn too_large(
                 Defect::SharedCell { first, second, .. } => vec![first, second],
                 Defect::OneSidedBond { agent, .. } => vec![agent],
             };
-            let lines = agent_lines(open, &agents)?;
+            let lines: Vec<u64> = (agent_lines(open, &agents)?.into_iter())
+                .map(|l| l.number)
+                .collect();
             let at = |k: usize| format!("{agents_name}:{}", lines[k]);
             let what = match d {
                 Defect::SharedCell {
@@ -386,11 +391,23 @@ fn head_end(bytes: &[u8]) -> usize {
     read_head(bytes).map_or(bytes.len(), |h| h.end)
 }
 
-/// The 1-based line numbers of the agents with these ids (ids count the agent lines: not
-/// blank, not a comment, not the `U` line), in the order given.
-fn agent_lines(open: Source<'_>, ids: &[u32]) -> io::Result<Vec<u64>> {
+/// An agent's line, found in its file.
+#[derive(Default, Clone)]
+struct AgentLine {
+    /// 1-based.
+    number: u64,
+    /// Where it starts (in the decompressed text).
+    at: u64,
+    /// With its line end.
+    text: Vec<u8>,
+}
+
+/// The lines of the agents with these ids (ids count the agent lines: not blank, not a
+/// comment, not the `U` line), in the order given; read until the last of them.
+fn agent_lines(open: Source<'_>, ids: &[u32]) -> io::Result<Vec<AgentLine>> {
     use std::io::BufRead;
-    let mut found = vec![0u64; ids.len()];
+    let mut found = vec![AgentLine::default(); ids.len()];
+    let mut at = 0u64;
     let mut r = io::BufReader::with_capacity(1 << 20, open.open()?);
     let (mut line, mut id) = (0u64, 0u32);
     let mut buf = Vec::new();
@@ -401,6 +418,8 @@ fn agent_lines(open: Source<'_>, ids: &[u32]) -> io::Result<Vec<u64>> {
             break;
         }
         line += 1;
+        let start = at;
+        at += buf.len() as u64;
         let text = buf.split(|&b| b == b'\n').next().unwrap_or(&[]);
         let text = match memchr::memmem::find(text, b"//") {
             Some(c) => &text[..c],
@@ -412,7 +431,11 @@ fn agent_lines(open: Source<'_>, ids: &[u32]) -> io::Result<Vec<u64>> {
         }
         for (k, &want) in ids.iter().enumerate() {
             if want == id {
-                found[k] = line;
+                found[k] = AgentLine {
+                    number: line,
+                    at: start,
+                    text: buf.clone(),
+                };
             }
         }
         id += 1;
@@ -524,23 +547,88 @@ enum Declined {
     Line(u64),
     /// Its agents, read, do not make a lattice as they are.
     Lattice(Defect),
-    /// Some agents start in a state no rule tests or sets (W603, said with its lines by
-    /// the checker).
-    Idle,
 }
 
-/// The distinct states of `states`, in order of first appearance.
-fn distinct(states: &[[u8; 5]]) -> Vec<[u8; 5]> {
-    let mut seen = std::collections::HashSet::new();
-    let mut out = Vec::new();
-    let mut last = None;
-    for s in states {
-        if last != Some(s) && seen.insert(*s) {
-            out.push(*s);
-        }
-        last = Some(s);
+/// The distinct states of `states`, in order of first appearance, with their first
+/// agent and how many agents are in each (no spans yet).
+fn distinct(states: &[[u8; 5]]) -> Vec<StartState> {
+    let mut index: std::collections::HashMap<[u8; 5], usize> = Default::default();
+    let mut out: Vec<StartState> = Vec::new();
+    let mut last: Option<([u8; 5], usize)> = None;
+    for (i, s) in states.iter().enumerate() {
+        let k = match last {
+            Some((l, k)) if l == *s => k,
+            _ => *index.entry(*s).or_insert_with(|| {
+                out.push(StartState {
+                    state: *s,
+                    first: i,
+                    span: latticesim_grammar::Span { start: 0, end: 0 },
+                    count: 0,
+                });
+                out.len() - 1
+            }),
+        };
+        out[k].count += 1;
+        last = Some((*s, k));
     }
     out
+}
+
+/// The spans of the first agents of the idle start states of `seen` (the others are not
+/// quoted), from their lines read again, and the agents file held as its head and those
+/// lines (see `Sources::excerpt`), in place of the head alone.
+fn quote_idle(
+    checked: &mut Checked,
+    (open, head, name, size): (Source<'_>, &[u8], &str, usize),
+    seen: &mut [StartState],
+) -> io::Result<()> {
+    let rules = checked.rules.as_ref().expect("a clean head has rules");
+    let states: Vec<[u8; 5]> = seen.iter().map(|s| s.state).collect();
+    let idle = latticesim_compiler::idle_states(rules, &states);
+    if idle.is_empty() {
+        return Ok(());
+    }
+    let quoted: Vec<usize> = (seen.iter().enumerate())
+        .filter(|(_, s)| idle.iter().any(|i| i.state == s.state))
+        .map(|(k, _)| k)
+        .collect();
+    let ids: Vec<u32> = quoted.iter().map(|&k| seen[k].first as u32).collect();
+    let lines = agent_lines(open, &ids)?;
+    let aid = latticesim_grammar::FileId(1);
+    for (&k, l) in quoted.iter().zip(&lines) {
+        let text = String::from_utf8_lossy(&l.text);
+        let (f, _) = latticesim_grammar::parse_agents(&text, aid);
+        if let Some(a) = f.agents.first() {
+            let span = latticesim_compiler::state_field(a);
+            seen[k].span = latticesim_grammar::Span {
+                start: span.start + l.at as u32,
+                end: span.end + l.at as u32,
+            };
+        }
+    }
+    let head_text = String::from_utf8_lossy(head).into_owned();
+    let mut parts: Vec<(usize, usize, String)> = vec![(0, 1, head_text)];
+    let mut later: Vec<&AgentLine> = lines
+        .iter()
+        .filter(|l| l.at as usize >= head.len())
+        .collect();
+    later.sort_by_key(|l| l.at);
+    later.dedup_by_key(|l| l.at);
+    for l in later {
+        parts.push((
+            l.at as usize,
+            l.number as usize,
+            String::from_utf8_lossy(&l.text).into_owned(),
+        ));
+    }
+    let mut sources = latticesim_compiler::Sources::new();
+    let rid = latticesim_grammar::FileId(0);
+    sources.add(checked.sources.name(rid), checked.sources.text(rid));
+    let parts: Vec<(usize, usize, &str)> =
+        parts.iter().map(|(a, n, t)| (*a, *n, t.as_str())).collect();
+    sources.excerpt(name, size, &parts);
+    checked.sources = sources;
+    Ok(())
 }
 
 /// The fast path: `Err` when the checker must read the file.
@@ -575,6 +663,7 @@ fn fast(
         return Ok(Err(Declined::Head));
     };
     let check_time = t.elapsed();
+    let head_bytes = w.bytes()[..head.end].to_vec();
     let mut cols = Columns::new();
     // Room for the agents the file's size suggests (from the lines of its first bytes), so
     // that the columns do not move as they grow.
@@ -597,6 +686,7 @@ fn fast(
             }
         }
         if w.eof {
+            base += upto as u64;
             break;
         }
         w.consume(upto);
@@ -613,18 +703,14 @@ fn fast(
         Ok(lat) => lat,
         Err(d) => return Ok(Err(Declined::Lattice(d))),
     };
-    let rules_checked = checked.rules.as_ref().expect("a clean head has rules");
-    let states = distinct(&lat.state);
-    if !latticesim_compiler::idle_states(rules_checked, &states).is_empty() {
-        return Ok(Err(Declined::Idle));
-    }
-    let rules_text = checked.sources.text(latticesim_grammar::FileId(0));
-    let more = latticesim_compiler::pattern_warnings(
-        rules_text,
-        latticesim_grammar::FileId(0),
-        head.dim,
-        &states,
-    );
+    let mut seen = distinct(&lat.state);
+    quote_idle(
+        &mut checked,
+        (open, &head_bytes, agents_name, base as usize),
+        &mut seen,
+    )?;
+    let more =
+        latticesim_compiler::states_warnings_of(&checked, latticesim_grammar::FileId(1), &seen);
     checked.diags.extend(more);
     latticesim_compiler::diagnostics::sort(&mut checked.diags);
     checked.agent_count = n;

@@ -2031,7 +2031,7 @@ fn render_colours_agents_by_a_counter() {
 }
 
 /// Agents that start in a state no rule accepts, reads or sets (a typo) get W603 in
-/// `check` and in `run` (whose fast reader hands such a file to the checker), on the first
+/// `check` and in `run` (whose fast reader finds them from the states it reads), on the first
 /// such agent's line, with the state meant; a run whose first step fires no rule, and a
 /// sweep without `--state`, say so.
 #[test]

@@ -13,15 +13,93 @@ use serde::Serialize;
 /// text every control character but tab and line ends is its Unicode picture (ESC `␛`, a
 /// lone CR `␍`), and C1 controls and bidirectional overrides are `�`, so quoting a file can
 /// never move the cursor, clear the screen or reorder what the terminal shows.
+///
+/// A file may be held in part: an excerpt of some of its lines ([`Sources::excerpt`]), for
+/// files too large to hold whose diagnostics quote a few lines. Spans stay offsets in the
+/// whole file, and excerpts show the lines' own numbers.
 #[derive(Default)]
 pub struct Sources {
     /// As shown.
-    files: SimpleFiles<String, String>,
+    files: Shown,
     /// As read.
     texts: Vec<String>,
     /// Per file: (offset as read just after a replaced character, bytes the shown text has
     /// gained up to there), in order.
     shifts: Vec<Vec<(u32, u32)>>,
+}
+
+/// A run of whole lines of a file held in part ([`Sources::excerpt`]).
+#[derive(Debug, Clone, Copy)]
+struct Piece {
+    /// Where it starts in the whole file, and in the excerpt.
+    at: usize,
+    at_excerpt: usize,
+    len: usize,
+    /// The 1-based number of its first line in the whole file, and the 0-based index of
+    /// that line in the excerpt.
+    line: usize,
+    line_excerpt: usize,
+}
+
+/// The files as shown, for `codespan-reporting`: lines are numbered as in the whole file
+/// for the files held in part.
+#[derive(Default)]
+struct Shown {
+    files: SimpleFiles<String, String>,
+    /// Per file held in part: its pieces.
+    pieces: Vec<Option<Vec<Piece>>>,
+}
+
+impl Shown {
+    fn add(&mut self, name: String, text: String, pieces: Option<Vec<Piece>>) -> usize {
+        self.pieces.push(pieces);
+        self.files.add(name, text)
+    }
+}
+
+impl<'a> Files<'a> for Shown {
+    type FileId = usize;
+    type Name = &'a str;
+    type Source = &'a str;
+
+    fn name(&'a self, id: usize) -> Result<&'a str, codespan_reporting::files::Error> {
+        Ok(self.files.get(id)?.name().as_str())
+    }
+
+    fn source(&'a self, id: usize) -> Result<&'a str, codespan_reporting::files::Error> {
+        Ok(self.files.get(id)?.source().as_str())
+    }
+
+    fn line_index(
+        &'a self,
+        id: usize,
+        byte: usize,
+    ) -> Result<usize, codespan_reporting::files::Error> {
+        self.files.line_index(id, byte)
+    }
+
+    fn line_number(
+        &'a self,
+        id: usize,
+        index: usize,
+    ) -> Result<usize, codespan_reporting::files::Error> {
+        let Some(Some(pieces)) = self.pieces.get(id) else {
+            return Ok(index + 1);
+        };
+        let k = pieces.partition_point(|p| p.line_excerpt <= index);
+        Ok(match k.checked_sub(1) {
+            Some(k) => pieces[k].line + (index - pieces[k].line_excerpt),
+            None => index + 1,
+        })
+    }
+
+    fn line_range(
+        &'a self,
+        id: usize,
+        index: usize,
+    ) -> Result<std::ops::Range<usize>, codespan_reporting::files::Error> {
+        self.files.line_range(id, index)
+    }
 }
 
 /// What a character is shown as in an excerpt, if not itself (`next` follows it).
@@ -91,11 +169,77 @@ impl Sources {
 
     /// Adds a file; its id is the number of files added before it.
     pub fn add(&mut self, name: impl Into<String>, text: impl Into<String>) -> FileId {
-        let text = text.into();
+        self.add_pieces(name.into(), text.into(), None)
+    }
+
+    fn add_pieces(&mut self, name: String, text: String, pieces: Option<Vec<Piece>>) -> FileId {
         let (show, shifts) = shown(&text);
         self.texts.push(text);
         self.shifts.push(shifts);
-        FileId(self.files.add(name.into(), show) as u32)
+        FileId(self.files.add(name, show, pieces) as u32)
+    }
+
+    /// Adds a file held in part: `parts` are (offset in the whole file, 1-based number of
+    /// its first line, whole lines of text), in order and apart; `len` is the whole file's
+    /// length. Diagnostics on it are given in offsets of the whole file, and may only point
+    /// into the parts.
+    pub fn excerpt(
+        &mut self,
+        name: impl Into<String>,
+        len: usize,
+        parts: &[(usize, usize, &str)],
+    ) -> FileId {
+        let mut text = String::new();
+        let mut pieces = Vec::new();
+        let mut lines = 0;
+        for &(at, line, t) in parts {
+            pieces.push(Piece {
+                at,
+                at_excerpt: text.len(),
+                len: t.len(),
+                line,
+                line_excerpt: lines,
+            });
+            text.push_str(t);
+            if !t.ends_with('\n') {
+                text.push('\n');
+            }
+            lines += t.matches('\n').count() + (!t.ends_with('\n')) as usize;
+        }
+        // The whole file's end, where a label past the parts lands.
+        pieces.push(Piece {
+            at: len,
+            at_excerpt: text.len(),
+            len: 0,
+            line: pieces.last().map_or(1, |p| p.line + lines),
+            line_excerpt: lines,
+        });
+        self.add_pieces(name.into(), text, Some(pieces))
+    }
+
+    /// The length of a file (of the whole file, for one held in part).
+    pub fn len(&self, id: FileId) -> usize {
+        match self.files.pieces.get(id.0 as usize) {
+            Some(Some(p)) => p.last().map_or(0, |p| p.at),
+            _ => self.text(id).len(),
+        }
+    }
+
+    /// Whether no file was added.
+    pub fn is_empty(&self) -> bool {
+        self.texts.is_empty()
+    }
+
+    /// Where an offset of a file held in part is in its excerpt (others: the offset).
+    fn in_excerpt(&self, id: FileId, byte: usize) -> usize {
+        let Some(Some(pieces)) = self.files.pieces.get(id.0 as usize) else {
+            return byte;
+        };
+        let k = pieces.partition_point(|p| p.at <= byte);
+        match k.checked_sub(1) {
+            Some(k) => pieces[k].at_excerpt + (byte - pieces[k].at).min(pieces[k].len),
+            None => 0,
+        }
     }
 
     /// The text of a file, as read.
@@ -106,6 +250,7 @@ impl Sources {
     /// The name of a file.
     pub fn name(&self, id: FileId) -> &str {
         self.files
+            .files
             .get(id.0 as usize)
             .map(|f| f.name().as_str())
             .unwrap_or("")
@@ -113,7 +258,7 @@ impl Sources {
 
     /// Where a byte offset of the text as read is in the text as shown.
     fn shown_offset(&self, id: FileId, byte: usize) -> usize {
-        let byte = byte.min(self.text(id).len());
+        let byte = self.in_excerpt(id, byte).min(self.text(id).len());
         let Some(shifts) = self.shifts.get(id.0 as usize) else {
             return byte;
         };
@@ -124,7 +269,9 @@ impl Sources {
     /// The 0-based line of a byte offset (a binary search; no column is counted).
     pub fn line_index(&self, id: FileId, byte: u32) -> usize {
         let byte = self.shown_offset(id, byte as usize);
-        self.files.line_index(id.0 as usize, byte).unwrap_or(0)
+        (self.files.line_index(id.0 as usize, byte))
+            .and_then(|i| self.files.line_number(id.0 as usize, i))
+            .map_or(0, |n| n - 1)
     }
 
     /// 1-based line and column (in characters) of a byte offset.
@@ -160,7 +307,7 @@ pub fn sort(diags: &mut Vec<Diagnostic>) {
 }
 
 fn clamp(l: &Label, sources: &Sources) -> std::ops::Range<usize> {
-    let len = sources.text(l.file).len();
+    let len = sources.len(l.file);
     let s = (l.span.start as usize).min(len);
     let e = (l.span.end as usize).clamp(s, len);
     s..e

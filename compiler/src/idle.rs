@@ -114,15 +114,26 @@ pub(crate) struct IdleDiagnostic {
     pub idle_state: [u8; 5],
 }
 
-/// W603 for every idle start state of the agents file `f` (file `file`), on its first
-/// agent's state field (or position, when it has none).
-pub(crate) fn diagnostics(
-    rules: &CheckedRules,
-    f: &AgentsFile<'_>,
-    file: FileId,
-) -> Vec<IdleDiagnostic> {
-    // Per state, in order of first appearance: the first agent, its span, how many.
-    let mut seen: Vec<([u8; 5], usize, Span, usize)> = Vec::new();
+/// A distinct start state of an agents file: its first agent (0-based, in file order),
+/// that agent's state field (from its `S`; its position when it has none), and how many
+/// agents start in it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StartState {
+    /// The state.
+    pub state: [u8; 5],
+    /// Its first agent.
+    pub first: usize,
+    /// That agent's state field.
+    pub span: Span,
+    /// How many agents start in it.
+    pub count: usize,
+}
+
+/// The distinct start states of the agents file `f`, in order of first appearance
+/// (`00000` for an agent without `S`; a state of other than five characters is an error
+/// said elsewhere, and left out).
+pub(crate) fn start_states(f: &AgentsFile<'_>) -> Vec<StartState> {
+    let mut seen: Vec<StartState> = Vec::new();
     for (i, a) in f.agents.iter().enumerate() {
         let state: [u8; 5] = match a.state {
             Some(s) => match s.node.as_bytes().try_into() {
@@ -131,25 +142,47 @@ pub(crate) fn diagnostics(
             },
             None => *b"00000",
         };
-        match seen.iter_mut().find(|e| e.0 == state) {
-            Some(e) => e.3 += 1,
-            None => {
-                let span = match a.state {
-                    Some(s) => Span {
-                        start: s.span.start - 1,
-                        end: s.span.end,
-                    },
-                    None => a.pos[0].span.to(a.pos[a.pos.len() - 1].span),
-                };
-                seen.push((state, i, span, 1));
-            }
+        match seen.iter_mut().find(|e| e.state == state) {
+            Some(e) => e.count += 1,
+            None => seen.push(StartState {
+                state,
+                first: i,
+                span: state_field(a),
+                count: 1,
+            }),
         }
     }
-    let states: Vec<[u8; 5]> = seen.iter().map(|e| e.0).collect();
+    seen
+}
+
+/// Where an agent's state is said: its `S` field, or its position when it has none.
+pub fn state_field(a: &latticesim_grammar::ast::AgentLine<'_>) -> Span {
+    match a.state {
+        Some(s) => Span {
+            start: s.span.start - 1,
+            end: s.span.end,
+        },
+        None => a.pos[0].span.to(a.pos[a.pos.len() - 1].span),
+    }
+}
+
+/// W603 for every idle start state of `seen` (the start states of the agents file
+/// `file`), on its first agent's state field.
+pub(crate) fn diagnostics(
+    rules: &CheckedRules,
+    seen: &[StartState],
+    file: FileId,
+) -> Vec<IdleDiagnostic> {
+    let states: Vec<[u8; 5]> = seen.iter().map(|e| e.state).collect();
     idle_states(rules, &states)
         .into_iter()
         .map(|idle| {
-            let &(st, first, span, count) = seen.iter().find(|e| e.0 == idle.state).expect("seen");
+            let &StartState {
+                state: st,
+                first,
+                span,
+                count,
+            } = seen.iter().find(|e| e.state == idle.state).expect("seen");
             let name = String::from_utf8_lossy(&st).into_owned();
             let who = if count == 1 {
                 "1 agent starts".to_string()

@@ -12,7 +12,7 @@ pub mod checked;
 mod contradict;
 mod idle;
 mod never;
-pub use idle::{idle_states, Idle};
+pub use idle::{idle_states, state_field, Idle, StartState};
 pub mod describe;
 pub mod diagnostics;
 pub mod dim;
@@ -199,12 +199,13 @@ fn states_warnings(
     ast: &RulesFile<'_>,
     rules: &CheckedRules,
     rid: FileId,
-    agents: &latticesim_grammar::ast::AgentsFile<'_>,
+    seen: &[StartState],
     aid: FileId,
 ) -> Vec<Diagnostic> {
-    let mut idle = idle::diagnostics(rules, agents, aid);
+    let mut idle = idle::diagnostics(rules, seen, aid);
     let mut out = Vec::new();
-    let never = never::never(ast, &never::start_states(agents));
+    let states: Vec<[u8; 5]> = seen.iter().map(|s| s.state).collect();
+    let never = never::never(ast, &states);
     let pats: Vec<_> = never
         .iter()
         .map(|n| never::pat(n.pattern.node).expect("a pattern of five characters"))
@@ -235,15 +236,23 @@ fn states_warnings(
     out
 }
 
-/// W503 for rules already checked clean, given the distinct states agents start in: for
-/// the fast reader of agents files, which checks the rules with the file's first part only.
-pub fn pattern_warnings(rules: &str, file: FileId, dim: Dim, start: &[[u8; 5]]) -> Vec<Diagnostic> {
+/// W503 and W603 for rules already checked clean (`checked`, with the rules file 0), given
+/// the distinct states agents of file `aid` start in: for the fast reader of agents files,
+/// which checks the rules with the file's first part only, and finds the start states as
+/// it reads. The same warnings as [`check`] gives on the whole file.
+pub fn states_warnings_of(checked: &Checked, aid: FileId, seen: &[StartState]) -> Vec<Diagnostic> {
+    let Some(rules) = checked.rules.as_ref() else {
+        return Vec::new();
+    };
     let arena = Bump::new();
-    let (ast, _) = parse_rules(rules, file, &arena, Some(dim.coords() as u8));
-    never::never(&ast, start)
-        .iter()
-        .map(|n| never::diagnostic(n, file, None))
-        .collect()
+    let text = checked.sources.text(FileId(0));
+    let (ast, _) = parse_rules(
+        text,
+        FileId(0),
+        &arena,
+        Some(checked.dim.dim.coords() as u8),
+    );
+    states_warnings(&ast, rules, FileId(0), seen, aid)
 }
 
 /// Checks a rules file and, if given, an agents file. `dim` is `--dim`.
@@ -292,7 +301,13 @@ pub fn check(rules: Input<'_>, agents: Option<Input<'_>>, dim: Option<Dim>) -> C
     });
     if let (Some(a), Some(id), Some(_)) = (&agents_ast, agents_id, &config) {
         if !diags.iter().any(|d| d.is_error()) {
-            diags.extend(states_warnings(&ast, &rules, rid, a, id));
+            diags.extend(states_warnings(
+                &ast,
+                &rules,
+                rid,
+                &idle::start_states(a),
+                id,
+            ));
         }
     }
     if !diags.iter().any(|d| d.is_error()) {

@@ -6,7 +6,7 @@
 //! An `S` action with `*` keeps those characters of the state before it, so it is taken to
 //! produce any character there: the warning is only given when no state can match.
 
-use latticesim_grammar::ast::{AgentsFile, RulesFile, Term};
+use latticesim_grammar::ast::{RulesFile, Term};
 use latticesim_grammar::{Code, Diagnostic, FileId, Fix, Label, Spanned};
 
 /// A state, or a state pattern: `None` for `*`.
@@ -39,25 +39,6 @@ pub(crate) fn distance(p: &Pat, s: &[u8; 5]) -> usize {
         }
     }
     d
-}
-
-/// The distinct start states of an agents file (`00000` for an agent without `S`).
-pub(crate) fn start_states(agents: &AgentsFile<'_>) -> Vec<[u8; 5]> {
-    let mut out: Vec<[u8; 5]> = Vec::new();
-    let mut seen = std::collections::HashSet::new();
-    for a in &agents.agents {
-        let s = match a.state {
-            Some(s) => match s.node.as_bytes().try_into() {
-                Ok(b) => b,
-                Err(_) => continue,
-            },
-            None => *b"00000",
-        };
-        if seen.insert(s) {
-            out.push(s);
-        }
-    }
-    out
 }
 
 /// The states that occur: start states and `S` actions (with their `*`s).

@@ -1,0 +1,198 @@
+//! The streaming reader of agents files (`agents_file::load`: the fast reader, warnings
+//! found as it reads, the checker only when it declines) against the checker alone
+//! (`compiler::check` on the whole pair): the same diagnostics, rendered and as JSON, the
+//! same counts and the same agents, on files with warnings (states no rule tests, agents
+//! without a state, comments, CRLF, a `U` line, 3D) and on mutated files; never a panic.
+
+use latticesim::agents_file::{load, Source};
+use latticesim_compiler::diagnostics::{not_shown_line, render_plain, to_json};
+use latticesim_compiler::{check, Checked, Input};
+use latticesim_runtime::Lattice;
+use proptest::prelude::*;
+
+const RULES: &[&str] = &[
+    // Walkers: the walls' state is tested by nothing (W603, near `WALK0`).
+    "walk\n1\nSWALK0 N**0* >C01 0000\nP1,0 C01 - C01 0001\n",
+    // A state tested far from every start state, and one set.
+    "a\n1\nSA0000 T1,0,B0000\nSB0000\n\nz\n1\nSZZZZ9\nSZZZZ8\n",
+    // Every state accepted (no W603).
+    "fall\n1\nN***0\nP0,-1\n",
+    // 3D.
+    "up\n1\nSUP000 U***0**\nP0,0,1\n",
+];
+
+/// Everything a user sees of a verdict: rendered diagnostics, the lines of what is not
+/// shown, JSON, counts.
+fn seen(c: &Checked) -> String {
+    let mut s = render_plain(&c.diags, &c.sources);
+    for n in &c.not_shown {
+        s += &not_shown_line(n, &c.sources);
+        s.push('\n');
+    }
+    s += &serde_json::to_string(&to_json(&c.diags, &c.sources)).unwrap();
+    s += &format!(
+        "\n{} rules, {} agents, {:?}",
+        c.rule_count, c.agent_count, c.dim
+    );
+    s
+}
+
+fn agents_of(l: &Lattice) -> Vec<([i32; 3], [u8; 5], u8)> {
+    (0..l.pos.len())
+        .map(|i| (l.pos[i], l.state[i], l.attach[i]))
+        .collect()
+}
+
+fn same(rules: &str, agents: &[u8]) -> Result<(), TestCaseError> {
+    let streamed = load(
+        ("rules.txt", rules.as_bytes()),
+        "agents.txt",
+        Source::Bytes(agents),
+        2,
+    )
+    .unwrap();
+    let whole = check(
+        Input {
+            name: "rules.txt",
+            bytes: rules.as_bytes(),
+        },
+        Some(Input {
+            name: "agents.txt",
+            bytes: agents,
+        }),
+        None,
+    );
+    prop_assert_eq!(seen(&streamed.checked), seen(&whole));
+    let whole_lat = whole.config.as_ref().map(Lattice::new);
+    prop_assert_eq!(
+        streamed.lattice.as_ref().map(agents_of),
+        whole_lat.as_ref().map(agents_of)
+    );
+    Ok(())
+}
+
+/// An agents file: walls, walkers, agents of other states, some without a state, bonds
+/// declared on both sides, comments, blank lines, CRLF, a `U` line, 2D or 3D.
+fn agents_file() -> impl Strategy<Value = Vec<u8>> {
+    (
+        prop::collection::vec((0..7usize, 0..3usize), 1..60),
+        any::<bool>(),
+        any::<bool>(),
+        any::<bool>(),
+        any::<bool>(),
+    )
+        .prop_map(|(agents, crlf, comments, universe, d3)| {
+            let states = [
+                "SWALL0",
+                "SWALK0 C01 3",
+                "",
+                "SA0000",
+                "SZZZZ9",
+                "SUP000",
+                "SINTI0",
+            ];
+            let end = if crlf { "\r\n" } else { "\n" };
+            let mut s = String::new();
+            if comments {
+                s += &format!("// a file{end}{end}");
+            }
+            if universe {
+                s += &format!("U{}{end}", if d3 { "40,40,40" } else { "40,40" });
+            }
+            for (k, &(st, extra)) in agents.iter().enumerate() {
+                let (x, y) = (k % 10, k / 10);
+                let pos = if d3 {
+                    format!("{x},{y},1")
+                } else {
+                    format!("{x},{y}")
+                };
+                let mut line = format!("{pos} {}", states[st]);
+                if extra == 1 && comments {
+                    line += " // note";
+                }
+                s += line.trim_end();
+                s += end;
+                if extra == 2 && comments {
+                    s += end;
+                }
+            }
+            s.into_bytes()
+        })
+}
+
+/// A file mutated: bytes changed, inserted or taken out.
+fn mutated() -> impl Strategy<Value = Vec<u8>> {
+    (
+        agents_file(),
+        prop::collection::vec((any::<prop::sample::Index>(), 0..3u8, any::<u8>()), 1..4),
+    )
+        .prop_map(|(mut f, edits)| {
+            for (at, kind, b) in edits {
+                if f.is_empty() {
+                    break;
+                }
+                let i = at.index(f.len());
+                let b = b" ,-SCAU0123456789\n\r/*\x01\xff"[b as usize % 23];
+                match kind {
+                    0 => f[i] = b,
+                    1 => f.insert(i, b),
+                    _ => {
+                        f.remove(i);
+                    }
+                }
+            }
+            f
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 400, ..ProptestConfig::default() })]
+
+    #[test]
+    fn the_streaming_reader_says_what_the_checker_says(r in 0..RULES.len(), a in agents_file()) {
+        same(RULES[r], &a)?;
+    }
+
+    #[test]
+    fn the_streaming_reader_says_what_the_checker_says_of_mutated_files(r in 0..RULES.len(), a in mutated()) {
+        same(RULES[r], &a)?;
+    }
+
+    #[test]
+    fn the_streaming_reader_never_panics_on_bytes(r in 0..RULES.len(), a in prop::collection::vec(any::<u8>(), 0..200)) {
+        same(RULES[r], &a)?;
+    }
+}
+
+/// A warning deep in a large file is quoted with its own line number, as the checker
+/// quotes it, though only the file's head and that line are held.
+#[test]
+fn a_warning_far_down_is_quoted_with_its_line() {
+    let mut a = String::from("// walls and walkers\n");
+    for x in 0..200 {
+        for y in 0..100 {
+            a += &format!("{x},{y} SWALK0 C01 1\n");
+        }
+    }
+    a += "500,500 SWALL0\r\n7,-3\n";
+    same(RULES[0], a.as_bytes()).unwrap();
+    let streamed = load(
+        ("rules.txt", RULES[0].as_bytes()),
+        "agents.txt",
+        Source::Bytes(a.as_bytes()),
+        2,
+    )
+    .unwrap();
+    let text = render_plain(&streamed.checked.diags, &streamed.checked.sources);
+    assert!(text.contains("agents.txt:20002:9"), "{text}");
+    assert!(text.contains("20003 │ 7,-3"), "{text}");
+    assert!(
+        streamed
+            .checked
+            .sources
+            .text(latticesim_grammar::FileId(1))
+            .len()
+            < 100,
+        "only the head and the quoted lines are held"
+    );
+}
