@@ -195,4 +195,19 @@ fn a_warning_far_down_is_quoted_with_its_line() {
             < 100,
         "only the head and the quoted lines are held"
     );
+    // The first agent in a state far from every pattern (its W603 is given alone, and
+    // the walkers' pattern is matched later in the file).
+    let b = format!("0,-5 SQQQQ0\n{a}");
+    same(RULES[0], b.as_bytes()).unwrap();
+    let streamed = load(
+        ("rules.txt", RULES[0].as_bytes()),
+        "agents.txt",
+        Source::Bytes(b.as_bytes()),
+        2,
+    )
+    .unwrap();
+    let text = render_plain(&streamed.checked.diags, &streamed.checked.sources);
+    assert!(text.contains("agents.txt:1:6"), "{text}");
+    let held = streamed.checked.sources.text(latticesim_grammar::FileId(1));
+    assert!(held.len() < 100, "read on the fast path: {text}");
 }

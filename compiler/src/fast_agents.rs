@@ -433,9 +433,11 @@ fn line(raw: &[u8], head: &Head, out: &mut Columns) -> bool {
 /// rest of the agents file has been read cleanly.
 pub fn check_with_head(rules: Input<'_>, head: Input<'_>) -> Option<Checked> {
     let mut c = check(rules, Some(head), None);
-    // Patterns no start state matches are judged with the whole file's states (see
-    // [`crate::pattern_warnings`]), not the first part's.
-    c.diags.retain(|d| d.code != latticesim_grammar::Code::W503);
+    // Patterns no start state matches and states no rule tests are judged with the whole
+    // file's states (see [`crate::states_warnings_of`]), not the first part's.
+    use latticesim_grammar::Code;
+    c.diags
+        .retain(|d| d.code != Code::W503 && d.code != Code::W603);
     let clean = c.rules.is_some()
         && c.config.is_some()
         && c.errors() == 0
