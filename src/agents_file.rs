@@ -13,7 +13,8 @@
 
 use crate::output::say;
 use latticesim_compiler::fast_agents::{check_with_head, read_head, read_lines, Head};
-use latticesim_compiler::{check, Checked, Columns, Input, StartState};
+use latticesim_compiler::lints::Lints;
+use latticesim_compiler::{check_with, Checked, Columns, Input, StartState};
 use latticesim_runtime::{Defect, Lattice};
 use std::fs::File;
 use std::io::{self, BufReader, BufWriter, Read, Write};
@@ -227,9 +228,10 @@ pub fn load(
     agents_name: &str,
     open: Source<'_>,
     threads: usize,
+    levels: &Lints,
 ) -> io::Result<Loaded> {
     let started = Instant::now();
-    let declined = match fast(rules, agents_name, open, threads)? {
+    let declined = match fast(rules, agents_name, open, threads, levels)? {
         Ok(l) => return Ok(l),
         Err(d) => d,
     };
@@ -241,7 +243,7 @@ pub fn load(
     let room = available_memory().unwrap_or(u64::MAX);
     if need > room {
         return too_large(
-            rules,
+            (rules, levels),
             agents_name,
             open,
             declined,
@@ -253,7 +255,7 @@ pub fn load(
     open.open()?.read_to_end(&mut bytes)?;
     let read = started.elapsed();
     let t = Instant::now();
-    let mut checked = check(
+    let mut checked = check_with(
         Input {
             name: rules.0,
             bytes: rules.1,
@@ -263,6 +265,7 @@ pub fn load(
             bytes: &bytes,
         }),
         None,
+        levels,
     );
     drop(bytes);
     // The description of every agent is let go once the lattice holds them.
@@ -288,7 +291,7 @@ fn gb(b: u64) -> String {
 /// The checker's verdict on a file too large for it (see [`load`]): the file's first part
 /// checked, or an error naming the agents the lattice found wrong.
 fn too_large(
-    rules: (&str, &[u8]),
+    (rules, levels): ((&str, &[u8]), &Lints),
     agents_name: &str,
     open: Source<'_>,
     declined: Declined,
@@ -312,7 +315,7 @@ fn too_large(
         Ok(bytes)
     };
     let checked_part = |bytes: &[u8]| {
-        check(
+        check_with(
             Input {
                 name: rules.0,
                 bytes: rules.1,
@@ -322,6 +325,7 @@ fn too_large(
                 bytes,
             }),
             None,
+            levels,
         )
     };
     let (checked, note) = match declined {
@@ -637,6 +641,7 @@ fn fast(
     agents_name: &str,
     open: Source<'_>,
     threads: usize,
+    levels: &Lints,
 ) -> io::Result<Result<Loaded, Declined>> {
     let started = Instant::now();
     let mut r = open.open()?;
@@ -659,6 +664,7 @@ fn fast(
             name: agents_name,
             bytes: &w.bytes()[..head.end],
         },
+        levels,
     ) else {
         return Ok(Err(Declined::Head));
     };
@@ -709,15 +715,21 @@ fn fast(
         (open, &head_bytes, agents_name, base as usize),
         &mut seen,
     )?;
-    let more =
+    let mut more =
         latticesim_compiler::states_warnings_of(&checked, latticesim_grammar::FileId(1), &seen);
+    checked.lints.apply(&mut more);
     checked.diags.extend(more);
     latticesim_compiler::diagnostics::sort(&mut checked.diags);
     checked.agent_count = n;
     checked.config = None;
+    // A denied warning fails the check, as on the checker's path: nothing to run.
+    let failed = checked.errors() > 0;
+    if failed {
+        checked.rules = None;
+    }
     Ok(Ok(Loaded {
         checked,
-        lattice: Some(lat),
+        lattice: (!failed).then_some(lat),
         note: None,
         read: started.elapsed() - check_time,
         check: check_time,

@@ -75,7 +75,7 @@ pub fn fmt(args: FmtArgs) -> ExitCode {
             }
         };
         let Ok(text) = String::from_utf8(bytes.clone()) else {
-            let c = crate::check_pair((&name, &bytes), None, None);
+            let c = crate::check_pair((&name, &bytes), None, None, &Default::default());
             output::stderr(&c.render(crate::colour(args.color)));
             status = status.max(1);
             continue;
@@ -84,7 +84,7 @@ pub fn fmt(args: FmtArgs) -> ExitCode {
             Ok(f) => f,
             Err(_) => {
                 // The checker's rendering of the same file shows every syntax error.
-                let mut c = crate::check_pair((&name, &bytes), None, None);
+                let mut c = crate::check_pair((&name, &bytes), None, None, &Default::default());
                 c.diags.retain(|d| d.is_error());
                 output::stderr(&c.render(crate::colour(args.color)));
                 say!("{name}: not formatted: it has syntax errors");

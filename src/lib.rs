@@ -3,7 +3,8 @@
 //! Python package (`python/`) calls the same loading, writing, statistics and sweep code.
 
 use clap::{Parser, Subcommand, ValueEnum};
-use latticesim_compiler::{check, Checked, Dim, Input};
+use latticesim_compiler::lints::Lints;
+use latticesim_compiler::{check_with, Checked, Dim, Input};
 use output::say;
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -104,6 +105,8 @@ enum Command {
         /// When there are no errors, print the compiled bytecode to stdout.
         #[arg(long)]
         dump_bytecode: bool,
+        #[command(flatten)]
+        lints: LintArgs,
     },
     /// Explain a diagnostic code (`latticesim explain E302`), with an example that gives it
     /// and the example put right; without a code, list the codes.
@@ -133,19 +136,48 @@ pub(crate) fn read(path: &PathBuf) -> Result<Vec<u8>, ExitCode> {
     })
 }
 
-/// Checks a rules file and, when given, an agents file, each as (name, bytes).
+/// Lint levels on the command line (see docs/language.md, "Lint levels"): after the
+/// rules file's `// latticesim:` directives.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct LintArgs {
+    /// Do not say this warning: a code (W603), its name (idle-start-state) or `warnings`;
+    /// may be given again.
+    #[arg(long, value_name = "CODE")]
+    pub allow: Vec<String>,
+    /// Say this warning as a warning, whatever the rules file says; may be given again.
+    #[arg(long, value_name = "CODE")]
+    pub warn: Vec<String>,
+    /// Make this warning an error (`--deny warnings`: every warning); may be given again.
+    #[arg(long, value_name = "CODE")]
+    pub deny: Vec<String>,
+}
+
+impl LintArgs {
+    /// The levels, or a usage error said (exit 2).
+    pub fn lints(&self) -> Result<Lints, ExitCode> {
+        Lints::from_flags(&self.allow, &self.warn, &self.deny).map_err(|e| {
+            say!("error: {e}");
+            ExitCode::from(2)
+        })
+    }
+}
+
+/// Checks a rules file and, when given, an agents file, each as (name, bytes), with lint
+/// levels (after the rules file's own).
 pub fn check_pair(
     rules: (&str, &[u8]),
     agents: Option<(&str, &[u8])>,
     dim: Option<Dim>,
+    levels: &Lints,
 ) -> Checked {
-    check(
+    check_with(
         Input {
             name: rules.0,
             bytes: rules.1,
         },
         agents.map(|(name, bytes)| Input { name, bytes }),
         dim,
+        levels,
     )
 }
 
@@ -193,9 +225,9 @@ fn run_check(
     rules: PathBuf,
     agents: Option<PathBuf>,
     dim: Option<String>,
-    format: Format,
-    color: Color,
+    (format, color): (Format, Color),
     dump_bytecode: bool,
+    levels: &Lints,
 ) -> ExitCode {
     let rules_bytes = match read(&rules) {
         Ok(b) => b,
@@ -215,6 +247,7 @@ fn run_check(
                 &name,
                 agents_file::Source::File(path),
                 threads,
+                levels,
             ) {
                 Ok(l) => {
                     note = l.note;
@@ -236,6 +269,7 @@ fn run_check(
                 (&rules_name, &rules_bytes),
                 agents_name.as_deref().zip(agents_bytes.as_deref()),
                 dim,
+                levels,
             )
         }
     };
@@ -340,7 +374,11 @@ pub fn main() -> ExitCode {
             format,
             color,
             dump_bytecode,
-        } => run_check(rules, agents, dim, format, color, dump_bytecode),
+            lints,
+        } => match lints.lints() {
+            Ok(l) => run_check(rules, agents, dim, (format, color), dump_bytecode, &l),
+            Err(c) => c,
+        },
         Command::Run(args) => run::run(args),
         Command::Gen(args) => gen::gen(args),
         Command::Sweep(args) => sweep::sweep(args),

@@ -19,6 +19,8 @@ use std::process::ExitCode;
 pub struct RenderArgs {
     /// The rules file.
     rules: PathBuf,
+    #[command(flatten)]
+    lints: crate::LintArgs,
     /// The agents file.
     agents: PathBuf,
     /// Draw the configuration after this many steps (0: the agents file as it is).
@@ -698,7 +700,12 @@ pub fn render(args: RenderArgs) -> ExitCode {
         }
     };
     let threads = crate::run::io_threads(None);
-    let ready = match load(&args.rules, &args.agents, true, colour(args.color), threads) {
+    let levels = match args.lints.lints() {
+        Ok(l) => l,
+        Err(c) => return c,
+    };
+    let shown = (true, colour(args.color));
+    let ready = match load(&args.rules, &args.agents, shown, threads, &levels) {
         Ok(l) => l,
         Err(c) => return c,
     };

@@ -22,6 +22,8 @@ use std::time::{Duration, Instant};
 pub struct RunArgs {
     /// The rules file.
     rules: PathBuf,
+    #[command(flatten)]
+    lints: crate::LintArgs,
     /// The agents file (not with --resume).
     #[arg(required_unless_present = "resume", conflicts_with = "resume")]
     agents: Option<PathBuf>,
@@ -255,9 +257,9 @@ pub fn io_threads(requested: Option<usize>) -> usize {
 pub(crate) fn load(
     rules: &PathBuf,
     agents: &Path,
-    quiet: bool,
-    colour: bool,
+    (quiet, colour): (bool, bool),
     threads: usize,
+    levels: &latticesim_compiler::lints::Lints,
 ) -> Result<Ready, ExitCode> {
     let rules_bytes = read(rules)?;
     let rules_name = rules.display().to_string();
@@ -267,6 +269,7 @@ pub(crate) fn load(
         &agents_name,
         agents_file::Source::File(agents),
         threads,
+        levels,
     )
     .map_err(|e| {
         say!("error: cannot read `{agents_name}`: {e}");
@@ -301,8 +304,8 @@ fn resume(
     from: &Path,
     opts: Options,
     threads: Option<usize>,
-    quiet: bool,
-    colour: bool,
+    (quiet, colour): (bool, bool),
+    levels: &latticesim_compiler::lints::Lints,
 ) -> Result<(Engine, Duration, Duration), ExitCode> {
     let started = Instant::now();
     let cannot = |e: &dyn std::fmt::Display| {
@@ -316,7 +319,7 @@ fn resume(
     };
     let rules_bytes = read(rules)?;
     let rules_name = rules.display().to_string();
-    let checked = crate::check_pair((&rules_name, &rules_bytes), None, Some(dim));
+    let checked = crate::check_pair((&rules_name, &rules_bytes), None, Some(dim), levels);
     show_diagnostics(&checked, quiet, colour);
     let Some(program) = checked.rules.as_ref() else {
         return Err(nothing_run(&rules_name, Some(checked.errors())));
@@ -503,10 +506,12 @@ fn start(
         trace,
         skip: if args.no_skip { Skip::Off } else { Skip::Auto },
     };
+    let levels = args.lints.lints()?;
+    let shown = (args.quiet, colour);
     match (&args.resume, &args.agents) {
-        (Some(from), _) => resume(&args.rules, from, opts, args.threads, args.quiet, colour),
+        (Some(from), _) => resume(&args.rules, from, opts, args.threads, shown, &levels),
         (None, Some(agents)) => {
-            let r = load(&args.rules, agents, args.quiet, colour, io_threads)?;
+            let r = load(&args.rules, agents, shown, io_threads, &levels)?;
             let opts = Options {
                 threads: crate::engine_threads(args.threads, r.lat.len()),
                 ..opts

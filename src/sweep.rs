@@ -72,6 +72,8 @@ impl Shard {
 pub struct SweepArgs {
     /// The rules file.
     rules: PathBuf,
+    #[command(flatten)]
+    lints: crate::LintArgs,
     /// The shapes to generate.
     #[arg(long, value_enum, default_value_t = SweepShape::Connected)]
     shape: SweepShape,
@@ -171,6 +173,8 @@ pub struct Setup {
     /// Set from another thread to stop every run at its next step (a run stopped so
     /// fails, with a message that says so).
     pub cancel: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
+    /// Lint levels (after the rules file's own): a denied warning fails every run.
+    pub lints: latticesim_compiler::lints::Lints,
 }
 
 /// A metric fitted and plotted against n: its name and its value in a row.
@@ -259,7 +263,7 @@ pub fn run_agents(
 ) -> Result<Row, String> {
     let what = format!("{input}, seed {seed}");
     let rules = (setup.rules_name.as_str(), setup.rules.as_slice());
-    let loaded = crate::agents_file::load(rules, &input, source, 1)
+    let loaded = crate::agents_file::load(rules, &input, source, 1, &setup.lints)
         .map_err(|e| format!("{what}: cannot read the agents: {e}"))?;
     let c = &loaded.checked;
     let (Some(p), Some(mut lat)) = (&c.rules, loaded.lattice) else {
@@ -539,6 +543,10 @@ pub fn sweep(a: SweepArgs) -> ExitCode {
         say!("error: {e}");
         return ExitCode::from(2);
     }
+    let lints = match a.lints.lints() {
+        Ok(l) => l,
+        Err(c) => return c,
+    };
     let jobs: Vec<(usize, Job, u64)> = match jobs(&a) {
         Ok(j) => (j.into_iter().enumerate())
             .map(|(i, (job, seed))| (i + 1, job, seed))
@@ -560,6 +568,7 @@ pub fn sweep(a: SweepArgs) -> ExitCode {
             ..Options::default()
         },
         cancel: None,
+        lints,
     };
     let results = match run_all(&a, &setup, &jobs) {
         Ok(r) => r,

@@ -2142,3 +2142,136 @@ fn fmt_rewrites_checks_and_filters() {
     assert!(stderr(&o).contains("error[E202]"), "{}", stderr(&o));
     assert_eq!(std::fs::read(&broken).unwrap(), b"r\n1\nE1,\nS*****\n");
 }
+
+/// Lint levels (docs/language.md, "Lint levels"): `--allow`, `--warn`, `--deny` on
+/// `check`, `run`, `sweep`, `render` and `serve`, and directives in the rules file; a
+/// denied warning fails the command (exit 1) and says where it was denied; a level for an
+/// error or an unknown code is a usage error (exit 2); a directive that cannot be read is
+/// E106.
+#[test]
+fn lint_levels_allow_warn_and_deny_warnings() {
+    let rules = tmp(
+        "lint-rules.txt",
+        b"walk\n1\nSWALK0 N**0* >C01 0000\nP1,0 C01 - C01 0001\n",
+    );
+    let mut walls = String::new();
+    for x in 0..30 {
+        for y in 0..30 {
+            walls += &format!("{x},{y} SWALL0\n");
+        }
+    }
+    walls += "0,31 SWALK0 C01 5\n";
+    let agents = tmp("lint-walls.txt", walls.as_bytes());
+    let (r, a) = (rules.to_str().unwrap(), agents.to_str().unwrap());
+    let png = std::env::temp_dir().join(format!("lint-{}.png", std::process::id()));
+    let png = png.to_str().unwrap();
+    let check = |extra: &[&str]| {
+        let mut args = vec!["check", r, "--agents", a, "--color", "never"];
+        args.extend(extra);
+        run(&args)
+    };
+    let o = check(&[]);
+    assert_eq!(o.status.code(), Some(0));
+    assert!(
+        stderr(&o).contains("warning[W603]: 900 agents"),
+        "{}",
+        stderr(&o)
+    );
+    let o = check(&["--deny", "W603"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(e.contains("error[W603]: 900 agents"), "{e}");
+    assert!(
+        e.contains("= note: a warning made an error by `--deny W603`"),
+        "{e}"
+    );
+    assert!(e.contains("1 error, 0 warnings"), "{e}");
+    for allow in ["W603", "idle-start-state", "warnings"] {
+        let o = check(&["--allow", allow]);
+        assert_eq!(o.status.code(), Some(0));
+        assert!(
+            !stderr(&o).contains("W603"),
+            "--allow {allow}: {}",
+            stderr(&o)
+        );
+    }
+    // A code's level wins over `warnings`'; --deny over --warn over --allow for one code.
+    let o = check(&["--deny", "warnings", "--allow", "W603"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let o = check(&["--allow", "W603", "--deny", "W603"]);
+    assert_eq!(o.status.code(), Some(1));
+    for (cmd, extra) in [
+        ("run", vec![r, a, "--out", "/dev/null"]),
+        ("render", vec![r, a, "--out", png]),
+    ] {
+        let mut args = vec![cmd];
+        args.extend(extra.iter().copied());
+        let ok = run(&args);
+        assert_eq!(ok.status.code(), Some(0), "{cmd}: {}", stderr(&ok));
+        args.extend(["--deny", "warnings"]);
+        let o = run(&args);
+        assert_eq!(
+            o.status.code(),
+            Some(1),
+            "{cmd} --deny warnings: {}",
+            stderr(&o)
+        );
+        assert!(stderr(&o).contains("error[W603]"), "{cmd}: {}", stderr(&o));
+    }
+    let csv = std::env::temp_dir().join(format!("lint-{}.csv", std::process::id()));
+    let sweep = |extra: &[&str]| {
+        let mut args = vec![
+            "sweep", r, "--shape", "line", "--sizes", "5", "--seeds", "1",
+        ];
+        args.extend(["--out", csv.to_str().unwrap()]);
+        args.extend(extra);
+        run(&args)
+    };
+    assert_eq!(sweep(&[]).status.code(), Some(0));
+    let o = sweep(&["--deny", "idle-start-state"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("error[W603]"), "{}", stderr(&o));
+    // Levels for errors and unknown codes: usage errors, on every command.
+    for args in [
+        vec!["check", r, "--deny", "E302"],
+        vec!["run", r, a, "--allow", "W999"],
+        vec!["serve", "--warn", "nonsense"],
+    ] {
+        let o = run(&args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}");
+        assert!(
+            stderr(&o).starts_with("error: --"),
+            "{args:?}: {}",
+            stderr(&o)
+        );
+    }
+    // Directives in the rules file; the command line comes after them.
+    let said = tmp(
+        "lint-said.txt",
+        b"// latticesim: allow W603\nwalk\n1\nSWALK0 N**0* >C01 0000\nP1,0 C01 - C01 0001\n",
+    );
+    let s = said.to_str().unwrap();
+    let o = run(&["check", s, "--agents", a]);
+    assert_eq!(o.status.code(), Some(0));
+    assert!(!stderr(&o).contains("W603"), "{}", stderr(&o));
+    let o = run(&["check", s, "--agents", a, "--deny", "W603"]);
+    assert_eq!(o.status.code(), Some(1));
+    let bad = tmp(
+        "lint-bad.txt",
+        b"// latticesim: forbid W603\nwalk\n1\nSWALK0 N**0* >C01 0000\nP1,0 C01 - C01 0001\n",
+    );
+    let o = run(&[
+        "check",
+        bad.to_str().unwrap(),
+        "--agents",
+        a,
+        "--color",
+        "never",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("error[E106]: `forbid` is not a lint level"),
+        "{}",
+        stderr(&o)
+    );
+}

@@ -49,6 +49,7 @@ fn same(rules: &str, agents: &[u8]) -> Result<(), TestCaseError> {
         "agents.txt",
         Source::Bytes(agents),
         2,
+        &Default::default(),
     )
     .unwrap();
     let whole = check(
@@ -181,6 +182,7 @@ fn a_warning_far_down_is_quoted_with_its_line() {
         "agents.txt",
         Source::Bytes(a.as_bytes()),
         2,
+        &Default::default(),
     )
     .unwrap();
     let text = render_plain(&streamed.checked.diags, &streamed.checked.sources);
@@ -204,6 +206,7 @@ fn a_warning_far_down_is_quoted_with_its_line() {
         "agents.txt",
         Source::Bytes(b.as_bytes()),
         2,
+        &Default::default(),
     )
     .unwrap();
     let text = render_plain(&streamed.checked.diags, &streamed.checked.sources);

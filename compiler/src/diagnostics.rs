@@ -341,6 +341,9 @@ fn to_codespan(d: &Diagnostic, sources: &Sources) -> CsDiagnostic<usize> {
         );
     }
     let mut notes = Vec::new();
+    if let Some(o) = &d.denied {
+        notes.push(format!("note: a warning made an error by {}", visible(o)));
+    }
     if let Some(h) = &d.help {
         notes.push(format!("help: {}", visible(h)));
     }

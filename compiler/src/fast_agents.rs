@@ -14,7 +14,7 @@
 
 use crate::check_rules::VALUE_MAX;
 use crate::checked::{Bounds, Columns, Dim};
-use crate::{check, Checked, Input};
+use crate::{Checked, Input};
 use latticesim_grammar::FileId;
 
 /// What the head of an agents file fixes.
@@ -431,8 +431,12 @@ fn line(raw: &[u8], head: &Head, out: &mut Columns) -> bool {
 /// pair, because there is an error, or something is said of the agents file. Otherwise
 /// its diagnostics (warnings of the rules) are those the whole pair would have, once the
 /// rest of the agents file has been read cleanly.
-pub fn check_with_head(rules: Input<'_>, head: Input<'_>) -> Option<Checked> {
-    let mut c = check(rules, Some(head), None);
+pub fn check_with_head(
+    rules: Input<'_>,
+    head: Input<'_>,
+    levels: &crate::lints::Lints,
+) -> Option<Checked> {
+    let mut c = crate::check_with(rules, Some(head), None, levels);
     // Patterns no start state matches and states no rule tests are judged with the whole
     // file's states (see [`crate::states_warnings_of`]), not the first part's.
     use latticesim_grammar::Code;

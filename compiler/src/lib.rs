@@ -18,6 +18,7 @@ pub mod diagnostics;
 pub mod dim;
 pub mod explain;
 pub mod fast_agents;
+pub mod lints;
 mod lower;
 
 pub use check_agents::check_agents;
@@ -44,6 +45,8 @@ pub struct Input<'a> {
 pub struct Checked {
     /// The files read, for rendering.
     pub sources: Sources,
+    /// The lint levels in force: the rules file's directives, then the caller's.
+    pub lints: lints::Lints,
     /// Every diagnostic, in file order.
     pub diags: Vec<Diagnostic>,
     /// The dimension in force and why.
@@ -257,6 +260,17 @@ pub fn states_warnings_of(checked: &Checked, aid: FileId, seen: &[StartState]) -
 
 /// Checks a rules file and, if given, an agents file. `dim` is `--dim`.
 pub fn check(rules: Input<'_>, agents: Option<Input<'_>>, dim: Option<Dim>) -> Checked {
+    check_with(rules, agents, dim, &lints::Lints::new())
+}
+
+/// [`check`] with lint levels (the command line's), which come after the rules file's
+/// directives (see [`lints`]).
+pub fn check_with(
+    rules: Input<'_>,
+    agents: Option<Input<'_>>,
+    dim: Option<Dim>,
+    levels: &lints::Lints,
+) -> Checked {
     let mut sources = Sources::new();
     let mut diags = Vec::new();
     let (rules_text, bad) = decode(rules.bytes, FileId(0));
@@ -318,10 +332,15 @@ pub fn check(rules: Input<'_>, agents: Option<Input<'_>>, dim: Option<Dim>) -> C
     let rule_count = ast.rules.len();
     let agent_count = agents_ast.as_ref().map_or(0, |a| a.agents.len());
     drop((ast, agents_ast));
+    let (said, bad) = lints::Lints::from_rules(sources.text(rid), rid);
+    diags.extend(bad);
+    let levels = said.then(levels);
+    levels.apply(&mut diags);
     diagnostics::sort(&mut diags);
     let ok = !diags.iter().any(|d| d.is_error());
     let not_shown = cap(&mut diags, &sources);
     Checked {
+        lints: levels,
         not_shown,
         sources,
         rule_count,

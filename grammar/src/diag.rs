@@ -84,6 +84,7 @@ codes! {
     E103 Error "rule-cut-short" "a rule cut short at the end of the file";
     E104 Error "rule-missing-line" "a rule that lacks its name, priority, precondition or postcondition line";
     E105 Error "rule-extra-line" "a line after a rule's postcondition that starts no rule";
+    E106 Error "bad-directive" "a `// latticesim:` directive that cannot be read";
     E201 Error "unexpected-token" "a token where it cannot stand";
     E202 Error "unexpected-end-of-line" "a line that ends inside a term";
     E203 Error "unclosed-parenthesis" "a `(` without its `)`";
@@ -228,6 +229,8 @@ pub struct Diagnostic {
     pub help: Option<String>,
     /// Machine-applicable fixes, most likely first.
     pub fixes: Vec<Fix>,
+    /// For a warning made an error by a lint level: where it was denied (`--deny W603`).
+    pub denied: Option<String>,
 }
 
 impl Diagnostic {
@@ -240,6 +243,7 @@ impl Diagnostic {
             secondary: Vec::new(),
             help: None,
             fixes: Vec::new(),
+            denied: None,
         }
     }
 
@@ -263,7 +267,10 @@ impl Diagnostic {
 
     /// Error or warning, from the code.
     pub fn severity(&self) -> Severity {
-        self.code.severity()
+        match self.denied {
+            Some(_) => Severity::Error,
+            None => self.code.severity(),
+        }
     }
 
     /// True for errors.

@@ -233,6 +233,7 @@ impl Simulation {
                     &names.1,
                     Source::File(&agents),
                     io,
+                    &Default::default(),
                 )
             })
             .map_err(|e| PyIOError::new_err(format!("cannot read `{}`: {e}", names.1)))?;
@@ -264,6 +265,7 @@ impl Simulation {
                     agents_name,
                     Source::Bytes(agents_text.as_bytes()),
                     io,
+                    &Default::default(),
                 )
             })
             .map_err(|e| PyIOError::new_err(e.to_string()))?;
@@ -294,7 +296,12 @@ impl Simulation {
         let (dim, agents) = latticesim::run::peek_checkpoint_file(&checkpoint).map_err(cannot)?;
         let rules_bytes = read_rules(&rules)?;
         let rules_name = rules.display().to_string();
-        let c = latticesim::check_pair((&rules_name, &rules_bytes), None, Some(dim));
+        let c = latticesim::check_pair(
+            (&rules_name, &rules_bytes),
+            None,
+            Some(dim),
+            &Default::default(),
+        );
         let Some(program) = c.rules.as_ref() else {
             return Err(check::error(py, &c, None));
         };

@@ -78,6 +78,7 @@ pub fn sweep_runs<'py>(
         max_steps,
         opts: crate::options(order, static_first)?,
         cancel: Some(Arc::new(AtomicBool::new(false))),
+        lints: Default::default(),
     };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(latticesim::threads(

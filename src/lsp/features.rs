@@ -85,6 +85,7 @@ impl Server {
                 .as_deref()
                 .map(|a| (agents_name.as_str(), a.as_bytes())),
             None,
+            &Default::default(),
         );
         Some(Pair { uris, checked })
     }

@@ -66,6 +66,8 @@ pub struct ServeArgs {
     /// The rules file to open (the editor can load others from the working folder).
     #[arg(requires = "agents")]
     rules: Option<PathBuf>,
+    #[command(flatten)]
+    lints: crate::LintArgs,
     /// The agents file to open.
     agents: Option<PathBuf>,
     /// The port (0: any free port; the URL printed says which).
@@ -164,6 +166,10 @@ pub fn serve(args: ServeArgs) -> ExitCode {
         }
     };
     let threads = crate::threads(args.threads, usize::MAX, "");
+    let lints = match args.lints.lints() {
+        Ok(l) => l,
+        Err(c) => return c,
+    };
     let mut session = Session {
         root,
         allowed: Vec::new(),
@@ -181,6 +187,7 @@ pub fn serve(args: ServeArgs) -> ExitCode {
         agents: String::new(),
         run: None,
         palette,
+        lints,
     };
     if let (Some(r), Some(a)) = (&args.rules, &args.agents) {
         let (rules, agents) = match (read_text(r), read_text(a)) {

@@ -2,6 +2,7 @@
 //! back to any step), and the handlers of the API, which work on it one request at a time.
 
 use super::*;
+use latticesim_compiler::lints::Lints;
 
 /// The run shown: its history and the names of its rules.
 pub(super) struct Run {
@@ -29,6 +30,8 @@ pub(super) struct Session {
     pub(super) run: Option<Run>,
     /// The palette each run starts from (`--palette`, or the default).
     pub(super) palette: Palette,
+    /// Lint levels (`--allow`, `--warn`, `--deny`; after the rules file's own).
+    pub(super) lints: Lints,
 }
 
 /// A request: method, path, query parameters and body.
@@ -111,14 +114,15 @@ fn read_utf8(path: &Path, p: &str) -> Result<String, Reply> {
 pub(super) fn check_texts(
     rules_name: &str,
     rules: &str,
-    agents_name: &str,
-    agents: &str,
+    (agents_name, agents): (&str, &str),
+    levels: &Lints,
 ) -> (Checked, Option<Lattice>) {
     let l = crate::agents_file::load(
         (rules_name, rules.as_bytes()),
         agents_name,
         crate::agents_file::Source::Bytes(agents.as_bytes()),
         crate::run::io_threads(None),
+        levels,
     )
     .expect("reading memory does not fail");
     (l.checked, l.lattice)
@@ -144,6 +148,7 @@ impl Session {
             agents: fresh(&self.agents_path, &self.agents),
             run: None,
             palette: self.palette.clone(),
+            lints: self.lints.clone(),
         }
     }
 
@@ -161,7 +166,13 @@ impl Session {
             "rules_bytes": self.rules.len(),
             "agents_bytes": self.agents.len(),
             "check": check_json(
-                &check_texts(&self.rules_path, &self.rules, &self.agents_path, &self.agents).0,
+                &check_texts(
+                    &self.rules_path,
+                    &self.rules,
+                    (&self.agents_path, &self.agents),
+                    &self.lints
+                )
+                .0,
                 &self.rules_path,
             ),
             "running": self.run.is_some(),
@@ -174,8 +185,8 @@ impl Session {
         let (c, lat) = check_texts(
             &self.rules_path,
             &self.rules,
-            &self.agents_path,
-            &self.agents,
+            (&self.agents_path, &self.agents),
+            &self.lints,
         );
         let verdict = check_json(&c, &self.rules_path);
         if let (Some(p), Some(lat)) = (c.rules.as_ref(), lat) {
@@ -286,7 +297,7 @@ impl Session {
         let agents_path = v["agents_path"].as_str().unwrap_or(&self.agents_path);
         let rules = self.text_or_file(&v, "rules", rules_path)?;
         let agents = self.text_or_file(&v, "agents", agents_path)?;
-        let (c, _) = check_texts(rules_path, &rules, agents_path, &agents);
+        let (c, _) = check_texts(rules_path, &rules, (agents_path, &agents), &self.lints);
         Ok(reply_json(200, &check_json(&c, rules_path)))
     }
 
