@@ -206,12 +206,16 @@ impl Sources {
             }
             lines += t.matches('\n').count() + (!t.ends_with('\n')) as usize;
         }
-        // The whole file's end, where a label past the parts lands.
+        // The whole file's end, where a label past the parts lands (on the line after the
+        // last part: the lines between are not counted).
+        let line = pieces
+            .last()
+            .map_or(1, |p| p.line + (lines - p.line_excerpt));
         pieces.push(Piece {
             at: len,
             at_excerpt: text.len(),
             len: 0,
-            line: pieces.last().map_or(1, |p| p.line + lines),
+            line,
             line_excerpt: lines,
         });
         self.add_pieces(name.into(), text, Some(pieces))
@@ -601,5 +605,39 @@ mod tests {
         assert_eq!(s.line_col(id, 5), (2, 1));
         assert_eq!(s.line_col(id, 7), (2, 3));
         assert_eq!(visible("x\x1b[2J\ry"), "x\\u{1b}[2J\\ry");
+    }
+
+    /// A file held in part: labels in offsets of the whole file, shown on their own lines
+    /// with their own numbers; JSON places the same.
+    #[test]
+    fn excerpts_keep_offsets_and_line_numbers() {
+        let mut s = Sources::new();
+        let _rules = s.add("rules.txt", "r\n");
+        let id = s.excerpt(
+            "agents.txt",
+            10_000,
+            &[
+                (0, 1, "// head\n0,0 SA0000\n"),
+                (9_000, 700, "5,5 \x1bSB0000\n"),
+            ],
+        );
+        assert_eq!(s.len(id), 10_000);
+        assert_eq!(s.line_col(id, 8), (2, 1));
+        assert_eq!(s.line_col(id, 9_005), (700, 6));
+        let d = Diagnostic::new(
+            Code::W603,
+            "m",
+            Label::new(
+                id,
+                latticesim_grammar::Span {
+                    start: 9_005,
+                    end: 9_011,
+                },
+                "here",
+            ),
+        );
+        let text = render_plain(&[d], &s);
+        assert!(text.contains("agents.txt:700:6"), "{text}");
+        assert!(text.contains("700 │ 5,5 ␛SB0000"), "{text}");
     }
 }
