@@ -189,7 +189,15 @@ pub(crate) fn diagnostics(
             } else {
                 format!("{count} agents start")
             };
-            let help = match idle.suggestion {
+            // Ten times as many agents as start in the near state are another kind of agent
+            // (a block of walls beside its walkers), not a slip in a few lines: no
+            // suggestion then.
+            let meant = idle.suggestion.filter(|t| {
+                seen.iter()
+                    .find(|e| e.state == *t)
+                    .is_none_or(|e| count < 10 * e.count)
+            });
+            let help = match meant {
                 Some(t) => format!(
                     "did you mean `S{}`? the rules test or set that state",
                     String::from_utf8_lossy(&t)
