@@ -43,15 +43,20 @@ fn agents_of(l: &Lattice) -> Vec<([i32; 3], [u8; 5], u8)> {
         .collect()
 }
 
-fn same(rules: &str, agents: &[u8]) -> Result<(), TestCaseError> {
-    let streamed = load(
+/// The agents file read as the commands read it (two threads, no lint levels).
+fn streamed(rules: &str, agents: &[u8]) -> latticesim::agents_file::Loaded {
+    load(
         ("rules.txt", rules.as_bytes()),
         "agents.txt",
         Source::Bytes(agents),
         2,
         &Default::default(),
     )
-    .unwrap();
+    .unwrap()
+}
+
+fn same(rules: &str, agents: &[u8]) -> Result<(), TestCaseError> {
+    let l = streamed(rules, agents);
     let whole = check(
         Input {
             name: "rules.txt",
@@ -63,10 +68,10 @@ fn same(rules: &str, agents: &[u8]) -> Result<(), TestCaseError> {
         }),
         None,
     );
-    prop_assert_eq!(seen(&streamed.checked), seen(&whole));
+    prop_assert_eq!(seen(&l.checked), seen(&whole));
     let whole_lat = whole.config.as_ref().map(Lattice::new);
     prop_assert_eq!(
-        streamed.lattice.as_ref().map(agents_of),
+        l.lattice.as_ref().map(agents_of),
         whole_lat.as_ref().map(agents_of)
     );
     Ok(())
@@ -177,40 +182,21 @@ fn a_warning_far_down_is_quoted_with_its_line() {
     }
     a += "500,500 SWALL0\r\n7,-3\n";
     same(RULES[0], a.as_bytes()).unwrap();
-    let streamed = load(
-        ("rules.txt", RULES[0].as_bytes()),
-        "agents.txt",
-        Source::Bytes(a.as_bytes()),
-        2,
-        &Default::default(),
-    )
-    .unwrap();
-    let text = render_plain(&streamed.checked.diags, &streamed.checked.sources);
+    let l = streamed(RULES[0], a.as_bytes());
+    let text = render_plain(&l.checked.diags, &l.checked.sources);
     assert!(text.contains("agents.txt:20002:9"), "{text}");
     assert!(text.contains("20003 │ 7,-3"), "{text}");
     assert!(
-        streamed
-            .checked
-            .sources
-            .text(latticesim_grammar::FileId(1))
-            .len()
-            < 100,
+        l.checked.sources.text(latticesim_grammar::FileId(1)).len() < 100,
         "only the head and the quoted lines are held"
     );
     // The first agent in a state far from every pattern (its W603 is given alone, and
     // the walkers' pattern is matched later in the file).
     let b = format!("0,-5 SQQQQ0\n{a}");
     same(RULES[0], b.as_bytes()).unwrap();
-    let streamed = load(
-        ("rules.txt", RULES[0].as_bytes()),
-        "agents.txt",
-        Source::Bytes(b.as_bytes()),
-        2,
-        &Default::default(),
-    )
-    .unwrap();
-    let text = render_plain(&streamed.checked.diags, &streamed.checked.sources);
+    let l = streamed(RULES[0], b.as_bytes());
+    let text = render_plain(&l.checked.diags, &l.checked.sources);
     assert!(text.contains("agents.txt:1:6"), "{text}");
-    let held = streamed.checked.sources.text(latticesim_grammar::FileId(1));
+    let held = l.checked.sources.text(latticesim_grammar::FileId(1));
     assert!(held.len() < 100, "read on the fast path: {text}");
 }
