@@ -229,11 +229,6 @@ impl Sources {
         }
     }
 
-    /// Whether no file was added.
-    pub fn is_empty(&self) -> bool {
-        self.texts.is_empty()
-    }
-
     /// Where an offset of a file held in part is in its excerpt (others: the offset).
     fn in_excerpt(&self, id: FileId, byte: usize) -> usize {
         let Some(Some(pieces)) = self.files.pieces.get(id.0 as usize) else {
