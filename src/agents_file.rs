@@ -269,7 +269,12 @@ pub fn load(
     );
     drop(bytes);
     // The description of every agent is let go once the lattice holds them.
-    let lattice = checked.config.take().map(|c| Lattice::new(&c));
+    let width = checked.lints.width();
+    let lattice = checked.config.take().map(|c| {
+        let mut lat = Lattice::new(&c);
+        lat.set_width(width);
+        lat
+    });
     Ok(Loaded {
         checked,
         lattice,
@@ -522,7 +527,7 @@ fn read_parallel(
             .map(|w| {
                 let (from, piece) = (w[0], &bytes[w[0]..w[1]]);
                 s.spawn(move || {
-                    let mut cols = Columns::new();
+                    let mut cols = Columns::new(head.width);
                     let done = read_lines(piece, head, &mut cols).map_err(|at| from + at);
                     (done, cols)
                 })
@@ -531,7 +536,10 @@ fn read_parallel(
         let done = read_lines(first, head, out);
         let results = handles
             .into_iter()
-            .map(|h| h.join().unwrap_or_else(|_| (Err(0), Columns::new())))
+            .map(|h| {
+                h.join()
+                    .unwrap_or_else(|_| (Err(0), Columns::new(head.width)))
+            })
             .collect();
         (done, results)
     });
@@ -651,7 +659,7 @@ fn fast(
         eof: false,
     };
     w.fill(&mut *r, 1 << 20)?;
-    let Some(head) = read_head(&w.bytes()[..w.whole()]) else {
+    let Some(mut head) = read_head(&w.bytes()[..w.whole()]) else {
         return Ok(Err(Declined::Head));
     };
     let t = Instant::now();
@@ -670,7 +678,9 @@ fn fast(
     };
     let check_time = t.elapsed();
     let head_bytes = w.bytes()[..head.end].to_vec();
-    let mut cols = Columns::new();
+    // The agents' counters are read in the rules' width.
+    head.width = checked.lints.width();
+    let mut cols = Columns::new(head.width);
     // Room for the agents the file's size suggests (from the lines of its first bytes), so
     // that the columns do not move as they grow.
     if let Some(size) = open.size() {

@@ -38,7 +38,8 @@ pub struct AgentOptions {
     /// free to the east).
     #[arg(long)]
     first_east: bool,
-    /// Put unique ids 1..n, in random order, into this counter (e.g. C00).
+    /// Put unique ids 1..n, in random order, into this counter (e.g. C00); past 32767
+    /// agents, run with 32-bit counters (`// latticesim: counters 32`, or `--counters 32`).
     #[arg(long)]
     ids: Option<String>,
     /// Add a universe line: the bounding box of the agents.
@@ -134,6 +135,25 @@ pub fn gen(a: GenArgs) -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    if let Some(k) = opts.ids {
+        let n = match shape {
+            Shape::Line { n } | Shape::Connected { n } | Shape::Cloud { n, .. } => n as u64,
+            Shape::Block { w, h, d } => {
+                w as u64 * h as u64 * if opts.three_d { d as u64 } else { 1 }
+            }
+        };
+        let w = latticesim_vm::model::Width::W32;
+        if n > w.max() as u64 {
+            say!(
+                "error: --ids C{k:02}: {n} agents need ids past {}, the most a counter holds",
+                w.max()
+            );
+            return ExitCode::from(2);
+        }
+        if n > 32767 {
+            say!("note: ids past 32767 need 32-bit counters: the rules file says `// latticesim: counters 32` (as examples/leader-election does), or run with `--counters 32`");
+        }
+    }
     let written = match out_file {
         Some(f) => {
             let path = f.path().to_path_buf();

@@ -150,15 +150,28 @@ pub struct LintArgs {
     /// Make this warning an error (`--deny warnings`: every warning); may be given again.
     #[arg(long, value_name = "CODE")]
     pub deny: Vec<String>,
+    /// Counters and numeric messages of 16 bits (the paper's, -32767..32767) or 32 (the
+    /// extension, to ±2147483647, for unique ids past 32767 agents); wins over the rules
+    /// file's `// latticesim: counters 32`.
+    #[arg(long, value_name = "BITS", value_parser = ["16", "32"])]
+    pub counters: Option<String>,
 }
 
 impl LintArgs {
-    /// The levels, or a usage error said (exit 2).
+    /// The levels (and width of counters), or a usage error said (exit 2).
     pub fn lints(&self) -> Result<Lints, ExitCode> {
-        Lints::from_flags(&self.allow, &self.warn, &self.deny).map_err(|e| {
+        let mut l = Lints::from_flags(&self.allow, &self.warn, &self.deny).map_err(|e| {
             say!("error: {e}");
             ExitCode::from(2)
-        })
+        })?;
+        if let Some(b) = &self.counters {
+            let w = b
+                .parse()
+                .ok()
+                .and_then(latticesim_vm::model::Width::from_bits);
+            l.set_counters(w.unwrap_or_default(), format!("`--counters {b}`"));
+        }
+        Ok(l)
     }
 }
 

@@ -77,7 +77,7 @@ struct Frame {
     pos: Vec<[i32; 3]>,
     state: Vec<[u8; 5]>,
     /// With `--color-by`: each agent's value of that counter.
-    value: Vec<i16>,
+    value: Vec<i32>,
     /// Bonds as pairs of agent indices, each once.
     bonds: Vec<(usize, usize)>,
 }
@@ -345,8 +345,8 @@ enum Key {
     States(Vec<[u8; 5]>, Palette),
     Counter {
         name: String,
-        lo: i16,
-        hi: i16,
+        lo: i32,
+        hi: i32,
     },
 }
 
@@ -754,7 +754,7 @@ pub fn render(args: RenderArgs) -> ExitCode {
         }
         Some(c) => {
             let values = frames.iter().flat_map(|f| f.value.iter().copied());
-            let (lo, hi) = values.fold((i16::MAX, i16::MIN), |a, v| (a.0.min(v), a.1.max(v)));
+            let (lo, hi) = values.fold((i32::MAX, i32::MIN), |a, v| (a.0.min(v), a.1.max(v)));
             let (lo, hi) = if lo > hi { (0, 0) } else { (lo, hi) };
             Key::Counter {
                 name: format!("C{c:02}"),

@@ -312,14 +312,15 @@ fn resume(
         say!("error: cannot resume from `{}`: {e}", from.display());
         ExitCode::from(2)
     };
-    let (dim, agents) = peek_checkpoint_file(from).map_err(|e| cannot(&e))?;
+    let peek = peek_checkpoint_file(from).map_err(|e| cannot(&e))?;
     let opts = Options {
-        threads: crate::engine_threads(threads, agents.min(u32::MAX as u64) as usize),
+        threads: crate::engine_threads(threads, peek.agents.min(u32::MAX as u64) as usize),
         ..opts
     };
     let rules_bytes = read(rules)?;
     let rules_name = rules.display().to_string();
-    let checked = crate::check_pair((&rules_name, &rules_bytes), None, Some(dim), levels);
+    let levels = with_checkpoint_width(levels, &peek);
+    let checked = crate::check_pair((&rules_name, &rules_bytes), None, Some(peek.dim), &levels);
     show_diagnostics(&checked, quiet, colour);
     let Some(program) = checked.rules.as_ref() else {
         return Err(nothing_run(&rules_name, Some(checked.errors())));
@@ -355,8 +356,22 @@ pub fn read_checkpoint_file(
         .and_then(|r| Engine::read_checkpoint(prog, opts, r).map_err(|e| e.to_string()))
 }
 
-/// The dimension and number of agents of the checkpoint file `path`.
-pub fn peek_checkpoint_file(path: &Path) -> Result<(latticesim_vm::model::Dim, u64), String> {
+/// The levels to check the rules of a resumed run with: the checkpoint records the width of
+/// counters, which the rules are then compiled in unless the command line says one (which
+/// must then be the same).
+pub fn with_checkpoint_width(
+    levels: &latticesim_compiler::lints::Lints,
+    peek: &checkpoint::Peek,
+) -> latticesim_compiler::lints::Lints {
+    let mut l = levels.clone();
+    if levels.width_origin().is_none() {
+        l.set_counters(peek.width, "the checkpoint");
+    }
+    l
+}
+
+/// The dimension, number of agents and width of counters of the checkpoint file `path`.
+pub fn peek_checkpoint_file(path: &Path) -> Result<checkpoint::Peek, String> {
     agents_file::open_read(path)
         .map_err(|e| e.to_string())
         .and_then(|r| checkpoint::peek(r).map_err(|e| e.to_string()))

@@ -213,13 +213,22 @@ impl Setting {
                 .expr
                 .eval(&vars)
                 .map_err(|e| format!("--set {}: agent {a}: {e}", self.text))?;
-            if !(-32767..=32767).contains(&v) {
+            let w = lat.width();
+            if !w.holds(v) {
                 return Err(format!(
-                    "--set {}: agent {a} gets {v}, outside a counter's -32767..32767",
-                    self.text
+                    "--set {}: agent {a} gets {v}, outside a counter's {}{}",
+                    self.text,
+                    w.range_text(),
+                    if w == latticesim_vm::model::Width::W16
+                        && latticesim_vm::model::Width::W32.holds(v)
+                    {
+                        " (32-bit counters hold it: `// latticesim: counters 32` in the rules file, or `--counters 32`)"
+                    } else {
+                        ""
+                    }
                 ));
             }
-            lat.set_counter(a as u32, self.counter, v as i16);
+            lat.set_counter(a as u32, self.counter, v as i32);
         }
         Ok(())
     }

@@ -1909,18 +1909,40 @@ fn sweep_runs_files_commands_and_set_counters() {
         "{}",
         stderr(&o)
     );
-    let o = sweep(&["--agents", &folder, "--set", "C00=id*10000"]);
+    // The rules choose 32-bit counters; `--counters 16` the paper's, and the message says
+    // how to have the others.
+    let o = sweep(&[
+        "--agents",
+        &folder,
+        "--set",
+        "C00=id*10000",
+        "--counters",
+        "16",
+    ]);
     assert_eq!(o.status.code(), Some(1));
     assert!(
-        stderr(&o).contains("agent 4 gets 40000, outside a counter's -32767..32767"),
+        stderr(&o).contains(
+            "agent 4 gets 40000, outside a counter's -32767..32767 (32-bit counters hold it"
+        ),
+        "{}",
+        stderr(&o)
+    );
+    let o = sweep(&["--agents", &folder, "--set", "C00=id*1000000000"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("agent 3 gets 3000000000, outside a counter's -2147483647..2147483647"),
         "{}",
         stderr(&o)
     );
     // A run that fails does not take the others with it: here only the line of 15
-    // (agent 11 gets 33000) fails, and the CSV holds the line of 6.
-    let o = sweep(&["--agents", &folder, "--set", "C00=id*3000"]);
+    // (agent 11 gets 2200000000) fails, and the CSV holds the line of 6.
+    let o = sweep(&["--agents", &folder, "--set", "C00=id*200000000"]);
     assert_eq!(o.status.code(), Some(1));
-    assert!(stderr(&o).contains("agent 11 gets 33000"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("agent 11 gets 2200000000"),
+        "{}",
+        stderr(&o)
+    );
     assert!(stderr(&o).contains("1 of 2 runs failed"), "{}", stderr(&o));
     let got = rows(&csv);
     assert_eq!(got.len(), 1, "{got:?}");
@@ -2276,4 +2298,57 @@ fn lint_levels_allow_warn_and_deny_warnings() {
         "{}",
         stderr(&o)
     );
+}
+
+/// 32-bit counters: ids past 32,767 from `gen`, which the rules file's directive (or
+/// `--counters 32`) runs, and which without it are E404 naming the extension; checkpoints
+/// record the width.
+#[test]
+fn counters_of_32_bits_elect_a_leader_past_32767_agents() {
+    let dir = std::env::temp_dir().join(format!("latticesim-wide-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = |f: &str| dir.join(f).to_str().unwrap().to_string();
+    let (agents, out, ckpt) = (p("ids.txt"), p("out.txt"), p("run.ckpt"));
+    let o = run(&[
+        "gen", "connected", "--n", "40000", "--seed", "5", "--state", "INIT0", "--ids", "C00",
+        "--out", &agents,
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(stderr(&o).contains("need 32-bit counters"), "{}", stderr(&o));
+    let le = "examples/leader-election/rules.txt";
+    let o = run(&["run", le, &agents, "--out", &out, "--checkpoint", &ckpt]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&out).unwrap();
+    let leaders: Vec<&str> = text.lines().filter(|l| l.contains("SLEAD0")).collect();
+    assert_eq!(leaders.len(), 1, "{leaders:?}");
+    assert!(leaders[0].ends_with("C00 40000 C01 40000"), "{}", leaders[0]);
+    // The paper's width: E404, which names the extension.
+    let o = run(&["check", le, "--agents", &agents, "--counters", "16", "--color", "never"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("error[E404]"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("`// latticesim: counters 32`"), "{}", stderr(&o));
+    // Rules without the directive, and the flag instead.
+    let plain = tmp(
+        "wide-plain.txt",
+        std::fs::read_to_string(le)
+            .unwrap()
+            .replace("// latticesim: counters 32", "")
+            .as_bytes(),
+    );
+    let plain = plain.to_str().unwrap();
+    let o = run(&["check", plain, "--agents", &agents, "--color", "never"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let o = run(&["check", plain, "--agents", &agents, "--counters", "32"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // The checkpoint says its width: resumed as it was made, refused in another.
+    let o = run(&["run", le, "--resume", &ckpt, "--max-steps", "1", "--out", &out]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(std::fs::read_to_string(&out).unwrap().contains("C00 40000 C01 40000"));
+    let o = run(&["run", le, "--resume", &ckpt, "--counters", "16"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("32-bit counters"), "{}", stderr(&o));
+    // More ids than a counter holds: refused before anything is written.
+    let o = run(&["gen", "line", "--n", "3000000000", "--ids", "C00"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -150,7 +150,7 @@ fn state(e: &Engine, a: usize) -> String {
     String::from_utf8_lossy(&e.lat.state[a]).into_owned()
 }
 
-fn ctr(e: &Engine, a: usize, i: usize) -> i16 {
+fn ctr(e: &Engine, a: usize, i: usize) -> i32 {
     e.lat.counter(a as u32, i as u8)
 }
 
@@ -320,19 +320,15 @@ fn bounding_box() {
                 want.push(rel.iter().map(|p| p[k]).min().unwrap());
             }
             for a in 0..n {
-                let got: Vec<i32> = extremes.iter().map(|&c| ctr(&e, a, c) as i32).collect();
+                let got: Vec<i32> = extremes.iter().map(|&c| ctr(&e, a, c)).collect();
                 assert_eq!(got, want, "{name}: agent {a}");
                 for k in 0..axes {
                     assert_eq!(
-                        ctr(&e, a, sizes[k]) as i32,
+                        ctr(&e, a, sizes[k]),
                         want[2 * k] - want[2 * k + 1] + 1,
                         "{name}"
                     );
-                    assert_eq!(
-                        ctr(&e, a, 2 + k) as i32,
-                        rel[a][k],
-                        "{name}: own coordinates"
-                    );
+                    assert_eq!(ctr(&e, a, 2 + k), rel[a][k], "{name}: own coordinates");
                 }
             }
             let ecc = *bfs(&e.lat.pos, 0, three_d).iter().max().unwrap() as u64;
@@ -662,20 +658,17 @@ fn odd_even_sort() {
                 .flat_map(|i| (i + 1..n).map(move |j| (i, j)))
                 .filter(|&(i, j)| values[i] > values[j])
                 .count() as u64;
-            let mut by_x: Vec<(i32, i16, i16)> = (0..n)
+            let mut by_x: Vec<(i32, i32, i32)> = (0..n)
                 .map(|a| (e.lat.pos[a][0], ctr(&e, a, 0), ctr(&e, a, 1)))
                 .collect();
             by_x.sort();
-            let sorted: Vec<i16> = by_x.iter().map(|t| t.1).collect();
+            let sorted: Vec<i32> = by_x.iter().map(|t| t.1).collect();
             assert_eq!(
                 sorted,
-                (1..=n as i16).collect::<Vec<_>>(),
+                (1..=n as i32).collect::<Vec<_>>(),
                 "{values:?}: sorted"
             );
-            assert!(
-                by_x.iter().all(|t| t.2 as i32 == t.0 % 2),
-                "{values:?}: parities"
-            );
+            assert!(by_x.iter().all(|t| t.2 == t.0 % 2), "{values:?}: parities");
             assert_eq!(
                 e.stats.swaps, inversions,
                 "{values:?}: one swap per inversion"

@@ -586,6 +586,30 @@ fn large_answers_are_compressed_for_clients_that_take_zstd() {
     serde_json::from_slice::<Value>(&body).unwrap();
 }
 
+/// A frame coloured by a counter carries its values in the run's width: 4 bytes each with
+/// 32-bit counters, whole past 16 bits.
+#[test]
+fn frames_carry_counters_of_32_bits_whole() {
+    let dir =
+        std::env::temp_dir().join(format!("latticesim-serve-{}-ids-src", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let agents = dir.join("agents.txt");
+    let text: String = (0..40).map(|i| format!("{i},0 SINIT0 C00 {}\n", 100_000 + i)).collect();
+    std::fs::write(&agents, text).unwrap();
+    let agents = agents.to_str().unwrap();
+    let srv = start("ids", "examples/leader-election/rules.txt", agents);
+    let (_, body) = srv.get_bytes("/api/frame?format=bin&step=0&counter=C00", "");
+    let head = decode_bin(&body, None).0;
+    assert_eq!(head["counter_bytes"], json!(4), "{head}");
+    let values = &body[body.len() - 4 * 40..];
+    let got: Vec<i32> = (values.chunks_exact(4))
+        .map(|b| i32::from_le_bytes(b.try_into().unwrap()))
+        .collect();
+    assert_eq!(got, (100_000..100_040).collect::<Vec<_>>());
+    let (_, a) = srv.get("/api/agent?id=39");
+    assert_eq!(a["counters"][0], json!({ "name": "C00", "value": 100_039 }));
+}
+
 #[test]
 fn inspector_shows_counters_messages_and_next_rules() {
     let srv = start(

@@ -136,7 +136,7 @@ export function decodeFrame(buf, held) {
     cols[c.name] = { ids, values };
   }
   // The counter asked for, of every agent.
-  f.values = f.counter ? new Int16Array(buf, off, n) : null;
+  f.values = f.counter ? new (f.counter_bytes === 4 ? Int32Array : Int16Array)(buf, off, n) : null;
   if (f.delta && (!held || held.step !== f.base)) throw new Error(`a change to step ${f.base}, but the page holds another`);
   if (!f.delta) {
     f.pos = cols.pos.values;

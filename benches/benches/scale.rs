@@ -309,7 +309,7 @@ fn memory_child(spec: &str) {
             while (seen.len() as u64) < n {
                 let p = [g.below(side) as i32, g.below(side) as i32, 0];
                 if seen.insert(p) {
-                    b.push(p, *b"00000", 0, &[(0, (seen.len() % 1000) as i16)]);
+                    b.push(p, *b"00000", 0, &[(0, (seen.len() % 1000) as i32)]);
                 }
             }
             drop(seen);

@@ -170,7 +170,7 @@ pub mod workloads {
         let mut b = latticesim_runtime::LatticeBuilder::new(Dim::Two, None, n);
         for x in 0..l {
             for y in 0..l {
-                let c00 = (((x * l + y) * 7919) % 32749 + 1) as i16;
+                let c00 = (((x * l + y) * 7919) % 32749 + 1) as i32;
                 b.push([x as i32, y as i32, 0], *b"00000", 0, &[(0, c00)]);
             }
         }

@@ -1,8 +1,8 @@
 //! Checking an agents file: dimensions, the universe, cells, states, attachments and
 //! counters (E40x, W60x), producing the checked [`Config`].
 
-use crate::check_rules::{chars, VALUE_MAX};
-use crate::checked::{AgentInit, Bounds, Config, Dim, Dir};
+use crate::check_rules::{chars, range_help};
+use crate::checked::{AgentInit, Bounds, Config, Dim, Dir, Width};
 use crate::dim::DimSource;
 use latticesim_grammar::ast::{AgentLine, AgentsFile, Universe};
 use latticesim_grammar::span::Spanned;
@@ -32,6 +32,7 @@ pub fn check_agents(
     file: FileId,
     src: &str,
     dim: &DimSource,
+    width: Width,
     diags: &mut Vec<Diagnostic>,
 ) -> Config {
     let d = dim.dim;
@@ -40,6 +41,7 @@ pub fn check_agents(
         src,
         dim,
         diags,
+        width,
     };
     let universe = f.universe.as_ref().and_then(|u| ck.universe(u));
     let mut agents = Vec::with_capacity(f.agents.len());
@@ -96,6 +98,8 @@ struct Checker<'a, 'd> {
     src: &'a str,
     dim: &'a DimSource,
     diags: &'d mut Vec<Diagnostic>,
+    /// The width of counters, which bounds their values.
+    width: Width,
 }
 
 impl Checker<'_, '_> {
@@ -298,8 +302,9 @@ impl Checker<'_, '_> {
 
     /// An agent's non-zero counters (E404 for a counter the dimension has not, or a value
     /// out of range).
-    fn counters(&mut self, a: &AgentLine<'_>, ok: &mut bool) -> Vec<(u8, i16)> {
+    fn counters(&mut self, a: &AgentLine<'_>, ok: &mut bool) -> Vec<(u8, i32)> {
         let (file, src, d, diags) = (self.file, self.src, self.dim.dim, &mut *self.diags);
+        let w = self.width;
         let mut counters = Vec::with_capacity(a.counters.len());
         for (c, v) in &a.counters {
             let idx: usize = c.node.parse().unwrap_or(usize::MAX);
@@ -320,22 +325,23 @@ impl Checker<'_, '_> {
                     )),
                 );
                 *ok = false;
-            } else if !(-VALUE_MAX..=VALUE_MAX).contains(&v.node) {
+            } else if !w.holds(v.node) {
                 diags.push(
                     Diagnostic::new(
                         Code::E404,
                         format!(
-                            "the value {} of C{} is outside -32767..32767",
+                            "the value {} of C{} is outside {}",
                             crate::written(src, v.span),
-                            c.node
+                            c.node,
+                            w.range_text()
                         ),
                         Label::new(file, v.span, size_word(v.node)),
                     )
-                    .with_help("counters hold 16-bit values from -32767 to 32767"),
+                    .with_help(range_help(w, v.node, "counters hold")),
                 );
                 *ok = false;
             } else if v.node != 0 {
-                counters.push((idx as u8, v.node as i16));
+                counters.push((idx as u8, v.node as i32));
             }
         }
         counters

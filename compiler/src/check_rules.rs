@@ -3,7 +3,7 @@
 
 use crate::checked::{
     Action, AttachLetter, BitPat, CheckedRules, Cond, Coord, Dim, Dir, Offset, Operand, Rule,
-    Target, TextPat, Val,
+    Target, TextPat, Val, Width,
 };
 use crate::contradict;
 use crate::dim::DimSource;
@@ -93,8 +93,23 @@ pub(crate) fn digit_for(c: char) -> Option<char> {
     }
 }
 
-/// The range of counter values, literals and offsets.
+/// The range of priorities (and of the paper's counter values, literals and offsets).
 pub const VALUE_MAX: i64 = 32767;
+
+/// The help for a value outside the width `w` that `what` holds ("counters hold ..."):
+/// the range, and how to choose 32-bit counters when they would hold it.
+pub(crate) fn range_help(w: Width, n: i64, what: &str) -> String {
+    let range = format!(
+        "{what} {}-bit values from -{m} to {m}",
+        w.bits(),
+        m = w.max()
+    );
+    if w == Width::W16 && Width::W32.holds(n) {
+        format!("{range}; for 32-bit counters and messages, write `// latticesim: counters 32` in the rules file or run with `--counters 32`")
+    } else {
+        range
+    }
+}
 
 pub(crate) struct Checker<'d> {
     pub file: FileId,
@@ -104,6 +119,8 @@ pub(crate) struct Checker<'d> {
     pub diags: &'d mut Vec<Diagnostic>,
     /// The states the rules file names in full (`S` and `T` without `*`), for suggestions.
     pub states: Vec<&'d str>,
+    /// The width of counters and messages, which bounds literals.
+    pub width: Width,
 }
 
 type OffsetAst<'a> = ast::Offset<'a>;
@@ -134,21 +151,31 @@ impl Checker<'_> {
         self.diags.push(d);
     }
 
-    fn literal(&mut self, n: i64, span: Span) -> Option<i16> {
-        if (-VALUE_MAX..=VALUE_MAX).contains(&n) {
-            return Some(n as i16);
+    fn literal(&mut self, n: i64, span: Span) -> Option<i32> {
+        let w = self.width;
+        if w.holds(n) {
+            return Some(n as i32);
         }
         let written = crate::written(self.src, span);
+        let mut help = format!(
+            "use a number from -{m} to {m}, e.g. {}",
+            w.saturate(n),
+            m = w.max()
+        );
+        if w == Width::W16 && Width::W32.holds(n) {
+            help.push_str(", or 32-bit counters: write `// latticesim: counters 32` in the rules file or run with `--counters 32`");
+        }
         self.push(
             Diagnostic::new(
                 Code::E310,
-                format!("{written} is outside the 16-bit range -32767..32767"),
+                format!(
+                    "{written} is outside the {}-bit range {}",
+                    w.bits(),
+                    w.range_text()
+                ),
                 self.label(span, if n < 0 { "too small" } else { "too large" }),
             )
-            .with_help(format!(
-                "use a number from -32767 to 32767, e.g. {}",
-                n.clamp(-VALUE_MAX, VALUE_MAX)
-            )),
+            .with_help(help),
         );
         None
     }
@@ -346,7 +373,7 @@ impl Checker<'_> {
 
     fn coord(&mut self, c: &Spanned<Comp<'_>>) -> Option<Coord> {
         match c.node {
-            Comp::Int(n) => self.literal(n, c.span).map(|v| Coord::Lit(v as i32)),
+            Comp::Int(n) => self.literal(n, c.span).map(Coord::Lit),
             Comp::Counter(d) => self.counter(d, c.span).map(Coord::Counter),
         }
     }
@@ -963,6 +990,7 @@ pub fn check_rules(
     file: FileId,
     src: &str,
     dim: &DimSource,
+    width: Width,
     diags: &mut Vec<Diagnostic>,
 ) -> CheckedRules {
     let mut ck = Checker {
@@ -971,6 +999,7 @@ pub fn check_rules(
         dim,
         diags,
         states: named_states(f),
+        width,
     };
     let mut rules = Vec::with_capacity(f.rules.len());
     let mut names: HashMap<&str, Span> = HashMap::with_capacity(f.rules.len());
@@ -1027,6 +1056,7 @@ pub fn check_rules(
     }
     CheckedRules {
         dim: dim.dim,
+        width,
         rules,
     }
 }

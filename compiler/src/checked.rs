@@ -4,15 +4,15 @@
 
 use latticesim_grammar::Span;
 pub use latticesim_vm::model::{
-    AgentInit, AttachLetter, BitPat, Bounds, CalcOp, CmpOp, Columns, Config, Coord, Dim, Dir,
-    Offset, TextPat,
+    AgentInit, AttachLetter, BitPat, Bounds, CalcOp, CmpOp, Column, Columns, Config, Coord, Dim,
+    Dir, Offset, TextPat, Width,
 };
 
 /// A readable value.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Val {
-    /// A literal in -32767..32767.
-    Lit(i16),
+    /// A literal of the rules' width (-32767..32767, or the 32-bit range).
+    Lit(i32),
     /// An own counter.
     Counter(u8),
     /// An incoming numeric message slot (0-based) from a direction, or from any (`#*`).
@@ -157,6 +157,8 @@ pub struct Rule {
 pub struct CheckedRules {
     /// The dimension.
     pub dim: Dim,
+    /// The width of counters and numeric messages.
+    pub width: Width,
     /// The rules, in file order.
     pub rules: Vec<Rule>,
 }

@@ -126,7 +126,7 @@ fn conflict(a: &Cond, b: &Cond, dim3: bool) -> Option<String> {
 
 fn always_false(c: &Cond) -> bool {
     match c {
-        Cond::Compare(op, Val::Lit(a), Val::Lit(b)) => !op.holds(*a as i32, *b as i32),
+        Cond::Compare(op, Val::Lit(a), Val::Lit(b)) => !op.holds(*a, *b),
         _ => false,
     }
 }

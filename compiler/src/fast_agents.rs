@@ -12,8 +12,7 @@
 //! fixes the dimension and the universe, after which every chunk of whole lines can be
 //! read on its own, on any thread ([`read_lines`]).
 
-use crate::check_rules::VALUE_MAX;
-use crate::checked::{Bounds, Columns, Dim};
+use crate::checked::{Bounds, Columns, Dim, Width};
 use crate::{Checked, Input};
 use latticesim_grammar::FileId;
 
@@ -28,6 +27,9 @@ pub struct Head {
     pub agents_at: usize,
     /// Where the line after the first agent line starts (the head is the bytes before).
     pub end: usize,
+    /// The width of counters (the rules' width, which [`read_head`] cannot know: set it
+    /// before [`read_lines`]; 16 bits until then).
+    pub width: Width,
 }
 
 /// The lines of `bytes`, each without its line end: (start, line).
@@ -183,10 +185,16 @@ pub fn read_head(bytes: &[u8]) -> Option<Head> {
             universe: universe.map(|(b, _)| b),
             agents_at: start,
             end: (start + raw.len() + 1).min(bytes.len()),
+            width: Width::W16,
         };
-        // The first agent line itself must read cleanly.
-        let mut probe = Columns::new();
-        return read_lines(&bytes[start..head.end], &head, &mut probe)
+        // The first agent line itself must read cleanly (in either width: the rules say
+        // which, and the line is read again in it).
+        let wide = Head {
+            width: Width::W32,
+            ..head
+        };
+        let mut probe = Columns::new(Width::W32);
+        return read_lines(&bytes[start..head.end], &wide, &mut probe)
             .is_ok()
             .then_some(head);
     }
@@ -273,7 +281,8 @@ fn quick_line(b: &[u8], mut i: usize, head: &Head, out: &mut Columns) -> Option<
         }
     }
     let (mut state, mut attach) = (None::<[u8; 5]>, None::<u8>);
-    let mut counters = [(0u8, 0i16); 8];
+    let mut counters = [(0u8, 0i32); 8];
+    let max = head.width.max() as i64;
     let (mut nc, mut seen) = (0, 0u64);
     let next = loop {
         while i < n && blank(b[i]) {
@@ -323,11 +332,11 @@ fn quick_line(b: &[u8], mut i: usize, head: &Head, out: &mut Columns) -> Option<
                 while i < n && blank(b[i]) {
                     i += 1;
                 }
-                let v = int(&mut i, -VALUE_MAX, VALUE_MAX)?;
+                let v = int(&mut i, -max, max)?;
                 if !ends(i) {
                     return None;
                 }
-                counters[nc] = (c, v as i16);
+                counters[nc] = (c, v as i32);
                 nc += 1;
             }
             _ => return None,
@@ -407,10 +416,11 @@ fn line(raw: &[u8], head: &Head, out: &mut Columns) -> bool {
                     return false;
                 }
                 seen |= 1 << c;
-                let Some(v) = ws.next().and_then(|v| int(v, -VALUE_MAX, VALUE_MAX)) else {
+                let max = head.width.max() as i64;
+                let Some(v) = ws.next().and_then(|v| int(v, -max, max)) else {
                     return false;
                 };
-                counters.push((c, v as i16));
+                counters.push((c, v as i32));
             }
             _ => return false,
         }
@@ -456,7 +466,7 @@ mod tests {
 
     fn read(src: &str) -> Option<(Head, Columns)> {
         let head = read_head(src.as_bytes())?;
-        let mut cols = Columns::new();
+        let mut cols = Columns::new(head.width);
         read_lines(&src.as_bytes()[head.agents_at..], &head, &mut cols)
             .is_ok()
             .then_some((head, cols))
@@ -473,7 +483,10 @@ mod tests {
         assert_eq!(cols.state[0], *b"AB(DE");
         assert_eq!(cols.state[1], *b"00000");
         assert_eq!(cols.attach, vec![1, 0, 0]);
-        assert_eq!(cols.counters[3], vec![-7, 0, 0]);
+        assert_eq!(
+            cols.counters[3],
+            crate::checked::Column::W16(vec![-7, 0, 0])
+        );
         assert!(cols.counters[0].is_empty());
     }
 

@@ -293,6 +293,12 @@ pub fn check_with(
         .and_then(|(a, id)| dim::from_agents(a, id));
     let fixed = dim::reconcile(dim, agents_dim.clone(), &mut diags);
 
+    // The directives come first: the width of counters bounds the values of both files.
+    let (said, bad) = lints::Lints::from_rules(sources.text(rid), rid);
+    diags.extend(bad);
+    let levels = said.then(levels);
+    let width = levels.width();
+
     let arena = Bump::new();
     let text = sources.text(rid);
     let hint = fixed.as_ref().map(|d| d.dim.coords() as u8);
@@ -308,10 +314,10 @@ pub fn check_with(
         }
     };
     diags.extend(parse_diags);
-    let rules = check_rules(&ast, rid, text, &dim_src, &mut diags);
+    let rules = check_rules(&ast, rid, text, &dim_src, width, &mut diags);
     let config = agents_ast.as_ref().zip(agents_id).map(|(a, id)| {
         let own = agents_dim.clone().unwrap_or_else(|| dim_src.clone());
-        check_agents(a, id, sources.text(id), &own, &mut diags)
+        check_agents(a, id, sources.text(id), &own, width, &mut diags)
     });
     if let (Some(a), Some(id), Some(_)) = (&agents_ast, agents_id, &config) {
         if !diags.iter().any(|d| d.is_error()) {
@@ -332,9 +338,6 @@ pub fn check_with(
     let rule_count = ast.rules.len();
     let agent_count = agents_ast.as_ref().map_or(0, |a| a.agents.len());
     drop((ast, agents_ast));
-    let (said, bad) = lints::Lints::from_rules(sources.text(rid), rid);
-    diags.extend(bad);
-    let levels = said.then(levels);
     levels.apply(&mut diags);
     diagnostics::sort(&mut diags);
     let ok = !diags.iter().any(|d| d.is_error());

@@ -12,8 +12,14 @@
 //! and from the command line (`--allow`, `--warn`, `--deny`), which comes after the file.
 //! A level for a code wins over one for `warnings`; for one code, the last said wins (the
 //! command line's `--allow`, then `--warn`, then `--deny`). Errors have no level.
+//!
+//! The same lines choose the width of counters and numeric messages (the 32-bit extension,
+//! see [`latticesim_vm::column`]): `// latticesim: counters 32`; the command line's
+//! `--counters 16|32` wins over the file's. [`Lints`] carries both: what the rules file and
+//! the command line say about how a file is checked and run.
 
 use latticesim_grammar::{Code, Diagnostic, FileId, Label, Severity, Span};
+use latticesim_vm::column::Width;
 
 /// What a lint level does to a warning.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -81,6 +87,8 @@ impl Target {
 pub struct Lints {
     /// (what, level, where it was said).
     said: Vec<(Target, Level, String)>,
+    /// The width of counters, when said, and where.
+    counters: Option<(Width, String)>,
 }
 
 impl Lints {
@@ -110,16 +118,34 @@ impl Lints {
         Ok(l)
     }
 
-    /// `self`'s levels, then `later`'s (which win).
+    /// `self`'s levels, then `later`'s (which win, as does its width of counters).
     pub fn then(&self, later: &Lints) -> Lints {
         let mut l = self.clone();
         l.said.extend(later.said.iter().cloned());
+        if later.counters.is_some() {
+            l.counters = later.counters.clone();
+        }
         l
     }
 
     /// Whether no level is said.
     pub fn is_empty(&self) -> bool {
         self.said.is_empty()
+    }
+
+    /// Sets the width of counters, said at `origin`.
+    pub fn set_counters(&mut self, w: Width, origin: impl Into<String>) {
+        self.counters = Some((w, origin.into()));
+    }
+
+    /// The width of counters in force: as said, else the paper's 16 bits.
+    pub fn width(&self) -> Width {
+        self.counters.as_ref().map_or(Width::W16, |c| c.0)
+    }
+
+    /// Where the width of counters was said, if it was.
+    pub fn width_origin(&self) -> Option<&str> {
+        self.counters.as_ref().map(|c| c.1.as_str())
     }
 
     /// The level of a warning, and where it was said (none: warned of by default).
@@ -189,12 +215,28 @@ impl Lints {
                         msg,
                         Label::new(file, span, "this directive"),
                     )
-                    .with_help("a directive is `// latticesim: allow CODE`, `warn CODE` or `deny CODE` (a warning's code or name, or `warnings`), several separated by commas")
+                    .with_help("a directive is `// latticesim: allow CODE`, `warn CODE` or `deny CODE` (a warning's code or name, or `warnings`), or `counters 32`, several separated by commas")
                 };
                 let Some((&word, targets)) = words.split_first() else {
                     bad.push(say("an empty directive".into()));
                     continue;
                 };
+                if word == "counters" {
+                    match targets {
+                        [b] if b.parse().ok().and_then(Width::from_bits).is_some() => {
+                            let w = b.parse().ok().and_then(Width::from_bits);
+                            l.set_counters(
+                                w.unwrap_or_default(),
+                                format!("`counters {b}` on line {} of the rules file", n + 1),
+                            );
+                        }
+                        _ => bad.push(say(format!(
+                            "`counters` takes 16 or 32 (the bits of counters and messages), not `{}`",
+                            targets.join(" ")
+                        ))),
+                    }
+                    continue;
+                }
                 let Some(level) = Level::parse(word) else {
                     bad.push(say(format!(
                         "`{word}` is not a lint level (`allow`, `warn` or `deny`)"
@@ -259,6 +301,23 @@ mod tests {
         assert_eq!(d[0].denied.as_deref(), Some("`--deny W603`"));
         assert!(Lints::from_flags(&[], &[], &["E302".into()]).is_err());
         assert!(Lints::from_flags(&["W999".into()], &[], &[]).is_err());
+    }
+
+    /// The width of counters: from a directive, the command line's after it.
+    #[test]
+    fn counters_are_said_by_the_file_and_the_command_line() {
+        let (f, bad) = Lints::from_rules("// latticesim: counters 32, deny warnings\n", FileId(0));
+        assert!(bad.is_empty(), "{bad:?}");
+        assert_eq!(f.width(), Width::W32);
+        assert_eq!(Lints::new().width(), Width::W16);
+        let mut cli = Lints::new();
+        cli.set_counters(Width::W16, "`--counters 16`");
+        assert_eq!(f.then(&cli).width(), Width::W16);
+        assert_eq!(f.then(&Lints::new()).width(), Width::W32);
+        for wrong in ["counters 64", "counters", "counters 32 16"] {
+            let (_, bad) = Lints::from_rules(&format!("// latticesim: {wrong}\n"), FileId(0));
+            assert_eq!(bad.len(), 1, "{wrong}");
+        }
     }
 
     /// Directives that cannot be read: E106 on the part, the rest honoured.

@@ -59,24 +59,29 @@ struct Lowering {
     texts: Table<[u8; 5]>,
     letters: Table<[AttachLetter; 6]>,
     externals: Table<(Coord, Coord, u8)>,
+    /// Literals outside the 16-bit range.
+    wide: Table<i32>,
 }
 
 fn dir_code(d: Option<p::Dir>) -> u8 {
     d.map_or(ANY_DIR, |d| d.index() as u8)
 }
 
-fn val(v: p::Val) -> Val {
-    match v {
-        p::Val::Lit(x) => Val::Lit(x),
-        p::Val::Counter(c) => Val::Counter(c),
-        p::Val::Msg { dir, slot } => Val::Msg {
-            dir: dir_code(dir),
-            slot,
-        },
-    }
-}
-
 impl Lowering {
+    fn val(&mut self, v: p::Val) -> Val {
+        match v {
+            p::Val::Lit(x) => match i16::try_from(x) {
+                Ok(x) => Val::Lit(x),
+                Err(_) => Val::Wide(self.wide.intern(x)),
+            },
+            p::Val::Counter(c) => Val::Counter(c),
+            p::Val::Msg { dir, slot } => Val::Msg {
+                dir: dir_code(dir),
+                slot,
+            },
+        }
+    }
+
     fn cond(&mut self, c: &Cond, start: usize, reads_prio: &mut bool) {
         match c {
             Cond::And(cs) if cs.is_empty() => self.code.push(Op::True {}),
@@ -150,11 +155,10 @@ impl Lowering {
                 let pat = self.pats.intern(*pat);
                 self.code.push(Op::RState { off, pat })
             }
-            Cond::Compare(op, a, b) => self.code.push(Op::Cmp {
-                op: *op,
-                a: val(*a),
-                b: val(*b),
-            }),
+            Cond::Compare(op, a, b) => {
+                let (a, b) = (self.val(*a), self.val(*b));
+                self.code.push(Op::Cmp { op: *op, a, b })
+            }
             Cond::RemoteCompare {
                 strict,
                 offset,
@@ -162,11 +166,12 @@ impl Lowering {
                 rhs,
             } => {
                 let off = self.offsets.intern(*offset);
+                let b = self.val(*rhs);
                 self.code.push(Op::RCmp {
                     strict: *strict as u8,
                     off,
                     counter: *counter,
-                    b: val(*rhs),
+                    b,
                 })
             }
         }
@@ -174,7 +179,7 @@ impl Lowering {
 
     fn operand(&mut self, o: &p::Operand) -> Val {
         match *o {
-            p::Operand::Val(v) => val(v),
+            p::Operand::Val(v) => self.val(v),
             p::Operand::External { x, y, counter } => {
                 Val::Ext(self.externals.intern((x, y, counter)))
             }
@@ -283,6 +288,7 @@ impl Lowering {
             (self.texts.full, "message texts"),
             (self.letters.full, "attachment actions"),
             (self.externals.full, "external counters"),
+            (self.wide.full, "32-bit literals"),
         ];
         self.too_large
             .or_else(|| full.iter().find(|f| f.0).map(|f| TooLarge::Constants(f.1)))
@@ -335,6 +341,8 @@ fn lower_unverified(p: &CheckedRules) -> latticesim_vm::Program {
         texts: l.texts.items,
         letters: l.letters.items,
         externals: l.externals.items,
+        width: p.width,
+        wide: l.wide.items,
     };
     debug_assert_eq!(prog.verify(), Ok(()));
     prog

@@ -5,6 +5,7 @@ use crate::check;
 use crate::report::{Record, Report, RECORDS_KEPT};
 use latticesim::agents_file::{self, Source};
 use latticesim_runtime::{Engine, Options, Record as RecordData, StepCost};
+use latticesim_vm::model::{Column, Width};
 use numpy::ndarray::{ArrayView1, ArrayView2, ShapeBuilder};
 use numpy::{PyArray1, PyArray2, PyArray3, PyFixedString};
 use pyo3::exceptions::{PyIOError, PyKeyError, PyValueError};
@@ -293,14 +294,15 @@ impl Simulation {
                 checkpoint.display()
             ))
         };
-        let (dim, agents) = latticesim::run::peek_checkpoint_file(&checkpoint).map_err(cannot)?;
+        let peek = latticesim::run::peek_checkpoint_file(&checkpoint).map_err(cannot)?;
+        let (dim, agents) = (peek.dim, peek.agents);
         let rules_bytes = read_rules(&rules)?;
         let rules_name = rules.display().to_string();
         let c = latticesim::check_pair(
             (&rules_name, &rules_bytes),
             None,
             Some(dim),
-            &Default::default(),
+            &latticesim::run::with_checkpoint_width(&Default::default(), &peek),
         );
         let Some(program) = c.rules.as_ref() else {
             return Err(check::error(py, &c, None));
@@ -426,37 +428,56 @@ impl Simulation {
             .collect()
     }
 
-    /// The counters, agents x counter_names int16 (a copy: the engine keeps a column per
-    /// counter).
+    /// The counters, agents x counter_names, int16 (int32 with 32-bit counters; a copy:
+    /// the engine keeps a column per counter).
     #[getter]
-    fn counters<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<i16>> {
+    fn counters<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
         let lat = &self.engine.lat;
         let nums = lat.counter_numbers();
-        let mut out = numpy::ndarray::Array2::<i16>::zeros((lat.len(), nums.len()));
-        for (j, &i) in nums.iter().enumerate() {
-            let col = lat
-                .counter_column(i)
-                .expect("a counter in use has a column");
-            out.column_mut(j)
-                .iter_mut()
-                .zip(col)
-                .for_each(|(o, v)| *o = *v);
+        let cols: Vec<&Column> = (nums.iter())
+            .map(|&i| {
+                lat.counter_column(i)
+                    .expect("a counter in use has a column")
+            })
+            .collect();
+        let shape = (lat.len(), nums.len());
+        match lat.width() {
+            Width::W16 => {
+                let mut out = numpy::ndarray::Array2::<i16>::zeros(shape);
+                for (j, col) in cols.iter().enumerate() {
+                    (out.column_mut(j).iter_mut().zip(col.narrow())).for_each(|(o, v)| *o = *v);
+                }
+                PyArray2::from_owned_array(py, out).into_any()
+            }
+            Width::W32 => {
+                let mut out = numpy::ndarray::Array2::<i32>::zeros(shape);
+                for (j, col) in cols.iter().enumerate() {
+                    (out.column_mut(j).iter_mut().enumerate()).for_each(|(a, o)| *o = col.get(a));
+                }
+                PyArray2::from_owned_array(py, out).into_any()
+            }
         }
-        PyArray2::from_owned_array(py, out)
     }
 
-    /// One counter (e.g. "C00"), int16 per agent: read-only on the engine's memory when
-    /// it has a column, else zeros.
-    fn counter<'py>(slf: Bound<'py, Self>, name: &str) -> PyResult<Bound<'py, PyArray1<i16>>> {
+    /// One counter (e.g. "C00"), int16 per agent (int32 with 32-bit counters): read-only
+    /// on the engine's memory when it has a column, else zeros.
+    fn counter<'py>(slf: Bound<'py, Self>, name: &str) -> PyResult<Bound<'py, PyAny>> {
         let this = slf.borrow();
         let i = this.counter_number(name)?;
         let Some(col) = this.engine.lat.counter_column(i) else {
-            return Ok(PyArray1::zeros(slf.py(), this.engine.lat.len(), false));
+            let n = this.engine.lat.len();
+            return Ok(match this.engine.lat.width() {
+                Width::W16 => PyArray1::<i16>::zeros(slf.py(), n, false).into_any(),
+                Width::W32 => PyArray1::<i32>::zeros(slf.py(), n, false).into_any(),
+            });
         };
-        let view = ArrayView1::from(col);
         // SAFETY: as for `positions`; a counter's column never moves once made.
-        let a = unsafe { PyArray1::borrow_from_array(&view, slf.clone().into_any()) };
-        read_only(a)
+        let a = latticesim_vm::each_width!(col, v => {
+            let view = ArrayView1::from(&v[..]);
+            read_only(unsafe { PyArray1::borrow_from_array(&view, slf.clone().into_any()) })?
+                .into_any()
+        });
+        Ok(a)
     }
 
     /// The numeric slots (from 1, as `#N01`) that have inboxes: the last axis of `inbox`.
@@ -468,17 +489,29 @@ impl Simulation {
     }
 
     /// The numeric messages received at the last step, agents x directions (N, W, E, S[,
-    /// A, B]) x inbox_slots, int16 (a copy).
+    /// A, B]) x inbox_slots, int16 (int32 with 32-bit counters; a copy).
     #[getter]
-    fn inbox<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray3<i16>> {
+    fn inbox<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
         let lat = &self.engine.lat;
         let slots = lat.slot_numbers();
         let dirs = lat.dim.dirs();
-        let mut out = numpy::ndarray::Array3::<i16>::zeros((lat.len(), dirs, slots.len()));
-        for ((a, d, k), v) in out.indexed_iter_mut() {
-            *v = lat.inbox(a as u32, d as u8, slots[k]);
+        let shape = (lat.len(), dirs, slots.len());
+        match lat.width() {
+            Width::W16 => {
+                let mut out = numpy::ndarray::Array3::<i16>::zeros(shape);
+                for ((a, d, k), v) in out.indexed_iter_mut() {
+                    *v = lat.inbox(a as u32, d as u8, slots[k]) as i16;
+                }
+                PyArray3::from_owned_array(py, out).into_any()
+            }
+            Width::W32 => {
+                let mut out = numpy::ndarray::Array3::<i32>::zeros(shape);
+                for ((a, d, k), v) in out.indexed_iter_mut() {
+                    *v = lat.inbox(a as u32, d as u8, slots[k]);
+                }
+                PyArray3::from_owned_array(py, out).into_any()
+            }
         }
-        PyArray3::from_owned_array(py, out)
     }
 
     /// The text messages received at the last step, agents x directions, `S5` (b"" where
@@ -577,7 +610,8 @@ impl Simulation {
             let col = lat
                 .counter_column(i)
                 .expect("a counter in use has a column");
-            cols.set_item(format!("C{i:02}"), PyArray1::from_slice(py, col))?;
+            let name = format!("C{i:02}");
+            latticesim_vm::each_width!(col, v => cols.set_item(name, PyArray1::from_slice(py, v)))?;
         }
         drop(this);
         py.import("pandas")?.call_method1("DataFrame", (cols,))

@@ -107,6 +107,23 @@ def test_counters_inboxes_and_tables():
     assert table.num_rows == 30 and table.column_names == list(df.columns)
 
 
+def test_counters_of_32_bits_are_int32():
+    # The rules file chooses 32-bit counters (`// latticesim: counters 32`): ids past 32767.
+    rules = (ROOT / "examples/leader-election/rules.txt").read_text()
+    agents = "".join(f"{i},0 SINIT0 C00 {40000 + i}\n" for i in range(10))
+    sim = latticesim.Simulation.from_text(rules, agents)
+    assert sim.counter("C00").dtype == np.int32 and sim.counters.dtype == np.int32
+    sim.run()
+    assert (sim.counter("C01") == 40009).all()
+    assert sim.inbox.dtype == np.int32
+    assert sim.to_pandas()["C00"].max() == 40009
+    # Without the directive, the paper's 16 bits: the agents file is refused, by name.
+    with pytest.raises(ValueError, match="counters 32"):
+        latticesim.Simulation.from_text(rules.replace("// latticesim: counters 32", ""), agents)
+    small = latticesim.Simulation.from_files(ROOT / "examples/counting/rules.txt", ROOT / "examples/counting/agents-40.txt")
+    assert small.counters.dtype == np.int16
+
+
 def test_three_d_positions_have_three_columns():
     sim = latticesim.Simulation.from_files(ROOT / "examples/leader-election/rules-3d.txt", ROOT / "examples/leader-election/agents-3d.txt")
     assert sim.dim == 3 and sim.positions.shape == (sim.agents, 3)

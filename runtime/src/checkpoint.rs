@@ -9,11 +9,12 @@
 //!
 //! The format (all numbers little-endian): the magic `LSIMCKPT`, the format version (u32),
 //! the rules' hash (u64), the order (u8), static-first (u8), the dimension's coordinates
-//! (u8), the universe (u8 flag, then 6 i32), the agent count (u64), a CRC-32 of the header
-//! so far; per agent its
+//! (u8), the universe (u8 flag, then 6 i32), the agent count (u64), the width of counters
+//! (u8: 16 or 32), a CRC-32 of the header so far; per agent its
 //! coordinates (i32 each), state (5 bytes), bonds (u8); the counters with columns (u8 count,
-//! then per column its number (u8) and a value per agent, i16); the numeric slots with
-//! inboxes (u8 count, per slot its number (u8) and per direction a value per agent, i16);
+//! then per column its number (u8) and a value per agent, i16 or i32 by the width); the
+//! numeric slots with inboxes (u8 count, per slot its number (u8) and per direction a value
+//! per agent, as counters);
 //! text inboxes (u8 flag, then per agent a byte of directions received and 5 bytes per
 //! direction); the statistics (steps u64, quiescent u8, firings per rule u64 after a u32
 //! count, moves, carried, swaps, sent, delivered, dropped u64, records as a u32 count of (kind name
@@ -23,14 +24,15 @@ use crate::engine::{Engine, Options, Order, Stats};
 use crate::lattice::LatticeBuilder;
 use crate::record::RecordKind;
 use crate::Lattice;
-use latticesim_vm::model::{Bounds, Dim};
+use latticesim_vm::model::{Bounds, Column, Dim, Width};
 use latticesim_vm::{Program, Verified};
 use std::io::{self, Read, Write};
 
 /// The first bytes of every checkpoint.
 const MAGIC: &[u8; 8] = b"LSIMCKPT";
-/// The format written; only it is read (version 2 added the carried agents).
-pub const VERSION: u32 = 2;
+/// The format written; only it is read (version 2 added the carried agents, version 3 the
+/// width of counters).
+pub const VERSION: u32 = 3;
 /// Agents handled at a time.
 const BLOCK: usize = 1 << 16;
 
@@ -203,10 +205,26 @@ fn known(magic: &[u8], version: u32) -> Result<(), CheckpointError> {
     Ok(())
 }
 
-/// The dimension a checkpoint was made in and its number of agents, from its first bytes
-/// (to check its rules in that dimension, and choose threads).
-pub fn peek(mut r: impl Read) -> Result<(Dim, u64), CheckpointError> {
-    let mut head = [0u8; 56];
+/// What a checkpoint's first bytes say: the dimension, the number of agents and the width
+/// of counters (to check its rules so, and choose threads).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Peek {
+    /// The dimension.
+    pub dim: Dim,
+    /// The number of agents.
+    pub agents: u64,
+    /// The width of counters and messages.
+    pub width: Width,
+}
+
+/// The width a checkpoint's byte says.
+fn width_of(b: u8) -> Result<Width, CheckpointError> {
+    Width::from_bits(b as u32).ok_or_else(|| CheckpointError::Invalid(format!("{b}-bit counters")))
+}
+
+/// What a checkpoint was made in, from its first bytes ([`Peek`]).
+pub fn peek(mut r: impl Read) -> Result<Peek, CheckpointError> {
+    let mut head = [0u8; 57];
     r.read_exact(&mut head).map_err(|e| match e.kind() {
         io::ErrorKind::UnexpectedEof => CheckpointError::NotACheckpoint,
         _ => CheckpointError::Io(e),
@@ -216,10 +234,14 @@ pub fn peek(mut r: impl Read) -> Result<(Dim, u64), CheckpointError> {
         u32::from_le_bytes(head[8..12].try_into().expect("4 bytes")),
     )?;
     let n = u64::from_le_bytes(head[48..56].try_into().expect("8 bytes"));
-    match head[22] {
-        3 => Ok((Dim::Three, n)),
-        _ => Ok((Dim::Two, n)),
-    }
+    Ok(Peek {
+        dim: match head[22] {
+            3 => Dim::Three,
+            _ => Dim::Two,
+        },
+        agents: n,
+        width: width_of(head[56])?,
+    })
 }
 
 impl Engine {
@@ -250,6 +272,7 @@ impl Engine {
             None => w.write_all(&[0; 25])?,
         }
         w.write_all(&(n as u64).to_le_bytes())?;
+        w.write_all(&[lat.width().bits()])?;
         let head_crc = w.crc.clone().finalize();
         w.w.write_all(&head_crc.to_le_bytes())?;
         let c = d.coords();
@@ -260,22 +283,26 @@ impl Engine {
             b.extend_from_slice(&lat.state[a]);
             b.push(lat.attach[a]);
         })?;
+        let wide = lat.width() == Width::W32;
+        let put_value = |v: i32, b: &mut Vec<u8>| {
+            if wide {
+                b.extend_from_slice(&v.to_le_bytes())
+            } else {
+                b.extend_from_slice(&(v as i16).to_le_bytes())
+            }
+        };
         let counters = lat.counter_numbers();
         w.write_all(&[counters.len() as u8])?;
         for &i in &counters {
             w.write_all(&[i])?;
-            put_column(&mut w, n, |a, b| {
-                b.extend_from_slice(&lat.counter(a as u32, i).to_le_bytes())
-            })?;
+            put_column(&mut w, n, |a, b| put_value(lat.counter(a as u32, i), b))?;
         }
         let slots = lat.slot_numbers();
         w.write_all(&[slots.len() as u8])?;
         for &s in &slots {
             w.write_all(&[s])?;
             for dir in 0..d.dirs() as u8 {
-                put_column(&mut w, n, |a, b| {
-                    b.extend_from_slice(&lat.inbox(a as u32, dir, s).to_le_bytes())
-                })?;
+                put_column(&mut w, n, |a, b| put_value(lat.inbox(a as u32, dir, s), b))?;
             }
         }
         let texts = lat.inbox_text_has.len() == n && n > 0;
@@ -321,7 +348,7 @@ impl Engine {
             crc: crc32fast::Hasher::new(),
         };
         let (dim, universe, n) = read_header(&mut r, &prog, opts)?;
-        let (lat, bad) = read_lattice(&mut r, dim, universe, n)?;
+        let (lat, bad) = read_lattice(&mut r, dim, universe, (n, prog.width))?;
         let (stats, nr) = read_stats(&mut r, &prog)?;
         let want = r.crc.clone().finalize();
         let mut sum = [0u8; 4];
@@ -370,6 +397,7 @@ fn read_header<R: Read>(
         *pair = (r.i32()?, r.i32()?);
     }
     let n = r.u64()?;
+    let width = r.u8()?;
     // The header has a checksum of its own, so that a damaged file is called damaged
     // rather than made with other rules.
     let want = r.crc.clone().finalize();
@@ -384,6 +412,14 @@ fn read_header<R: Read>(
         3 => Dim::Three,
         c => return Err(CheckpointError::Invalid(format!("{c} coordinates"))),
     };
+    let width = width_of(width)?;
+    if width != prog.width {
+        return Err(CheckpointError::OtherOptions(format!(
+            "{}-bit counters (`--counters {}`)",
+            width.bits(),
+            width.bits()
+        )));
+    }
     if hash != rules_hash(prog) {
         return Err(CheckpointError::OtherRules);
     }
@@ -424,7 +460,7 @@ fn read_lattice<R: Read>(
     r: &mut Checked<R>,
     dim: Dim,
     universe: Option<Bounds>,
-    n: usize,
+    (n, width): (usize, Width),
 ) -> Result<(Lattice, Option<String>), CheckpointError> {
     let c = dim.coords();
     let mut builder = LatticeBuilder::new(dim, universe, n);
@@ -441,6 +477,21 @@ fn read_lattice<R: Read>(
         builder.push(p, state, v[4 * c + 5], &[]);
     })?;
     let mut lat = builder.finish();
+    lat.set_width(width);
+    // A value as written: 2 or 4 bytes.
+    let size = width.bits() as usize / 8;
+    let read_into = |r: &mut Checked<R>, column: &mut Column| {
+        let mut a = 0;
+        r.column(n, size, |v| {
+            let x = match *v {
+                [p, q] => i16::from_le_bytes([p, q]) as i32,
+                [p, q, s, t] => i32::from_le_bytes([p, q, s, t]),
+                _ => 0,
+            };
+            column.set(a, width.saturate(x as i64));
+            a += 1;
+        })
+    };
     let ncounters = r.u8()?;
     for _ in 0..ncounters {
         let i = r.u8()?;
@@ -448,12 +499,7 @@ fn read_lattice<R: Read>(
             return Err(CheckpointError::Invalid(format!("counter {i}")));
         }
         let col = lat.ensure_counter(i);
-        let mut a = 0;
-        let column = &mut lat.counters[col];
-        r.column(n, 2, |v| {
-            column[a] = i16::from_le_bytes([v[0], v[1]]);
-            a += 1;
-        })?;
+        read_into(r, &mut lat.counters[col])?;
     }
     let nslots = r.u8()?;
     for _ in 0..nslots {
@@ -464,12 +510,7 @@ fn read_lattice<R: Read>(
         lat.ensure_slot(s);
         let (ns, sc) = (lat.slots as usize, lat.slot_col[s as usize] as usize);
         for dir in 0..dim.dirs() {
-            let mut a = 0;
-            let column = &mut lat.inbox_num[dir * ns + sc];
-            r.column(n, 2, |v| {
-                column[a] = i16::from_le_bytes([v[0], v[1]]);
-                a += 1;
-            })?;
+            read_into(r, &mut lat.inbox_num[dir * ns + sc])?;
         }
     }
     if r.u8()? != 0 {

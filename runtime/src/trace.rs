@@ -61,7 +61,7 @@ pub enum TraceEvent {
         /// Counter index.
         counter: u8,
         /// New value.
-        value: i16,
+        value: i32,
     },
     /// A message was delivered (numeric: `slot` and `value`; text: `text`).
     Message {
@@ -74,7 +74,7 @@ pub enum TraceEvent {
         /// Slot, 1-based, for numeric messages.
         slot: Option<u8>,
         /// Value of a numeric message.
-        value: Option<i16>,
+        value: Option<i32>,
         /// Text of a text message.
         text: Option<String>,
     },

@@ -3,6 +3,7 @@
 //! path reads from a file it has nothing to say of; and what a lattice writes reads back
 //! to the same lattice.
 
+use latticesim_compiler::checked::Width;
 use latticesim_compiler::fast_agents::{read_head, read_lines};
 use latticesim_compiler::Columns;
 use latticesim_runtime::Lattice;
@@ -10,8 +11,9 @@ use proptest::prelude::*;
 
 /// The fast path as the command line takes it, with the lines after the head cut into
 /// pieces at the given line ends (as chunks and threads cut them).
-fn fast(src: &[u8], cuts: &[usize]) -> Option<Lattice> {
-    let head = read_head(src)?;
+fn fast(src: &[u8], cuts: &[usize], width: Width) -> Option<Lattice> {
+    let mut head = read_head(src)?;
+    head.width = width;
     let rest = &src[head.agents_at..];
     let mut ends: Vec<usize> = cuts
         .iter()
@@ -25,10 +27,10 @@ fn fast(src: &[u8], cuts: &[usize]) -> Option<Lattice> {
         .collect();
     ends.push(rest.len());
     ends.sort_unstable();
-    let mut cols = Columns::new();
+    let mut cols = Columns::new(width);
     let mut from = 0;
     for end in ends {
-        let mut part = Columns::new();
+        let mut part = Columns::new(width);
         if read_lines(&rest[from..end], &head, &mut part).is_err() {
             return None;
         }
@@ -39,10 +41,13 @@ fn fast(src: &[u8], cuts: &[usize]) -> Option<Lattice> {
     Lattice::from_columns(head.dim, head.universe, cols).ok()
 }
 
-/// The diagnostic path: the lattice when it has nothing to say of the file, and whether it
-/// said nothing.
-fn slow(src: &[u8]) -> (Option<Lattice>, bool) {
-    let rules = "r\n1\nS*****\nS*****\n";
+/// The diagnostic path (with counters of `width`): the lattice when it has nothing to say
+/// of the file, and whether it said nothing.
+fn slow(src: &[u8], width: Width) -> (Option<Lattice>, bool) {
+    let rules = match width {
+        Width::W16 => "r\n1\nS*****\nS*****\n",
+        Width::W32 => "// latticesim: counters 32\nr\n1\nS*****\nS*****\n",
+    };
     let c = latticesim_compiler::check(
         latticesim_compiler::Input {
             name: "rules.txt",
@@ -59,7 +64,7 @@ fn slow(src: &[u8]) -> (Option<Lattice>, bool) {
 }
 
 /// Everything a lattice holds that a file sets: its text, positions and counter columns.
-type Seen = (String, Vec<[i32; 3]>, Vec<(u8, Vec<i16>)>);
+type Seen = (String, Vec<[i32; 3]>, Vec<(u8, Vec<i32>)>);
 
 /// What [`Seen`] says of a lattice, to compare.
 fn seen(l: &Lattice) -> Seen {
@@ -71,9 +76,15 @@ fn seen(l: &Lattice) -> Seen {
     (l.to_agents_text(), l.pos.clone(), counters)
 }
 
+/// [`agrees_in`] with 16-bit counters and with 32-bit ones.
 fn agrees(src: &[u8], cuts: &[usize]) -> Result<(), TestCaseError> {
-    let (lat, silent) = slow(src);
-    match fast(src, cuts) {
+    agrees_in(src, cuts, Width::W16)?;
+    agrees_in(src, cuts, Width::W32)
+}
+
+fn agrees_in(src: &[u8], cuts: &[usize], width: Width) -> Result<(), TestCaseError> {
+    let (lat, silent) = slow(src, width);
+    match fast(src, cuts, width) {
         Some(f) => {
             prop_assert!(
                 silent,
@@ -108,7 +119,18 @@ fn clean_file() -> impl Strategy<Value = String> {
                 0i32..6,
                 0i32..3,
                 proptest::option::of("[!-)+-.0-~]{5}"),
-                proptest::collection::vec((0u8..25, -32767i16..=32767), 0..4),
+                proptest::collection::vec(
+                    (
+                        0u8..25,
+                        prop_oneof![
+                            -32767i32..=32767,
+                            -2_147_483_647i32..=2_147_483_647,
+                            Just(-32768),
+                            Just(32768),
+                        ],
+                    ),
+                    0..4,
+                ),
                 0u8..4,
                 any::<u8>(),
             ),
@@ -197,6 +219,8 @@ fn noisy_file() -> impl Strategy<Value = String> {
         Just("C99".to_string()),
         Just("-7".to_string()),
         Just("32768".to_string()),
+        Just("2147483647".to_string()),
+        Just("-2147483648".to_string()),
         Just("99999999999999999999".to_string()),
         Just("U0,5,0,5".to_string()),
         Just("U 0,5,0,5,0,5".to_string()),
@@ -223,16 +247,18 @@ proptest! {
 
     #[test]
     fn clean_files_read_the_same_on_both_paths(src in clean_file(), cuts in proptest::collection::vec(any::<usize>(), 0..4)) {
-        let (lat, silent) = slow(src.as_bytes());
+        // Clean with 32-bit counters (values past 16 bits are generated too).
+        let w = Width::W32;
+        let (lat, silent) = slow(src.as_bytes(), w);
         prop_assert!(silent, "the generated file is not clean:\n{}", src);
-        prop_assert!(fast(src.as_bytes(), &cuts).is_some(), "declined:\n{}", src);
+        prop_assert!(fast(src.as_bytes(), &cuts, w).is_some(), "declined:\n{}", src);
         agrees(src.as_bytes(), &cuts)?;
         // Written and read again: the same lattice, on both paths.
         let lat = lat.unwrap();
         let text = lat.to_agents_text();
-        let again = fast(text.as_bytes(), &cuts).expect("what a lattice writes is clean");
+        let again = fast(text.as_bytes(), &cuts, w).expect("what a lattice writes is clean");
         prop_assert_eq!(seen(&again), seen(&lat));
-        prop_assert_eq!(seen(&slow(text.as_bytes()).0.unwrap()), seen(&lat));
+        prop_assert_eq!(seen(&slow(text.as_bytes(), w).0.unwrap()), seen(&lat));
     }
 
     #[test]
@@ -268,8 +294,8 @@ fn what_lies_beyond_a_line_is_left_to_the_diagnostic_path() {
         "0,0 A0010\n",
         "0,0 A0010\n1,0 A0100\n5,5 A1000\n",
     ] {
-        assert!(fast(src.as_bytes(), &[]).is_none(), "{src:?}");
-        assert!(!slow(src.as_bytes()).1, "{src:?}");
+        assert!(fast(src.as_bytes(), &[], Width::W16).is_none(), "{src:?}");
+        assert!(!slow(src.as_bytes(), Width::W16).1, "{src:?}");
     }
-    assert!(fast(b"0,0 A0010\n1,0 A0100\n", &[]).is_some());
+    assert!(fast(b"0,0 A0010\n1,0 A0100\n", &[], Width::W16).is_some());
 }

@@ -412,6 +412,54 @@ fn differential_on(
     Ok(())
 }
 
+/// The same files with 32-bit counters (the extension): the directive added, the
+/// literals 1 and 2 (and -1, -2) made large (2 and -2 the bounds, less one for 2), and
+/// every counter of the agents multiplied by `scale`, so that sums, products and messages
+/// cross 16 bits and saturate at both 32-bit bounds.
+fn widened(rules: &str, agents: &str, scale: i64) -> (String, String) {
+    let big = |t: &str| match t {
+        "0001" => Some("1073741824"),
+        "-0001" => Some("-1073741824"),
+        "0002" => Some("2147483646"),
+        "-0002" => Some("-2147483647"),
+        _ => None,
+    };
+    let word = |w: &str| {
+        let (op, rest) = match w.strip_prefix(['<', '>', '=']) {
+            Some(r) => (&w[..1], r),
+            None => ("", w),
+        };
+        big(rest).map_or(w.to_string(), |b| format!("{op}{b}"))
+    };
+    let mut r: String = (rules.lines())
+        .map(|l| {
+            if l.starts_with("//") {
+                l.to_string()
+            } else {
+                l.split(' ').map(word).collect::<Vec<_>>().join(" ")
+            }
+        })
+        .map(|l| l + "\n")
+        .collect();
+    r += "\n// latticesim: counters 32\n";
+    let a: String = (agents.lines())
+        .map(|l| {
+            let mut out: Vec<String> = Vec::new();
+            for w in l.split(' ') {
+                let after_counter = out.last().is_some_and(|p| {
+                    p.len() == 3 && p.starts_with('C') && p[1..].bytes().all(|b| b.is_ascii_digit())
+                });
+                match w.parse::<i64>() {
+                    Ok(v) if after_counter => out.push((v * scale).to_string()),
+                    _ => out.push(w.to_string()),
+                }
+            }
+            out.join(" ") + "\n"
+        })
+        .collect();
+    (r, a)
+}
+
 proptest! {
     #![proptest_config(ProptestConfig {
         cases: std::env::var("PROPTEST_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(200),
@@ -421,6 +469,20 @@ proptest! {
 
     #[test]
     fn engine_agrees_with_reference_2d(r in rules(false), a in agents(false)) {
+        every_option(&r, &a, 1)?;
+    }
+
+    /// With 32-bit counters: values past 16 bits, saturation at both bounds, division and
+    /// messages, against the reference in the same width.
+    #[test]
+    fn engine_agrees_with_reference_wide_2d(r in rules(false), a in agents(false)) {
+        let (r, a) = widened(&r, &a, 715_827_882);
+        every_option(&r, &a, 1)?;
+    }
+
+    #[test]
+    fn engine_agrees_with_reference_wide_3d(r in rules(true), a in agents(true)) {
+        let (r, a) = widened(&r, &a, 715_827_882);
         every_option(&r, &a, 1)?;
     }
 
@@ -841,10 +903,14 @@ fn optimisations_agree_with_reference() {
     ]
     .concat();
     for (i, (rules, agents)) in cases.iter().enumerate() {
-        for order in [Order::ActionsFirst, Order::MessagesFirst] {
-            for static_first in [false, true] {
-                if let Err(e) = differential(rules, agents, order, static_first) {
-                    panic!("case {i}, {order:?}, static-first {static_first}: {e}");
+        // Each case also with 32-bit counters, its values past 16 bits.
+        let (wide_rules, wide_agents) = widened(rules, agents, 65_537);
+        for (w, rules, agents) in [(16, rules, agents), (32, &wide_rules, &wide_agents)] {
+            for order in [Order::ActionsFirst, Order::MessagesFirst] {
+                for static_first in [false, true] {
+                    if let Err(e) = differential(rules, agents, order, static_first) {
+                        panic!("case {i}, {w}-bit, {order:?}, static-first {static_first}: {e}");
+                    }
                 }
             }
         }
@@ -1503,6 +1569,13 @@ proptest! {
 
     #[test]
     fn resumed_runs_go_on_exactly_3d(r in prop_oneof![rules(true), themes(true)], a in agents(true)) {
+        resume_and_undo(&r, &a)?;
+    }
+
+    /// Checkpoints of 32-bit counters keep them whole.
+    #[test]
+    fn resumed_runs_go_on_exactly_wide(r in prop_oneof![rules(false), themes(false)], a in agents(false)) {
+        let (r, a) = widened(&r, &a, 715_827_882);
         resume_and_undo(&r, &a)?;
     }
 

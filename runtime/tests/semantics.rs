@@ -26,7 +26,7 @@ fn state(e: &Engine, a: usize) -> String {
     String::from_utf8_lossy(&e.lat.state[a]).into_owned()
 }
 
-fn ctr(e: &Engine, a: usize, i: usize) -> i16 {
+fn ctr(e: &Engine, a: usize, i: usize) -> i32 {
     e.lat.counter(a as u32, i as u8)
 }
 

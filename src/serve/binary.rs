@@ -16,8 +16,8 @@
 //!   every state the run has shown, in order of first appearance, so an index keeps its
 //!   state for the run), `attach` the attachment bits (u8).
 //!
-//! With `counter` (asked for with `counter=Cnn`), that counter of every agent (i16) follows
-//! at a multiple of 4. A falling cloud of a million agents is then about 2 bytes an agent
+//! With `counter` (asked for with `counter=Cnn`), that counter of every agent follows at a
+//! multiple of 4: i16, or i32 when the head's `counter_bytes` is 4 (32-bit counters). A falling cloud of a million agents is then about 2 bytes an agent
 //! moved, and the transport compresses it (zstd) to a few kilobytes when the page accepts.
 
 use super::*;
@@ -211,10 +211,11 @@ pub(super) fn frame_bin(run: &mut Run, since: Option<u64>, counter: Option<u8>) 
         "columns": cols.iter().map(|c| c.head(n)).collect::<Vec<_>>(),
         "counters": lat.counter_numbers().iter().map(|c| format!("C{c:02}")).collect::<Vec<_>>(),
         "counter": counter.map(|c| format!("C{c:02}")),
+        "counter_bytes": lat.width().bits() / 8,
     });
     let head = head.to_string();
     let body = size(cols);
-    let mut out = Vec::with_capacity(8 + head.len() + 4 + body + 2 * n + 4);
+    let mut out = Vec::with_capacity(8 + head.len() + 4 + body + 4 * n + 4);
     out.extend_from_slice(b"LSF2");
     out.extend_from_slice(&(head.len() as u32).to_le_bytes());
     out.extend_from_slice(head.as_bytes());
@@ -238,8 +239,14 @@ pub(super) fn frame_bin(run: &mut Run, since: Option<u64>, counter: Option<u8>) 
         }
     }
     if let Some(c) = counter {
+        let wide = lat.width() == latticesim_vm::model::Width::W32;
         for a in 0..n as u32 {
-            out.extend_from_slice(&lat.counter(a, c).to_le_bytes());
+            let v = lat.counter(a, c);
+            if wide {
+                out.extend_from_slice(&v.to_le_bytes());
+            } else {
+                out.extend_from_slice(&(v as i16).to_le_bytes());
+            }
         }
     }
     let step = run.hist.steps();

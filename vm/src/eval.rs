@@ -1,7 +1,7 @@
 //! The evaluator for one agent: preconditions in three-valued (Kleene) logic, and the
 //! calculations and sends of a postcondition, over an environment the runtime provides.
 
-use crate::model::{CalcOp, Coord, Dir, Offset, TextPat};
+use crate::model::{CalcOp, Coord, Dir, Offset, TextPat, Width};
 use crate::op::{Op, Target, Val, ANY_DIR};
 use crate::program::MAX_STACK;
 use crate::Program;
@@ -64,7 +64,7 @@ pub enum Cell {
 /// What a precondition reads, for the agent being evaluated, at the start of the step.
 pub trait Env {
     /// An own counter.
-    fn counter(&self, i: u8) -> i16;
+    fn counter(&self, i: u8) -> i32;
     /// The own state.
     fn state(&self) -> [u8; 5];
     /// The own attachment bits.
@@ -74,9 +74,9 @@ pub trait Env {
     /// Another agent's state.
     fn agent_state(&self, id: u32) -> [u8; 5];
     /// Another agent's counter.
-    fn agent_counter(&self, id: u32, i: u8) -> i16;
+    fn agent_counter(&self, id: u32, i: u8) -> i32;
     /// The numeric message received from direction `dir` in slot `slot` (0 if none).
-    fn inbox_num(&self, dir: u8, slot: u8) -> i16;
+    fn inbox_num(&self, dir: u8, slot: u8) -> i32;
     /// The text received from direction `dir`, if any.
     fn inbox_text(&self, dir: u8) -> Option<[u8; 5]>;
     /// Whether priorities are being compared; when false, every `P`, `L` and `Q` term is
@@ -103,18 +103,19 @@ pub fn matches(pat: &TextPat, text: &[u8; 5]) -> bool {
 pub fn resolve<E: Env + ?Sized>(o: &Offset, env: &E) -> [i32; 3] {
     let c = |c: &Coord| match *c {
         Coord::Lit(v) => v,
-        Coord::Counter(i) => env.counter(i) as i32,
+        Coord::Counter(i) => env.counter(i),
     };
     [c(&o[0]), c(&o[1]), c(&o[2])]
 }
 
-fn value<E: Env + ?Sized>(v: Val, dir_override: u8, env: &E) -> i32 {
+fn value<E: Env + ?Sized>(prog: &Program, v: Val, dir_override: u8, env: &E) -> i32 {
     match v {
         Val::Lit(x) => x as i32,
-        Val::Counter(c) => env.counter(c) as i32,
+        Val::Wide(i) => prog.wide[i as usize],
+        Val::Counter(c) => env.counter(c),
         Val::Msg { dir, slot } => {
             let d = if dir == ANY_DIR { dir_override } else { dir };
-            env.inbox_num(d, slot) as i32
+            env.inbox_num(d, slot)
         }
         // Verified away: external counters are only read by calculations.
         Val::Ext(_) => 0,
@@ -233,7 +234,7 @@ fn term<E: Env + ?Sized>(prog: &Program, (op, p, known): (Op, u16, bool), env: &
             })
         }
         Op::Cmp { op, a, b } => {
-            let holds = |d: u8| op.holds(value(a, d, env), value(b, d, env));
+            let holds = |d: u8| op.holds(value(prog, a, d, env), value(prog, b, d, env));
             Tri::of(if is_any(a) || is_any(b) {
                 (0..env.dirs()).any(holds)
             } else {
@@ -247,9 +248,9 @@ fn term<E: Env + ?Sized>(prog: &Program, (op, p, known): (Op, u16, bool), env: &
             b,
         } => Tri::of(match env.cell(resolve(&prog.offsets[off as usize], env)) {
             Cell::Agent(id) => {
-                let c = env.agent_counter(id, counter) as i32;
+                let c = env.agent_counter(id, counter);
                 let holds = |d: u8| {
-                    let rhs = value(b, d, env);
+                    let rhs = value(prog, b, d, env);
                     if strict != 0 {
                         c < rhs
                     } else {
@@ -272,7 +273,8 @@ fn term<E: Env + ?Sized>(prog: &Program, (op, p, known): (Op, u16, bool), env: &
 /// What a calculation can go wrong with; the runtime turns these into records.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum CalcIssue {
-    /// The result was outside -32767..32767 and was saturated.
+    /// The result was outside the program's width (-32767..32767, or the 32-bit range)
+    /// and was saturated.
     Saturated {
         /// The exact result.
         exact: i64,
@@ -289,36 +291,37 @@ pub enum CalcIssue {
 /// What the calculations of a postcondition read and write.
 pub trait CalcEnv {
     /// An own counter (current value).
-    fn counter(&self, i: u8) -> i16;
+    fn counter(&self, i: u8) -> i32;
     /// Sets an own counter.
-    fn set_counter(&mut self, i: u8, v: i16);
+    fn set_counter(&mut self, i: u8, v: i32);
     /// The numeric message received from `dir` in `slot` this step (0 if none).
-    fn inbox_num(&self, dir: u8, slot: u8) -> i16;
+    fn inbox_num(&self, dir: u8, slot: u8) -> i32;
     /// The counter of the agent at an offset, as it was at the start of the phase.
-    fn external(&self, off: [i32; 2], counter: u8) -> Option<i16>;
+    fn external(&self, off: [i32; 2], counter: u8) -> Option<i32>;
     /// Writes an outgoing numeric slot towards `dir` (or all, [`ANY_DIR`]).
-    fn send_num(&mut self, dir: u8, slot: u8, v: i16);
+    fn send_num(&mut self, dir: u8, slot: u8, v: i32);
     /// Writes the outgoing text towards `dir` (or all, [`ANY_DIR`]).
     fn send_text(&mut self, dir: u8, text: [u8; 5]);
     /// Reports a problem of instruction `pc` of the postcondition.
     fn issue(&mut self, pc: usize, issue: CalcIssue);
 }
 
-/// Applies an operation in i32 and saturates to -32767..32767.
-pub fn apply(op: CalcOp, a: i32, b: i32) -> Result<(i16, Option<i64>), CalcIssue> {
+/// Applies an operation exactly and saturates to the width `w` (-32767..32767, or
+/// -2,147,483,647..2,147,483,647): the result, and the exact one when it was saturated.
+pub fn apply(op: CalcOp, a: i32, b: i32, w: Width) -> Result<(i32, Option<i64>), CalcIssue> {
     let exact: i64 = match op {
         CalcOp::Add => a as i64 + b as i64,
         CalcOp::Sub => a as i64 - b as i64,
         CalcOp::Mul => a as i64 * b as i64,
         CalcOp::Div if b == 0 => return Err(CalcIssue::DivisionByZero),
-        CalcOp::Div => (a / b) as i64,
+        CalcOp::Div => a as i64 / b as i64,
         CalcOp::Mod if b == 0 => return Err(CalcIssue::DivisionByZero),
-        CalcOp::Mod => (a % b) as i64,
+        CalcOp::Mod => a as i64 % b as i64,
         CalcOp::Max => a.max(b) as i64,
         CalcOp::Min => a.min(b) as i64,
     };
-    let sat = exact.clamp(-32767, 32767);
-    Ok((sat as i16, (sat != exact).then_some(exact)))
+    let sat = w.saturate(exact);
+    Ok((sat, (sat as i64 != exact).then_some(exact)))
 }
 
 /// Runs the calculations and sends of rule `rule`'s postcondition, in written order.
@@ -332,24 +335,24 @@ pub fn run_post<E: CalcEnv + ?Sized>(prog: &Program, rule: usize, env: &mut E) {
                 let read = |v: Val| -> Result<i32, CalcIssue> {
                     Ok(match v {
                         Val::Lit(x) => x as i32,
-                        Val::Counter(c) => env.counter(c) as i32,
-                        Val::Msg { dir, slot } => env.inbox_num(dir, slot) as i32,
+                        Val::Wide(i) => prog.wide[i as usize],
+                        Val::Counter(c) => env.counter(c),
+                        Val::Msg { dir, slot } => env.inbox_num(dir, slot),
                         Val::Ext(i) => {
                             let (x, y, c) = prog.externals[i as usize];
                             let co = |k: Coord| match k {
                                 Coord::Lit(v) => v,
-                                Coord::Counter(j) => env.counter(j) as i32,
+                                Coord::Counter(j) => env.counter(j),
                             };
                             let off = [co(x), co(y)];
                             env.external(off, c)
                                 .ok_or(CalcIssue::NoExternalAgent { off })?
-                                as i32
                         }
                     })
                 };
                 let res = read(a)
                     .and_then(|x| read(b).map(|y| (x, y)))
-                    .and_then(|(x, y)| apply(op, x, y));
+                    .and_then(|(x, y)| apply(op, x, y, prog.width));
                 match res {
                     Ok((v, saturated)) => {
                         if let Some(exact) = saturated {
@@ -383,13 +386,42 @@ mod tests {
 
     #[test]
     fn arithmetic_saturates_and_truncates() {
-        assert_eq!(apply(CalcOp::Add, 32767, 1), Ok((32767, Some(32768))));
-        assert_eq!(apply(CalcOp::Mul, -300, 300), Ok((-32767, Some(-90000))));
-        assert_eq!(apply(CalcOp::Div, -7, 2), Ok((-3, None)));
-        assert_eq!(apply(CalcOp::Mod, -7, 2), Ok((-1, None)));
-        assert_eq!(apply(CalcOp::Mod, 7, -2), Ok((1, None)));
-        assert_eq!(apply(CalcOp::Div, 1, 0), Err(CalcIssue::DivisionByZero));
-        assert_eq!(apply(CalcOp::Max, -1, 3), Ok((3, None)));
-        assert_eq!(apply(CalcOp::Min, -1, 3), Ok((-1, None)));
+        let n = Width::W16;
+        assert_eq!(apply(CalcOp::Add, 32767, 1, n), Ok((32767, Some(32768))));
+        assert_eq!(apply(CalcOp::Mul, -300, 300, n), Ok((-32767, Some(-90000))));
+        assert_eq!(apply(CalcOp::Div, -7, 2, n), Ok((-3, None)));
+        assert_eq!(apply(CalcOp::Mod, -7, 2, n), Ok((-1, None)));
+        assert_eq!(apply(CalcOp::Mod, 7, -2, n), Ok((1, None)));
+        assert_eq!(apply(CalcOp::Div, 1, 0, n), Err(CalcIssue::DivisionByZero));
+        assert_eq!(apply(CalcOp::Max, -1, 3, n), Ok((3, None)));
+        assert_eq!(apply(CalcOp::Min, -1, 3, n), Ok((-1, None)));
+    }
+
+    /// The 32-bit extension: exact in i64, saturated at both bounds, division as in i32.
+    #[test]
+    fn wide_arithmetic_saturates_at_both_bounds() {
+        let w = Width::W32;
+        let max = 2_147_483_647;
+        assert_eq!(apply(CalcOp::Add, 32767, 1, w), Ok((32768, None)));
+        assert_eq!(
+            apply(CalcOp::Add, max, 1, w),
+            Ok((max, Some(2_147_483_648)))
+        );
+        assert_eq!(
+            apply(CalcOp::Sub, -max, 1, w),
+            Ok((-max, Some(-2_147_483_648)))
+        );
+        assert_eq!(
+            apply(CalcOp::Mul, max, max, w),
+            Ok((max, Some(max as i64 * max as i64)))
+        );
+        assert_eq!(
+            apply(CalcOp::Mul, -max, 2, w),
+            Ok((-max, Some(-2 * max as i64)))
+        );
+        assert_eq!(apply(CalcOp::Div, -max, -1, w), Ok((max, None)));
+        assert_eq!(apply(CalcOp::Div, -7_000_001, 2, w), Ok((-3_500_000, None)));
+        assert_eq!(apply(CalcOp::Mod, -max, 10, w), Ok((-7, None)));
+        assert_eq!(apply(CalcOp::Mod, 5, 0, w), Err(CalcIssue::DivisionByZero));
     }
 }

@@ -1,5 +1,7 @@
 //! The bytecode of latticesim and the evaluator for one agent.
 //!
+//! - [`column`]: the width of counters and messages (16 bits, or the 32-bit extension)
+//!   and a column of their values;
 //! - [`model`]: the data both the compiler and the runtime use (dimension, directions,
 //!   patterns, the checked initial configuration);
 //! - [`op`]: the instruction set, defined once in a table that generates the opcode enum,
@@ -12,6 +14,7 @@
 //! The VM never sees source text and depends on no front-end crate.
 #![warn(missing_docs)]
 
+pub mod column;
 pub mod eval;
 pub mod model;
 pub mod op;

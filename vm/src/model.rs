@@ -2,6 +2,8 @@
 //! patterns, operations, and the checked initial configuration. It sits in the VM crate so
 //! that both sides can use it while neither depends on the other.
 
+pub use crate::column::{Column, Width};
+
 /// 2D or 3D.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Dim {
@@ -250,7 +252,7 @@ pub struct AgentInit {
     /// Attachment bits, bit i = direction i; always symmetric between neighbours.
     pub attach: u8,
     /// Counters that are not 0: (index, value).
-    pub counters: Vec<(u8, i16)>,
+    pub counters: Vec<(u8, i32)>,
 }
 
 /// Inclusive bounds per axis.
@@ -278,15 +280,15 @@ pub struct Columns {
     /// Attachment bits as written (not yet known to be symmetric).
     pub attach: Vec<u8>,
     /// Per counter number (45 of them): its values, one per agent, or empty while no agent
-    /// has set it.
-    pub counters: Vec<Vec<i16>>,
+    /// has set it; all of one width.
+    pub counters: Vec<Column>,
 }
 
 impl Columns {
-    /// No agents.
-    pub fn new() -> Columns {
+    /// No agents, with counters of width `w`.
+    pub fn new(w: Width) -> Columns {
         Columns {
-            counters: vec![Vec::new(); 45],
+            counters: (0..45).map(|_| Column::with_capacity(w, 0)).collect(),
             ..Columns::default()
         }
     }
@@ -303,11 +305,11 @@ impl Columns {
 
     /// Sets counter `c` of the last agent pushed (to a value that is not 0).
     #[inline]
-    pub fn set_counter(&mut self, c: usize, v: i16) {
+    pub fn set_counter(&mut self, c: usize, v: i32) {
         let n = self.pos.len();
         let col = &mut self.counters[c];
         if col.len() + 1 < n {
-            col.resize(n - 1, 0);
+            col.resize(n - 1);
         }
         col.push(v);
     }
@@ -316,7 +318,7 @@ impl Columns {
     pub fn fill(&mut self) {
         let n = self.pos.len();
         for col in self.counters.iter_mut().filter(|c| !c.is_empty()) {
-            col.resize(n, 0);
+            col.resize(n);
         }
     }
 
@@ -328,10 +330,10 @@ impl Columns {
         self.attach.append(&mut other.attach);
         for (mine, theirs) in self.counters.iter_mut().zip(&mut other.counters) {
             match (mine.is_empty(), theirs.is_empty()) {
-                (_, true) if !mine.is_empty() => mine.resize(n + m, 0),
+                (_, true) if !mine.is_empty() => mine.resize(n + m),
                 (_, true) => {}
                 (true, false) => {
-                    mine.resize(n, 0);
+                    mine.resize(n);
                     mine.append(theirs);
                 }
                 (false, false) => mine.append(theirs),

@@ -29,6 +29,9 @@ pub enum Val {
     },
     /// An external counter: an index into [`crate::Program::externals`].
     Ext(u16),
+    /// A literal outside the 16-bit range (the 32-bit extension): an index into
+    /// [`crate::Program::wide`].
+    Wide(u16),
 }
 
 /// Where a calculation writes.
@@ -102,6 +105,7 @@ impl Operand for Val {
             Val::Counter(c) => (1, [c, 0]),
             Val::Msg { dir, slot } => (2, [dir, slot]),
             Val::Ext(i) => (3, i.to_le_bytes()),
+            Val::Wide(i) => (4, i.to_le_bytes()),
         };
         out.push(tag);
         out.extend_from_slice(&p);
@@ -113,6 +117,7 @@ impl Operand for Val {
             1 => Val::Counter(x),
             2 => Val::Msg { dir: x, slot: y },
             3 => Val::Ext(u16::from_le_bytes([x, y])),
+            4 => Val::Wide(u16::from_le_bytes([x, y])),
             _ => return None,
         })
     }
@@ -122,6 +127,7 @@ impl Operand for Val {
             Val::Counter(c) => write!(f, "C{c:02}"),
             Val::Msg { dir, slot } => write!(f, "#{}{:02}", dir_name(dir), slot + 1),
             Val::Ext(i) => write!(f, "ext[{i}]"),
+            Val::Wide(i) => write!(f, "wide[{i}]"),
         }
     }
 }
@@ -353,6 +359,11 @@ mod tests {
                 op: CalcOp::Mod,
                 a: Val::Ext(3),
                 b: Val::Counter(24),
+            },
+            Op::Cmp {
+                op: CmpOp::Lt,
+                a: Val::Wide(2),
+                b: Val::Counter(0),
             },
             Op::Not {},
         ];

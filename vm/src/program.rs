@@ -1,6 +1,6 @@
 //! A compiled rules file and its one-time verification.
 
-use crate::model::{AttachLetter, Coord, Dim, Dir, Offset, TextPat};
+use crate::model::{AttachLetter, Coord, Dim, Dir, Offset, TextPat, Width};
 use crate::op::{Op, Target, Val, ANY_DIR};
 use std::fmt::{self, Write};
 use std::ops::Range;
@@ -52,6 +52,11 @@ pub struct Program {
     pub letters: Vec<[AttachLetter; 6]>,
     /// External counters: x, y, counter.
     pub externals: Vec<(Coord, Coord, u8)>,
+    /// The width of counters and numeric messages: its literals are in its range, its
+    /// calculations saturate to it, and a runtime stores its columns in it.
+    pub width: Width,
+    /// Literals outside the 16-bit range ([`Val::Wide`]), only with [`Width::W32`].
+    pub wide: Vec<i32>,
 }
 
 /// The counters, message slots and texts a program reads or writes anywhere (so that a
@@ -113,7 +118,7 @@ impl Program {
         let val = |u: &mut Uses, v: Val| match v {
             Val::Counter(c) => u.counters |= 1 << c,
             Val::Msg { slot, .. } => u.slots |= 1 << slot,
-            Val::Lit(_) | Val::Ext(_) => {}
+            Val::Lit(_) | Val::Ext(_) | Val::Wide(_) => {}
         };
         for op in &self.code {
             match *op {
@@ -251,6 +256,14 @@ impl Program {
         let val = |v: &Val, ext: bool| match *v {
             Val::Lit(x) if x == i16::MIN => Err("literal -32768".to_string()),
             Val::Lit(_) => Ok(()),
+            Val::Wide(i) => idx(i, self.wide.len(), "wide literal").and_then(|_| {
+                let x = self.wide[i as usize];
+                if self.width.holds(x as i64) {
+                    Ok(())
+                } else {
+                    Err(format!("literal {x} in {}-bit counters", self.width.bits()))
+                }
+            }),
             Val::Counter(c) => counter(c),
             Val::Msg { dir: x, slot } => dir(x, true).and_then(|_| {
                 if (slot as usize) < d.slots() {

@@ -1,7 +1,8 @@
 //! The column interpreter: preconditions and calculations run over a run of agents at
 //! once, a column per value (`batch_pre`, `run_batch`), with the most frequent calculations
 //! in place (`fast_calc`, chains of `max`/`min`). The engine takes this path only for the
-//! rules its plan marks as batchable.
+//! rules its plan marks as batchable. Both widths of counters run here: the loops over
+//! columns are written once over [`Lane`] and compiled for each.
 
 use super::*;
 
@@ -32,7 +33,7 @@ impl PreBufs {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum ColVal {
     /// A literal.
-    Lit(i16),
+    Lit(i32),
     /// An own counter.
     Counter(u8),
     /// An incoming numeric message from one direction.
@@ -41,9 +42,10 @@ pub(super) enum ColVal {
 
 impl ColVal {
     /// The value as the column interpreter reads it, when it can.
-    pub(super) fn of(v: Val) -> Option<ColVal> {
+    pub(super) fn of(v: Val, prog: &Program) -> Option<ColVal> {
         match v {
-            Val::Lit(c) => Some(ColVal::Lit(c)),
+            Val::Lit(c) => Some(ColVal::Lit(c as i32)),
+            Val::Wide(i) => Some(ColVal::Lit(prog.wide[i as usize])),
             Val::Counter(c) => Some(ColVal::Counter(c)),
             Val::Msg { dir, slot } if dir != ANY_DIR => Some(ColVal::Msg { dir, slot }),
             _ => None,
@@ -72,7 +74,7 @@ pub(super) type ColumnPre = Vec<PreStep>;
 /// and its neighbours (no priorities, offsets, texts, external counters or messages from
 /// any direction), within its stack depth. Short-circuit jumps are left out: the terms
 /// have no side effects and a false left operand makes the conjunction false either way.
-pub(super) fn column_pre(code: &[Op]) -> Option<ColumnPre> {
+pub(super) fn column_pre(prog: &Program, code: &[Op]) -> Option<ColumnPre> {
     let mut depth = 0usize;
     let mut steps = Vec::with_capacity(code.len());
     for op in code {
@@ -83,8 +85,8 @@ pub(super) fn column_pre(code: &[Op]) -> Option<ColumnPre> {
             Op::State { pat } => PreStep::State { pat },
             Op::Cmp { op, a, b } => PreStep::Cmp {
                 op,
-                a: ColVal::of(a)?,
-                b: ColVal::of(b)?,
+                a: ColVal::of(a, prog)?,
+                b: ColVal::of(b, prog)?,
             },
             Op::Not {} => PreStep::Not,
             Op::And {} => PreStep::And,
@@ -156,14 +158,14 @@ pub(super) fn batch_pre(
     let mut sp = 0;
     let nd = lat.dim.dirs();
     let load = |v: ColVal, into: &mut [i32]| match v {
-        ColVal::Lit(c) => into.fill(c as i32),
+        ColVal::Lit(c) => into.fill(c),
         ColVal::Counter(c) => match lat.counter_col[c as usize] {
             NO_COL => into.fill(0),
-            col => rows.gather(&lat.counters[col as usize], into, |s| s as i32),
+            col => each_width!(&lat.counters[col as usize], v => rows.gather(v, into, Into::into)),
         },
         ColVal::Msg { dir, slot } => {
             for (j, t) in into.iter_mut().enumerate() {
-                *t = lat.inbox(rows.agent(j) as u32, dir, slot) as i32;
+                *t = lat.inbox(rows.agent(j) as u32, dir, slot);
             }
         }
     };
@@ -215,13 +217,15 @@ pub(super) fn batch_pre(
                 a: ColVal::Counter(c),
                 b: ColVal::Lit(v),
             } if lat.counter_col[c as usize] != NO_COL => {
-                let col = &lat.counters[lat.counter_col[c as usize] as usize];
                 let top = &mut stack[sp][..m];
-                match op {
-                    CmpOp::Lt => rows.gather(col, top, |p| p < v),
-                    CmpOp::Gt => rows.gather(col, top, |p| p > v),
-                    CmpOp::Eq => rows.gather(col, top, |p| p == v),
-                }
+                each_width!(&lat.counters[lat.counter_col[c as usize] as usize], col => {
+                    let w = |p| -> i32 { Into::into(p) };
+                    match op {
+                        CmpOp::Lt => rows.gather(col, top, |p| w(p) < v),
+                        CmpOp::Gt => rows.gather(col, top, |p| w(p) > v),
+                        CmpOp::Eq => rows.gather(col, top, |p| w(p) == v),
+                    }
+                });
                 sp += 1;
             }
             PreStep::Cmp { op, a, b } => {
@@ -249,30 +253,32 @@ pub(super) fn batch_pre(
     out.copy_from_slice(&stack[0][..m]);
 }
 
-/// The most frequent calculations over a run of agents, without a detour through 32-bit
-/// temporaries: `Cxx = Cxx max/min (message or literal)` in place (cannot saturate),
-/// `Cxx = Cxx +/- literal` in place when no result saturates, and sending a counter as it
-/// is (`x + 0`, `x - 0`). Returns false for anything else.
+/// The most frequent calculations over a run of agents, in the columns' own width (without
+/// a detour through wider temporaries): `Cxx = Cxx max/min (message or literal)` in place
+/// (cannot saturate), `Cxx = Cxx +/- literal` in place when no result saturates, and
+/// sending a counter as it is (`x + 0`, `x - 0`). Returns false for anything else.
 #[allow(clippy::too_many_arguments)]
 #[inline]
-pub(super) fn fast_calc(
+pub(super) fn fast_calc<V: Lane>(
     lat: &Lattice,
     ch: &mut CalcChunk<'_>,
     ks: std::ops::Range<usize>,
     first: usize,
-    (target, op, a, b): (Target, CalcOp, Val, Val),
-    buf: &mut ([i16; BATCH], [usize; 6]),
+    (target, op, a, b): (Target, CalcOp, ColVal, ColVal),
+    buf: &mut MsgBufs,
 ) -> bool {
     let len = ks.len();
     match (target, op, a, b) {
-        (Target::Counter(c), CalcOp::Max | CalcOp::Min, Val::Counter(ca), b) if ca == c => {
-            let col = &mut ch.counters[lat.counter_col[c as usize] as usize][ks];
+        (Target::Counter(c), CalcOp::Max | CalcOp::Min, ColVal::Counter(ca), b) if ca == c => {
+            let col =
+                &mut V::of_cut_mut(&mut ch.counters[lat.counter_col[c as usize] as usize])[ks];
             let max = op == CalcOp::Max;
             match b {
-                Val::Lit(v) if max => col.iter_mut().for_each(|t| *t = (*t).max(v)),
-                Val::Lit(v) => col.iter_mut().for_each(|t| *t = (*t).min(v)),
-                Val::Msg { dir, slot } if dir != ANY_DIR => {
-                    let src = lat.inbox_run(first, (dir, slot), &mut buf.0[..len], &mut buf.1);
+                ColVal::Lit(v) if max => col.iter_mut().for_each(|t| *t = (*t).max(V::of(v))),
+                ColVal::Lit(v) => col.iter_mut().for_each(|t| *t = (*t).min(V::of(v))),
+                ColVal::Msg { dir, slot } => {
+                    let (out, hint) = V::bufs(buf);
+                    let src = lat.inbox_run(first, (dir, slot), &mut out[..len], hint);
                     if max {
                         col.iter_mut().zip(src).for_each(|(t, &v)| *t = (*t).max(v));
                     } else {
@@ -284,31 +290,36 @@ pub(super) fn fast_calc(
             true
         }
         // `Cxx = Cxx + v` or `Cxx = Cxx - v` in place, when no result saturates.
-        (Target::Counter(c), CalcOp::Add | CalcOp::Sub, Val::Counter(ca), Val::Lit(v))
+        (Target::Counter(c), CalcOp::Add | CalcOp::Sub, ColVal::Counter(ca), ColVal::Lit(v))
             if ca == c =>
         {
-            let col = &mut ch.counters[lat.counter_col[c as usize] as usize][ks];
+            let col =
+                &mut V::of_cut_mut(&mut ch.counters[lat.counter_col[c as usize] as usize])[ks];
             let v = if op == CalcOp::Add {
-                v as i32
+                v as i64
             } else {
-                -(v as i32)
+                -(v as i64)
             };
-            let fits = |t: i16| (-32767..=32767).contains(&(t as i32 + v));
+            let m = V::WIDTH.max() as i64;
+            let fits = |t: V| (-m..=m).contains(&(Into::<i32>::into(t) as i64 + v));
             if !col.iter().fold(true, |ok, &t| ok & fits(t)) {
                 return false;
             }
-            col.iter_mut().for_each(|t| *t = (*t as i32 + v) as i16);
+            col.iter_mut()
+                .for_each(|t| *t = V::of((Into::<i32>::into(*t) as i64 + v) as i32));
             true
         }
-        (Target::Msg { dir, slot }, CalcOp::Add | CalcOp::Sub, Val::Counter(c), Val::Lit(0)) => {
+        (
+            Target::Msg { dir, slot },
+            CalcOp::Add | CalcOp::Sub,
+            ColVal::Counter(c),
+            ColVal::Lit(0),
+        ) => {
             let src = lat.counter_col[c as usize] as usize;
             let cols = ch.send_cols(lat, dir, slot);
             for &col in cols.write() {
-                let (counters, out) = (
-                    &ch.counters[src][ks.clone()],
-                    &mut ch.out_num[col][ks.clone()],
-                );
-                out.copy_from_slice(counters);
+                let counters = ch.counters[src].cut(ks.clone());
+                ch.out_num[col].cut_mut(ks.clone()).copy_from(counters);
                 set_bits(ch.out_has[col], ks.clone());
             }
             for &col in cols.clear() {
@@ -387,7 +398,7 @@ pub(super) type ColumnPost = Vec<PostStep>;
 /// swaps) are the actions phase's and are left out; an instruction of any other kind
 /// makes no column program (the rule then runs one agent at a time), so that none is
 /// passed over unseen.
-pub(super) fn column_post(code: &[Op]) -> Option<ColumnPost> {
+pub(super) fn column_post(prog: &Program, code: &[Op]) -> Option<ColumnPost> {
     let mut steps = Vec::new();
     let mut i = 0;
     while i < code.len() {
@@ -420,8 +431,8 @@ pub(super) fn column_post(code: &[Op]) -> Option<ColumnPost> {
             Op::Calc { target, op, a, b } => steps.push(PostStep::Calc {
                 target,
                 op,
-                a: ColVal::of(a)?,
-                b: ColVal::of(b)?,
+                a: ColVal::of(a, prog)?,
+                b: ColVal::of(b, prog)?,
             }),
             Op::Move { .. } | Op::Attach { .. } | Op::SetState { .. } | Op::Swap { .. } => {}
             _ => return None,
@@ -431,49 +442,41 @@ pub(super) fn column_post(code: &[Op]) -> Option<ColumnPost> {
     Some(steps)
 }
 
-impl From<ColVal> for Val {
-    fn from(v: ColVal) -> Val {
-        match v {
-            ColVal::Lit(c) => Val::Lit(c),
-            ColVal::Counter(c) => Val::Counter(c),
-            ColVal::Msg { dir, slot } => Val::Msg { dir, slot },
-        }
-    }
-}
-
 /// Runs a chain of in-place max/min with messages ([`max_chain`]) over agents `ks` of the
-/// chunk: the messages of each link are read first (the first into `buf`, the others into
-/// `more`), then the counter is read and written once. Max and min of values within
-/// +-32767 cannot saturate, so nothing is recorded.
-pub(super) fn chain_in_place(
+/// chunk: the messages of each link are read first (the first into the first buffer, the
+/// others into more), then the counter is read and written once. Max and min of values of
+/// the width cannot saturate, so nothing is recorded.
+pub(super) fn chain_in_place<V: Lane>(
     lat: &Lattice,
-    (ch, more): (&mut CalcChunk<'_>, &mut Vec<[i16; BATCH]>),
+    ch: &mut CalcChunk<'_>,
     (chain, ks): (&Chain, std::ops::Range<usize>),
-    (first_buf, hint): &mut ([i16; BATCH], [usize; 6]),
+    bufs: &mut MsgBufs,
 ) {
     let (len, first) = (ks.len(), ch.lo + ks.start);
     let links = &chain.msgs[..chain.len as usize];
+    let (first_buf, more, hint) = V::all_bufs(bufs);
     if more.len() < links.len() - 1 {
-        more.resize(links.len() - 1, [0; BATCH]);
+        more.resize(links.len() - 1, [V::default(); BATCH]);
     }
-    let mut bufs = std::iter::once(first_buf).chain(more.iter_mut());
-    let mut srcs: [&[i16]; 6] = [&[]; 6];
+    let mut outs = std::iter::once(first_buf).chain(more.iter_mut());
+    let mut srcs: [&[V]; 6] = [&[]; 6];
     for (k, &(dir, slot)) in links.iter().enumerate() {
-        let out = &mut bufs.next().expect("a buffer for each link")[..len];
+        let out = &mut outs.next().expect("a buffer for each link")[..len];
         srcs[k] = lat.inbox_run(first, (dir, slot), out, hint);
     }
-    let col = &mut ch.counters[lat.counter_col[chain.counter as usize] as usize][ks];
+    let col =
+        &mut V::of_cut_mut(&mut ch.counters[lat.counter_col[chain.counter as usize] as usize])[ks];
     if chain.max {
-        fold_in_place(col, &srcs[..links.len()], i16::max);
+        fold_in_place(col, &srcs[..links.len()], V::max);
     } else {
-        fold_in_place(col, &srcs[..links.len()], i16::min);
+        fold_in_place(col, &srcs[..links.len()], V::min);
     }
 }
 
 /// `col[j] = f(...f(f(col[j], srcs[0][j]), srcs[1][j])...)` in passes of up to four
 /// sources each (vectorised).
 #[inline(always)]
-pub(super) fn fold_in_place(col: &mut [i16], srcs: &[&[i16]], f: impl Fn(i16, i16) -> i16 + Copy) {
+pub(super) fn fold_in_place<V: Copy>(col: &mut [V], srcs: &[&[V]], f: impl Fn(V, V) -> V + Copy) {
     let n = col.len();
     match *srcs {
         [] => {}
@@ -506,6 +509,39 @@ pub(super) fn fold_in_place(col: &mut [i16], srcs: &[&[i16]], f: impl Fn(i16, i1
 /// Agents per inner batch of [`run_batch`], [`batch_pre`] and the post office.
 pub(super) const BATCH: usize = 1024;
 
+/// Messages read a batch at a time ([`Lattice::inbox_run`]) in either width: the first
+/// buffer, those of the links of a chain of in-place max/min past the first (see
+/// [`max_chain`], made at the first chain), and the post office's hints.
+pub(super) struct MsgBufs {
+    w16: ([i16; BATCH], Vec<[i16; BATCH]>),
+    w32: ([i32; BATCH], Vec<[i32; BATCH]>),
+    hint: [usize; 6],
+}
+
+/// A width the column interpreter calculates in: its message buffers.
+pub(super) trait Lane: Value {
+    /// The first buffer, the others, the hints.
+    #[allow(clippy::type_complexity)]
+    fn all_bufs(b: &mut MsgBufs) -> (&mut [Self; BATCH], &mut Vec<[Self; BATCH]>, &mut [usize; 6]);
+    /// The first buffer and the hints.
+    fn bufs(b: &mut MsgBufs) -> (&mut [Self; BATCH], &mut [usize; 6]) {
+        let (first, _, hint) = Self::all_bufs(b);
+        (first, hint)
+    }
+}
+
+impl Lane for i16 {
+    fn all_bufs(b: &mut MsgBufs) -> (&mut [i16; BATCH], &mut Vec<[i16; BATCH]>, &mut [usize; 6]) {
+        (&mut b.w16.0, &mut b.w16.1, &mut b.hint)
+    }
+}
+
+impl Lane for i32 {
+    fn all_bufs(b: &mut MsgBufs) -> (&mut [i32; BATCH], &mut Vec<[i32; BATCH]>, &mut [usize; 6]) {
+        (&mut b.w32.0, &mut b.w32.1, &mut b.hint)
+    }
+}
+
 /// The working space of [`run_batch`], made once for a chunk of agents rather than at each
 /// call (a call may run a few agents): the two operands, whether each agent's result
 /// stands (all true between instructions), and the messages read with the post office's
@@ -514,10 +550,7 @@ pub(super) struct CalcBufs {
     pub(super) x: [i32; BATCH],
     pub(super) y: [i32; BATCH],
     pub(super) ok: [bool; BATCH],
-    pub(super) msgs: ([i16; BATCH], [usize; 6]),
-    /// The messages of a chain of in-place max/min beyond the first (see [`max_chain`]),
-    /// made at the first chain.
-    pub(super) more: Vec<[i16; BATCH]>,
+    pub(super) msgs: MsgBufs,
 }
 
 impl CalcBufs {
@@ -526,17 +559,35 @@ impl CalcBufs {
             x: [0; BATCH],
             y: [0; BATCH],
             ok: [true; BATCH],
-            msgs: ([0; BATCH], [0; 6]),
-            more: Vec::new(),
+            msgs: MsgBufs {
+                w16: ([0; BATCH], Vec::new()),
+                w32: ([0; BATCH], Vec::new()),
+                hint: [0; 6],
+            },
         })
     }
 }
 
 /// Runs rule `r`'s calculations and sends for the chunk's agents `range` (all of which
-/// execute `r` alone), one instruction at a time over up to [`BATCH`] agents. The results,
-/// and the issues (in agent order, then instruction order), are those of [`run_post`] run
-/// for each agent in turn: an agent's instructions touch only its own counters and outbox.
+/// execute `r` alone), one instruction at a time over up to [`BATCH`] agents, in the
+/// lattice's width. The results, and the issues (in agent order, then instruction order),
+/// are those of [`run_post`] run for each agent in turn: an agent's instructions touch only
+/// its own counters and outbox.
 pub(super) fn run_batch(
+    prog: &Program,
+    rule: (u32, &[PostStep]),
+    lat: &Lattice,
+    chb: (&mut CalcChunk<'_>, &mut CalcBufs),
+    range: std::ops::Range<usize>,
+    issues: &mut Vec<(u32, u32, CalcIssue)>,
+) {
+    match lat.width() {
+        Width::W16 => run_batch_in::<i16>(prog, rule, lat, chb, range, issues),
+        Width::W32 => run_batch_in::<i32>(prog, rule, lat, chb, range, issues),
+    }
+}
+
+fn run_batch_in<V: Lane>(
     prog: &Program,
     (r, post): (u32, &[PostStep]),
     lat: &Lattice,
@@ -545,13 +596,8 @@ pub(super) fn run_batch(
     issues: &mut Vec<(u32, u32, CalcIssue)>,
 ) {
     let mut found: Vec<(u32, CalcIssue)> = Vec::new();
-    let CalcBufs {
-        x,
-        y,
-        ok,
-        msgs: buf,
-        more,
-    } = bufs;
+    let CalcBufs { x, y, ok, msgs } = bufs;
+    let max = V::WIDTH.max();
     let mut start = range.start;
     while start < range.end {
         let len = (range.end - start).min(BATCH);
@@ -561,34 +607,28 @@ pub(super) fn run_batch(
             match step {
                 // A chain of in-place max (or min) with messages: one pass over the counter.
                 PostStep::Chain(chain) => {
-                    chain_in_place(lat, (ch, &mut *more), (&chain, ks.clone()), buf);
+                    chain_in_place::<V>(lat, ch, (&chain, ks.clone()), msgs);
                 }
                 PostStep::Send { dir, text } => {
                     send_text(ch, lat, (dir, prog.texts[text as usize]), ks.clone())
                 }
                 PostStep::Calc { target, op, a, b }
-                    if fast_calc(
-                        lat,
-                        ch,
-                        ks.clone(),
-                        first,
-                        (target, op, a.into(), b.into()),
-                        buf,
-                    ) => {}
+                    if fast_calc::<V>(lat, ch, ks.clone(), first, (target, op, a, b), msgs) => {}
                 PostStep::Calc { target, op, a, b } => {
                     let mut load = |v: ColVal, into: &mut [i32], ch: &CalcChunk<'_>| match v {
-                        ColVal::Lit(c) => into.fill(c as i32),
+                        ColVal::Lit(c) => into.fill(c),
                         ColVal::Counter(c) => {
-                            let col = &ch.counters[lat.counter_col[c as usize] as usize];
-                            for (t, &s) in into.iter_mut().zip(&col[ks.clone()]) {
-                                *t = s as i32;
+                            let col =
+                                ch.counters[lat.counter_col[c as usize] as usize].cut(ks.clone());
+                            for (t, &s) in into.iter_mut().zip(V::of_cut(col)) {
+                                *t = s.into();
                             }
                         }
                         ColVal::Msg { dir, slot } => {
-                            let src =
-                                lat.inbox_run(first, (dir, slot), &mut buf.0[..len], &mut buf.1);
+                            let (out, hint) = V::bufs(msgs);
+                            let src = lat.inbox_run(first, (dir, slot), &mut out[..len], hint);
                             for (t, &s) in into.iter_mut().zip(src) {
-                                *t = s as i32;
+                                *t = s.into();
                             }
                         }
                     };
@@ -596,7 +636,28 @@ pub(super) fn run_batch(
                     load(b, &mut y[..len], ch);
                     let (xs, ys) = (&mut x[..len], &y[..len]);
                     let mut all_ok = true;
+                    // 16-bit operands: i32 holds every sum, difference and product. 32-bit
+                    // ones: those are made exactly in i64 and saturated here.
+                    let exact = V::WIDTH == Width::W32
+                        && matches!(op, CalcOp::Add | CalcOp::Sub | CalcOp::Mul);
                     match op {
+                        _ if exact => {
+                            for (j, (p, &q)) in xs.iter_mut().zip(ys).enumerate() {
+                                let (p64, q64) = (*p as i64, q as i64);
+                                let e = match op {
+                                    CalcOp::Add => p64 + q64,
+                                    CalcOp::Sub => p64 - q64,
+                                    _ => p64 * q64,
+                                };
+                                *p = V::WIDTH.saturate(e);
+                                if *p as i64 != e {
+                                    found.push((
+                                        (first + j) as u32,
+                                        CalcIssue::Saturated { exact: e },
+                                    ));
+                                }
+                            }
+                        }
                         CalcOp::Max => xs.iter_mut().zip(ys).for_each(|(p, &q)| *p = (*p).max(q)),
                         CalcOp::Min => xs.iter_mut().zip(ys).for_each(|(p, &q)| *p = (*p).min(q)),
                         CalcOp::Add => xs.iter_mut().zip(ys).for_each(|(p, &q)| *p += q),
@@ -609,6 +670,7 @@ pub(super) fn run_batch(
                                 if q == 0 {
                                     found.push(((first + j) as u32, CalcIssue::DivisionByZero));
                                 } else if op == CalcOp::Div {
+                                    // (-max / -1 is max: no overflow within the width.)
                                     *p /= q;
                                 } else {
                                     *p %= q;
@@ -616,19 +678,19 @@ pub(super) fn run_batch(
                             }
                         }
                     }
-                    // Saturation (operands are within +-32767, so i32 holds every result).
-                    if xs.iter().any(|&v| !(-32767..=32767).contains(&v)) {
+                    // Saturation of 16-bit results (32-bit ones are within the width).
+                    if !exact && xs.iter().any(|&v| !(-max..=max).contains(&v)) {
                         for (j, v) in xs.iter_mut().enumerate() {
-                            if ok[j] && !(-32767..=32767).contains(v) {
+                            if ok[j] && !(-max..=max).contains(v) {
                                 found.push((
                                     (first + j) as u32,
                                     CalcIssue::Saturated { exact: *v as i64 },
                                 ));
-                                *v = (*v).clamp(-32767, 32767);
+                                *v = (*v).clamp(-max, max);
                             }
                         }
                     }
-                    store_batch(
+                    store_batch::<V>(
                         ch,
                         lat,
                         target,
@@ -662,11 +724,12 @@ fn send_text(
     }
 }
 
-/// Stores the results `xs` of one calculation over agents `ks` of a chunk into its
-/// target (a counter, or an outbox column with its bits); where `all_ok` is false, only
-/// for the agents whose `ok` is set (the others divided by zero), and `ok` is set again.
+/// Stores the results `xs` (of the width) of one calculation over agents `ks` of a chunk
+/// into its target (a counter, or an outbox column with its bits); where `all_ok` is
+/// false, only for the agents whose `ok` is set (the others divided by zero), and `ok` is
+/// set again.
 #[inline]
-fn store_batch(
+fn store_batch<V: Lane>(
     ch: &mut CalcChunk<'_>,
     lat: &Lattice,
     target: Target,
@@ -677,13 +740,14 @@ fn store_batch(
     let keep = |j: usize| all_ok || ok[j];
     match target {
         Target::Counter(c) => {
-            let col = &mut ch.counters[lat.counter_col[c as usize] as usize][ks.clone()];
+            let col = &mut V::of_cut_mut(&mut ch.counters[lat.counter_col[c as usize] as usize])
+                [ks.clone()];
             if all_ok {
-                col.iter_mut().zip(xs).for_each(|(t, &v)| *t = v as i16);
+                col.iter_mut().zip(xs).for_each(|(t, &v)| *t = V::of(v));
             } else {
                 for (j, (t, &v)) in col.iter_mut().zip(xs).enumerate() {
                     if keep(j) {
-                        *t = v as i16;
+                        *t = V::of(v);
                     }
                 }
             }
@@ -701,15 +765,15 @@ fn store_batch(
                 }
             }
             for &c in cols.write() {
-                let col = &mut ch.out_num[c][ks.clone()];
+                let col = &mut V::of_cut_mut(&mut ch.out_num[c])[ks.clone()];
                 let bits = &mut *ch.out_has[c];
                 if all_ok {
-                    col.iter_mut().zip(xs).for_each(|(t, &v)| *t = v as i16);
+                    col.iter_mut().zip(xs).for_each(|(t, &v)| *t = V::of(v));
                     set_bits(bits, ks.clone());
                 } else {
                     for (j, (t, &v)) in col.iter_mut().zip(xs).enumerate() {
                         if keep(j) {
-                            *t = v as i16;
+                            *t = V::of(v);
                             let k = start + j;
                             bits[k >> 6] |= 1 << (k & 63);
                         }
@@ -728,19 +792,19 @@ fn store_batch(
 /// do not change in the phase), the columns of those agents alone (in list order).
 pub(super) enum Snapshot {
     None,
-    All(Vec<Vec<i16>>),
-    Listed(Vec<u32>, Vec<Vec<i16>>),
+    All(Vec<Column>),
+    Listed(Vec<u32>, Vec<Column>),
 }
 
 impl Snapshot {
     /// Counter column `c` of agent `b` at the start of the phase (`now`: its value as it
     /// is, for an agent the snapshot does not hold, which has not changed).
     #[inline]
-    pub(super) fn counter(&self, c: usize, b: u32, now: impl Fn() -> i16) -> i16 {
+    pub(super) fn counter(&self, c: usize, b: u32, now: impl Fn() -> i32) -> i32 {
         match self {
-            Snapshot::All(cols) => cols[c][b as usize],
+            Snapshot::All(cols) => cols[c].get(b as usize),
             Snapshot::Listed(list, cols) => match list.binary_search(&b) {
-                Ok(k) => cols[c][k],
+                Ok(k) => cols[c].get(k),
                 Err(_) => now(),
             },
             Snapshot::None => now(),
@@ -760,36 +824,36 @@ pub(super) struct CalcCtx<'a, 'c, 'd> {
 }
 
 impl CalcEnv for CalcCtx<'_, '_, '_> {
-    fn counter(&self, i: u8) -> i16 {
+    fn counter(&self, i: u8) -> i32 {
         self.ch.counter(self.lat, self.k, i)
     }
-    fn set_counter(&mut self, i: u8, v: i16) {
+    fn set_counter(&mut self, i: u8, v: i32) {
         let c = self.lat.counter_col[i as usize] as usize;
-        self.ch.counters[c][self.k] = v;
+        self.ch.counters[c].set(self.k, v);
     }
-    fn inbox_num(&self, dir: u8, slot: u8) -> i16 {
+    fn inbox_num(&self, dir: u8, slot: u8) -> i32 {
         self.lat.inbox(self.a as u32, dir, slot)
     }
-    fn external(&self, off: [i32; 2], counter: u8) -> Option<i16> {
+    fn external(&self, off: [i32; 2], counter: u8) -> Option<i32> {
         match self.lat.cell_at(self.lat.pos[self.a], [off[0], off[1], 0]) {
             Cell::Agent(b) => Some(match self.lat.counter_col[counter as usize] {
                 NO_COL => 0,
                 // (With a list, the phase is one chunk of all agents: `ch` holds them.)
                 c => (self.snapshot).counter(c as usize, b, || {
-                    self.ch.counters[c as usize][b as usize - self.ch.lo]
+                    self.ch.counters[c as usize].get(b as usize - self.ch.lo)
                 }),
             }),
             _ => None,
         }
     }
-    fn send_num(&mut self, dir: u8, slot: u8, v: i16) {
+    fn send_num(&mut self, dir: u8, slot: u8, v: i32) {
         let k = self.k;
         let cols = self.ch.send_cols(self.lat, dir, slot);
         for &c in cols.clear() {
             self.ch.out_has[c][k >> 6] &= !(1 << (k & 63));
         }
         for &c in cols.write() {
-            self.ch.out_num[c][k] = v;
+            self.ch.out_num[c].set(k, v);
             self.ch.out_has[c][k >> 6] |= 1 << (k & 63);
         }
     }

@@ -33,7 +33,11 @@ impl Post {
             Snapshot::None
         } else if sel.listed {
             let cols = (lat.counters.iter())
-                .map(|col| sel.list.iter().map(|&a| col[a as usize]).collect())
+                .map(|col| {
+                    let mut c = Column::with_capacity(col.width(), sel.list.len());
+                    sel.list.iter().for_each(|&a| c.push(col.get(a as usize)));
+                    c
+                })
                 .collect();
             Snapshot::Listed(sel.list.clone(), cols)
         } else {
@@ -205,7 +209,7 @@ fn calc_records(
 }
 
 /// Every counter of agents `range` of a chunk (a column per counter), for a trace.
-fn counters_of(ch: &CalcChunk<'_>, lat: &Lattice, range: std::ops::Range<usize>) -> Vec<Vec<i16>> {
+fn counters_of(ch: &CalcChunk<'_>, lat: &Lattice, range: std::ops::Range<usize>) -> Vec<Vec<i32>> {
     (0..lat.nc() as u8)
         .map(|i| range.clone().map(|j| ch.counter(lat, j, i)).collect())
         .collect()
@@ -214,7 +218,7 @@ fn counters_of(ch: &CalcChunk<'_>, lat: &Lattice, range: std::ops::Range<usize>)
 /// The trace events of the counters of agents `range` of a chunk that changed since
 /// `before` ([`counters_of`]), agent by agent, counters in number order.
 fn counter_events(
-    before: &[Vec<i16>],
+    before: &[Vec<i32>],
     ch: &CalcChunk<'_>,
     lat: &Lattice,
     range: std::ops::Range<usize>,

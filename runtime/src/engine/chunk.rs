@@ -3,6 +3,7 @@
 //! interpreter and the evaluator of one agent write.
 
 use crate::lattice::{Lattice, NO_COL};
+use latticesim_vm::column::{Column, CutMut};
 use latticesim_vm::op::ANY_DIR;
 
 /// Splits each column into `chunks` parts of `size` (the last may be shorter) and returns,
@@ -23,6 +24,23 @@ pub(super) fn split_columns<T>(
     out
 }
 
+/// [`split_columns`] for counter and message columns.
+pub(super) fn split_values(
+    cols: &mut [Column],
+    size: usize,
+    chunks: usize,
+) -> Vec<Vec<CutMut<'_>>> {
+    let mut out: Vec<Vec<CutMut<'_>>> = (0..chunks)
+        .map(|_| Vec::with_capacity(cols.len()))
+        .collect();
+    for col in cols {
+        for (k, part) in col.parts_mut(size, chunks).into_iter().enumerate() {
+            out[k].push(part);
+        }
+    }
+    out
+}
+
 /// `chunks` parts of `size` of a column (empty parts when the column is empty or short).
 pub(super) fn parts<T>(col: &mut [T], size: usize, chunks: usize) -> Vec<&mut [T]> {
     let mut out: Vec<&mut [T]> = col.chunks_mut(size.max(1)).collect();
@@ -35,8 +53,8 @@ pub(super) fn parts<T>(col: &mut [T], size: usize, chunks: usize) -> Vec<&mut [T
 pub(super) struct CalcChunk<'a> {
     pub(super) lo: usize,
     pub(super) len: usize,
-    pub(super) counters: Vec<&'a mut [i16]>,
-    pub(super) out_num: Vec<&'a mut [i16]>,
+    pub(super) counters: Vec<CutMut<'a>>,
+    pub(super) out_num: Vec<CutMut<'a>>,
     pub(super) out_has: Vec<&'a mut [u64]>,
     pub(super) out_text: &'a mut [[u8; 5]],
     pub(super) out_text_bits: &'a mut [u8],
@@ -47,9 +65,9 @@ impl<'a> CalcChunk<'a> {
     /// columns and outboxes (numeric columns, their bits, texts and their bits).
     #[allow(clippy::type_complexity)]
     pub(super) fn split(
-        counters: &'a mut [Vec<i16>],
+        counters: &'a mut [Column],
         (num, has, text, text_bits): (
-            &'a mut [Vec<i16>],
+            &'a mut [Column],
             &'a mut [Vec<u64>],
             &'a mut [[u8; 5]],
             &'a mut [u8],
@@ -57,8 +75,8 @@ impl<'a> CalcChunk<'a> {
         (n, nd): (usize, usize),
         (size, chunks): (usize, usize),
     ) -> Vec<CalcChunk<'a>> {
-        let mut ctr = split_columns(counters, size, chunks).into_iter();
-        let mut onum = split_columns(num, size, chunks).into_iter();
+        let mut ctr = split_values(counters, size, chunks).into_iter();
+        let mut onum = split_values(num, size, chunks).into_iter();
         let mut ohas = split_columns(has, size.div_ceil(64), chunks).into_iter();
         let mut otext = parts(text, size * nd, chunks).into_iter();
         let mut otbits = parts(text_bits, size, chunks).into_iter();
@@ -76,10 +94,10 @@ impl<'a> CalcChunk<'a> {
     }
 
     /// Counter `i` of the chunk's `k`-th agent.
-    pub(super) fn counter(&self, lat: &Lattice, k: usize, i: u8) -> i16 {
+    pub(super) fn counter(&self, lat: &Lattice, k: usize, i: u8) -> i32 {
         match lat.counter_col[i as usize] {
             NO_COL => 0,
-            c => self.counters[c as usize][k],
+            c => self.counters[c as usize].get(k),
         }
     }
 

@@ -15,6 +15,8 @@ use crate::lattice::Lattice;
 use crate::lattice::{Pending, Undo, Writes, NO_AGENT, NO_COL};
 use crate::record::{Record, RecordKind};
 use crate::trace::{text, TraceEvent};
+use latticesim_vm::column::{Column, CutMut, Value, Width};
+use latticesim_vm::each_width;
 use latticesim_vm::eval::{eval_pre, run_post, CalcEnv, CalcIssue, Cell, Env, Tri};
 use latticesim_vm::model::{AttachLetter, CalcOp, CmpOp, Coord, Dir, TextPat};
 use latticesim_vm::op::{Op, Target, Val, ANY_DIR};
@@ -192,6 +194,9 @@ impl Engine {
     pub fn new(prog: Verified, mut lat: Lattice, opts: Options) -> Engine {
         let uses = prog.uses();
         lat.settle_inbox();
+        // Columns of the program's width (a configuration checked with its rules holds
+        // only values of it).
+        lat.set_width(prog.width);
         for c in 0..lat.nc() as u8 {
             if uses.counters & (1 << c) != 0 {
                 lat.ensure_counter(c);

@@ -189,8 +189,12 @@ impl Plan {
                 _ => false,
             })
             .collect();
-        let pre_columns = prog.rules.iter().map(|r| column_pre(pre(r))).collect();
-        let post_columns = prog.rules.iter().map(|r| column_post(post(r))).collect();
+        let pre_columns = (prog.rules.iter())
+            .map(|r| column_pre(prog, pre(r)))
+            .collect();
+        let post_columns = (prog.rules.iter())
+            .map(|r| column_post(prog, post(r)))
+            .collect();
         let has_actions: Vec<bool> = (prog.rules.iter())
             .map(|i| {
                 i.moves.is_some()

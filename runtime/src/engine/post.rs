@@ -9,7 +9,7 @@ use super::*;
 pub(super) struct InboxChunk<'a> {
     pub(super) lo: usize,
     pub(super) len: usize,
-    pub(super) num: Vec<&'a mut [i16]>,
+    pub(super) num: Vec<latticesim_vm::column::CutMut<'a>>,
     pub(super) text: &'a mut [[u8; 5]],
     pub(super) has: &'a mut [u8],
 }
@@ -103,7 +103,7 @@ impl Tally {
 /// calculations and emptied into the inboxes by the delivery.
 pub(super) struct Post {
     /// Numeric outboxes: a column per direction and slot in use (as the inboxes).
-    pub(super) out_num: Vec<Vec<i16>>,
+    pub(super) out_num: Vec<Column>,
     /// Per numeric column, which agents wrote it.
     pub(super) out_has: Vec<Vec<u64>>,
     /// Text outboxes, `dirs` per agent, and which directions were written (empty when no
@@ -143,10 +143,11 @@ impl Post {
                 }
             }
         }
+        let width = lat.width();
         Post {
             out_num: written
                 .iter()
-                .map(|&w| if w { vec![0; n] } else { Vec::new() })
+                .map(|&w| Column::zeros(width, if w { n } else { 0 }))
                 .collect(),
             out_has: vec![vec![0; n.div_ceil(64)]; cols],
             out_text: if texts {
@@ -186,7 +187,7 @@ impl Post {
 
     /// Bytes the outboxes hold.
     pub(super) fn bytes(&self) -> usize {
-        self.out_num.iter().map(|c| c.capacity() * 2).sum::<usize>()
+        self.out_num.iter().map(Column::bytes).sum::<usize>()
             + self.out_has.iter().map(|c| c.capacity() * 8).sum::<usize>()
             + self.out_text.capacity() * 5
             + self.out_text_bits.capacity()
@@ -227,7 +228,7 @@ impl Post {
         let mut inbox_text = std::mem::take(&mut lat.inbox_text);
         let mut inbox_has = std::mem::take(&mut lat.inbox_text_has);
         let (par, size, chunks) = th.chunks(n);
-        let mut num = split_columns(&mut inbox_num, size, chunks).into_iter();
+        let mut num = split_values(&mut inbox_num, size, chunks).into_iter();
         let mut text = parts(&mut inbox_text, size * nd, chunks).into_iter();
         let mut has = parts(&mut inbox_has, size, chunks).into_iter();
         let items: Vec<InboxChunk<'_>> = (0..chunks)
@@ -278,7 +279,7 @@ impl Post {
         for &b in emptied {
             let b = b as usize;
             for col in lat.inbox_num.iter_mut() {
-                col[b] = 0;
+                col.set(b, 0);
             }
             if texts {
                 lat.inbox_text_has[b] = 0;
@@ -312,7 +313,7 @@ impl Post {
                     self.out_has[col][w] &= !bit;
                     sent += 1;
                     if let Some(b) = to {
-                        lat.inbox_num[od * ns + s][b] = self.out_num[col][a];
+                        lat.inbox_num[od * ns + s].set(b, self.out_num[col].get(a));
                         delivered += 1;
                     }
                 }
@@ -351,7 +352,9 @@ impl Post {
         (p.full, p.empty) = (tally.full, tally.empty);
         // The inbox columns are not read while messages are pending. The outboxes' bits
         // are cleared by the next calculations.
-        lat.inbox_num.iter_mut().for_each(|c| *c = Vec::new());
+        lat.inbox_num
+            .iter_mut()
+            .for_each(|c| *c = Column::zeros(c.width(), 0));
         stats.sent += sent;
         stats.delivered += delivered;
         stats.dropped += sent - delivered;
@@ -405,8 +408,8 @@ impl Post {
                         dir: letter,
                         slot: Some(s as u8 + 1),
                         value: Some(match all(col) {
-                            Some(c) if !bit(col, a) => self.out_num[c][a],
-                            _ => self.out_num[col][a],
+                            Some(c) if !bit(col, a) => self.out_num[c].get(a),
+                            _ => self.out_num[col].get(a),
                         }),
                         text: None,
                     });
@@ -426,9 +429,32 @@ impl Post {
     }
 }
 
+/// Fills the inboxes `inb` of one direction and slot from the outbox column `out` (and its
+/// bits) of their senders `from` (consecutive agents when `dense`): how many arrived.
+#[inline(always)]
+fn pull_one<V: Value>(inb: &mut [V], out: &[V], bits: &[u64], from: &[u32], dense: bool) -> u64 {
+    let m = inb.len();
+    let f0 = from[0] as usize;
+    if dense && all_bits(bits, f0..f0 + m) {
+        inb.copy_from_slice(&out[f0..f0 + m]);
+        return m as u64;
+    }
+    let mut got = 0;
+    for (v, &f) in inb.iter_mut().zip(from) {
+        let f = f as usize;
+        *v = if f != NO_AGENT as usize && bits[f >> 6] & (1 << (f & 63)) != 0 {
+            got += 1;
+            out[f]
+        } else {
+            V::default()
+        };
+    }
+    got
+}
+
 /// This step's outboxes, for [`pull`].
 pub(super) struct Outboxes<'a> {
-    num: &'a [Vec<i16>],
+    num: &'a [Column],
     has: &'a [Vec<u64>],
     text: &'a [[u8; 5]],
     text_bits: &'a [u8],
@@ -481,26 +507,17 @@ pub(super) fn pull(
             };
             let od = OPPOSITE[dir];
             // The senders are themselves consecutive agents.
-            let f0 = from[0] as usize;
             let dense = from[0] != NO_AGENT && is_sequence(from, from[0]);
             for sc in 0..ns {
                 let cout = od * ns + sc;
-                let (out, bits) = (&out_num[cout][..], &out_has[cout][..]);
-                let inb = &mut num[dir * ns + sc][base..base + m];
-                if dense && all_bits(bits, f0..f0 + m) {
-                    inb.copy_from_slice(&out[f0..f0 + m]);
-                    got += m as u64;
-                    continue;
-                }
-                for (v, &f) in inb.iter_mut().zip(from) {
-                    let f = f as usize;
-                    *v = if f != NO_AGENT as usize && bits[f >> 6] & (1 << (f & 63)) != 0 {
-                        got += 1;
-                        out[f]
-                    } else {
-                        0
-                    };
-                }
+                let bits = &out_has[cout][..];
+                let inb = num[dir * ns + sc].cut_mut(base..base + m);
+                got += match (inb, &out_num[cout]) {
+                    (CutMut::W16(inb), Column::W16(out)) => pull_one(inb, out, bits, from, dense),
+                    (CutMut::W32(inb), Column::W32(out)) => pull_one(inb, out, bits, from, dense),
+                    // One width for every column of a lattice: not met.
+                    _ => 0,
+                };
             }
             if texts {
                 for (j, &f) in from.iter().enumerate() {

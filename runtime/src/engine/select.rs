@@ -127,7 +127,7 @@ pub(super) struct SelEnv<'a> {
 
 impl Env for SelEnv<'_> {
     #[inline]
-    fn counter(&self, i: u8) -> i16 {
+    fn counter(&self, i: u8) -> i32 {
         self.lat.counter(self.a, i)
     }
     #[inline]
@@ -147,11 +147,11 @@ impl Env for SelEnv<'_> {
         self.lat.state[id as usize]
     }
     #[inline]
-    fn agent_counter(&self, id: u32, i: u8) -> i16 {
+    fn agent_counter(&self, id: u32, i: u8) -> i32 {
         self.lat.counter(id, i)
     }
     #[inline]
-    fn inbox_num(&self, dir: u8, slot: u8) -> i16 {
+    fn inbox_num(&self, dir: u8, slot: u8) -> i32 {
         self.lat.inbox(self.a, dir, slot)
     }
     #[inline]

@@ -7,11 +7,16 @@
 //! when the rules use text messages ([`Lattice::ensure_counter`], [`Lattice::ensure_slot`],
 //! [`Lattice::ensure_text`]; the engine asks for what its program uses). A counter without
 //! a column reads 0, as does a slot without one.
+//!
+//! Counter and message columns are of one width, the program's ([`Width`]): 16 bits as in
+//! the paper, or 32 with the extension; a lattice takes the width of the program that runs
+//! on it ([`Lattice::set_width`]).
 
 use crate::bits::{all_bits, no_bits, run_of, sequence_len, set_bits};
 use crate::cells::{CellIndex, Grid, AHEAD, EMPTY, NO_SLOT, RIM};
+use latticesim_vm::column::Value;
 use latticesim_vm::eval::Cell;
-use latticesim_vm::model::{AgentInit, Bounds, Columns, Config, Dim, Dir};
+use latticesim_vm::model::{AgentInit, Bounds, Column, Columns, Config, Dim, Dir, Width};
 
 // Its parts: messages left with their senders, the agents file text, the undo point.
 mod pending;
@@ -38,15 +43,17 @@ pub struct Lattice {
     pub attach: Vec<u8>,
     /// Per counter number: its column in `counters`, or [`NO_COL`].
     pub(crate) counter_col: [u8; 45],
+    /// The width of counter and message columns.
+    pub(crate) width: Width,
     /// Counter columns, one value per agent each.
-    pub(crate) counters: Vec<Vec<i16>>,
+    pub(crate) counters: Vec<Column>,
     /// Per slot number (0-based): its index among the slots in use, or [`NO_COL`].
     pub(crate) slot_col: [u8; 8],
     /// Slots in use.
     pub(crate) slots: u8,
     /// Numeric messages received: one column per direction and slot in use, at
     /// `dir * slots + slot_col[slot]`.
-    pub(crate) inbox_num: Vec<Vec<i16>>,
+    pub(crate) inbox_num: Vec<Column>,
     /// Text messages received, `dirs` per agent (empty when no rule uses texts).
     pub(crate) inbox_text: Vec<[u8; 5]>,
     /// Which text messages were received: bit i = from direction i (empty when no rule
@@ -111,6 +118,7 @@ impl LatticeBuilder {
                 state: Vec::with_capacity(capacity),
                 attach: Vec::with_capacity(capacity),
                 counter_col: [NO_COL; 45],
+                width: Width::W16,
                 counters: Vec::new(),
                 slot_col: [NO_COL; 8],
                 slots: 0,
@@ -127,8 +135,9 @@ impl LatticeBuilder {
         }
     }
 
-    /// Adds an agent (the caller guarantees a free cell and valid counters).
-    pub fn push(&mut self, pos: [i32; 3], state: [u8; 5], attach: u8, counters: &[(u8, i16)]) {
+    /// Adds an agent (the caller guarantees a free cell and valid counters; a counter
+    /// outside 16 bits makes the lattice's columns 32-bit).
+    pub fn push(&mut self, pos: [i32; 3], state: [u8; 5], attach: u8, counters: &[(u8, i32)]) {
         let lat = &mut self.lat;
         let a = lat.pos.len();
         lat.pos.push(pos);
@@ -136,10 +145,13 @@ impl LatticeBuilder {
         lat.attach.push(attach);
         for &(c, v) in counters {
             if v != 0 {
+                if !lat.width.holds(v as i64) {
+                    lat.set_width(Width::W32);
+                }
                 let col = lat.ensure_counter(c);
                 let column = &mut lat.counters[col];
-                column.resize(a + 1, 0);
-                column[a] = v;
+                column.resize(a + 1);
+                column.set(a, v);
             }
         }
     }
@@ -153,7 +165,7 @@ impl LatticeBuilder {
     fn finish_checked(mut self) -> (Lattice, bool) {
         let n = self.lat.pos.len();
         for col in &mut self.lat.counters {
-            col.resize(n, 0);
+            col.resize(n);
             col.shrink_to_fit();
         }
         let lat = &mut self.lat;
@@ -183,6 +195,9 @@ impl Lattice {
         let mut b = LatticeBuilder::new(dim, universe, 0);
         let lat = &mut b.lat;
         (lat.pos, lat.state, lat.attach) = (pos, state, attach);
+        if let Some(c) = counters.first() {
+            lat.width = c.width();
+        }
         for (i, col) in counters.into_iter().enumerate() {
             if !col.is_empty() {
                 debug_assert_eq!(col.len(), n);
@@ -266,11 +281,35 @@ impl Lattice {
         self.dim.counters()
     }
 
+    /// The width of counters and numeric messages.
+    pub fn width(&self) -> Width {
+        self.width
+    }
+
+    /// Makes every counter and message column `w` wide (values saturate when narrowed,
+    /// which a checked configuration never needs).
+    pub fn set_width(&mut self, w: Width) {
+        if self.width == w {
+            return;
+        }
+        self.width = w;
+        let conv = |c: &mut Column| {
+            let mut n = Column::with_capacity(w, c.len());
+            (0..c.len()).for_each(|i| n.push(w.saturate(c.get(i) as i64)));
+            *c = n;
+        };
+        self.counters.iter_mut().for_each(conv);
+        self.inbox_num.iter_mut().for_each(conv);
+        if let Some(p) = &mut self.pending {
+            p.num.iter_mut().for_each(conv);
+        }
+    }
+
     /// The column of counter `i`, creating it (all zero) if needed.
     pub fn ensure_counter(&mut self, i: u8) -> usize {
         if self.counter_col[i as usize] == NO_COL {
             self.counter_col[i as usize] = self.counters.len() as u8;
-            self.counters.push(vec![0; self.len()]);
+            self.counters.push(Column::zeros(self.width, self.len()));
         }
         self.counter_col[i as usize] as usize
     }
@@ -290,7 +329,7 @@ impl Lattice {
                 self.inbox_num.push(if k + 1 < ns {
                     cols.next().expect("one column per direction and slot")
                 } else {
-                    vec![0; n]
+                    Column::zeros(self.width, n)
                 });
             }
         }
@@ -306,10 +345,10 @@ impl Lattice {
 
     /// Counter `i` of agent `a` (0 when no agent has it and no rule uses it).
     #[inline]
-    pub fn counter(&self, a: u32, i: u8) -> i16 {
+    pub fn counter(&self, a: u32, i: u8) -> i32 {
         match self.counter_col[i as usize] {
             NO_COL => 0,
-            c => self.counters[c as usize][a as usize],
+            c => self.counters[c as usize].get(a as usize),
         }
     }
 
@@ -323,27 +362,27 @@ impl Lattice {
 
     /// The values of counter `i`, one per agent, when it has a column (see
     /// [`Lattice::counter_numbers`]). The column stays in place for the lattice's life.
-    pub fn counter_column(&self, i: u8) -> Option<&[i16]> {
+    pub fn counter_column(&self, i: u8) -> Option<&Column> {
         match self.counter_col.get(i as usize) {
             None | Some(&NO_COL) => None,
             Some(&c) => Some(&self.counters[c as usize]),
         }
     }
 
-    /// Sets counter `i` of agent `a`.
-    pub fn set_counter(&mut self, a: u32, i: u8, v: i16) {
+    /// Sets counter `i` of agent `a` to `v`, saturated to the lattice's width.
+    pub fn set_counter(&mut self, a: u32, i: u8, v: i32) {
         let c = self.ensure_counter(i);
-        self.counters[c][a as usize] = v;
+        self.counters[c].set(a as usize, self.width.saturate(v as i64));
     }
 
     /// The numeric message agent `a` received from direction index `dir` in slot `slot`
     /// (0-based), 0 when none.
     #[inline]
-    pub fn inbox(&self, a: u32, dir: u8, slot: u8) -> i16 {
+    pub fn inbox(&self, a: u32, dir: u8, slot: u8) -> i32 {
         match (self.slot_col[slot as usize], &self.pending) {
             (NO_COL, _) => 0,
             (s, None) => {
-                self.inbox_num[dir as usize * self.slots as usize + s as usize][a as usize]
+                self.inbox_num[dir as usize * self.slots as usize + s as usize].get(a as usize)
             }
             (s, Some(p)) => {
                 let Cell::Agent(f) = self.neighbour_cell(a, dir as usize) else {
@@ -385,18 +424,10 @@ impl Lattice {
     /// Bytes held per agent by the columns (positions, states, attachments, counters and
     /// messages in use, the neighbour table) and the cell index, for reports.
     pub fn bytes(&self) -> usize {
-        let cols: usize = self
-            .counters
-            .iter()
-            .map(|c| c.capacity() * 2)
-            .sum::<usize>()
-            + self
-                .inbox_num
-                .iter()
-                .map(|c| c.capacity() * 2)
-                .sum::<usize>()
+        let cols: usize = self.counters.iter().map(Column::bytes).sum::<usize>()
+            + self.inbox_num.iter().map(Column::bytes).sum::<usize>()
             + self.pending.as_ref().map_or(0, |p| {
-                p.num.iter().map(|c| c.capacity() * 2).sum::<usize>()
+                p.num.iter().map(Column::bytes).sum::<usize>()
                     + p.has.iter().map(|c| c.capacity() * 8).sum::<usize>()
             })
             + self.nbr.iter().map(|c| c.capacity() * 4).sum::<usize>();

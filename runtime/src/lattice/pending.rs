@@ -13,7 +13,7 @@ use super::*;
 pub(crate) struct Pending {
     /// Per direction sent in and slot in use (at `dir * slots + slot_col[slot]`): the value
     /// each agent sent.
-    pub(crate) num: Vec<Vec<i16>>,
+    pub(crate) num: Vec<Column>,
     /// The same columns: a bit per agent that sent.
     pub(crate) has: Vec<Vec<u64>>,
     /// Per direction (of the recipient), who sends from there, as segments of recipients
@@ -30,12 +30,12 @@ impl Pending {
     /// What sender `f` sent in direction column `col` (its own send to that direction,
     /// else its send to all directions in column `all`, else 0).
     #[inline]
-    pub(super) fn value(&self, col: usize, all: Option<usize>, f: usize) -> i16 {
+    pub(super) fn value(&self, col: usize, all: Option<usize>, f: usize) -> i32 {
         let bit = |c: usize| self.has[c][f >> 6] & (1 << (f & 63)) != 0;
         if bit(col) {
-            self.num[col][f]
+            self.num[col].get(f)
         } else if let Some(a) = all.filter(|&a| bit(a)) {
-            self.num[a][f]
+            self.num[a].get(f)
         } else {
             0
         }
@@ -69,7 +69,7 @@ impl Pending {
     /// `lat`, with the plan of who sends to whom (positions must not change while it is
     /// used), made from the [`Pending::plan_part`]s of consecutive ranges of agents that
     /// cover them all, in order.
-    pub(crate) fn new(lat: &Lattice, like: &[Vec<i16>], parts: Vec<PlanPart>) -> Pending {
+    pub(crate) fn new(lat: &Lattice, like: &[Column], parts: Vec<PlanPart>) -> Pending {
         let n = lat.len();
         let nd = lat.dim.dirs();
         let mut plan: Vec<Option<Vec<(u32, u32)>>> = vec![Some(Vec::new()); nd];
@@ -93,7 +93,10 @@ impl Pending {
             next = part.next;
         }
         Pending {
-            num: like.iter().map(|c| vec![0; c.len()]).collect(),
+            num: like
+                .iter()
+                .map(|c| Column::zeros(c.width(), c.len()))
+                .collect(),
             has: vec![vec![0; n.div_ceil(64)]; like.len()],
             plan,
             full: Vec::new(),
@@ -175,27 +178,30 @@ impl Lattice {
     /// `slot` (in use): a slice of the inbox column, of the senders' pending messages when
     /// they are consecutive agents that all sent, or else `out` filled one by one. `hint`
     /// remembers, per direction, the segment of the plan where the last call ended (calls
-    /// for increasing `first` then find theirs at once).
+    /// for increasing `first` then find theirs at once). `V` is the lattice's width.
     #[inline]
-    pub(crate) fn inbox_run<'a>(
+    pub(crate) fn inbox_run<'a, V: Value>(
         &'a self,
         first: usize,
         (dir, slot): (u8, u8),
-        out: &'a mut [i16],
+        out: &'a mut [V],
         hint: &mut [usize; 6],
-    ) -> &'a [i16] {
+    ) -> &'a [V] {
         let m = out.len();
         let s = self.slot_col[slot as usize] as usize;
         let Some(p) = &self.pending else {
-            return &self.inbox_num[dir as usize * self.slots as usize + s][first..first + m];
+            return &V::of_column(&self.inbox_num[dir as usize * self.slots as usize + s])
+                [first..first + m];
         };
         let od = Dir::ALL[dir as usize].opposite().index();
         let col = od * self.slots as usize + s;
-        let (num, has) = (&p.num[col], &p.has[col]);
-        let all = self.all_col(p, s).map(|c| (c, &p.num[c], &p.has[c]));
+        let (num, has) = (V::of_column(&p.num[col]), &p.has[col]);
+        let all = self
+            .all_col(p, s)
+            .map(|c| (c, V::of_column(&p.num[c]), &p.has[c]));
         let Some(segs) = &p.plan[dir as usize] else {
             for (j, v) in out.iter_mut().enumerate() {
-                *v = self.inbox((first + j) as u32, dir, slot);
+                *v = V::of(self.inbox((first + j) as u32, dir, slot));
             }
             return out;
         };
@@ -221,7 +227,7 @@ impl Lattice {
             let len = (end - a).min(m - j);
             let dst = &mut out[j..j + len];
             if sender == NO_AGENT {
-                dst.fill(0);
+                dst.fill(V::default());
             } else {
                 let f0 = sender as usize + (a - start as usize);
                 let seg = f0..f0 + len;
@@ -243,7 +249,7 @@ impl Lattice {
                     None => {
                         let all_col = self.all_col(p, s);
                         for (v, f) in dst.iter_mut().zip(seg) {
-                            *v = p.value(col, all_col, f);
+                            *v = V::of(p.value(col, all_col, f));
                         }
                     }
                 }
@@ -273,12 +279,12 @@ impl Lattice {
             .filter(|&s| self.slot_col[s as usize] != NO_COL)
             .map(|s| (s, self.slot_col[s as usize]))
             .collect();
-        let mut cols = vec![vec![0i16; n]; nd * ns];
+        let mut cols = vec![Column::zeros(self.width, n); nd * ns];
         for d in 0..nd {
             for &(s, c) in &slots {
                 let col = &mut cols[d * ns + c as usize];
-                for (a, v) in col.iter_mut().enumerate() {
-                    *v = self.inbox(a as u32, d as u8, s);
+                for a in 0..n {
+                    col.set(a, self.inbox(a as u32, d as u8, s));
                 }
             }
         }

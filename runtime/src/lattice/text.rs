@@ -54,9 +54,9 @@ impl Lattice {
             writeln!(w, "U{}", v.join(","))?;
         }
         // Counter columns in number order, so that a line lists its counters so.
-        let cols: Vec<(u8, &[i16])> = (0..self.nc() as u8)
+        let cols: Vec<(u8, &Column)> = (0..self.nc() as u8)
             .filter(|&i| self.counter_col[i as usize] != NO_COL)
-            .map(|i| (i, &self.counters[self.counter_col[i as usize] as usize][..]))
+            .map(|i| (i, &self.counters[self.counter_col[i as usize] as usize]))
             .collect();
         let n = self.len();
         let room = BLOCK * self.longest_line(&cols);
@@ -97,8 +97,10 @@ impl Lattice {
     }
 
     /// The longest line [`Lattice::format_agents`] can make with these counter columns.
-    pub(super) fn longest_line(&self, cols: &[(u8, &[i16])]) -> usize {
-        3 * 12 + 7 + 8 + cols.len() * 11 + 1
+    pub(super) fn longest_line(&self, cols: &[(u8, &Column)]) -> usize {
+        // ` C00 ` and the value: `-32767` or `-2147483647`.
+        let counter = 5 + 1 + self.width.max().ilog10() as usize + 1;
+        3 * 12 + 7 + 8 + cols.len() * counter + 1
     }
 
     /// The lines of agents `range` (see [`Lattice::to_agents_text`]), written into `line`
@@ -107,7 +109,7 @@ impl Lattice {
     pub(super) fn format_agents(
         &self,
         range: std::ops::Range<usize>,
-        cols: &[(u8, &[i16])],
+        cols: &[(u8, &Column)],
         line: &mut [u8],
     ) -> usize {
         let (three, dirs) = (self.dim == Dim::Three, self.dim.dirs());
@@ -141,7 +143,7 @@ impl Lattice {
                 }
             }
             for &(i, col) in cols {
-                let v = col[a];
+                let v = col.get(a);
                 if v != 0 {
                     line[at] = b' ';
                     line[at + 1] = b'C';

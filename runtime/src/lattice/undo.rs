@@ -23,9 +23,9 @@ pub struct Undo {
     pos: Option<Vec<[i32; 3]>>,
     state: Option<Vec<[u8; 5]>>,
     attach: Option<Vec<u8>>,
-    counters: Vec<(u8, Vec<i16>)>,
+    counters: Vec<(u8, Column)>,
     #[allow(clippy::type_complexity)]
-    messages: Option<(Vec<Vec<i16>>, Vec<[u8; 5]>, Vec<u8>, Option<Pending>)>,
+    messages: Option<(Vec<Column>, Vec<[u8; 5]>, Vec<u8>, Option<Pending>)>,
 }
 
 impl Lattice {

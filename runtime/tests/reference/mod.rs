@@ -6,7 +6,7 @@
 
 use latticesim_compiler::checked::{
     Action, AttachLetter, CalcOp, CheckedRules, CmpOp, Cond, Config, Coord, Dim, Dir, Offset,
-    Operand, Rule, Target, TextPat, Val,
+    Operand, Rule, Target, TextPat, Val, Width,
 };
 use std::collections::BTreeMap;
 
@@ -15,8 +15,8 @@ pub struct Agent {
     pub pos: [i32; 3],
     pub state: [u8; 5],
     pub attach: u8,
-    pub counters: Vec<i16>,
-    pub inbox_num: Vec<Vec<i16>>,
+    pub counters: Vec<i32>,
+    pub inbox_num: Vec<Vec<i32>>,
     pub inbox_text: Vec<Option<[u8; 5]>>,
 }
 
@@ -60,7 +60,7 @@ pub struct World {
     pub messages_first: bool,
     pub static_first: bool,
     #[allow(clippy::type_complexity)]
-    pending: Option<(Vec<Vec<Vec<Option<i16>>>>, Vec<Vec<Option<[u8; 5]>>>)>,
+    pending: Option<(Vec<Vec<Vec<Option<i32>>>>, Vec<Vec<Option<[u8; 5]>>>)>,
     /// Who stands where: made again after the moves, updated by each swap (the only
     /// places positions change).
     cells: std::collections::HashMap<[i32; 3], usize>,
@@ -122,7 +122,7 @@ impl World {
             .agents
             .iter()
             .map(|a| {
-                let mut counters = vec![0i16; d.counters()];
+                let mut counters = vec![0i32; d.counters()];
                 for &(c, v) in &a.counters {
                     counters[c as usize] = v;
                 }
@@ -195,21 +195,17 @@ impl World {
     fn offset(&self, a: usize, o: &Offset) -> [i32; 3] {
         let c = |c: &Coord| match c {
             Coord::Lit(v) => *v,
-            Coord::Counter(i) => self.agents[a].counters[*i as usize] as i32,
+            Coord::Counter(i) => self.agents[a].counters[*i as usize],
         };
         [c(&o[0]), c(&o[1]), c(&o[2])]
     }
 
     fn value(&self, a: usize, v: &Val, any_dir: usize) -> i32 {
         match v {
-            Val::Lit(x) => *x as i32,
-            Val::Counter(c) => self.agents[a].counters[*c as usize] as i32,
-            Val::Msg { dir: Some(d), slot } => {
-                self.agents[a].inbox_num[d.index()][*slot as usize] as i32
-            }
-            Val::Msg { dir: None, slot } => {
-                self.agents[a].inbox_num[any_dir][*slot as usize] as i32
-            }
+            Val::Lit(x) => *x,
+            Val::Counter(c) => self.agents[a].counters[*c as usize],
+            Val::Msg { dir: Some(d), slot } => self.agents[a].inbox_num[d.index()][*slot as usize],
+            Val::Msg { dir: None, slot } => self.agents[a].inbox_num[any_dir][*slot as usize],
         }
     }
 
@@ -300,7 +296,7 @@ impl World {
                 rhs,
             } => b3(match self.look(me.pos, self.offset(a, offset)) {
                 Some(Some(b)) => {
-                    let v = self.agents[b].counters[*counter as usize] as i32;
+                    let v = self.agents[b].counters[*counter as usize];
                     let dirs = if matches!(rhs, Val::Msg { dir: None, .. }) {
                         0..nd
                     } else {
@@ -974,7 +970,12 @@ impl World {
         let nd = self.dim.dirs();
         let ns = self.dim.slots();
         let start = self.agents.clone();
-        let mut out_num: Vec<Vec<Vec<Option<i16>>>> = vec![vec![vec![None; ns]; nd]; n];
+        let mut out_num: Vec<Vec<Vec<Option<i32>>>> = vec![vec![vec![None; ns]; nd]; n];
+        // The width of counters and messages: the paper's 16 bits or the 32-bit extension.
+        let max: i64 = match self.prog.width {
+            Width::W16 => 32767,
+            Width::W32 => 2147483647,
+        };
         let mut out_text: Vec<Vec<Option<[u8; 5]>>> = vec![vec![None; nd]; n];
         for a in 0..n {
             for &r in &sel[a] {
@@ -992,20 +993,19 @@ impl World {
                         } => {
                             let read = |o: &Operand| -> Option<i32> {
                                 match o {
-                                    Operand::Val(Val::Lit(x)) => Some(*x as i32),
+                                    Operand::Val(Val::Lit(x)) => Some(*x),
                                     Operand::Val(Val::Counter(c)) => {
-                                        Some(self.agents[a].counters[*c as usize] as i32)
+                                        Some(self.agents[a].counters[*c as usize])
                                     }
                                     Operand::Val(Val::Msg { dir, slot }) => Some(
                                         self.agents[a].inbox_num[dir.expect("checked").index()]
-                                            [*slot as usize]
-                                            as i32,
+                                            [*slot as usize],
                                     ),
                                     Operand::External { x, y, counter } => {
                                         let c = |k: &Coord| match k {
                                             Coord::Lit(v) => *v,
                                             Coord::Counter(i) => {
-                                                self.agents[a].counters[*i as usize] as i32
+                                                self.agents[a].counters[*i as usize]
                                             }
                                         };
                                         let p = start[a].pos;
@@ -1013,7 +1013,7 @@ impl World {
                                         start
                                             .iter()
                                             .find(|s| s.pos == q)
-                                            .map(|s| s.counters[*counter as usize] as i32)
+                                            .map(|s| s.counters[*counter as usize])
                                     }
                                 }
                             };
@@ -1037,12 +1037,12 @@ impl World {
                                     });
                                     continue;
                                 }
-                                CalcOp::Div => (x / y) as i64,
-                                CalcOp::Mod => (x % y) as i64,
+                                CalcOp::Div => x as i64 / y as i64,
+                                CalcOp::Mod => x as i64 % y as i64,
                                 CalcOp::Max => x.max(y) as i64,
                                 CalcOp::Min => x.min(y) as i64,
                             };
-                            let v = exact.clamp(-32767, 32767);
+                            let v = exact.clamp(-max, max);
                             if v != exact {
                                 recs.push(Rec {
                                     step,
@@ -1050,7 +1050,7 @@ impl World {
                                     agents: vec![a as u32],
                                 });
                             }
-                            let v = v as i16;
+                            let v = v as i32;
                             match target {
                                 Target::Counter(c) => self.agents[a].counters[*c as usize] = v,
                                 Target::Msg { dir: Some(d), slot } => {
