@@ -2310,23 +2310,54 @@ fn counters_of_32_bits_elect_a_leader_past_32767_agents() {
     let p = |f: &str| dir.join(f).to_str().unwrap().to_string();
     let (agents, out, ckpt) = (p("ids.txt"), p("out.txt"), p("run.ckpt"));
     let o = run(&[
-        "gen", "connected", "--n", "40000", "--seed", "5", "--state", "INIT0", "--ids", "C00",
-        "--out", &agents,
+        "gen",
+        "connected",
+        "--n",
+        "40000",
+        "--seed",
+        "5",
+        "--state",
+        "INIT0",
+        "--ids",
+        "C00",
+        "--out",
+        &agents,
     ]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    assert!(stderr(&o).contains("need 32-bit counters"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("need 32-bit counters"),
+        "{}",
+        stderr(&o)
+    );
     let le = "examples/leader-election/rules.txt";
     let o = run(&["run", le, &agents, "--out", &out, "--checkpoint", &ckpt]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let text = std::fs::read_to_string(&out).unwrap();
     let leaders: Vec<&str> = text.lines().filter(|l| l.contains("SLEAD0")).collect();
     assert_eq!(leaders.len(), 1, "{leaders:?}");
-    assert!(leaders[0].ends_with("C00 40000 C01 40000"), "{}", leaders[0]);
+    assert!(
+        leaders[0].ends_with("C00 40000 C01 40000"),
+        "{}",
+        leaders[0]
+    );
     // The paper's width: E404, which names the extension.
-    let o = run(&["check", le, "--agents", &agents, "--counters", "16", "--color", "never"]);
+    let o = run(&[
+        "check",
+        le,
+        "--agents",
+        &agents,
+        "--counters",
+        "16",
+        "--color",
+        "never",
+    ]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("error[E404]"), "{}", stderr(&o));
-    assert!(stderr(&o).contains("`// latticesim: counters 32`"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("`// latticesim: counters 32`"),
+        "{}",
+        stderr(&o)
+    );
     // Rules without the directive, and the flag instead.
     let plain = tmp(
         "wide-plain.txt",
@@ -2341,9 +2372,20 @@ fn counters_of_32_bits_elect_a_leader_past_32767_agents() {
     let o = run(&["check", plain, "--agents", &agents, "--counters", "32"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     // The checkpoint says its width: resumed as it was made, refused in another.
-    let o = run(&["run", le, "--resume", &ckpt, "--max-steps", "1", "--out", &out]);
+    let o = run(&[
+        "run",
+        le,
+        "--resume",
+        &ckpt,
+        "--max-steps",
+        "1",
+        "--out",
+        &out,
+    ]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    assert!(std::fs::read_to_string(&out).unwrap().contains("C00 40000 C01 40000"));
+    assert!(std::fs::read_to_string(&out)
+        .unwrap()
+        .contains("C00 40000 C01 40000"));
     let o = run(&["run", le, "--resume", &ckpt, "--counters", "16"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("32-bit counters"), "{}", stderr(&o));

@@ -590,11 +590,12 @@ fn large_answers_are_compressed_for_clients_that_take_zstd() {
 /// 32-bit counters, whole past 16 bits.
 #[test]
 fn frames_carry_counters_of_32_bits_whole() {
-    let dir =
-        std::env::temp_dir().join(format!("latticesim-serve-{}-ids-src", std::process::id()));
+    let dir = std::env::temp_dir().join(format!("latticesim-serve-{}-ids-src", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let agents = dir.join("agents.txt");
-    let text: String = (0..40).map(|i| format!("{i},0 SINIT0 C00 {}\n", 100_000 + i)).collect();
+    let text: String = (0..40)
+        .map(|i| format!("{i},0 SINIT0 C00 {}\n", 100_000 + i))
+        .collect();
     std::fs::write(&agents, text).unwrap();
     let agents = agents.to_str().unwrap();
     let srv = start("ids", "examples/leader-election/rules.txt", agents);
