@@ -562,8 +562,9 @@ enum Declined {
 }
 
 /// The distinct states of `states`, in order of first appearance, with their first
-/// agent and how many agents are in each (no spans yet).
+/// agents (up to `FIXABLE`) and how many agents are in each (no spans yet).
 fn distinct(states: &[[u8; 5]]) -> Vec<StartState> {
+    use latticesim_compiler::FIXABLE;
     let mut index: std::collections::HashMap<[u8; 5], usize> = Default::default();
     let mut out: Vec<StartState> = Vec::new();
     let mut last: Option<([u8; 5], usize)> = None;
@@ -576,11 +577,17 @@ fn distinct(states: &[[u8; 5]]) -> Vec<StartState> {
                     first: i,
                     span: latticesim_grammar::Span { start: 0, end: 0 },
                     count: 0,
+                    rest: Vec::new(),
                 });
                 out.len() - 1
             }),
         };
-        out[k].count += 1;
+        let e = &mut out[k];
+        e.count += 1;
+        if e.count > 1 && e.count <= FIXABLE {
+            e.rest
+                .push((i, latticesim_grammar::Span { start: 0, end: 0 }));
+        }
         last = Some((*s, k));
     }
     out
@@ -600,22 +607,37 @@ fn quote_idle(
     if idle.is_empty() {
         return Ok(());
     }
-    let quoted: Vec<usize> = (seen.iter().enumerate())
-        .filter(|(_, s)| idle.iter().any(|i| i.state == s.state))
-        .map(|(k, _)| k)
-        .collect();
-    let ids: Vec<u32> = quoted.iter().map(|&k| seen[k].first as u32).collect();
+    // Per idle state, its first agent, and the others when a fix can edit every one: (the
+    // state's index in `seen`, None for the first or the index in its `rest`).
+    let mut quoted: Vec<(usize, Option<usize>)> = Vec::new();
+    for (k, s) in seen.iter().enumerate() {
+        if idle.iter().any(|i| i.state == s.state) {
+            quoted.push((k, None));
+            if s.count <= latticesim_compiler::FIXABLE {
+                quoted.extend((0..s.rest.len()).map(|r| (k, Some(r))));
+            }
+        }
+    }
+    let id = |&(k, r): &(usize, Option<usize>)| match r {
+        None => seen[k].first as u32,
+        Some(r) => seen[k].rest[r].0 as u32,
+    };
+    let ids: Vec<u32> = quoted.iter().map(id).collect();
     let lines = agent_lines(open, &ids)?;
     let aid = latticesim_grammar::FileId(1);
-    for (&k, l) in quoted.iter().zip(&lines) {
+    for (&(k, r), l) in quoted.iter().zip(&lines) {
         let text = String::from_utf8_lossy(&l.text);
         let (f, _) = latticesim_grammar::parse_agents(&text, aid);
         if let Some(a) = f.agents.first() {
             let span = latticesim_compiler::state_field(a);
-            seen[k].span = latticesim_grammar::Span {
+            let span = latticesim_grammar::Span {
                 start: span.start + l.at as u32,
                 end: span.end + l.at as u32,
             };
+            match r {
+                None => seen[k].span = span,
+                Some(r) => seen[k].rest[r].1 = span,
+            }
         }
     }
     let head_text = String::from_utf8_lossy(head).into_owned();

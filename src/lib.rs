@@ -155,6 +155,10 @@ pub struct LintArgs {
     /// file's `// latticesim: counters 32`.
     #[arg(long, value_name = "BITS", value_parser = ["16", "32"])]
     pub counters: Option<String>,
+    /// Show at most N diagnostics of a file in full (default 200); the rest are counted
+    /// per code on one line.
+    #[arg(long, value_name = "N")]
+    pub max_diagnostics: Option<usize>,
 }
 
 impl LintArgs {
@@ -170,6 +174,9 @@ impl LintArgs {
                 .ok()
                 .and_then(latticesim_vm::model::Width::from_bits);
             l.set_counters(w.unwrap_or_default(), format!("`--counters {b}`"));
+        }
+        if let Some(n) = self.max_diagnostics {
+            l.set_shown(n);
         }
         Ok(l)
     }
@@ -203,6 +210,7 @@ pub(crate) fn not_shown_json(c: &Checked) -> serde_json::Value {
                 "file": c.sources.name(n.file),
                 "errors": n.errors,
                 "warnings": n.warnings,
+                "codes": n.codes.iter().map(|(c, k)| (c.as_str().to_string(), serde_json::Value::from(*k))).collect::<serde_json::Map<_, _>>(),
             })
         })
         .collect()
@@ -370,6 +378,11 @@ pub fn engine_threads(requested: Option<usize>, agents: usize) -> usize {
         most.max(1)
     );
     threads(requested, most, &why)
+}
+
+/// `n` and a noun, plural when `n` is not 1 ("1 rule", "2 rules").
+pub fn plural(n: usize, noun: &str) -> String {
+    format!("{n} {noun}{}", if n == 1 { "" } else { "s" })
 }
 
 /// How many records of one kind are printed before the rest are only counted.

@@ -126,6 +126,8 @@ pub(crate) struct Timing {
     pub check: Duration,
     pub steps: Duration,
     pub write: Duration,
+    /// Writing checkpoints (every `--checkpoint-every` steps and at the end), when asked for.
+    pub checkpoint: Option<Duration>,
 }
 
 impl Timing {
@@ -135,6 +137,7 @@ impl Timing {
             "check_s": self.check.as_secs_f64(),
             "steps_s": self.steps.as_secs_f64(),
             "write_s": self.write.as_secs_f64(),
+            "checkpoint_s": self.checkpoint.map(|c| c.as_secs_f64()),
         })
     }
 }
@@ -424,6 +427,8 @@ fn run_to_end(args: &RunArgs) -> Result<ExitCode, ExitCode> {
         None => None,
     };
     output::poll_interrupts();
+    // A resumed run says what it did beside the totals since step 0.
+    let resumed_at = args.resume.is_some().then(|| engine.stats.clone());
     let started = Instant::now();
     let steps = Steps {
         engine,
@@ -434,8 +439,14 @@ fn run_to_end(args: &RunArgs) -> Result<ExitCode, ExitCode> {
         series,
         series_failed: false,
         checkpoint_failed: false,
+        checkpointing: Duration::ZERO,
     };
-    let (steps, stop) = steps.run(args);
+    let (mut steps, stop) = steps.run(args);
+    let wall = started.elapsed().saturating_sub(steps.checkpointing);
+    // Every file asked for is written, even when an earlier one (or the terminal) failed.
+    let mut failed = (args.checkpoint.as_deref())
+        .is_some_and(|p| !steps.checkpoint(p))
+        .then(|| ExitCode::from(2));
     let Steps {
         engine,
         undo: _,
@@ -445,21 +456,18 @@ fn run_to_end(args: &RunArgs) -> Result<ExitCode, ExitCode> {
         series,
         series_failed,
         checkpoint_failed,
+        checkpointing,
     } = steps;
     let shown = console.finish();
-    let wall = started.elapsed();
-    // Every file asked for is written, even when an earlier one (or the terminal) failed.
-    let mut failed =
-        (trace_failed || series_failed || checkpoint_failed).then(|| ExitCode::from(2));
+    if trace_failed || series_failed || checkpoint_failed {
+        failed = Some(ExitCode::from(2));
+    }
     if let Some(s) = series {
         let path = args.series.as_deref().expect("asked for");
         if let Err(e) = s.finish() {
             say!("error: cannot write `{}`: {e}", path.display());
             failed = Some(ExitCode::from(2));
         }
-    }
-    if let Some(p) = &args.checkpoint {
-        failed = save_checkpoint(&engine, p).err().or(failed);
     }
     if let Some(t) = trace {
         let path = t.path().to_path_buf();
@@ -485,6 +493,7 @@ fn run_to_end(args: &RunArgs) -> Result<ExitCode, ExitCode> {
         check: ready_check,
         steps: wall,
         write: writing.elapsed(),
+        checkpoint: args.checkpoint.is_some().then_some(checkpointing),
     };
     if let Some(f) = stats_file {
         let v = stats_json(&engine, stop, (!args.no_timing).then_some(&timing));
@@ -497,7 +506,10 @@ fn run_to_end(args: &RunArgs) -> Result<ExitCode, ExitCode> {
     }
     if !args.quiet {
         Console::more(&shown);
-        say!("{}", summary(&engine, stop, args.max_steps, &timing));
+        say!(
+            "{}",
+            summary(&engine, stop, args.max_steps, &timing, resumed_at.as_ref())
+        );
     }
     Ok(match stop {
         Stop::Strict => ExitCode::from(3),
@@ -550,9 +562,19 @@ struct Steps {
     series: Option<Series>,
     series_failed: bool,
     checkpoint_failed: bool,
+    /// The time spent writing checkpoints.
+    checkpointing: Duration,
 }
 
 impl Steps {
+    /// Writes the checkpoint to `path`, timed; false when it failed (said).
+    fn checkpoint(&mut self, path: &Path) -> bool {
+        let t = Instant::now();
+        let ok = save_checkpoint(&self.engine, path).is_ok();
+        self.checkpointing += t.elapsed();
+        ok
+    }
+
     /// Steps to quiescence, `--max-steps`, an error record with `--strict`, or Ctrl-C;
     /// returns which.
     fn run(mut self, args: &RunArgs) -> (Steps, Stop) {
@@ -593,7 +615,7 @@ impl Steps {
             let steps = self.engine.stats.steps;
             if let (Some(p), Some(every)) = (&args.checkpoint, args.checkpoint_every) {
                 if steps.is_multiple_of(every) && steps < args.max_steps {
-                    self.checkpoint_failed |= save_checkpoint(&self.engine, p).is_err();
+                    self.checkpoint_failed |= !self.checkpoint(p);
                 }
             }
             if output::interrupted() {
@@ -737,11 +759,16 @@ impl Console {
     }
 }
 
-/// The summary line of a run.
-fn summary(engine: &Engine, stop: Stop, max_steps: u64, timing: &Timing) -> String {
+/// The summary line of a run; `resumed_at`, the totals of a resumed run's checkpoint: the
+/// run's own counts come first, then the totals since step 0.
+fn summary(
+    engine: &Engine,
+    stop: Stop,
+    max_steps: u64,
+    timing: &Timing,
+    resumed_at: Option<&Stats>,
+) -> String {
     let s = &engine.stats;
-    let (errors, warnings) = (s.errors(), s.warnings());
-    let firings: u64 = s.firings.iter().sum();
     let why = match stop {
         Stop::Quiescence => "quiescent".to_string(),
         Stop::MaxSteps => format!("stopped at --max-steps {max_steps}"),
@@ -750,15 +777,38 @@ fn summary(engine: &Engine, stop: Stop, max_steps: u64, timing: &Timing) -> Stri
         }
         Stop::Interrupted => "interrupted".into(),
     };
+    let counts = |s: &Stats, b: Option<&Stats>| {
+        let d = |f: fn(&Stats) -> u64| f(s) - b.map_or(0, f);
+        format!(
+            "{} rule firings, {} moves, {} swaps, {} messages sent ({} delivered, {} dropped), {} error records, {} warnings",
+            d(|s| s.firings.iter().sum()),
+            d(|s| s.moves),
+            d(|s| s.swaps),
+            d(|s| s.sent),
+            d(|s| s.delivered),
+            d(|s| s.dropped),
+            d(Stats::errors),
+            d(Stats::warnings),
+        )
+    };
+    let work = match resumed_at {
+        None => format!("{} steps, {why}: {}", s.steps, counts(s, None)),
+        Some(b) => format!(
+            "resumed at step {}, {} steps, {why}: {}; since step 0: {} steps, {}",
+            b.steps,
+            s.steps - b.steps,
+            counts(s, Some(b)),
+            s.steps,
+            counts(s, None)
+        ),
+    };
+    let checkpoint = timing
+        .checkpoint
+        .map(|c| format!(", checkpoint {:.3} s", c.as_secs_f64()))
+        .unwrap_or_default();
     format!(
-        "{} agents, {} steps, {why}: {firings} rule firings, {} moves, {} swaps, {} messages sent ({} delivered, {} dropped), {errors} error records, {warnings} warnings; read {:.3} s, check {:.3} s, steps {:.3} s, write {:.3} s, peak memory {}",
+        "{} agents, {work}; read {:.3} s, check {:.3} s, steps {:.3} s, write {:.3} s{checkpoint}, peak memory {}",
         engine.lat.len(),
-        s.steps,
-        s.moves,
-        s.swaps,
-        s.sent,
-        s.delivered,
-        s.dropped,
         timing.read.as_secs_f64(),
         timing.check.as_secs_f64(),
         timing.steps.as_secs_f64(),

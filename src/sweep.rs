@@ -77,7 +77,7 @@ pub struct SweepArgs {
     /// The shapes to generate.
     #[arg(long, value_enum, default_value_t = SweepShape::Connected)]
     shape: SweepShape,
-    /// The sizes n, comma-separated (of --shape, or given to --agents-cmd as {n}).
+    /// The sizes n, comma-separated (of --shape, or given to --agents-cmd as `{size}`).
     #[arg(long, value_delimiter = ',', default_values_t = vec![10, 30, 100, 300, 1000])]
     sizes: Vec<u32>,
     /// Runs (seeds 1..=K) per size, or per file of --agents (default: 3 per size, 1 per
@@ -89,8 +89,9 @@ pub struct SweepArgs {
     #[arg(long, conflicts_with_all = ["agents_cmd", "shape", "sizes"])]
     agents: Option<String>,
     /// Make each run's agents file with this command (run by `sh -c`), which writes it to
-    /// standard output; `{n}` and `{seed}` in it are replaced by the size and the seed,
-    /// e.g. `python3 make.py {n} {seed}`.
+    /// standard output; `{size}` and `{seed}` in it are replaced by the size n and the
+    /// seed, e.g. `python3 make.py {size} {seed}` (n in braces works as `{size}` does;
+    /// clap's help cannot show it).
     #[arg(long, conflicts_with = "shape")]
     agents_cmd: Option<String>,
     /// Set a counter of every agent from an expression over n, x, y, z, id (the agent's
@@ -225,6 +226,7 @@ impl SweepShape {
 fn command_output(template: &str, n: u32, seed: u64) -> Result<(Vec<u8>, String), String> {
     let cmd = template
         .replace("{n}", &n.to_string())
+        .replace("{size}", &n.to_string())
         .replace("{seed}", &seed.to_string());
     let out = std::process::Command::new("sh")
         .args(["-c", &cmd])

@@ -253,7 +253,7 @@ fn zero_steps_write_back_the_agents_and_reload_unchanged() {
     let out = std::fs::read_to_string(d.join("out.txt")).unwrap();
     assert_eq!(
         out,
-        "U-5,5,-5,5\n1,1 SLEAD0 A0010 C00 5 C03 -7\n2,1 S00000 A0100\n-3,4 S00000\n"
+        "U-5,5,-5,5\n1,1 SLEAD0 A0010 C00 5 C03 -7\n2,1 A0100\n-3,4\n"
     );
     let (o2, d2) = run_files(
         "r\n1\nS*****\nS*****\n",
@@ -352,7 +352,7 @@ fn ctrl_c_stops_after_the_step_and_still_writes() {
     let want = (steps as i64).min(32767);
     assert_eq!(
         out,
-        format!("0,0 S00000 C00 {want}\n"),
+        format!("0,0 C00 {want}\n"),
         "the state after the last full step"
     );
 }
@@ -600,7 +600,12 @@ fn agents_after(rules: &str, agents: &str, steps: &str) -> Vec<(i64, i64, String
                 .split(',')
                 .map(|v| v.parse().unwrap())
                 .collect();
-            (p[0], p[1], w.next().unwrap()[1..].to_string())
+            // The default state is left out of the text.
+            let state = w
+                .next()
+                .and_then(|s| s.strip_prefix('S'))
+                .unwrap_or("00000");
+            (p[0], p[1], state.to_string())
         })
         .collect()
 }
@@ -1166,9 +1171,39 @@ fn diagnostics_are_capped_per_line_and_file() {
     assert_eq!(err.matches("error[E102]").count(), 10);
     assert!(
         err.contains("note: not shown in ")
-            && err.contains(": 3990 more errors and 0 more warnings"),
+            && err.contains(": 3990 more errors and 0 more warnings: 3990 E102 ("),
         "{err}"
     );
+    // Fewer shown when asked; the rest counted per code, in JSON too.
+    let o = run(&[
+        "check",
+        rules.to_str().unwrap(),
+        "--dim",
+        "2",
+        "--max-diagnostics",
+        "3",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert_eq!(err.matches("error[E102]").count(), 3, "{err}");
+    assert!(
+        err.contains(": 3997 more errors and 0 more warnings: 3997 E102 ("),
+        "{err}"
+    );
+    let o = run(&[
+        "check",
+        rules.to_str().unwrap(),
+        "--dim",
+        "2",
+        "--max-diagnostics",
+        "0",
+        "--format",
+        "json",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["diagnostics"].as_array().unwrap().len(), 0);
+    assert_eq!(v["not_shown"][0]["codes"]["E102"], 4000);
     assert!(err.contains("4000 errors"), "{err}");
     let o = run(&[
         "check",
@@ -1204,7 +1239,7 @@ fn b1_text(l: u64) -> String {
     let mut s = String::with_capacity((l * l * 20) as usize);
     for x in 0..l {
         for y in 0..l {
-            s += &format!("{x},{y} S00000 C00 {}\n", ((x * l + y) * 7919) % 32749 + 1);
+            s += &format!("{x},{y} C00 {}\n", ((x * l + y) * 7919) % 32749 + 1);
         }
     }
     s
@@ -1875,19 +1910,22 @@ fn sweep_runs_files_commands_and_set_counters() {
     let o = sweep(&["--agents", &pattern, "--set", "C00 = n - id"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert_eq!(rows(&csv).len(), 1, "the pattern picks one file");
-    // A command writes each run's agents: a line of {n} agents.
-    let cmd = "i=0; while [ $i -lt {n} ]; do echo \"$i,0 SINIT0\"; i=$((i+1)); done";
-    let o = sweep(&[
-        "--agents-cmd",
-        cmd,
-        "--sizes",
-        "4,9",
-        "--seeds",
-        "2",
-        "--set",
-        "C00=id+seed",
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // A command writes each run's agents: a line of {n} (or {size}) agents.
+    for size in ["{n}", "{size}"] {
+        let cmd =
+            format!("i=0; while [ $i -lt {size} ]; do echo \"$i,0 SINIT0\"; i=$((i+1)); done");
+        let o = sweep(&[
+            "--agents-cmd",
+            &cmd,
+            "--sizes",
+            "4,9",
+            "--seeds",
+            "2",
+            "--set",
+            "C00=id+seed",
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    }
     let got = rows(&csv);
     assert_eq!(got.len(), 4);
     for (n, input, steps) in &got {
@@ -2393,4 +2431,164 @@ fn counters_of_32_bits_elect_a_leader_past_32767_agents() {
     let o = run(&["gen", "line", "--n", "3000000000", "--ids", "C00"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Every help text shows what its source says: no code span cut in two (clap turns `{n}`
+/// into a line break), no line that is only the end of a parenthesis cut off.
+#[test]
+fn help_texts_are_whole() {
+    let o = run(&["--help"]);
+    let top = String::from_utf8_lossy(&o.stdout).to_string();
+    let mut commands: Vec<String> = top
+        .lines()
+        .skip_while(|l| !l.starts_with("Commands:"))
+        .skip(1)
+        .take_while(|l| l.starts_with("  "))
+        .filter_map(|l| l.split_whitespace().next().map(str::to_string))
+        .filter(|c| c != "help")
+        .collect();
+    assert!(commands.len() >= 10, "{top}");
+    commands.push(String::new());
+    for c in &commands {
+        let args: Vec<&str> = [c.as_str(), "--help"]
+            .into_iter()
+            .filter(|a| !a.is_empty())
+            .collect();
+        let o = run(&args);
+        assert_eq!(o.status.code(), Some(0), "{c}");
+        let help = String::from_utf8_lossy(&o.stdout).to_string();
+        for line in help.lines() {
+            assert_eq!(
+                line.matches('`').count() % 2,
+                0,
+                "`latticesim {c} --help`: a code span cut: {line:?}"
+            );
+            assert_ne!(
+                line.trim(),
+                ")",
+                "`latticesim {c} --help`: a line cut: {line:?}"
+            );
+        }
+    }
+}
+
+/// examples/mistakes: each comment names its mistakes; each gives its diagnostic.
+#[test]
+fn the_mistakes_example_gives_what_its_comments_promise() {
+    let o = run(&[
+        "check",
+        "examples/mistakes/rules.txt",
+        "--agents",
+        "examples/tour/agents.txt",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    for code in [
+        "error[E302]",
+        "error[E204]",
+        "error[E315]",
+        "error[E309]",
+        "error[E312]",
+        "error[E303]",
+        "warning[W502]",
+    ] {
+        assert!(err.contains(code), "{code} missing:\n{err}");
+    }
+    assert!(err.ends_with("6 errors, 1 warning\n"), "{err}");
+}
+
+/// Runs the program with a deadline: its status and standard error, or a panic when it
+/// does not end in `secs`.
+fn run_within(args: &[&str], secs: u64) -> (Option<i32>, String) {
+    use std::io::Read;
+    let mut child = bin()
+        .args(args)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut err = child.stderr.take().unwrap();
+    let reader = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = err.read_to_string(&mut s);
+        s
+    });
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(secs);
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            return (status.code(), reader.join().unwrap());
+        }
+        if std::time::Instant::now() > deadline {
+            let _ = child.kill();
+            panic!("`latticesim {}` did not end in {secs} s", args.join(" "));
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+}
+
+/// A full disk (`/dev/full`) under `--out`: a clear message and exit 2, in bounded time,
+/// with the output written by two threads (it hung: the formatting thread waited forever
+/// on a writer that had failed).
+#[test]
+fn a_full_disk_ends_the_run_with_a_message() {
+    if !std::path::Path::new("/dev/full").exists() {
+        return;
+    }
+    let agents = tmp("full-disk-agents.txt", b"");
+    let a = agents.to_str().unwrap();
+    let o = run(&[
+        "gen", "block", "--width", "300", "--height", "300", "--out", a,
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    for threads in ["1", "2"] {
+        let (code, err) = run_within(
+            &[
+                "run",
+                "examples/gravity/rules.txt",
+                a,
+                "--max-steps",
+                "1",
+                "--threads",
+                threads,
+                "--out",
+                "/dev/full",
+            ],
+            60,
+        );
+        assert_eq!(code, Some(2), "{err}");
+        assert!(
+            err.contains("cannot write `/dev/full`") && err.contains("No space left"),
+            "{err}"
+        );
+    }
+}
+
+/// The summary line gives the time to write checkpoints, and a resumed run's own counts
+/// before its totals since step 0.
+#[test]
+fn the_summary_says_checkpoint_time_and_what_a_resumed_run_did() {
+    let ckpt = tmp("summary.ckpt", b"");
+    let c = ckpt.to_str().unwrap();
+    let g = ["examples/gravity/rules.txt", "examples/gravity/agents.txt"];
+    let o = run(&["run", g[0], g[1], "--max-steps", "3", "--checkpoint", c]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("45 agents, 3 steps, stopped at --max-steps 3: 90 rule firings"),
+        "{err}"
+    );
+    assert!(err.contains(", checkpoint 0."), "{err}");
+    let o = run(&["run", g[0], "--resume", c]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains(
+            "45 agents, resumed at step 3, 7 steps, quiescent: 103 rule firings, 103 moves"
+        ) && err.contains("; since step 0: 10 steps, 193 rule firings, 193 moves"),
+        "{err}"
+    );
+    assert!(
+        !err.contains("checkpoint 0."),
+        "no checkpoint asked for: {err}"
+    );
 }

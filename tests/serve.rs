@@ -185,7 +185,10 @@ fn run_agents(rules: &str, agents: &str, steps: u64) -> Vec<(Vec<i64>, String)> 
                 .split(',')
                 .map(|v| v.parse().unwrap())
                 .collect();
-            let state = w.next().unwrap().strip_prefix('S').unwrap().to_string();
+            // The default state is left out of the text.
+            let state = (w.next().and_then(|s| s.strip_prefix('S')))
+                .unwrap_or("00000")
+                .to_string();
             (pos, state)
         })
         .collect()

@@ -200,3 +200,42 @@ fn a_warning_far_down_is_quoted_with_its_line() {
     let held = l.checked.sources.text(latticesim_grammar::FileId(1));
     assert!(held.len() < 100, "read on the fast path: {text}");
 }
+
+/// A typo in a few agents' state, one of them far down: the fix edits each of them in the
+/// agents file, quoted from their lines (the fast path holds only those), the same as the
+/// checker's; applied to the whole file, it checks clean.
+#[test]
+fn a_typo_in_a_few_agents_is_fixed_in_the_agents_file() {
+    let mut a = String::from("// walkers\n");
+    for x in 0..200 {
+        for y in 0..100 {
+            let s = if (x, y) == (3, 4) || (x, y) == (150, 7) {
+                "SWALX0"
+            } else {
+                "SWALK0"
+            };
+            a += &format!("{x},{y} {s} C01 1\n");
+        }
+    }
+    a += "500,500 SWALX0\r\n";
+    same(RULES[0], a.as_bytes()).unwrap();
+    let l = streamed(RULES[0], a.as_bytes());
+    let held = l.checked.sources.text(latticesim_grammar::FileId(1));
+    assert!(held.len() < 200, "read on the fast path: {held}");
+    let d = &l.checked.diags;
+    assert_eq!(d.len(), 1, "{d:?}");
+    let text = render_plain(d, &l.checked.sources);
+    assert!(text.contains("20002 | 500,500 SWALK0"), "{text}");
+    assert!(text.contains("15009 | 150,7 SWALK0 C01 1"), "{text}");
+    let fix = &d[0].fixes[0];
+    assert_eq!(fix.edits.len(), 3);
+    let mut fixed = a.clone().into_bytes();
+    let mut edits = fix.edits.clone();
+    edits.sort_by_key(|e| std::cmp::Reverse(e.span.start));
+    for e in edits {
+        let (s, t) = (e.span.start as usize, e.span.end as usize);
+        fixed.splice(s..t, e.replacement.bytes());
+    }
+    assert_eq!(fixed, a.replace("SWALX0", "SWALK0").into_bytes());
+    assert!(streamed(RULES[0], &fixed).checked.diags.is_empty());
+}

@@ -361,13 +361,31 @@ fn fix_note(f: &Fix, sources: &Sources) -> String {
     let Some(first) = f.edits.first() else {
         return note;
     };
-    let text = sources.text(first.file);
-    let fixed = f.apply(text, first.file);
+    let file = first.file;
+    let text = sources.text(file);
+    // In a file held in part, the edits' offsets of the whole file are where they fall in
+    // the part held (they may only touch lines held).
+    let mut edits: Vec<_> = (f.edits.iter().filter(|e| e.file == file))
+        .map(|e| {
+            let at = |b: u32| sources.in_excerpt(file, b as usize) as u32;
+            latticesim_grammar::Edit {
+                span: latticesim_grammar::Span {
+                    start: at(e.span.start),
+                    end: at(e.span.end),
+                },
+                ..e.clone()
+            }
+        })
+        .collect();
+    edits.sort_by_key(|e| e.span.start);
+    let local = Fix {
+        message: String::new(),
+        edits: edits.clone(),
+    };
+    let fixed = local.apply(text, file);
     // The lines the edits touch, found in the fixed text by how far the edits shifted them.
     let mut shift: isize = 0;
     let mut shown: Vec<usize> = Vec::new();
-    let mut edits: Vec<_> = f.edits.iter().filter(|e| e.file == first.file).collect();
-    edits.sort_by_key(|e| e.span.start);
     for e in edits {
         let at = (e.span.start as isize + shift).max(0) as usize;
         shift += e.replacement.len() as isize - e.span.len() as isize;
@@ -381,7 +399,8 @@ fn fix_note(f: &Fix, sources: &Sources) -> String {
     note += ":";
     for start in shown {
         let line = fixed[start..].split('\n').next().unwrap_or("");
-        let number = fixed[..start].matches('\n').count() + 1;
+        let index = fixed[..start].matches('\n').count();
+        let number = (sources.files.line_number(file.0 as usize, index)).unwrap_or(index + 1);
         note += &format!("\n{number} | {}", visible(line.trim_end_matches('\r')));
     }
     note
@@ -402,13 +421,18 @@ pub fn render_plain(diags: &[Diagnostic], sources: &Sources) -> String {
 /// The line that says how many diagnostics of a file are not shown.
 pub fn not_shown_line(n: &crate::NotShown, sources: &Sources) -> String {
     let count = |k: usize, what: &str| format!("{k} {what}{}", if k == 1 { "" } else { "s" });
+    let codes: Vec<String> = (n.codes.iter())
+        .map(|(c, k)| format!("{k} {}", c.as_str()))
+        .collect();
     format!(
-        "note: not shown in {}: {} and {} (at most {} a line and {} a file are shown)",
+        "note: not shown in {}: {} and {}: {} (at most {} a line and {} a file are shown; \
+         `--max-diagnostics N` shows N)",
         sources.name(n.file),
         count(n.errors, "more error"),
         count(n.warnings, "more warning"),
+        codes.join(", "),
         crate::SHOWN_PER_LINE,
-        crate::SHOWN_PER_FILE
+        n.per_file
     )
 }
 

@@ -6,7 +6,7 @@
 
 use crate::checked::{Action, CheckedRules, Cond};
 use latticesim_grammar::ast::AgentsFile;
-use latticesim_grammar::{Code, Diagnostic, FileId, Label, Span};
+use latticesim_grammar::{Code, Diagnostic, Edit, FileId, Fix, Label, Span};
 use latticesim_vm::model::TextPat;
 
 fn matches(p: &TextPat, s: &[u8; 5]) -> bool {
@@ -112,12 +112,35 @@ pub fn idle_states(rules: &CheckedRules, states: &[[u8; 5]]) -> Vec<Idle> {
 pub(crate) struct IdleDiagnostic {
     pub diag: Diagnostic,
     pub idle_state: [u8; 5],
+    /// The state fields of every agent that starts in it, when a fix can edit them all (at
+    /// most [`FIXABLE`] agents, each with an `S` field).
+    pub fields: Option<Vec<Span>>,
+}
+
+/// A fix of the agents file `file`: the state fields `fields` made `state`, which `why`
+/// (e.g. "a state the rules test or set").
+pub(crate) fn restate(file: FileId, fields: &[Span], state: &str, why: &str) -> Fix {
+    let them = if fields.len() == 1 {
+        "this agent"
+    } else {
+        "these agents"
+    };
+    Fix {
+        message: format!("start {them} in `S{state}`, {why}"),
+        edits: (fields.iter())
+            .map(|&span| Edit {
+                file,
+                span,
+                replacement: format!("S{state}"),
+            })
+            .collect(),
+    }
 }
 
 /// A distinct start state of an agents file: its first agent (0-based, in file order),
 /// that agent's state field (from its `S`; its position when it has none), and how many
 /// agents start in it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct StartState {
     /// The state.
     pub state: [u8; 5],
@@ -127,7 +150,14 @@ pub struct StartState {
     pub span: Span,
     /// How many agents start in it.
     pub count: usize,
+    /// The agents after the first that start in it, with their state fields, up to
+    /// [`FIXABLE`] agents in all: when `count` is at most that, a fix can edit every one.
+    pub rest: Vec<(usize, Span)>,
 }
+
+/// The most agents in one mistyped start state that a fix edits line by line (a file of
+/// more was generated, and is better generated again).
+pub const FIXABLE: usize = 16;
 
 /// The distinct start states of the agents file `f`, in order of first appearance
 /// (`00000` for an agent without `S`; a state of other than five characters is an error
@@ -143,12 +173,18 @@ pub(crate) fn start_states(f: &AgentsFile<'_>) -> Vec<StartState> {
             None => *b"00000",
         };
         match seen.iter_mut().find(|e| e.state == state) {
-            Some(e) => e.count += 1,
+            Some(e) => {
+                e.count += 1;
+                if e.count <= FIXABLE {
+                    e.rest.push((i, state_field(a)));
+                }
+            }
             None => seen.push(StartState {
                 state,
                 first: i,
                 span: state_field(a),
                 count: 1,
+                rest: Vec::new(),
             }),
         }
     }
@@ -177,12 +213,18 @@ pub(crate) fn diagnostics(
     idle_states(rules, &states)
         .into_iter()
         .map(|idle| {
-            let &StartState {
+            let StartState {
                 state: st,
                 first,
                 span,
                 count,
-            } = seen.iter().find(|e| e.state == idle.state).expect("seen");
+                ref rest,
+            } = *seen.iter().find(|e| e.state == idle.state).expect("seen");
+            let fields = (count <= FIXABLE && st != *b"00000").then(|| {
+                std::iter::once(span)
+                    .chain(rest.iter().map(|r| r.1))
+                    .collect::<Vec<_>>()
+            });
             let name = String::from_utf8_lossy(&st).into_owned();
             let who = if count == 1 {
                 "1 agent starts".to_string()
@@ -204,13 +246,25 @@ pub(crate) fn diagnostics(
                 ),
                 None => "start these agents in a state the rules test (`S`, `T`), or write a rule for this one".into(),
             };
-            let diag = Diagnostic::new(
+            let mut diag = Diagnostic::new(
                 Code::W603,
                 format!("{who} in state `{name}`, which no rule tests (`S`, `T`) or sets: they never execute a rule"),
                 Label::new(file, span, format!("agent {first} starts in `{name}`")),
             )
             .with_help(help);
-            IdleDiagnostic { diag, idle_state: st }
+            if let (Some(t), Some(f)) = (meant, &fields) {
+                diag = diag.with_fix(restate(
+                    file,
+                    f,
+                    &String::from_utf8_lossy(&t),
+                    "a state the rules test or set",
+                ));
+            }
+            IdleDiagnostic {
+                diag,
+                idle_state: st,
+                fields,
+            }
         })
         .collect()
 }

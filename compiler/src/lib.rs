@@ -12,7 +12,7 @@ pub mod checked;
 mod contradict;
 mod idle;
 mod never;
-pub use idle::{idle_states, state_field, Idle, StartState};
+pub use idle::{idle_states, state_field, Idle, StartState, FIXABLE};
 pub mod describe;
 pub mod diagnostics;
 pub mod dim;
@@ -31,7 +31,7 @@ pub use lower::{compile, lower};
 use bumpalo::Bump;
 use dim::DimSource;
 use latticesim_grammar::ast::{RulesFile, Term};
-use latticesim_grammar::{decode, parse_agents, parse_rules, Diagnostic, FileId, Spanned};
+use latticesim_grammar::{decode, parse_agents, parse_rules, Code, Diagnostic, FileId, Spanned};
 
 /// A named input file.
 pub struct Input<'a> {
@@ -65,11 +65,12 @@ pub struct Checked {
 
 /// At most this many diagnostics of one line are kept for showing; the rest are counted.
 pub const SHOWN_PER_LINE: usize = 10;
-/// At most this many diagnostics of one file are kept for showing; the rest are counted.
+/// At most this many diagnostics of one file are kept for showing, unless said otherwise
+/// (`--max-diagnostics`, [`lints::Lints::set_shown`]); the rest are counted per code.
 pub const SHOWN_PER_FILE: usize = 200;
 
 /// The diagnostics of one file that were found but are not shown.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct NotShown {
     /// The file.
     pub file: FileId,
@@ -77,6 +78,10 @@ pub struct NotShown {
     pub errors: usize,
     /// Warnings not shown.
     pub warnings: usize,
+    /// Per code, how many of them are not shown, in order of their first.
+    pub codes: Vec<(Code, usize)>,
+    /// How many of a file were shown at most.
+    pub per_file: usize,
 }
 
 impl Checked {
@@ -140,9 +145,9 @@ pub(crate) fn written(src: &str, span: latticesim_grammar::Span) -> &str {
         .unwrap_or("?")
 }
 
-/// Keeps at most [`SHOWN_PER_LINE`] diagnostics of a line and [`SHOWN_PER_FILE`] of a
-/// file (in file order, so the first ones), counting the others per file.
-fn cap(diags: &mut Vec<Diagnostic>, sources: &Sources) -> Vec<NotShown> {
+/// Keeps at most [`SHOWN_PER_LINE`] diagnostics of a line and `per_file` of a file (in
+/// file order, so the first ones), counting the others per file and code.
+fn cap(diags: &mut Vec<Diagnostic>, sources: &Sources, per_file: usize) -> Vec<NotShown> {
     let mut not_shown: Vec<NotShown> = Vec::new();
     let (mut file, mut line, mut in_file, mut in_line) = (None, None, 0, 0);
     diags.retain(|d| {
@@ -156,13 +161,15 @@ fn cap(diags: &mut Vec<Diagnostic>, sources: &Sources) -> Vec<NotShown> {
         }
         in_file += 1;
         in_line += 1;
-        let keep = in_file <= SHOWN_PER_FILE && in_line <= SHOWN_PER_LINE;
+        let keep = in_file <= per_file && in_line <= SHOWN_PER_LINE;
         if !keep {
             if not_shown.last().is_none_or(|n| n.file != f) {
                 not_shown.push(NotShown {
                     file: f,
                     errors: 0,
                     warnings: 0,
+                    codes: Vec::new(),
+                    per_file,
                 });
             }
             let n = not_shown.last_mut().expect("just pushed");
@@ -170,6 +177,10 @@ fn cap(diags: &mut Vec<Diagnostic>, sources: &Sources) -> Vec<NotShown> {
                 n.errors += 1;
             } else {
                 n.warnings += 1;
+            }
+            match n.codes.iter_mut().find(|c| c.0 == d.code) {
+                Some(c) => c.1 += 1,
+                None => n.codes.push((d.code, 1)),
             }
             // Only what is shown counts towards the file's limit.
             in_file -= 1;
@@ -226,14 +237,20 @@ fn states_warnings(
         let near = idle
             .iter()
             .position(|d| never::distance(&p, &d.idle_state) <= 2);
-        let label = near.map(|i| {
+        let seen_idle = near.map(|i| {
             let d = idle.remove(i);
-            latticesim_grammar::Label {
-                message: format!("{}, which no rule tests", d.diag.primary.message),
-                ..d.diag.primary
+            let full = !n.pattern.node.contains('*');
+            never::Idle {
+                fix: (d.fields.as_deref())
+                    .filter(|_| full)
+                    .map(|f| idle::restate(aid, f, n.pattern.node, "the state the rule tests")),
+                label: latticesim_grammar::Label {
+                    message: format!("{}, which no rule tests", d.diag.primary.message),
+                    ..d.diag.primary
+                },
             }
         });
-        out.push(never::diagnostic(&n, rid, label));
+        out.push(never::diagnostic(&n, rid, seen_idle, ast));
     }
     out.extend(idle.into_iter().map(|d| d.diag));
     out
@@ -341,7 +358,7 @@ pub fn check_with(
     levels.apply(&mut diags);
     diagnostics::sort(&mut diags);
     let ok = !diags.iter().any(|d| d.is_error());
-    let not_shown = cap(&mut diags, &sources);
+    let not_shown = cap(&mut diags, &sources, levels.shown());
     Checked {
         lints: levels,
         not_shown,

@@ -89,6 +89,8 @@ pub struct Lints {
     said: Vec<(Target, Level, String)>,
     /// The width of counters, when said, and where.
     counters: Option<(Width, String)>,
+    /// How many diagnostics of a file are shown in full, when said (`--max-diagnostics`).
+    shown: Option<usize>,
 }
 
 impl Lints {
@@ -125,7 +127,19 @@ impl Lints {
         if later.counters.is_some() {
             l.counters = later.counters.clone();
         }
+        l.shown = later.shown.or(l.shown);
         l
+    }
+
+    /// Shows at most `n` diagnostics of a file in full (the rest are counted per code).
+    pub fn set_shown(&mut self, n: usize) {
+        self.shown = Some(n);
+    }
+
+    /// How many diagnostics of a file are shown in full: as said, else
+    /// [`crate::SHOWN_PER_FILE`].
+    pub fn shown(&self) -> usize {
+        self.shown.unwrap_or(crate::SHOWN_PER_FILE)
     }
 
     /// Whether no level is said.

@@ -122,10 +122,45 @@ pub(crate) fn never<'a>(rules: &RulesFile<'a>, start: &[[u8; 5]]) -> Vec<Never<'
     out
 }
 
-/// W503 for one pattern that matches nothing. `idle` is where agents start in a state no
-/// rule tests that is near this pattern: the same slip seen from the agents file, shown
-/// here instead of as a W603 of its own.
-pub(crate) fn diagnostic(n: &Never<'_>, file: FileId, idle: Option<Label>) -> Diagnostic {
+/// How many times the rules write the state `name` in full: in `S` and `T` patterns
+/// (negated too) and `S` actions.
+pub(crate) fn spelled(rules: &RulesFile<'_>, name: &str) -> usize {
+    fn walk(terms: &[Spanned<Term<'_>>], name: &str) -> usize {
+        (terms.iter())
+            .map(|t| match t.node {
+                Term::State(s) | Term::RemoteState { state: s, .. } => (s.node == name) as usize,
+                Term::Group(ts) => walk(ts, name),
+                Term::Not(t) => walk(std::slice::from_ref(t), name),
+                _ => 0,
+            })
+            .sum()
+    }
+    (rules.rules.iter())
+        .map(|r| walk(r.pre.node, name) + walk(r.post.node, name))
+        .sum()
+}
+
+/// Where agents start in a state near a pattern that matches nothing: the same slip seen
+/// from the agents file.
+pub(crate) struct Idle {
+    /// Their first agent's state field.
+    pub label: Label,
+    /// The fix that starts them in the pattern's state instead (when it is a state in full
+    /// and few enough agents start there to edit each).
+    pub fix: Option<Fix>,
+}
+
+/// W503 for one pattern that matches nothing. `idle`, when agents start in a state no
+/// rule tests near this pattern: the same slip, shown here instead of as a W603 of its
+/// own. Which file holds the slip: when the rules write the pattern's state more than
+/// once, they mean it, and the fix edits the agents file; otherwise the fix edits the
+/// pattern, and the agents file's fix comes second.
+pub(crate) fn diagnostic(
+    n: &Never<'_>,
+    file: FileId,
+    idle: Option<Idle>,
+    rules: &RulesFile<'_>,
+) -> Diagnostic {
     let what = if n.is_remote {
         "no neighbour can ever be in a state it matches"
     } else {
@@ -142,10 +177,15 @@ pub(crate) fn diagnostic(n: &Never<'_>, file: FileId, idle: Option<Label>) -> Di
     .with_help(
         "a state occurs when an agent starts in it or an `S` action sets it; check the spelling",
     );
-    if let Some(l) = idle {
+    let (label, agents_fix) = match idle {
+        Some(i) => (Some(i.label), i.fix),
+        None => (None, None),
+    };
+    if let Some(l) = label {
         d = d.with_secondary(l);
     }
-    if let Some(s) = n.nearest {
+    let meant = spelled(rules, n.pattern.node) > 1;
+    if let (Some(s), false) = (n.nearest, meant) {
         let s = String::from_utf8_lossy(&s).into_owned();
         d = d.with_fix(Fix::replace(
             format!("did you mean `{s}`? it occurs"),
@@ -153,6 +193,9 @@ pub(crate) fn diagnostic(n: &Never<'_>, file: FileId, idle: Option<Label>) -> Di
             n.pattern.span,
             s,
         ));
+    }
+    if let Some(f) = agents_fix {
+        d = d.with_fix(f);
     }
     d
 }

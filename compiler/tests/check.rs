@@ -289,6 +289,55 @@ fn state_slips_are_one_warning_each() {
     assert_eq!(c.diags[0].fixes[0].edits[0].replacement, "LEAD0");
 }
 
+/// A state typo in the agents file is fixed in the agents file: where the rules write the
+/// state more than once they mean it (no fix of theirs); where once, the rules' fix comes
+/// first and the agents file's second. Each fix gives files that check clean. Past
+/// `FIXABLE` agents, no agents-file fix (the file was generated).
+#[test]
+fn a_state_typo_in_the_agents_file_is_fixed_there() {
+    let apply = |c: &Checked, k: usize| {
+        let f = &c.diags[0].fixes[k];
+        let file = f.edits[0].file;
+        (file.0, f.apply(c.sources.text(file), file))
+    };
+    // WALK0 is tested by two rules and set by none; every agent starts in WALX0.
+    let rules = "walk\n1\nSWALK0 N**0* >C01 0000\nP1,0 C01 - C01 0001\n\n\
+                 stop\n2\nSWALK0 =C01 0000\nC01 + C01 0001\n";
+    let typo = "0,0 SWALX0 C01 0003\n5,5 SWALX0\n9,0 SWALX0 C01 0001\n";
+    let c = run(rules, Some(typo), None);
+    assert_eq!(codes(&c), [Code::W503, Code::W503]);
+    assert_eq!(c.diags[0].fixes.len(), 1, "{:?}", c.diags[0].fixes);
+    assert!(c.diags[1].fixes.is_empty(), "{:?}", c.diags[1].fixes);
+    let (file, fixed) = apply(&c, 0);
+    assert_eq!(file, 1);
+    assert_eq!(fixed, typo.replace("SWALX0", "SWALK0"));
+    assert!(run(rules, Some(&fixed), None).diags.is_empty());
+    // Tested once: either file may hold the slip; the rules' fix first.
+    let once = "walk\n1\nSWALK0 N**0* >C01 0000\nP1,0 C01 - C01 0001\n";
+    let c = run(once, Some(typo), None);
+    assert_eq!(codes(&c), [Code::W503]);
+    assert_eq!(c.diags[0].fixes.len(), 2);
+    let (file, fixed) = apply(&c, 0);
+    assert_eq!(file, 0);
+    assert!(run(&fixed, Some(typo), None).diags.is_empty());
+    let (file, fixed) = apply(&c, 1);
+    assert_eq!(file, 1);
+    assert!(run(once, Some(&fixed), None).diags.is_empty());
+    // A few agents of many: W603, its fix edits each of them.
+    let few = "0,0 SWALK0\n1,0 SWALX0\n2,0 SWALK0\n3,0 SWALK0\n4,0 SWALX0\n";
+    let c = run(once, Some(few), None);
+    assert_eq!(codes(&c), [Code::W603]);
+    let (file, fixed) = apply(&c, 0);
+    assert_eq!((file, fixed.matches("SWALX0").count()), (1, 0));
+    assert!(run(once, Some(&fixed), None).diags.is_empty());
+    // More than FIXABLE agents: no fix edits them line by line.
+    let many: String = (0..=latticesim_compiler::FIXABLE)
+        .map(|i| format!("{i},0 SWALX0\n"))
+        .collect();
+    let c = run(rules, Some(&many), None);
+    assert!(c.diags.iter().all(|d| d.fixes.is_empty()), "{:?}", c.diags);
+}
+
 /// Root causes come first: a dimension conflict (in the agents file) and a rule cut short
 /// at the end of the file come before the errors earlier in the rules file.
 #[test]

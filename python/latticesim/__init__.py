@@ -111,6 +111,10 @@ def sweep(
     threads: Optional[int] = None,
     client: Any = None,
     errors: str = "warn",
+    allow: Sequence[str] = (),
+    warn: Sequence[str] = (),
+    deny: Sequence[str] = (),
+    counters: Optional[int] = None,
 ):
     """Run ``rules`` over agents of growing size n, several seeds each, and return a
     pandas DataFrame with a row per run and the columns of ``latticesim sweep``: run, n,
@@ -122,6 +126,9 @@ def sweep(
     ``first_east``, ``ids``, ``universe``, ``fill_holes`` as ``latticesim gen`` takes
     them), or the text returned by ``agents_fn(n, seed)``. ``set`` sets counters from
     expressions (``{"C00": "id+1"}``, as ``--set``). ``seeds`` is K (seeds 1..K) or a list.
+    ``allow``, ``warn`` and ``deny`` (lists of codes, names or ``"warnings"``) and
+    ``counters`` (16 or 32) are ``--allow``, ``--warn``, ``--deny`` and ``--counters``: a
+    denied warning fails every run.
 
     The runs go on ``threads`` Rust threads (default: all cores), or, with ``client`` (a
     ``dask.distributed.Client``), one Dask task per run, gathered into one DataFrame
@@ -149,6 +156,10 @@ def sweep(
         max_steps=max_steps,
         order=order,
         static_first=static_first,
+        allow=list(allow),
+        warn=list(warn),
+        deny=list(deny),
+        counters=counters,
     )
     if client is None:
         cols, failures = _sweep_runs(rules_bytes, path, runs, threads=threads, **options)

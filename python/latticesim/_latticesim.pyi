@@ -1,7 +1,7 @@
 """Type stubs of latticesim's Rust extension (see docs/python.md)."""
 
 import os
-from typing import Any, Callable, Optional, Union
+from typing import Any, Callable, Optional, Sequence, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -74,6 +74,10 @@ class Simulation:
         static_first: bool = False,
         threads: Optional[int] = None,
         series: bool = True,
+        allow: Sequence[str] = (),
+        warn: Sequence[str] = (),
+        deny: Sequence[str] = (),
+        counters: Optional[int] = None,
     ) -> Simulation: ...
     @staticmethod
     def from_text(
@@ -86,6 +90,10 @@ class Simulation:
         static_first: bool = False,
         threads: Optional[int] = None,
         series: bool = True,
+        allow: Sequence[str] = (),
+        warn: Sequence[str] = (),
+        deny: Sequence[str] = (),
+        counters: Optional[int] = None,
     ) -> Simulation: ...
     @staticmethod
     def resume(
@@ -96,6 +104,10 @@ class Simulation:
         static_first: bool = False,
         threads: Optional[int] = None,
         series: bool = True,
+        allow: Sequence[str] = (),
+        warn: Sequence[str] = (),
+        deny: Sequence[str] = (),
+        counters: Optional[int] = None,
     ) -> Simulation: ...
     def step(self, n: int = 1) -> Report: ...
     def run(self, max_steps: int = 100_000) -> Report: ...
@@ -156,4 +168,8 @@ def sweep_runs(
     order: str = "actions-first",
     static_first: bool = False,
     threads: Optional[int] = None,
+    allow: Sequence[str] = (),
+    warn: Sequence[str] = (),
+    deny: Sequence[str] = (),
+    counters: Optional[int] = None,
 ) -> tuple[dict[str, Any], list[tuple[int, int, int, str]]]: ...

@@ -27,6 +27,26 @@ pub(crate) fn options(order: &str, static_first: bool) -> PyResult<latticesim_ru
     })
 }
 
+/// Lint levels and the width of counters from keyword arguments, as the command line's
+/// `--allow`, `--warn`, `--deny` and `--counters` (after the rules file's directives).
+pub(crate) fn lints(
+    allow: &[String],
+    warn: &[String],
+    deny: &[String],
+    counters: Option<u32>,
+) -> PyResult<latticesim_compiler::lints::Lints> {
+    use pyo3::exceptions::PyValueError;
+    let mut l = latticesim_compiler::lints::Lints::from_flags(allow, warn, deny)
+        .map_err(PyValueError::new_err)?;
+    if let Some(b) = counters {
+        let w = latticesim_vm::model::Width::from_bits(b).ok_or_else(|| {
+            PyValueError::new_err(format!("counters={b}: use 16 (the paper's) or 32"))
+        })?;
+        l.set_counters(w, format!("counters={b}"));
+    }
+    Ok(l)
+}
+
 #[pymodule]
 fn _latticesim(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

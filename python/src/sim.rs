@@ -210,10 +210,13 @@ impl Simulation {
     ///
     /// order: "actions-first" (the paper's) or "messages-first"; static_first: rules
     /// without a move or swap act first (as `run --static-first`); threads: the engine's
-    /// threads (default: all cores, one per 2^16 agents at most); series: keep the
-    /// per-step costs for `series()`.
+    /// threads (default: all cores, one per 1,024 agents at most); series: keep the
+    /// per-step costs for `series()`; allow, warn, deny: lint levels, lists of codes (W603),
+    /// names or "warnings", as `--allow`, `--warn` and `--deny` (a denied warning is an
+    /// error: `CheckError`); counters: 16 or 32, as `--counters`.
     #[staticmethod]
-    #[pyo3(signature = (rules, agents, *, order = "actions-first", static_first = false, threads = None, series = true))]
+    #[pyo3(signature = (rules, agents, *, order = "actions-first", static_first = false, threads = None, series = true, allow = Vec::new(), warn = Vec::new(), deny = Vec::new(), counters = None))]
+    #[allow(clippy::too_many_arguments)]
     fn from_files(
         py: Python<'_>,
         rules: PathBuf,
@@ -222,8 +225,13 @@ impl Simulation {
         static_first: bool,
         threads: Option<usize>,
         series: bool,
+        allow: Vec<String>,
+        warn: Vec<String>,
+        deny: Vec<String>,
+        counters: Option<u32>,
     ) -> PyResult<Simulation> {
         let opts = crate::options(order, static_first)?;
+        let levels = crate::lints(&allow, &warn, &deny, counters)?;
         let rules_bytes = read_rules(&rules)?;
         let names = (rules.display().to_string(), agents.display().to_string());
         let io = latticesim::run::io_threads(threads);
@@ -234,7 +242,7 @@ impl Simulation {
                     &names.1,
                     Source::File(&agents),
                     io,
-                    &Default::default(),
+                    &levels,
                 )
             })
             .map_err(|e| PyIOError::new_err(format!("cannot read `{}`: {e}", names.1)))?;
@@ -244,7 +252,7 @@ impl Simulation {
     /// Checks rules and agents given as text (named `rules_name` and `agents_name` in
     /// diagnostics); otherwise as `from_files`.
     #[staticmethod]
-    #[pyo3(signature = (rules_text, agents_text, *, rules_name = "rules.txt", agents_name = "agents.txt", order = "actions-first", static_first = false, threads = None, series = true))]
+    #[pyo3(signature = (rules_text, agents_text, *, rules_name = "rules.txt", agents_name = "agents.txt", order = "actions-first", static_first = false, threads = None, series = true, allow = Vec::new(), warn = Vec::new(), deny = Vec::new(), counters = None))]
     #[allow(clippy::too_many_arguments)]
     fn from_text(
         py: Python<'_>,
@@ -256,8 +264,13 @@ impl Simulation {
         static_first: bool,
         threads: Option<usize>,
         series: bool,
+        allow: Vec<String>,
+        warn: Vec<String>,
+        deny: Vec<String>,
+        counters: Option<u32>,
     ) -> PyResult<Simulation> {
         let opts = crate::options(order, static_first)?;
+        let levels = crate::lints(&allow, &warn, &deny, counters)?;
         let io = latticesim::run::io_threads(threads);
         let loaded = py
             .detach(|| {
@@ -266,7 +279,7 @@ impl Simulation {
                     agents_name,
                     Source::Bytes(agents_text.as_bytes()),
                     io,
-                    &Default::default(),
+                    &levels,
                 )
             })
             .map_err(|e| PyIOError::new_err(e.to_string()))?;
@@ -277,7 +290,8 @@ impl Simulation {
     /// Continues a run from a checkpoint (`checkpoint(path)` or `run --checkpoint`) of the
     /// same rules, with the same order and static_first; the series starts afresh.
     #[staticmethod]
-    #[pyo3(signature = (rules, checkpoint, *, order = "actions-first", static_first = false, threads = None, series = true))]
+    #[pyo3(signature = (rules, checkpoint, *, order = "actions-first", static_first = false, threads = None, series = true, allow = Vec::new(), warn = Vec::new(), deny = Vec::new(), counters = None))]
+    #[allow(clippy::too_many_arguments)]
     fn resume(
         py: Python<'_>,
         rules: PathBuf,
@@ -286,8 +300,13 @@ impl Simulation {
         static_first: bool,
         threads: Option<usize>,
         series: bool,
+        allow: Vec<String>,
+        warn: Vec<String>,
+        deny: Vec<String>,
+        counters: Option<u32>,
     ) -> PyResult<Simulation> {
         let opts = crate::options(order, static_first)?;
+        let levels = crate::lints(&allow, &warn, &deny, counters)?;
         let cannot = |e: String| {
             PyValueError::new_err(format!(
                 "cannot resume from `{}`: {e}",
@@ -302,7 +321,7 @@ impl Simulation {
             (&rules_name, &rules_bytes),
             None,
             Some(dim),
-            &latticesim::run::with_checkpoint_width(&Default::default(), &peek),
+            &latticesim::run::with_checkpoint_width(&levels, &peek),
         );
         let Some(program) = c.rules.as_ref() else {
             return Err(check::error(py, &c, None));
@@ -630,12 +649,12 @@ impl Simulation {
 
     fn __repr__(&self) -> String {
         format!(
-            "Simulation({}, {}: {} agents, {}D, {} rules, step {}{})",
+            "Simulation({}, {}: {}, {}D, {}, step {}{})",
             self.names.0,
             self.names.1,
-            self.engine.lat.len(),
+            latticesim::plural(self.engine.lat.len(), "agent"),
             self.engine.lat.dim.coords(),
-            self.engine.prog.rules.len(),
+            latticesim::plural(self.engine.prog.rules.len(), "rule"),
             self.engine.stats.steps,
             if self.engine.stats.quiescent {
                 ", quiescent"

@@ -24,7 +24,7 @@ type Failure = (usize, u32, u64, String);
 /// -> array or list, the rows in run order) and the failures (run, n, seed, message).
 /// Called by `latticesim.sweep`, once for a threaded sweep or once per run on Dask.
 #[pyfunction]
-#[pyo3(signature = (rules, rules_name, runs, *, shape = "connected", agents_fn = None, dim = 2, state = None, first_state = None, first_east = false, ids = None, universe = false, fill_holes = false, set = Vec::new(), max_steps = 100_000, order = "actions-first", static_first = false, threads = None))]
+#[pyo3(signature = (rules, rules_name, runs, *, shape = "connected", agents_fn = None, dim = 2, state = None, first_state = None, first_east = false, ids = None, universe = false, fill_holes = false, set = Vec::new(), max_steps = 100_000, order = "actions-first", static_first = false, threads = None, allow = Vec::new(), warn = Vec::new(), deny = Vec::new(), counters = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn sweep_runs<'py>(
     py: Python<'py>,
@@ -45,7 +45,12 @@ pub fn sweep_runs<'py>(
     order: &str,
     static_first: bool,
     threads: Option<usize>,
+    allow: Vec<String>,
+    warn: Vec<String>,
+    deny: Vec<String>,
+    counters: Option<u32>,
 ) -> PyResult<(Bound<'py, PyDict>, Vec<Failure>)> {
+    let lints = crate::lints(&allow, &warn, &deny, counters)?;
     let shape = <SweepShape as clap::ValueEnum>::from_str(shape, true).map_err(|_| {
         PyValueError::new_err(format!(
             "shape `{shape}`: use \"line\", \"block\" or \"connected\""
@@ -78,7 +83,7 @@ pub fn sweep_runs<'py>(
         max_steps,
         opts: crate::options(order, static_first)?,
         cancel: Some(Arc::new(AtomicBool::new(false))),
-        lints: Default::default(),
+        lints,
     };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(latticesim::threads(

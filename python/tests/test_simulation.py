@@ -216,6 +216,40 @@ def test_warnings_are_python_warnings():
     assert [d.code for d in sim.warnings] == ["W603"]
 
 
+def test_repr_counts_in_words():
+    one = latticesim.Simulation.from_text("fall\n1\nN***0\nP0,-1\n", "0,0\n")
+    assert ": 1 agent, 2D, 1 rule, step 0" in repr(one), repr(one)
+    two = latticesim.Simulation.from_text(
+        "fall\n1\nN***0\nP0,-1\n\nrest\n2\nN***1\nC00 + C00 0001\n", "0,0\n0,1\n"
+    )
+    assert ": 2 agents, 2D, 2 rules, step 0" in repr(two), repr(two)
+
+
+def test_lint_levels_and_counters_as_keywords():
+    rules = (ROOT / "examples/counting/rules.txt").read_text()
+    # As --allow: no warning; as --deny: an error; a bad code: ValueError.
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sim = latticesim.Simulation.from_text(rules, "0,0 SXXXX0\n", allow=["W603"])
+    assert sim.warnings == []
+    with pytest.raises(latticesim.CheckError, match="W603"):
+        latticesim.Simulation.from_text(rules, "0,0 SXXXX0\n", deny=["warnings"])
+    with pytest.raises(ValueError, match="W999"):
+        latticesim.Simulation.from_text(rules, "0,0 SXXXX0\n", allow=["W999"])
+    # As --counters: a counter past 16 bits is an error without it.
+    plain = "walk\n1\nSWALK0 >C01 0000\nC01 - C01 0001\n"
+    agents = "0,0 SWALK0 C01 40000\n"
+    with pytest.raises(latticesim.CheckError, match="E404"):
+        latticesim.Simulation.from_text(plain, agents)
+    sim = latticesim.Simulation.from_text(plain, agents, counters=32)
+    sim.run()
+    assert sim.counter("C01").dtype == np.int32 and sim.counter("C01")[0] == 0
+    with pytest.raises(ValueError, match="counters=8"):
+        latticesim.Simulation.from_text(plain, agents, counters=8)
+
+
 def test_missing_files_and_bad_options_raise():
     with pytest.raises(OSError, match="nothing.txt"):
         latticesim.Simulation.from_files(ROOT / "examples/tour/rules.txt", "nothing.txt")

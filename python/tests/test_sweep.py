@@ -109,3 +109,15 @@ def test_ctrl_c_stops_a_threaded_sweep():
     timer.join()
     took = time.perf_counter() - start
     assert took < 5, f"the sweep stopped {took:.1f} s after it started"
+
+
+def test_lint_levels_fail_every_run_when_denied():
+    # Walls in a state no rule tests (W603): allowed, the runs go; denied, every run fails.
+    def walls(n, seed):
+        return "".join(f"{x},0 SXXXX0\n" for x in range(n))
+
+    rules = ROOT / "examples/counting/rules.txt"
+    df = latticesim.sweep(rules, sizes=[4], seeds=1, agents_fn=walls, allow=["W603"], errors="raise")
+    assert len(df) == 1
+    with pytest.raises(RuntimeError, match="W603"):
+        latticesim.sweep(rules, sizes=[4], seeds=1, agents_fn=walls, deny=["W603"], errors="raise")

@@ -264,7 +264,7 @@ impl Server {
             if range.end < p.range.start || p.range.end < range.start {
                 continue;
             }
-            for f in &d.fixes {
+            for (k, f) in d.fixes.iter().enumerate() {
                 // lsp-types' own map type for workspace edits (its `Uri` caches its parts
                 // inside, which clippy flags; it is never mutated as a key here).
                 #[allow(clippy::mutable_key_type)]
@@ -287,7 +287,8 @@ impl Server {
                         changes: Some(changes),
                         ..WorkspaceEdit::default()
                     }),
-                    is_preferred: Some(true),
+                    // The first fix is the likelier (see W503's).
+                    is_preferred: Some(k == 0),
                     ..CodeAction::default()
                 }));
             }

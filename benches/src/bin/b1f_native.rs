@@ -1,6 +1,8 @@
 //! The plain hand-written baseline of B1F (shared/bench/WORKLOADS.md): reads a B1 agents
 //! file (`x,y C00 v` lines), runs B1's rule for S steps and writes the final configuration
-//! as agents.txt text (`x,y S00000 C00 v`, or without `C00 v` when v = 0) in input order.
+//! as agents.txt text (`x,y C00 v`, or `x,y` when v = 0: the default state left out, as
+//! `latticesim run --out` writes it; WORKLOADS.md shows `S00000`, which loads the same) in
+//! input order.
 //! Single-threaded: a byte loop into columns, the padded max over the bounding box, a
 //! buffered writer.
 //!
@@ -88,9 +90,9 @@ fn main() {
         let v = cur[at(xs[k], ys[k])];
         sum += v as u64;
         if v != 0 {
-            writeln!(out, "{},{} S00000 C00 {v}", xs[k], ys[k]).unwrap();
+            writeln!(out, "{},{} C00 {v}", xs[k], ys[k]).unwrap();
         } else {
-            writeln!(out, "{},{} S00000", xs[k], ys[k]).unwrap();
+            writeln!(out, "{},{}", xs[k], ys[k]).unwrap();
         }
     }
     out.flush().unwrap();

@@ -2,7 +2,8 @@
 //! file (`x,y` or `x,y C00 v` lines, x-major and bottom up within a column), runs B2's
 //! rule (fall one cell south when that cell was empty at the start of the step and
 //! C00 > 0; then C00 = C00 - 1) until a step in which no agent moves, and writes the final
-//! configuration as agents.txt text (`x,y S00000`, with ` C00 v` when v != 0) in input
+//! configuration as agents.txt text (`x,y`, with ` C00 v` when v != 0; the default state
+//! left out, as `latticesim run --out` writes it) in input
 //! order. Single-threaded: a byte loop into columns, an occupancy grid over the bounding
 //! box, a buffered writer.
 //!
@@ -98,9 +99,9 @@ fn main() {
     for k in 0..xs.len() {
         sum = sum.wrapping_add((xs[k] as i64 * 100003 + ys[k] as i64) as u64);
         if cs[k] != 0 {
-            writeln!(out, "{},{} S00000 C00 {}", xs[k], ys[k], cs[k]).unwrap();
+            writeln!(out, "{},{} C00 {}", xs[k], ys[k], cs[k]).unwrap();
         } else {
-            writeln!(out, "{},{} S00000", xs[k], ys[k]).unwrap();
+            writeln!(out, "{},{}", xs[k], ys[k]).unwrap();
         }
     }
     out.flush().unwrap();

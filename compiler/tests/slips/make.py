@@ -94,7 +94,7 @@ SLIPS = [
     ("agents-state-short", ST, STA, A, " SWAIT0\n", " SWAIT\n", "E408", "none", 0),
     ("agents-same-cell", LE, LEA, A, None, None, "E402", "none", 0),
     ("agents-three-coordinates", GR, GRA, A, None, None, "E407", "none", 0),
-    ("agents-state-typo", ST, STA, A, " SWAIT0\n", " SWIAT0\n", "W603", "none", 0),
+    ("agents-state-typo", ST, STA, A, " SWAIT0\n", " SWIAT0\n", "W603", "restores", 0),
     ("comparison-written-as-assignment", OE, OEA, R, "S0**** =C01 0000", "S0**** C01 = 0000", "E201", "restores", 0),
     ("state-missing-a-character", ST, STA, R, "SWAIT0 =#N01 0001", "SWAT0 =#N01 0001", "E303", "restores", 0),
 ]

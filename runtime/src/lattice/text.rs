@@ -26,8 +26,8 @@ pub(super) fn put_int(buf: &mut [u8], mut at: usize, v: i64) -> usize {
 
 impl Lattice {
     /// The configuration in agents.txt syntax: the universe line if there is one, then the
-    /// agents in id order with state, attachments (when any) and non-zero counters. It loads
-    /// again to the same lattice.
+    /// agents in id order with state (unless it is the default, `00000`), attachments (when
+    /// any) and non-zero counters. It loads again to the same lattice.
     pub fn to_agents_text(&self) -> String {
         let mut out = Vec::with_capacity(self.len() * 24);
         self.write_agents_text(&mut out, 1)
@@ -88,11 +88,17 @@ impl Lattice {
                     }
                 }
             });
-            for (buf, len) in full_rx.iter() {
-                w.write_all(&buf[..len])?;
-                let _ = empty_tx.send(buf);
-            }
-            Ok(())
+            let written = (|| {
+                for (buf, len) in full_rx.iter() {
+                    w.write_all(&buf[..len])?;
+                    let _ = empty_tx.send(buf);
+                }
+                Ok(())
+            })();
+            // A write that failed (a full disk) ends the formatting thread: its channels
+            // close here, before the scope waits for it.
+            drop((full_rx, empty_tx));
+            written
         })
     }
 
@@ -123,15 +129,18 @@ impl Lattice {
                 line[at] = b',';
                 at = put_int(line, at + 1, p[2] as i64);
             }
-            line[at] = b' ';
-            line[at + 1] = b'S';
+            // The default state, `00000`, is left out, as an agents file without `S` says it.
             let st = self.state[a];
-            line[at + 2] = st[0];
-            line[at + 3] = st[1];
-            line[at + 4] = st[2];
-            line[at + 5] = st[3];
-            line[at + 6] = st[4];
-            at += 7;
+            if st != *b"00000" {
+                line[at] = b' ';
+                line[at + 1] = b'S';
+                line[at + 2] = st[0];
+                line[at + 3] = st[1];
+                line[at + 4] = st[2];
+                line[at + 5] = st[3];
+                line[at + 6] = st[4];
+                at += 7;
+            }
             let bonds = self.attach[a];
             if bonds != 0 {
                 line[at] = b' ';
@@ -157,5 +166,52 @@ impl Lattice {
             at += 1;
         }
         at
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A writer that fails after `left` bytes, as a full disk does.
+    struct Full {
+        left: usize,
+    }
+
+    impl std::io::Write for Full {
+        fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+            if self.left == 0 {
+                return Err(std::io::Error::from(std::io::ErrorKind::StorageFull));
+            }
+            let n = b.len().min(self.left);
+            self.left -= n;
+            Ok(n)
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    /// A write error ends the writer with that error, on one thread or two, at the first
+    /// block or a later one: never a wait on the formatting thread.
+    #[test]
+    fn a_full_disk_is_an_error_not_a_hang() {
+        let mut b = LatticeBuilder::new(Dim::Two, None, 0);
+        for x in 0..400 {
+            for y in 0..400 {
+                b.push([x, y, 0], *b"AAAAA", 0, &[]);
+            }
+        }
+        let lat = b.finish();
+        for threads in [1, 2] {
+            for left in [0, 10, 1 << 20] {
+                let e = lat.write_agents_text(&mut Full { left }, threads);
+                assert_eq!(
+                    e.map_err(|e| e.kind()),
+                    Err(std::io::ErrorKind::StorageFull),
+                    "{threads} threads, {left} bytes"
+                );
+            }
+        }
     }
 }
