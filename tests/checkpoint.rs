@@ -227,6 +227,15 @@ fn checkpoints_that_cannot_be_resumed_are_refused() {
     let mut version = good.clone();
     version[8] = 9;
     refuse(&version, &rules, &[], "format version 9");
+    // A forged agent count with the header's checksum made again: refused as short, in
+    // bounded memory (it allocated for 2^31 agents and aborted).
+    for forged in [1u64 << 31, (1 << 32) - 3] {
+        let mut f = good.clone();
+        f[48..56].copy_from_slice(&forged.to_le_bytes());
+        let sum = crc32(&f[..57]);
+        f[57..61].copy_from_slice(&sum.to_le_bytes());
+        refuse(&f, &rules, &[], "truncated");
+    }
     refuse(b"0,0 S00000\n", &rules, &[], "not a latticesim checkpoint");
     refuse(b"", &rules, &[], "not a latticesim checkpoint");
     let other = d.join("other.txt");
@@ -372,4 +381,20 @@ fn a_checkpoint_of_a_skipping_run_resumes_to_the_same_end() {
     for extra in [&[][..], &["--no-skip"][..], &["--threads", "2"][..]] {
         same_as_straight(&rules, &agents, 30, &[1, 7, 16, 24], extra);
     }
+}
+
+/// CRC-32 (IEEE), as the checkpoint's header checksum.
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut c = !0u32;
+    for &b in bytes {
+        c ^= b as u32;
+        for _ in 0..8 {
+            c = if c & 1 != 0 {
+                (c >> 1) ^ 0xEDB8_8320
+            } else {
+                c >> 1
+            };
+        }
+    }
+    !c
 }

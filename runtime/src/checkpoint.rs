@@ -463,7 +463,9 @@ fn read_lattice<R: Read>(
     (n, width): (usize, Width),
 ) -> Result<(Lattice, Option<String>), CheckpointError> {
     let c = dim.coords();
-    let mut builder = LatticeBuilder::new(dim, universe, n);
+    // The count is the header's word until the agents are read: room for at most 2^20 of
+    // them at first, so that a forged count fails as a short file, not as an allocation.
+    let mut builder = LatticeBuilder::new(dim, universe, n.min(1 << 20));
     let mut bad = None;
     r.column(n, 4 * c + 6, |v| {
         let mut p = [0i32; 3];

@@ -15,9 +15,10 @@
 //! without a process; [`run`] connects it to standard input and output.
 
 mod features;
+mod frame;
 pub mod text;
 
-use lsp_server::{Connection, Message, Notification, Request, RequestId, Response};
+use lsp_server::{Message, Notification, Request, RequestId, Response};
 use lsp_types::{
     CodeActionProviderCapability, CompletionOptions, DidChangeTextDocumentParams,
     DidCloseTextDocumentParams, DidOpenTextDocumentParams, HoverProviderCapability, OneOf,
@@ -236,7 +237,7 @@ impl Server {
 
 /// Runs the server on standard input and output until the client says `exit`.
 pub fn run() -> ExitCode {
-    let (connection, io) = Connection::stdio();
+    let (connection, io) = frame::stdio();
     let caps = serde_json::to_value(capabilities()).expect("capabilities are plain data");
     if let Err(e) = connection.initialize(caps) {
         crate::output::say!("error: the language client did not initialize: {e}");
@@ -258,11 +259,19 @@ pub fn run() -> ExitCode {
         }
     }
     drop(connection);
-    match io.join() {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
+    // The writer ends when the connection is dropped; the reader at the end of the input
+    // or at `exit` (not waited for after a shutdown without `exit`: the process ends).
+    let mut code = ExitCode::SUCCESS;
+    let mut threads = io.into_iter();
+    let (reader, writer) = (threads.next(), threads.next());
+    for t in writer.into_iter().chain(reader.filter(|r| r.is_finished())) {
+        if let Ok(Err(e)) | Err(e) = t
+            .join()
+            .map_err(|_| std::io::Error::other("a thread of the connection panicked"))
+        {
             crate::output::say!("error: the language client's connection failed: {e}");
-            ExitCode::from(2)
+            code = ExitCode::from(2);
         }
     }
+    code
 }
