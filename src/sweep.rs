@@ -112,6 +112,9 @@ pub struct SweepArgs {
     /// Runs at once (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
+    /// No progress bar (it is shown only on a terminal).
+    #[arg(short, long)]
+    quiet: bool,
     /// Run only part I of N of the runs (I from 1): runs I, I+N, I+2N, ... of the sweep,
     /// for a job array (Slurm, GNU parallel); `latticesim merge` joins the parts.
     #[arg(long, value_name = "I/N")]
@@ -513,11 +516,36 @@ fn run_all(
             say!("error: cannot start threads: {e}");
             ExitCode::from(2)
         })?;
-    Ok(pool.install(|| {
+    // Runs done, failures and the time left, on a terminal only.
+    use std::io::IsTerminal;
+    let bar = if a.quiet || !std::io::stderr().is_terminal() {
+        indicatif::ProgressBar::hidden()
+    } else {
+        let b = indicatif::ProgressBar::new(jobs.len() as u64);
+        b.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{bar:30} {pos}/{len} runs{msg} [{elapsed_precise}, about {eta} left]",
+            )
+            .expect("valid template"),
+        );
+        b
+    };
+    let failed = std::sync::atomic::AtomicUsize::new(0);
+    let rows = pool.install(|| {
         jobs.par_iter()
-            .map(|(run, job, seed)| run_one(setup, a, *run, job, *seed))
+            .map(|(run, job, seed)| {
+                let r = run_one(setup, a, *run, job, *seed);
+                if r.is_err() {
+                    let f = 1 + failed.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    bar.set_message(format!(", {f} failed"));
+                }
+                bar.inc(1);
+                r
+            })
             .collect()
-    }))
+    });
+    bar.finish_and_clear();
+    Ok(rows)
 }
 
 /// `latticesim sweep`.

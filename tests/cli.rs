@@ -2592,3 +2592,30 @@ fn the_summary_says_checkpoint_time_and_what_a_resumed_run_did() {
         "no checkpoint asked for: {err}"
     );
 }
+
+/// `sweep` draws its progress bar only on a terminal: with standard error a pipe (or
+/// with `-q`), no bar.
+#[test]
+fn sweep_shows_no_progress_bar_off_a_terminal() {
+    let out = tmp("sweep-quiet.csv", b"");
+    for q in [&[][..], &["-q"][..]] {
+        let mut args = vec![
+            "sweep",
+            "examples/leader-election/rules.txt",
+            "--sizes",
+            "5,10",
+            "--seeds",
+            "2",
+            "--state",
+            "INIT0",
+            "--ids",
+            "C00",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend(q);
+        let o = run(&args);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        assert!(!stderr(&o).contains("runs ["), "{}", stderr(&o));
+    }
+}
