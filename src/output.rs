@@ -204,8 +204,19 @@ impl AtomicFile {
             Some(p) if !p.as_os_str().is_empty() => p,
             _ => Path::new("."),
         };
+        // `.NAME.PID.N.tmp`, NAME cut to 200 bytes so that a name near the system's limit
+        // (255 bytes) still has room for its temporary file.
         let mut tmp_name = std::ffi::OsString::from(".");
-        tmp_name.push(name);
+        let lossy = name.to_string_lossy();
+        if name.len() <= 200 && !matches!(lossy, std::borrow::Cow::Owned(_)) {
+            tmp_name.push(name);
+        } else {
+            let mut cut = 200.min(lossy.len());
+            while !lossy.is_char_boundary(cut) {
+                cut -= 1;
+            }
+            tmp_name.push(&lossy[..cut]);
+        }
         tmp_name.push(format!(
             ".{}.{}.tmp",
             std::process::id(),

@@ -728,6 +728,16 @@ fn files_outside_the_folder_or_with_errors_are_refused_and_the_run_goes_on() {
     }
     let (s, e) = err(srv.post("/api/file", json!({ "path": "" })));
     assert_eq!((s, e.as_str()), (400, "the path is empty"));
+    // A name of 255 bytes (the system's most) is saved; its temporary file's name is cut to
+    // fit (it was 500: the temporary name was too long). One past the most: 400.
+    let long = format!("{}.txt", "n".repeat(251));
+    let (s, e) = err(srv.post("/api/file", json!({ "path": long, "text": "x\n" })));
+    assert_eq!(s, 200, "{e}");
+    assert_eq!(std::fs::read_to_string(srv.dir.join(&long)).unwrap(), "x\n");
+    let longer = format!("{}.txt", "n".repeat(252));
+    let (s, e) = err(srv.post("/api/file", json!({ "path": longer, "text": "x\n" })));
+    assert_eq!(s, 400, "{e}");
+    assert!(e.contains("at most 255"), "{e}");
     srv.alive();
 
     // Inside the working folder, files are written and read back.

@@ -428,8 +428,16 @@ impl Session {
                 if path.is_dir() {
                     return Err(error(400, format!("`{p}` is a folder")));
                 }
-                save(&path, text.as_bytes())
-                    .map_err(|e| error(500, format!("cannot write `{p}`: {e}")))?;
+                save(&path, text.as_bytes()).map_err(|e| {
+                    // A name the system refuses is the request's fault, not the server's.
+                    let code = match e.kind() {
+                        std::io::ErrorKind::InvalidFilename | std::io::ErrorKind::InvalidInput => {
+                            400
+                        }
+                        _ => 500,
+                    };
+                    error(code, format!("cannot write `{p}`: {e}"))
+                })?;
                 Ok(reply_json(200, &json!({ "path": p, "bytes": text.len() })))
             }
         }
