@@ -408,12 +408,19 @@ fn parse_head(
     Ok((method, target, version, headers))
 }
 
-/// The end of the head (just past its blank line), searching from `from`.
+/// The end of the head (just past its blank line), searching from `from`. Line ends may be
+/// CRLF or bare LF (as httparse reads them): the blank line is `\n` then `\r\n` or `\n`.
 fn find_blank_line(buf: &[u8], from: usize) -> Option<usize> {
-    buf.get(from..)?
-        .windows(4)
-        .position(|w| w == b"\r\n\r\n")
-        .map(|i| from + i + 4)
+    let tail = buf.get(from..)?;
+    (0..tail.len()).find_map(|i| {
+        (tail[i] == b'\n')
+            .then(|| match tail.get(i + 1..) {
+                Some([b'\n', ..]) => Some(from + i + 2),
+                Some([b'\r', b'\n', ..]) => Some(from + i + 3),
+                _ => None,
+            })
+            .flatten()
+    })
 }
 
 /// Writes an answer in pieces, each within what is left of `deadline`.
@@ -458,6 +465,10 @@ mod tests {
         assert_eq!(find_blank_line(b"GET / HTTP/1.1\r\n\r", 0), None);
         assert_eq!(find_blank_line(b"ab\r\n\r\n", 1), Some(6));
         assert_eq!(find_blank_line(b"ab", 5), None);
+        // Bare LF line ends (a request that waited 30 s for a CRLF).
+        assert_eq!(find_blank_line(b"GET / HTTP/1.1\n\nx", 0), Some(16));
+        assert_eq!(find_blank_line(b"GET / HTTP/1.1\nHost: a\n\n", 0), Some(24));
+        assert_eq!(find_blank_line(b"GET / HTTP/1.1\n", 0), None);
     }
 
     #[test]
