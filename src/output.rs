@@ -150,6 +150,45 @@ pub struct AtomicFile {
     sync: bool,
 }
 
+/// Removes the temporary files `PREFIX.PID.N.tmp` in `folder` whose process `PID` no
+/// longer runs (a run killed while it wrote), and says so. Best effort: a folder that
+/// cannot be listed is left as it is.
+fn remove_stale(folder: &Path, prefix: &str) {
+    let Ok(entries) = std::fs::read_dir(folder) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let name = e.file_name();
+        let Some(rest) = (name.to_str())
+            .and_then(|n| n.strip_prefix(prefix))
+            .and_then(|r| r.strip_prefix('.'))
+            .and_then(|r| r.strip_suffix(".tmp"))
+        else {
+            continue;
+        };
+        let Some((pid, n)) = rest.split_once('.') else {
+            continue;
+        };
+        let (Ok(pid), true) = (pid.parse::<u32>(), n.bytes().all(|b| b.is_ascii_digit())) else {
+            continue;
+        };
+        if pid != std::process::id() && !process_runs(pid) && e.path().is_file() {
+            if std::fs::remove_file(e.path()).is_ok() {
+                say!(
+                    "note: removed `{}`, left by a run (process {pid}) that was killed while it wrote",
+                    e.path().display()
+                );
+            }
+        }
+    }
+}
+
+/// Whether process `pid` runs (on systems without `/proc`, taken to run: nothing removed).
+fn process_runs(pid: u32) -> bool {
+    let proc = Path::new("/proc");
+    !proc.is_dir() || proc.join(pid.to_string()).exists()
+}
+
 /// Opens a file that must not exist yet, without following a symbolic link.
 pub(crate) fn create_new(path: &Path) -> std::io::Result<File> {
     let mut o = OpenOptions::new();
@@ -217,6 +256,9 @@ impl AtomicFile {
             }
             tmp_name.push(&lossy[..cut]);
         }
+        // Temporary files of this name left by a process that is gone (killed) are
+        // removed now: they are recognisable by their name and dead process id.
+        remove_stale(folder, &tmp_name.to_string_lossy());
         tmp_name.push(format!(
             ".{}.{}.tmp",
             std::process::id(),

@@ -2619,3 +2619,27 @@ fn sweep_shows_no_progress_bar_off_a_terminal() {
         assert!(!stderr(&o).contains("runs ["), "{}", stderr(&o));
     }
 }
+
+/// A temporary file left by a killed run (`.NAME.PID.N.tmp`, its process gone) is removed,
+/// and said, by the next write of that name; one of a process that runs is kept.
+#[test]
+fn temporary_files_of_killed_runs_are_removed_by_the_next_write() {
+    let dir = std::env::temp_dir().join(format!("latticesim-stale-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("out.txt");
+    let stale = dir.join(".out.txt.999999999.0.tmp");
+    let live = dir.join(format!(".out.txt.{}.0.tmp", std::process::id()));
+    let other = dir.join(".other.txt.999999999.0.tmp");
+    for f in [&stale, &live, &other] {
+        std::fs::write(f, b"half").unwrap();
+    }
+    let o = run(&["gen", "line", "--n", "3", "--out", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(!stale.exists(), "the killed run's file is removed");
+    assert!(stderr(&o).contains("process 999999999"), "{}", stderr(&o));
+    assert!(
+        live.exists() && other.exists(),
+        "a live run's and another name's are kept"
+    );
+    assert_eq!(std::fs::read_to_string(&out).unwrap().lines().count(), 3);
+}
