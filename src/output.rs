@@ -172,13 +172,15 @@ fn remove_stale(folder: &Path, prefix: &str) {
         let (Ok(pid), true) = (pid.parse::<u32>(), n.bytes().all(|b| b.is_ascii_digit())) else {
             continue;
         };
-        if pid != std::process::id() && !process_runs(pid) && e.path().is_file() {
-            if std::fs::remove_file(e.path()).is_ok() {
-                say!(
-                    "note: removed `{}`, left by a run (process {pid}) that was killed while it wrote",
-                    e.path().display()
-                );
-            }
+        if pid != std::process::id()
+            && !process_runs(pid)
+            && e.path().is_file()
+            && std::fs::remove_file(e.path()).is_ok()
+        {
+            say!(
+                "note: removed `{}`, left by a run (process {pid}) that was killed while it wrote",
+                e.path().display()
+            );
         }
     }
 }
