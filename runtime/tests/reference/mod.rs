@@ -1008,12 +1008,19 @@ impl World {
                                                 self.agents[a].counters[*i as usize]
                                             }
                                         };
+                                        // In i64: with 32-bit counters an offset can
+                                        // leave the i32 plane (no agent there).
                                         let p = start[a].pos;
-                                        let q = [p[0] + c(x), p[1] + c(y), p[2]];
-                                        start
-                                            .iter()
-                                            .find(|s| s.pos == q)
-                                            .map(|s| s.counters[*counter as usize])
+                                        let far = |v: i32, d: i32| {
+                                            i32::try_from(v as i64 + d as i64).ok()
+                                        };
+                                        let q = far(p[0], c(x)).zip(far(p[1], c(y)));
+                                        q.and_then(|(qx, qy)| {
+                                            start
+                                                .iter()
+                                                .find(|s| s.pos == [qx, qy, p[2]])
+                                                .map(|s| s.counters[*counter as usize])
+                                        })
                                     }
                                 }
                             };
