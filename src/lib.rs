@@ -164,22 +164,35 @@ pub struct LintArgs {
 impl LintArgs {
     /// The levels (and width of counters), or a usage error said (exit 2).
     pub fn lints(&self) -> Result<Lints, ExitCode> {
-        let mut l = Lints::from_flags(&self.allow, &self.warn, &self.deny).map_err(|e| {
+        let counters = (self.counters.as_deref())
+            .map(|b| (b.parse().unwrap_or(0), format!("`--counters {b}`")));
+        let mut l = levels(&self.allow, &self.warn, &self.deny, counters).map_err(|e| {
             say!("error: {e}");
             ExitCode::from(2)
         })?;
-        if let Some(b) = &self.counters {
-            let w = b
-                .parse()
-                .ok()
-                .and_then(latticesim_vm::model::Width::from_bits);
-            l.set_counters(w.unwrap_or_default(), format!("`--counters {b}`"));
-        }
         if let Some(n) = self.max_diagnostics {
             l.set_shown(n);
         }
         Ok(l)
     }
+}
+
+/// Lint levels (every `allow`, then `warn`, then `deny`) and the width of counters
+/// (`counters`: the bits and where they were said, e.g. "`--counters 32`"), for the
+/// command line and for Python's keywords; a message when one is not understood.
+pub fn levels(
+    allow: &[String],
+    warn: &[String],
+    deny: &[String],
+    counters: Option<(u32, String)>,
+) -> Result<Lints, String> {
+    let mut l = Lints::from_flags(allow, warn, deny)?;
+    if let Some((bits, origin)) = counters {
+        let w = latticesim_vm::model::Width::from_bits(bits)
+            .ok_or_else(|| format!("{origin}: use 16 (the paper's) or 32"))?;
+        l.set_counters(w, origin);
+    }
+    Ok(l)
 }
 
 /// Checks a rules file and, when given, an agents file, each as (name, bytes), with lint

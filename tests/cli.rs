@@ -1165,58 +1165,36 @@ fn diagnostics_are_capped_per_line_and_file() {
         "many-x.txt",
         format!("r\n1\nS0****\nC00 + C00 1{}\n", " x".repeat(4000)).as_bytes(),
     );
-    let o = run(&["check", rules.to_str().unwrap(), "--dim", "2"]);
-    assert_eq!(o.status.code(), Some(1));
-    let err = stderr(&o);
+    let check = |more: &[&str]| {
+        let mut args = vec!["check", rules.to_str().unwrap(), "--dim", "2"];
+        args.extend(more);
+        let o = run(&args);
+        assert_eq!(o.status.code(), Some(1));
+        o
+    };
+    let err = stderr(&check(&[]));
     assert_eq!(err.matches("error[E102]").count(), 10);
     assert!(
         err.contains("note: not shown in ")
             && err.contains(": 3990 more errors and 0 more warnings: 3990 E102 ("),
         "{err}"
     );
+    assert!(err.contains("4000 errors"), "{err}");
+    let json = |o: Output| -> serde_json::Value { serde_json::from_slice(&o.stdout).unwrap() };
+    let v = json(check(&["--format", "json"]));
+    assert_eq!(v["errors"], 4000);
+    assert_eq!(v["diagnostics"].as_array().unwrap().len(), 10);
+    assert_eq!(v["not_shown"][0]["errors"], 3990);
     // Fewer shown when asked; the rest counted per code, in JSON too.
-    let o = run(&[
-        "check",
-        rules.to_str().unwrap(),
-        "--dim",
-        "2",
-        "--max-diagnostics",
-        "3",
-    ]);
-    assert_eq!(o.status.code(), Some(1));
-    let err = stderr(&o);
+    let err = stderr(&check(&["--max-diagnostics", "3"]));
     assert_eq!(err.matches("error[E102]").count(), 3, "{err}");
     assert!(
         err.contains(": 3997 more errors and 0 more warnings: 3997 E102 ("),
         "{err}"
     );
-    let o = run(&[
-        "check",
-        rules.to_str().unwrap(),
-        "--dim",
-        "2",
-        "--max-diagnostics",
-        "0",
-        "--format",
-        "json",
-    ]);
-    assert_eq!(o.status.code(), Some(1));
-    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let v = json(check(&["--max-diagnostics", "0", "--format", "json"]));
     assert_eq!(v["diagnostics"].as_array().unwrap().len(), 0);
     assert_eq!(v["not_shown"][0]["codes"]["E102"], 4000);
-    assert!(err.contains("4000 errors"), "{err}");
-    let o = run(&[
-        "check",
-        rules.to_str().unwrap(),
-        "--dim",
-        "2",
-        "--format",
-        "json",
-    ]);
-    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    assert_eq!(v["errors"], 4000);
-    assert_eq!(v["diagnostics"].as_array().unwrap().len(), 10);
-    assert_eq!(v["not_shown"][0]["errors"], 3990);
 }
 
 #[test]

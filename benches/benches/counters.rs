@@ -12,37 +12,10 @@
 //! `cargo bench -p latticesim-benches --bench counters` (files under target/counters/);
 //! `COUNTERS_QUICK=1`: 10^5 agents instead of 10^6.
 
-use latticesim_benches::process::{fresh, latticesim, measure, root, same_files};
-use std::io::Write;
+use latticesim_benches::process::{b1f_file, fresh, latticesim, measure, root, same_files};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Duration;
-
-/// Writes `p` once with `fill`.
-fn once(p: &Path, fill: impl FnOnce(&mut dyn Write)) -> PathBuf {
-    if !p.exists() {
-        let part = p.with_extension("part");
-        let mut w =
-            std::io::BufWriter::with_capacity(1 << 20, std::fs::File::create(&part).unwrap());
-        fill(&mut w);
-        w.flush().unwrap();
-        drop(w);
-        std::fs::rename(&part, p).unwrap();
-    }
-    p.to_path_buf()
-}
-
-/// B1F's input of side `l`, its values times `scale`.
-fn b1f_file(dir: &Path, l: u64, scale: u64) -> PathBuf {
-    once(&dir.join(format!("b1f_{l}_x{scale}.txt")), |out| {
-        for x in 0..l {
-            for y in 0..l {
-                let v = (((x * l + y) * 7919) % 32749 + 1) * scale;
-                writeln!(out, "{x},{y} C00 {v}").unwrap();
-            }
-        }
-    })
-}
 
 /// A connected shape of `n` agents in `INIT0` with ids 1..n in C00.
 fn ids_file(exe: &Path, dir: &Path, n: u64) -> PathBuf {

@@ -17,33 +17,13 @@
 //! about 10 GB of disk and a few minutes); `FILE_QUICK=1` runs L <= 316 only.
 
 use latticesim_benches::plot::*;
-use latticesim_benches::process::{fresh, latticesim, measure, root, same_files};
+use latticesim_benches::process::{b1f_file, fresh, latticesim, measure, root, same_files};
 use plotters::prelude::*;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Duration;
 
 const RULES: &str = "flood\n1\nS*****\nC00 A C00 #N01 C00 A C00 #W01 C00 A C00 #E01 C00 A C00 #S01 #*01 + C00 0000\n";
-
-/// Writes the B1F agents file of side `l` (once).
-fn agents_file(dir: &Path, l: u64) -> PathBuf {
-    let p = dir.join(format!("b1_{l}.txt"));
-    if p.exists() {
-        return p;
-    }
-    let tmp = dir.join(format!("b1_{l}.txt.part"));
-    let mut w = std::io::BufWriter::with_capacity(1 << 20, std::fs::File::create(&tmp).unwrap());
-    for x in 0..l {
-        for y in 0..l {
-            writeln!(w, "{x},{y} C00 {}", ((x * l + y) * 7919) % 32749 + 1).unwrap();
-        }
-    }
-    w.flush().unwrap();
-    drop(w);
-    std::fs::rename(&tmp, &p).unwrap();
-    p
-}
 
 /// The sum of C00 of an agents.txt text written by either program, read a line at a time
 /// (this process stays small: a child's peak memory as `wait4` reports it can include the
@@ -115,7 +95,7 @@ fn one_size(
     (l, steps): (u64, u64),
     reps: usize,
 ) -> Row {
-    let input = agents_file(dir, l);
+    let input = b1f_file(dir, l, 1);
     let (o1, o2) = (dir.join("out-latticesim.txt"), dir.join("out-native.txt"));
     let s = steps.to_string();
     let mut best_ls = (Duration::MAX, 0);
@@ -171,7 +151,7 @@ fn one_size(
 /// The rate of reading on one core (MB/s) and the peak memory of `check --agents` per
 /// agent, on the L x L file.
 fn read_and_check(exe: &Path, (dir, rules): (&Path, &Path), l: u64, reps: usize) -> (f64, f64) {
-    let input = agents_file(dir, l);
+    let input = b1f_file(dir, l, 1);
     let stats = dir.join("read-stats.json");
     let mut read_best = f64::MAX;
     for _ in 0..reps {
@@ -217,7 +197,7 @@ fn compressed(exe: &Path, (dir, rules): (&Path, &Path), zl: u64, zs: u64) -> (Du
             .args(["run", "-q", "--max-steps", "0", "--out"])
             .arg(&zin)
             .arg(rules)
-            .arg(agents_file(dir, zl))
+            .arg(b1f_file(dir, zl, 1))
             .status()
             .unwrap()
             .success();

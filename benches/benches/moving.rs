@@ -20,9 +20,8 @@
 //! docs/performance.md. `MOVING_QUICK=1` leaves out the largest sizes and the cloud.
 
 use latticesim_benches::plot::*;
-use latticesim_benches::process::{fresh, latticesim, measure, root, same_files};
+use latticesim_benches::process::{b1f_file, fresh, latticesim, measure, once, root, same_files};
 use plotters::prelude::*;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Duration;
@@ -30,20 +29,6 @@ use std::time::Duration;
 const B1_RULES: &str = latticesim_benches::workloads::B1_RULES;
 const B2_RULES: &str = latticesim_benches::workloads::B2_RULES;
 const WALK_RULES: &str = "walk\n1\nSWALK0 N**0* >C01 0000\nP1,0 C01 - C01 0001\n\nrest\n1\nSREST0 >C00 0000\nC00 - C00 0001\n";
-
-/// Writes a file once (through a part file renamed at the end), with `f` writing its text.
-fn once(p: &Path, f: impl FnOnce(&mut dyn Write)) -> PathBuf {
-    if !p.exists() {
-        let part = p.with_extension("part");
-        let mut w =
-            std::io::BufWriter::with_capacity(1 << 20, std::fs::File::create(&part).unwrap());
-        f(&mut w);
-        w.flush().unwrap();
-        drop(w);
-        std::fs::rename(&part, p).unwrap();
-    }
-    p.to_path_buf()
-}
 
 /// B2F's input of side `w`: `x,y C00 y` (`x,y` when y = 0), x-major.
 fn b2f_file(dir: &Path, w: u64) -> PathBuf {
@@ -68,17 +53,6 @@ fn walkers_file(dir: &Path, r: u64) -> PathBuf {
         }
         for i in 0..1000 {
             writeln!(out, "{},{} SWALK0 C01 1000", 2 * i, r + 1).unwrap();
-        }
-    })
-}
-
-/// B1F's input of side `l`.
-fn b1f_file(dir: &Path, l: u64) -> PathBuf {
-    once(&dir.join(format!("b1f_{l}.txt")), |out| {
-        for x in 0..l {
-            for y in 0..l {
-                writeln!(out, "{x},{y} C00 {}", ((x * l + y) * 7919) % 32749 + 1).unwrap();
-            }
         }
     })
 }
@@ -332,7 +306,7 @@ fn main() {
     }
     {
         let l = if quick { 316 } else { 1000 };
-        let input = b1f_file(&dir, l);
+        let input = b1f_file(&dir, l, 1);
         let (o1, o2) = (dir.join("b1f-1.txt"), dir.join("b1f-2.txt"));
         let mut one = || run_latticesim(&exe, (&b1r, &input), 1, &o1, &["--max-steps", "50"]);
         let mut two = || run_latticesim(&exe, (&b1r, &input), 2, &o2, &["--max-steps", "50"]);

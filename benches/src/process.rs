@@ -1,8 +1,10 @@
 //! Running `latticesim` and the plain hand-written programs as processes, as a user does:
 //! the release binary built once, a command timed from start to end with its peak
 //! resident memory, outputs compared byte for byte. Used by the benchmarks that measure
-//! the user's whole path (`file_to_file`, `moving`).
+//! the user's whole path (`file_to_file`, `moving`, `counters`), and their input files,
+//! written once.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
@@ -91,4 +93,35 @@ fn read_full(f: &mut std::fs::File, buf: &mut [u8]) -> usize {
         }
     }
     n
+}
+
+/// Writes `p` once (through a part file renamed at the end), with `fill` writing its text.
+pub fn once(p: &Path, fill: impl FnOnce(&mut dyn Write)) -> PathBuf {
+    if !p.exists() {
+        let part = p.with_extension("part");
+        let mut w =
+            std::io::BufWriter::with_capacity(1 << 20, std::fs::File::create(&part).unwrap());
+        fill(&mut w);
+        w.flush().unwrap();
+        drop(w);
+        std::fs::rename(&part, p).unwrap();
+    }
+    p.to_path_buf()
+}
+
+/// B1F's input (shared/bench/WORKLOADS.md) of side `l`, `x,y C00 v` x-major, its values
+/// times `scale` (1: the workload's own).
+pub fn b1f_file(dir: &Path, l: u64, scale: u64) -> PathBuf {
+    let name = match scale {
+        1 => format!("b1f_{l}.txt"),
+        s => format!("b1f_{l}_x{s}.txt"),
+    };
+    once(&dir.join(name), |out| {
+        for x in 0..l {
+            for y in 0..l {
+                let v = (((x * l + y) * 7919) % 32749 + 1) * scale;
+                writeln!(out, "{x},{y} C00 {v}").unwrap();
+            }
+        }
+    })
 }

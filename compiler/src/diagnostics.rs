@@ -380,13 +380,13 @@ fn fix_note(f: &Fix, sources: &Sources) -> String {
     edits.sort_by_key(|e| e.span.start);
     let local = Fix {
         message: String::new(),
-        edits: edits.clone(),
+        edits,
     };
     let fixed = local.apply(text, file);
     // The lines the edits touch, found in the fixed text by how far the edits shifted them.
     let mut shift: isize = 0;
     let mut shown: Vec<usize> = Vec::new();
-    for e in edits {
+    for e in &local.edits {
         let at = (e.span.start as isize + shift).max(0) as usize;
         shift += e.replacement.len() as isize - e.span.len() as isize;
         let start = fixed[..at.min(fixed.len())]

@@ -35,16 +35,8 @@ pub(crate) fn lints(
     deny: &[String],
     counters: Option<u32>,
 ) -> PyResult<latticesim_compiler::lints::Lints> {
-    use pyo3::exceptions::PyValueError;
-    let mut l = latticesim_compiler::lints::Lints::from_flags(allow, warn, deny)
-        .map_err(PyValueError::new_err)?;
-    if let Some(b) = counters {
-        let w = latticesim_vm::model::Width::from_bits(b).ok_or_else(|| {
-            PyValueError::new_err(format!("counters={b}: use 16 (the paper's) or 32"))
-        })?;
-        l.set_counters(w, format!("counters={b}"));
-    }
-    Ok(l)
+    let counters = counters.map(|b| (b, format!("counters={b}")));
+    latticesim::levels(allow, warn, deny, counters).map_err(pyo3::exceptions::PyValueError::new_err)
 }
 
 #[pymodule]

@@ -142,9 +142,12 @@ fn refuse(out: &Mutex<io::Stdout>, code: i32, message: &str) -> io::Result<()> {
     w.flush()
 }
 
-/// A connection over standard input and output with this framing, and the threads that
-/// carry it (joined after the connection is dropped).
-pub(super) fn stdio() -> (Connection, Vec<std::thread::JoinHandle<io::Result<()>>>) {
+/// A thread of the connection: what ended it.
+pub(super) type Io = std::thread::JoinHandle<io::Result<()>>;
+
+/// A connection over standard input and output with this framing, and its reader and
+/// writer threads.
+pub(super) fn stdio() -> (Connection, Io, Io) {
     let (server, client) = Connection::memory();
     let out = Arc::new(Mutex::new(io::stdout()));
     let (to_server, from_server) = (client.sender, client.receiver);
@@ -172,7 +175,7 @@ pub(super) fn stdio() -> (Connection, Vec<std::thread::JoinHandle<io::Result<()>
         }
         Ok(())
     });
-    (server, vec![reader, writer])
+    (server, reader, writer)
 }
 
 #[cfg(test)]

@@ -237,7 +237,7 @@ impl Server {
 
 /// Runs the server on standard input and output until the client says `exit`.
 pub fn run() -> ExitCode {
-    let (connection, io) = frame::stdio();
+    let (connection, reader, writer) = frame::stdio();
     let caps = serde_json::to_value(capabilities()).expect("capabilities are plain data");
     if let Err(e) = connection.initialize(caps) {
         crate::output::say!("error: the language client did not initialize: {e}");
@@ -262,13 +262,11 @@ pub fn run() -> ExitCode {
     // The writer ends when the connection is dropped; the reader at the end of the input
     // or at `exit` (not waited for after a shutdown without `exit`: the process ends).
     let mut code = ExitCode::SUCCESS;
-    let mut threads = io.into_iter();
-    let (reader, writer) = (threads.next(), threads.next());
-    for t in writer.into_iter().chain(reader.filter(|r| r.is_finished())) {
-        if let Ok(Err(e)) | Err(e) = t
+    for t in std::iter::once(writer).chain(reader.is_finished().then_some(reader)) {
+        let ended = t
             .join()
-            .map_err(|_| std::io::Error::other("a thread of the connection panicked"))
-        {
+            .unwrap_or_else(|_| Err(std::io::Error::other("a thread of the connection panicked")));
+        if let Err(e) = ended {
             crate::output::say!("error: the language client's connection failed: {e}");
             code = ExitCode::from(2);
         }
