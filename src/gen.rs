@@ -128,6 +128,11 @@ pub fn gen(a: GenArgs) -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    if a.depth != 1 && !opts.three_d {
+        // It was ignored: a 2D file where a 3D box was meant.
+        say!("error: --depth {} is for 3D shapes: add --dim 3", a.depth);
+        return ExitCode::from(2);
+    }
     let shape = match shape {
         Ok(s) => s,
         Err(e) => {

@@ -2621,3 +2621,45 @@ fn temporary_files_of_killed_runs_are_removed_by_the_next_write() {
     );
     assert_eq!(std::fs::read_to_string(&out).unwrap().lines().count(), 3);
 }
+
+/// `gen --depth` without `--dim 3` is refused (it wrote a 2D file); a saturation record
+/// with 32-bit counters names their range.
+#[test]
+fn depth_needs_3d_and_saturation_names_the_width() {
+    let o = run(&[
+        "gen", "block", "--width", "3", "--height", "3", "--depth", "3",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("--depth 3 is for 3D shapes: add --dim 3"),
+        "{}",
+        stderr(&o)
+    );
+    let o = run(&[
+        "gen", "block", "--width", "3", "--height", "3", "--depth", "3", "--dim", "3",
+    ]);
+    assert_eq!(o.status.code(), Some(0));
+    assert_eq!(
+        String::from_utf8_lossy(&o.stdout).lines().next(),
+        Some("0,0,0")
+    );
+    let rules = tmp(
+        "near-range.txt",
+        b"inc\n1\n<C00 2147483647\nC00 + C00 1000000000\n\n// latticesim: counters 32\n",
+    );
+    let agents = tmp("near-range-agents.txt", b"0,0 C00 2147483000\n");
+    let o = run(&[
+        "run",
+        rules.to_str().unwrap(),
+        agents.to_str().unwrap(),
+        "--max-steps",
+        "3",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("the result 3147483000 is saturated to the 32-bit range"),
+        "{}",
+        stderr(&o)
+    );
+    assert_eq!(String::from_utf8_lossy(&o.stdout), "0,0 C00 2147483647\n");
+}

@@ -190,7 +190,10 @@ fn calc_records(
         let (kind, msg) = match issue {
                 CalcIssue::Saturated { exact } => (
                     RecordKind::Saturation,
-                    format!("agent {a}, rule `{name}`: the result {exact} is saturated to the 16-bit range"),
+                    format!(
+                        "agent {a}, rule `{name}`: the result {exact} is saturated to the {}-bit range",
+                        prog.width.bits()
+                    ),
                 ),
                 CalcIssue::DivisionByZero => (
                     RecordKind::DivisionByZero,
