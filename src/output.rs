@@ -31,6 +31,8 @@ static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 static POLLED: AtomicU8 = AtomicU8::new(0);
 /// Temporary files not yet renamed, removed when Ctrl-C exits at once.
 static PENDING: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+/// Flags Ctrl-C sets ([`also_on_interrupt`]).
+static FLAGS: Mutex<Vec<std::sync::Arc<AtomicBool>>> = Mutex::new(Vec::new());
 
 /// Writes a line to standard error (`eprintln!` that never panics).
 macro_rules! say {
@@ -111,6 +113,11 @@ pub(crate) fn finish(code: ExitCode) -> ExitCode {
 pub(crate) fn on_interrupt() {
     let _ = ctrlc::set_handler(|| {
         INTERRUPTED.store(true, Ordering::SeqCst);
+        if let Ok(flags) = FLAGS.lock() {
+            for f in flags.iter() {
+                f.store(true, Ordering::SeqCst);
+            }
+        }
         if POLLED.load(Ordering::SeqCst) == 0 {
             let mut removed = false;
             if let Ok(pending) = PENDING.lock() {
@@ -131,6 +138,17 @@ pub(crate) fn on_interrupt() {
 /// From now on the command polls [`interrupted`] and stops by itself.
 pub(crate) fn poll_interrupts() {
     POLLED.store(1, Ordering::SeqCst);
+}
+
+/// Ctrl-C also sets `flag` (a flag that stops work on other threads, e.g. every run of a
+/// sweep at its next step).
+pub(crate) fn also_on_interrupt(flag: std::sync::Arc<AtomicBool>) {
+    if interrupted() {
+        flag.store(true, Ordering::SeqCst);
+    }
+    if let Ok(mut flags) = FLAGS.lock() {
+        flags.push(flag);
+    }
 }
 
 /// Whether Ctrl-C was pressed.
@@ -301,15 +319,15 @@ impl AtomicFile {
     /// Writes what was written so far to disk and renames it over the target.
     pub(crate) fn commit(mut self) -> std::io::Result<()> {
         let w = self.file.take().expect("committed once");
-        let file = w.into_inner().map_err(|e| e.into_error())?;
+        let flushed = w.into_inner().map_err(|e| e.into_error());
         let Some(tmp) = self.tmp.clone() else {
-            return Ok(());
+            return flushed.map(drop);
         };
-        if self.sync {
-            file.sync_all()?;
-        }
-        drop(file);
-        let renamed = std::fs::rename(&tmp, &self.path);
+        // A write that fails here (the last buffer on a full disk) removes the temporary
+        // file as a failed rename does.
+        let renamed = flushed
+            .and_then(|file| if self.sync { file.sync_all() } else { Ok(()) })
+            .and_then(|()| std::fs::rename(&tmp, &self.path));
         if renamed.is_err() {
             let _ = std::fs::remove_file(&tmp);
         }

@@ -122,14 +122,23 @@ impl Table {
 
     /// The table as CSV: a header line, then a line per row.
     pub fn to_csv(&self) -> String {
-        let head: Vec<String> = self.names.iter().map(|n| csv_field(n)).collect();
-        let mut out = head.join(",") + "\n";
+        let mut out = self.csv_header();
         for i in 0..self.rows() {
-            let line: Vec<String> = self.columns.iter().map(|c| c.csv(i)).collect();
-            out += &line.join(",");
-            out.push('\n');
+            out += &self.csv_row(i);
         }
         out
+    }
+
+    /// The CSV header line (with its line end).
+    pub fn csv_header(&self) -> String {
+        let head: Vec<String> = self.names.iter().map(|n| csv_field(n)).collect();
+        head.join(",") + "\n"
+    }
+
+    /// Row `i` as a CSV line (with its line end).
+    pub fn csv_row(&self, i: usize) -> String {
+        let line: Vec<String> = self.columns.iter().map(|c| c.csv(i)).collect();
+        line.join(",") + "\n"
     }
 
     /// Writes the table as Parquet (one row group; text as UTF-8 strings).

@@ -127,6 +127,30 @@ impl StepCost {
         v.extend(&self.records);
         v
     }
+
+    /// The cost whose [`StepCost::values`] are `v`, for a program of `rules` rules (a row
+    /// of a table read back); `None` when `v` has not the length of its columns or its sums
+    /// (all firings, all records) do not add up.
+    pub fn from_values(rules: usize, v: &[u64]) -> Option<StepCost> {
+        let kinds = RecordKind::ALL.len();
+        if v.len() != 2 + rules + 8 + kinds {
+            return None;
+        }
+        let at = |i: usize| v[2 + rules + i];
+        let c = StepCost {
+            step: v[0],
+            firings: v[2..2 + rules].to_vec(),
+            executing: at(0),
+            moves: at(1),
+            carried: at(2),
+            swaps: at(3),
+            sent: at(4),
+            delivered: at(5),
+            dropped: at(6),
+            records: v[2 + rules + 8..].to_vec(),
+        };
+        (c.values() == v).then_some(c)
+    }
 }
 
 #[cfg(test)]
@@ -157,5 +181,14 @@ mod tests {
         let swap_target = RecordKind::SwapTarget as u64;
         assert_eq!(at("records:swap-target"), swap_target);
         assert_eq!(at("records"), c.records.iter().sum::<u64>());
+        assert_eq!(StepCost::from_values(2, &vals), Some(c));
+        assert_eq!(StepCost::from_values(1, &vals), None, "not of 1 rule");
+        let mut wrong = vals.clone();
+        wrong[1] += 1;
+        assert_eq!(
+            StepCost::from_values(2, &wrong),
+            None,
+            "firings do not add up"
+        );
     }
 }

@@ -1,7 +1,10 @@
 //! `latticesim sweep`: run rules over generated shapes of growing n, several runs at once,
 //! and write one CSV row per run with every total of a run (the columns of `run --series`,
 //! summed) and how it stopped; with --plot, an SVG of steps, moves, swaps and messages
-//! against n with fitted power laws.
+//! against n with fitted power laws. Finished runs are kept as they end ([`keep`]): Ctrl-C
+//! writes the table of those finished, and `--resume` runs only the others.
+
+mod keep;
 
 use crate::gen::AgentOptions;
 use crate::output::{open_output, say, write_output};
@@ -16,6 +19,8 @@ use latticesim_runtime::{Engine, Options, StepCost};
 use rayon::prelude::*;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// The shapes a sweep generates.
@@ -119,9 +124,16 @@ pub struct SweepArgs {
     /// for a job array (Slurm, GNU parallel); `latticesim merge` joins the parts.
     #[arg(long, value_name = "I/N")]
     shard: Option<Shard>,
-    /// The table of the runs: Parquet for a name ending in .parquet, else CSV.
+    /// The table of the runs: Parquet for a name ending in .parquet, else CSV. Each run is
+    /// also added to `OUT.partial.csv` as it ends, so that a kill loses no finished run;
+    /// it is removed once the table is written.
     #[arg(long)]
     out: PathBuf,
+    /// Go on with a sweep that was interrupted (Ctrl-C) or killed: the runs already in
+    /// --out and in `OUT.partial.csv` are kept, only the others run, and the table ends as
+    /// the whole sweep writes it. The same command as before, with --resume.
+    #[arg(long)]
+    resume: bool,
     /// Also draw the metrics against n into this figure: SVG, PNG or PDF by its name (a
     /// panel per metric: every run, the mean and spread per n, the fitted power law with
     /// the 95 % interval of its exponent).
@@ -142,6 +154,7 @@ pub struct SweepArgs {
 }
 
 /// The result of one run of a sweep.
+#[derive(Debug)]
 pub struct Row {
     /// The run's number in the sweep (from 1), whatever shard ran it.
     pub run: usize,
@@ -224,18 +237,59 @@ impl SweepShape {
     }
 }
 
-/// The output of `--agents-cmd` `template` for size `n` and `seed` (its standard output),
-/// and the command run.
-fn command_output(template: &str, n: u32, seed: u64) -> Result<(Vec<u8>, String), String> {
-    let cmd = template
+/// The command `--agents-cmd` `template` runs for size `n` and `seed`.
+fn command_line(template: &str, n: u32, seed: u64) -> String {
+    template
         .replace("{n}", &n.to_string())
         .replace("{size}", &n.to_string())
-        .replace("{seed}", &seed.to_string());
-    let out = std::process::Command::new("sh")
+        .replace("{seed}", &seed.to_string())
+}
+
+/// The output of `--agents-cmd` `template` for size `n` and `seed` (its standard output),
+/// and the command run. The command is killed when `stop` is set (Ctrl-C).
+fn command_output(
+    template: &str,
+    n: u32,
+    seed: u64,
+    stop: Option<&AtomicBool>,
+) -> Result<(Vec<u8>, String), String> {
+    use std::io::Read;
+    let cmd = command_line(template, n, seed);
+    let cannot = |e: std::io::Error| format!("--agents-cmd `{cmd}`: cannot run it: {e}");
+    let mut child = std::process::Command::new("sh")
         .args(["-c", &cmd])
         .stdin(std::process::Stdio::null())
-        .output()
-        .map_err(|e| format!("--agents-cmd `{cmd}`: cannot run it: {e}"))?;
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .map_err(cannot)?;
+    let drain = |r: Option<Box<dyn Read + Send>>| {
+        std::thread::spawn(move || {
+            let mut v = Vec::new();
+            if let Some(mut r) = r {
+                let _ = r.read_to_end(&mut v);
+            }
+            v
+        })
+    };
+    let stdout = drain(child.stdout.take().map(|r| Box::new(r) as _));
+    let stderr = drain(child.stderr.take().map(|r| Box::new(r) as _));
+    let status = loop {
+        if let Some(s) = child.try_wait().map_err(cannot)? {
+            break s;
+        }
+        if stop.is_some_and(|s| s.load(Ordering::Relaxed)) {
+            let _ = child.kill();
+            let _ = child.wait();
+            return Err(format!("--agents-cmd `{cmd}`: interrupted"));
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    };
+    let out = std::process::Output {
+        status,
+        stdout: stdout.join().unwrap_or_default(),
+        stderr: stderr.join().unwrap_or_default(),
+    };
     if !out.status.success() {
         let err = String::from_utf8_lossy(&out.stderr);
         let last = err
@@ -322,16 +376,31 @@ pub fn run_agents(
     })
 }
 
+/// What a run's agents are, as the table's `input` names them: the shape, the command run
+/// or the file.
+fn input_of(a: &SweepArgs, job: &Job, seed: u64) -> String {
+    match job {
+        Job::Shape(n) => format!("{} n={n}", a.shape.name()),
+        Job::Cmd(n) => command_line(a.agents_cmd.as_deref().expect("asked for"), *n, seed),
+        Job::File(p) => p.display().to_string(),
+    }
+}
+
 /// One run of the command line's sweep: its agents made (a shape, a command's output or a
 /// file), then run.
 fn run_one(setup: &Setup, a: &SweepArgs, run: usize, job: &Job, seed: u64) -> Result<Row, String> {
     let (text, input): (Vec<u8>, String) = match job {
         Job::Shape(n) => (
             agents_text(&a.shape.of(*n, a.gen.three_d()), &a.gen.gen_options(seed)?)?.into_bytes(),
-            format!("{} n={n}", a.shape.name()),
+            input_of(a, job, seed),
         ),
-        Job::Cmd(n) => command_output(a.agents_cmd.as_deref().expect("asked for"), *n, seed)?,
-        Job::File(p) => (Vec::new(), p.display().to_string()),
+        Job::Cmd(n) => command_output(
+            a.agents_cmd.as_deref().expect("asked for"),
+            *n,
+            seed,
+            setup.cancel.as_deref(),
+        )?,
+        Job::File(_) => (Vec::new(), input_of(a, job, seed)),
     };
     let source = match job {
         Job::File(p) => crate::agents_file::Source::File(p),
@@ -384,11 +453,7 @@ pub fn table(rows: &[Row]) -> Table {
         .first()
         .map_or(Vec::new(), |r| r.rules.iter().map(String::as_str).collect());
     let cols = StepCost::columns(&rules);
-    let mut names: Vec<String> = ["run", "n", "seed", "input", "steps", "stopped_by"]
-        .map(String::from)
-        .into();
-    names.extend(cols.iter().skip(1).cloned());
-    names.push("wall_time_s".into());
+    let names = header(&rules);
     let ints = |f: &dyn Fn(&Row) -> u64| Column::Int(rows.iter().map(|r| f(r)).collect());
     let mut columns = vec![
         ints(&|r| r.run as u64),
@@ -415,6 +480,16 @@ pub fn table(rows: &[Row]) -> Table {
     }
     columns.push(Column::Float(rows.iter().map(|r| r.secs).collect()));
     Table { names, columns }
+}
+
+/// The names of the columns of a sweep's table, for rules named `rules`.
+pub(crate) fn header(rules: &[&str]) -> Vec<String> {
+    let mut names: Vec<String> = ["run", "n", "seed", "input", "steps", "stopped_by"]
+        .map(String::from)
+        .into();
+    names.extend(StepCost::columns(rules).into_iter().skip(1));
+    names.push("wall_time_s".into());
+    names
 }
 
 /// The runs of a sweep: per size (or file) and seed.
@@ -456,14 +531,12 @@ fn jobs(a: &SweepArgs) -> Result<Vec<(Job, u64)>, String> {
         .collect())
 }
 
-/// The table of the rows, the fitted growth of the metrics chosen, and the plot.
+/// The fitted growth of the metrics chosen, and the plot.
 fn outputs(
     a: &SweepArgs,
     rows: &[Row],
-    out_file: crate::output::AtomicFile,
     plot_file: Option<crate::output::AtomicFile>,
 ) -> Result<(), ExitCode> {
-    table(rows).commit(out_file)?;
     let metrics = chosen(a, rows);
     let fits: Vec<String> = (metrics.iter())
         .filter_map(|&(name, f)| fit(&points(rows, f)).map(|f| format!("{name} ~ {}", f.text())))
@@ -499,12 +572,26 @@ fn outputs(
     }
 }
 
-/// Runs the jobs (run number, agents, seed) on `--threads` threads.
+/// How a run of the command line's sweep ended.
+enum Outcome {
+    /// It finished (and is in the journal).
+    Done(Row),
+    /// It failed, with the message.
+    Failed(String),
+    /// It was stopped (Ctrl-C, or the journal could not be written) or never started.
+    Stopped,
+}
+
+/// Runs the jobs (run number, agents, seed) on `--threads` threads, each finished run
+/// added to the journal as it ends; `stop` (Ctrl-C, or a journal that cannot be written)
+/// stops every run at its next step and starts no other.
 fn run_all(
     a: &SweepArgs,
     setup: &Setup,
-    jobs: &[(usize, Job, u64)],
-) -> Result<Vec<Result<Row, String>>, ExitCode> {
+    jobs: &[&(usize, Job, u64)],
+    journal: &keep::Journal,
+    stop: &AtomicBool,
+) -> Result<Vec<Outcome>, ExitCode> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(crate::threads(
             a.threads,
@@ -531,21 +618,62 @@ fn run_all(
         b
     };
     let failed = std::sync::atomic::AtomicUsize::new(0);
-    let rows = pool.install(|| {
+    let outcomes = pool.install(|| {
         jobs.par_iter()
             .map(|(run, job, seed)| {
-                let r = run_one(setup, a, *run, job, *seed);
-                if r.is_err() {
-                    let f = 1 + failed.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                    bar.set_message(format!(", {f} failed"));
+                if stop.load(Ordering::SeqCst) {
+                    return Outcome::Stopped;
                 }
+                let r = run_one(setup, a, *run, job, *seed);
                 bar.inc(1);
-                r
+                match r {
+                    Ok(row) => {
+                        if journal.add(&row).is_err() {
+                            stop.store(true, Ordering::SeqCst);
+                        }
+                        Outcome::Done(row)
+                    }
+                    Err(_) if stop.load(Ordering::SeqCst) => Outcome::Stopped,
+                    Err(e) => {
+                        let f = 1 + failed.fetch_add(1, Ordering::Relaxed);
+                        bar.set_message(format!(", {f} failed"));
+                        Outcome::Failed(e)
+                    }
+                }
             })
             .collect()
     });
     bar.finish_and_clear();
-    Ok(rows)
+    Ok(outcomes)
+}
+
+/// The runs of this sweep already finished (`--resume`), read from the table and its
+/// journal; without `--resume`, none (a note says when a journal of finished runs is
+/// replaced).
+fn kept_runs(a: &SweepArgs, jobs: &[(usize, Job, u64)]) -> Result<Vec<Row>, ExitCode> {
+    if !a.resume {
+        let j = keep::journal_path(&a.out);
+        if j.is_file() {
+            say!(
+                "note: `{}` holds runs of an earlier sweep that did not end; they are dropped (--resume keeps them)",
+                j.display()
+            );
+        }
+        return Ok(Vec::new());
+    }
+    let planned = (jobs.iter())
+        .map(|(run, job, seed)| {
+            let p = keep::Planned {
+                input: input_of(a, job, *seed),
+                seed: *seed,
+            };
+            (*run, p)
+        })
+        .collect();
+    keep::resumed(&a.out, &planned).map_err(|e| {
+        say!("error: {e}");
+        ExitCode::from(2)
+    })
 }
 
 /// `latticesim sweep`.
@@ -587,6 +715,31 @@ pub fn sweep(a: SweepArgs) -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    let kept = match kept_runs(&a, &jobs) {
+        Ok(k) => k,
+        Err(c) => return c,
+    };
+    let done: std::collections::HashSet<usize> = kept.iter().map(|r| r.run).collect();
+    let todo: Vec<&(usize, Job, u64)> = jobs.iter().filter(|j| !done.contains(&j.0)).collect();
+    if a.resume {
+        say!(
+            "resuming: {} of {} runs are done; running the other {}",
+            kept.len(),
+            jobs.len(),
+            todo.len()
+        );
+    }
+    let journal = match keep::Journal::create(&a.out, &kept) {
+        Ok(j) => j,
+        Err(e) => {
+            say!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    // Ctrl-C from now on stops the runs at their next step; what finished is written.
+    let stop = Arc::new(AtomicBool::new(false));
+    crate::output::also_on_interrupt(stop.clone());
+    crate::output::poll_interrupts();
     let setup = Setup {
         rules_name: a.rules.display().to_string(),
         rules,
@@ -597,25 +750,56 @@ pub fn sweep(a: SweepArgs) -> ExitCode {
             static_first: a.static_first,
             ..Options::default()
         },
-        cancel: None,
+        cancel: Some(stop.clone()),
         lints,
     };
-    let results = match run_all(&a, &setup, &jobs) {
+    let outcomes = match run_all(&a, &setup, &todo, &journal, &stop) {
         Ok(r) => r,
         Err(c) => return c,
     };
     // The runs that failed are named; the others are written all the same.
-    let (mut rows, mut failed) = (Vec::with_capacity(results.len()), 0);
-    for r in results {
-        match r {
-            Ok(row) => rows.push(row),
-            Err(e) => {
+    let (mut rows, mut failed, mut stopped) = (kept, 0, 0);
+    for o in outcomes {
+        match o {
+            Outcome::Done(row) => rows.push(row),
+            Outcome::Failed(e) => {
                 say!("error: {e}");
                 failed += 1;
             }
+            Outcome::Stopped => stopped += 1,
         }
     }
-    if let Err(c) = outputs(&a, &rows, out_file, plot_file) {
+    if stopped > 0 {
+        // Ctrl-C, or the journal failed: the table of the runs finished, no plot.
+        let journal_failed = journal.error();
+        if let Some(e) = &journal_failed {
+            say!("error: {e}; the sweep stopped");
+        }
+        if let Err(c) = table(&rows).commit(out_file) {
+            journal.keep_or_remove(rows.len());
+            return c;
+        }
+        journal.remove();
+        say!(
+            "{}: {} of {} runs finished, in `{}`; the same command with --resume runs the other {}",
+            if journal_failed.is_some() {
+                "stopped"
+            } else {
+                "interrupted"
+            },
+            rows.len(),
+            jobs.len(),
+            a.out.display(),
+            jobs.len() - rows.len()
+        );
+        return ExitCode::from(if journal_failed.is_some() { 2 } else { 130 });
+    }
+    if let Err(c) = table(&rows).commit(out_file) {
+        journal.keep_or_remove(rows.len());
+        return c;
+    }
+    journal.remove();
+    if let Err(c) = outputs(&a, &rows, plot_file) {
         return c;
     }
     if failed > 0 {
