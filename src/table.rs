@@ -9,7 +9,7 @@ use parquet::file::reader::{FileReader, SerializedFileReader};
 use parquet::file::writer::SerializedFileWriter;
 use parquet::record::RowAccessor;
 use parquet::schema::types::Type;
-use std::io::{Read, Write};
+use std::io::Write;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -236,10 +236,32 @@ impl Table {
         Ok(Table { names, columns })
     }
 
-    /// Reads a table written by [`Table::write_parquet`].
-    pub fn from_parquet(file: std::fs::File) -> Result<Table, String> {
-        let reader = SerializedFileReader::new(file).map_err(|e| e.to_string())?;
-        let schema = reader.metadata().file_metadata().schema_descr_ptr();
+    /// Reads a table written by [`Table::write_parquet`]. A damaged file is an error, never a
+    /// panic or an allocation it cannot back: the row count in its metadata is bounded by
+    /// its size, and a panic inside the parquet crate (which some damaged files cause) is
+    /// caught and reported as damage.
+    pub fn from_parquet(bytes: Vec<u8>) -> Result<Table, String> {
+        let damaged = |e: String| format!("a damaged Parquet file ({e})");
+        let read = std::panic::AssertUnwindSafe(move || Table::parquet_rows(bytes));
+        match quietly(read) {
+            Ok(Ok(t)) => Ok(t),
+            Ok(Err(e)) => Err(damaged(e)),
+            Err(panic) => Err(damaged(format!("its reader stopped: {panic}"))),
+        }
+    }
+
+    fn parquet_rows(bytes: Vec<u8>) -> Result<Table, String> {
+        // Every row of a sweep table holds a distinct run number, so no honest file holds
+        // more rows than bits.
+        let most_rows = bytes.len() as i64 * 8;
+        let reader =
+            SerializedFileReader::new(bytes::Bytes::from(bytes)).map_err(|e| e.to_string())?;
+        let meta = reader.metadata();
+        let rows = meta.file_metadata().num_rows();
+        if !(0..=most_rows).contains(&rows) {
+            return Err(format!("it claims {rows} rows"));
+        }
+        let schema = meta.file_metadata().schema_descr_ptr();
         let mut names = Vec::new();
         let mut columns = Vec::new();
         for c in schema.columns() {
@@ -251,8 +273,13 @@ impl Table {
                 t => return Err(format!("column `{}`: type {t} is not of a sweep", c.name())),
             });
         }
+        let mut read = 0i64;
         for row in reader.get_row_iter(None).map_err(|e| e.to_string())? {
             let row = row.map_err(|e| e.to_string())?;
+            read += 1;
+            if read > rows {
+                return Err(format!("more rows than the {rows} it claims"));
+            }
             for (i, col) in columns.iter_mut().enumerate() {
                 match col {
                     Column::Int(v) => v.push(row.get_long(i).map_err(|e| e.to_string())? as u64),
@@ -263,19 +290,19 @@ impl Table {
                 }
             }
         }
+        if read != rows {
+            return Err(format!("{read} rows where it claims {rows}"));
+        }
         Ok(Table { names, columns })
     }
 
     /// Reads a CSV or Parquet table (by its first bytes: Parquet files start with `PAR1`).
     pub fn read(path: &Path) -> Result<Table, String> {
-        let mut f = std::fs::File::open(path).map_err(|e| e.to_string())?;
-        let mut magic = [0u8; 4];
-        let n = f.read(&mut magic).map_err(|e| e.to_string())?;
-        if n == 4 && &magic == b"PAR1" {
-            let f = std::fs::File::open(path).map_err(|e| e.to_string())?;
-            return Table::from_parquet(f);
+        let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+        if bytes.starts_with(b"PAR1") {
+            return Table::from_parquet(bytes);
         }
-        let text = std::fs::read_to_string(path).map_err(|e| e.to_string())?;
+        let text = String::from_utf8(bytes).map_err(|e| e.to_string())?;
         Table::from_csv(&text)
     }
 
@@ -317,6 +344,32 @@ impl Table {
     }
 }
 
+std::thread_local! {
+    static QUIET: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Runs `f`, returning the message of a panic in it instead of unwinding, and without the
+/// panic's report on stderr (other threads' panics are reported as before).
+fn quietly<T>(f: impl FnOnce() -> T + std::panic::UnwindSafe) -> Result<T, String> {
+    static HOOK: std::sync::Once = std::sync::Once::new();
+    HOOK.call_once(|| {
+        let report = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if !QUIET.with(|q| q.get()) {
+                report(info)
+            }
+        }));
+    });
+    QUIET.with(|q| q.set(true));
+    let r = std::panic::catch_unwind(f);
+    QUIET.with(|q| q.set(false));
+    r.map_err(|p| {
+        (p.downcast_ref::<&str>().map(|s| s.to_string()))
+            .or_else(|| p.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "a panic".into())
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -330,6 +383,72 @@ mod tests {
                 Column::Float(vec![0.5, 0.25]),
             ],
         }
+    }
+
+    /// A table as a sweep writes it: distinct run numbers, sizes, seeds, text, times.
+    fn sweep_like(rows: u64) -> Table {
+        Table {
+            names: ["run", "n", "seed", "input", "steps", "wall_time_s"]
+                .map(String::from)
+                .to_vec(),
+            columns: vec![
+                Column::Int((0..rows).collect()),
+                Column::Int((0..rows).map(|r| 4 << (r / 10)).collect()),
+                Column::Int((0..rows).map(|r| r % 10 + 1).collect()),
+                Column::Text(
+                    (0..rows)
+                        .map(|r| format!("line n={}", 4 << (r / 10)))
+                        .collect(),
+                ),
+                Column::Int((0..rows).map(|r| r * 7 % 13).collect()),
+                Column::Float((0..rows).map(|r| r as f64 / 1000.0).collect()),
+            ],
+        }
+    }
+
+    #[test]
+    fn a_damaged_parquet_table_is_an_error_never_a_panic() {
+        let good = sweep_like(40).write_parquet(Vec::new()).unwrap();
+        assert_eq!(Table::from_parquet(good.clone()).unwrap(), sweep_like(40));
+        let mut x: u64 = 0x9e37_79b9_7f4a_7c15;
+        let mut next = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        let (mut damaged, mut panics) = (0, 0);
+        // Every single bit flipped of the footer and the last page (where the metadata and its
+        // lengths are), then 1,000 files with 1 to 4 bytes overwritten anywhere and 100 cut short.
+        let flips = (good.len().saturating_sub(1500) * 8..good.len() * 8).map(|bit| {
+            let mut b = good.clone();
+            b[bit / 8] ^= 1 << (bit % 8);
+            b
+        });
+        let writes = (0..1000).map(|_| {
+            let mut b = good.clone();
+            for _ in 0..1 + next() % 4 {
+                let i = next() as usize % b.len();
+                b[i] = [0xff, 0x7f, 0x00, next() as u8][next() as usize % 4];
+            }
+            b
+        });
+        let cuts: Vec<Vec<u8>> = (0..100)
+            .map(|k| good[..good.len() * k / 100].to_vec())
+            .collect();
+        for b in flips.chain(writes).chain(cuts) {
+            match Table::from_parquet(b) {
+                Ok(_) => {}
+                Err(e) => {
+                    assert!(e.starts_with("a damaged Parquet file ("), "{e}");
+                    damaged += 1;
+                    panics += usize::from(e.contains("its reader stopped: "));
+                }
+            }
+        }
+        // The test means something only if it met damage, and panics in the crate among it.
+        assert!(damaged > 1000, "{damaged}");
+        assert!(panics > 0, "no panic was caught: {damaged} damaged");
     }
 
     #[test]
