@@ -1107,6 +1107,45 @@ fn a_slow_or_stalled_client_holds_up_no_one() {
 }
 
 #[test]
+fn connections_that_send_nothing_lock_no_one_out() {
+    let srv = start(
+        "halfopen",
+        "examples/leader-election/rules.txt",
+        "examples/leader-election/agents-30.txt",
+    );
+    // Far more connections than the server serves at once (64), sending nothing or half a
+    // head; a client with the token is answered at once all the same (it waited 30 s for a
+    // 503 before), and again after more of them.
+    let mut idle: Vec<TcpStream> = Vec::new();
+    for round in 0..2 {
+        for i in 0..100 {
+            let mut s = TcpStream::connect(&srv.addr).unwrap();
+            if i % 2 == 1 {
+                let _ = s.write_all(b"GET /api/session HTTP/1.1\r\nHost: ");
+            }
+            idle.push(s);
+        }
+        std::thread::sleep(std::time::Duration::from_millis(200));
+        let t = std::time::Instant::now();
+        let (status, body) = srv.get("/api/session");
+        assert_eq!(status, 200, "round {round}: {body}");
+        assert!(
+            t.elapsed() < std::time::Duration::from_secs(5),
+            "round {round}: answered after {:?}",
+            t.elapsed()
+        );
+    }
+    // The oldest were closed to make room: they read the end of the stream.
+    let mut first = idle.remove(0);
+    first
+        .set_read_timeout(Some(std::time::Duration::from_secs(5)))
+        .unwrap();
+    assert_eq!(first.read(&mut [0u8; 16]).ok(), Some(0));
+    drop(idle);
+    srv.alive();
+}
+
+#[test]
 fn the_ipv6_loopback_is_loopback() {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_latticesim"));
     cmd.args(["serve", "--host", "::1", "--port", "0"])

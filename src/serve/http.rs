@@ -2,8 +2,11 @@
 //! deadlines, hands each whole request to a handler and writes its answer. It knows nothing
 //! of the API; `serve.rs` decides what a request means and who may make it.
 //!
-//! Every connection has its own thread, at most [`Limits::connections`] at once (one more
-//! is answered 503 and closed). A request's head must arrive within [`Limits::read`] of the
+//! Every connection has its own thread, at most [`Limits::connections`] at once. When all
+//! are taken, the one that has waited longest for a request (idle, or still sending one)
+//! is closed to make room, so connections that send nothing cannot lock clients out; only
+//! when every connection is busy answering is a new one answered 503 and closed. A
+//! request's head must arrive within [`Limits::read`] of the
 //! moment the server starts waiting for it and be at most [`Limits::head`] bytes (else 408
 //! or 431); its body (`Content-Length` only) at most [`Limits::body`] bytes, arriving
 //! within the same deadline (else 413 or 408); an answer must be taken by the client within
@@ -11,10 +14,10 @@
 //! only its own thread, never the others. Every error this layer answers itself is JSON
 //! `{"error": ...}`, like the API's own.
 
+use std::collections::HashMap;
 use std::io::{ErrorKind, Read, Write};
 use std::net::{TcpListener, TcpStream};
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 /// How much a client may send, and how slowly.
@@ -100,36 +103,83 @@ fn reason(status: u16) -> &'static str {
     }
 }
 
+/// The open connections: for each, a handle to close it by and, while it waits for a
+/// request, since when.
+#[derive(Default)]
+struct Open {
+    next: u64,
+    conns: HashMap<u64, (TcpStream, Option<Instant>)>,
+}
+
+/// The table of open connections, shared by the acceptor and the connections' threads.
+#[derive(Clone, Default)]
+struct Table(Arc<Mutex<Open>>);
+
+impl Table {
+    fn lock(&self) -> std::sync::MutexGuard<'_, Open> {
+        self.0.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// A slot for `stream` among at most `most`, if need be by closing the connection that
+    /// has waited longest for a request; `None` when every one is busy answering.
+    fn admit(&self, stream: &TcpStream, most: usize) -> Option<u64> {
+        let handle = stream.try_clone().ok()?;
+        let mut open = self.lock();
+        if open.conns.len() >= most {
+            let (&oldest, _) = (open.conns.iter())
+                .filter_map(|(id, (_, waiting))| waiting.map(|w| (id, w)))
+                .min_by_key(|&(_, w)| w)?;
+            if let Some((s, _)) = open.conns.remove(&oldest) {
+                let _ = s.shutdown(std::net::Shutdown::Both);
+            }
+        }
+        let id = open.next;
+        open.next += 1;
+        open.conns.insert(id, (handle, Some(Instant::now())));
+        Some(id)
+    }
+
+    /// Marks connection `id` as waiting for a request (`true`) or answering one.
+    fn waiting(&self, id: u64, waiting: bool) {
+        if let Some((_, w)) = self.lock().conns.get_mut(&id) {
+            *w = waiting.then(Instant::now);
+        }
+    }
+
+    fn close(&self, id: u64) {
+        self.lock().conns.remove(&id);
+    }
+}
+
 /// Accepts connections for ever, each on its own thread, calling `handler` for each request.
 pub fn serve<H>(listener: TcpListener, limits: Limits, handler: H)
 where
     H: Fn(&Request) -> Response + Send + Sync + 'static,
 {
     let handler = Arc::new(handler);
-    let active = Arc::new(AtomicUsize::new(0));
+    let table = Table::default();
     for stream in listener.incoming() {
         let Ok(mut stream) = stream else { continue };
-        if active.fetch_add(1, Ordering::SeqCst) >= limits.connections {
-            active.fetch_sub(1, Ordering::SeqCst);
+        let Some(id) = table.admit(&stream, limits.connections) else {
             let r = error(
                 503,
                 format!(
-                    "the server already serves {} connections; try again later",
+                    "the server is answering {} requests at once; try again later",
                     limits.connections
                 ),
             );
             let _ = write_response(&mut stream, &r, false, Instant::now() + limits.write);
             continue;
-        }
-        let (handler, count) = (handler.clone(), active.clone());
+        };
+        let (handler, t) = (handler.clone(), table.clone());
         let spawned = std::thread::Builder::new()
             .name("latticesim-http".into())
             .spawn(move || {
-                connection(stream, limits, &*handler);
-                count.fetch_sub(1, Ordering::SeqCst);
+                connection(stream, limits, &*handler, &|w| t.waiting(id, w));
+                t.close(id);
             });
         if spawned.is_err() {
-            active.fetch_sub(1, Ordering::SeqCst);
+            table.close(id);
         }
     }
 }
@@ -143,13 +193,23 @@ enum Incoming {
     Fail(Response),
 }
 
-fn connection(mut stream: TcpStream, limits: Limits, handler: &dyn Fn(&Request) -> Response) {
+/// Serves the requests of one connection; `waiting` is told when it starts waiting for a
+/// request (`true`) and when it has one to answer.
+fn connection(
+    mut stream: TcpStream,
+    limits: Limits,
+    handler: &dyn Fn(&Request) -> Response,
+    waiting: &dyn Fn(bool),
+) {
     let _ = stream.set_nodelay(true);
     // Bytes already read past the previous request (pipelining).
     let mut buf: Vec<u8> = Vec::new();
     loop {
         let deadline = Instant::now() + limits.read;
-        match read_request(&mut stream, &mut buf, &limits, deadline) {
+        waiting(true);
+        let incoming = read_request(&mut stream, &mut buf, &limits, deadline);
+        waiting(false);
+        match incoming {
             Incoming::Gone => return,
             Incoming::Fail(r) => {
                 let _ = write_response(&mut stream, &r, false, Instant::now() + limits.write);
