@@ -14,6 +14,7 @@ pub mod agents_file;
 pub mod alloc;
 mod explain;
 mod fmt;
+pub mod fuzzing;
 pub mod gen;
 pub mod lsp;
 pub mod merge;

@@ -236,6 +236,27 @@ fn checkpoints_that_cannot_be_resumed_are_refused() {
         f[57..61].copy_from_slice(&sum.to_le_bytes());
         refuse(&f, &rules, &[], "truncated");
     }
+    // A universe with its bounds out of order, a flag of 2, bounds after a flag of 0, each
+    // with the checksums made again (the first made a grid of negative size: a panic).
+    let forge = |at: usize, bytes: &[u8]| {
+        let mut f = good.clone();
+        f[at..at + bytes.len()].copy_from_slice(bytes);
+        let sum = crc32(&f[..57]);
+        f[57..61].copy_from_slice(&sum.to_le_bytes());
+        let end = f.len() - 4;
+        let sum = crc32(&f[..end]);
+        f[end..].copy_from_slice(&sum.to_le_bytes());
+        f
+    };
+    let mut inverted = vec![1u8];
+    for (lo, hi) in [(5i32, -5i32), (0, 9), (0, 0)] {
+        inverted.extend_from_slice(&lo.to_le_bytes());
+        inverted.extend_from_slice(&hi.to_le_bytes());
+    }
+    refuse(&forge(23, &inverted), &rules, &[], "a universe of");
+    refuse(&forge(23, &[2]), &rules, &[], "a universe of");
+    refuse(&forge(24, &[7]), &rules, &[], "a universe of");
+    refuse(&forge(21, &[3]), &rules, &[], "static-first 3");
     refuse(b"0,0 S00000\n", &rules, &[], "not a latticesim checkpoint");
     refuse(b"", &rules, &[], "not a latticesim checkpoint");
     let other = d.join("other.txt");

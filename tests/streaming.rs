@@ -4,9 +4,8 @@
 //! same counts and the same agents, on files with warnings (states no rule tests, agents
 //! without a state, comments, CRLF, a `U` line, 3D) and on mutated files; never a panic.
 
-use latticesim::agents_file::{load, Source};
-use latticesim_compiler::diagnostics::{not_shown_line, render_plain, to_json};
-use latticesim_compiler::{check, Checked, Input};
+use latticesim::fuzzing::{agents_of, seen, streamed, whole};
+use latticesim_compiler::diagnostics::render_plain;
 use latticesim_runtime::Lattice;
 use proptest::prelude::*;
 
@@ -21,53 +20,9 @@ const RULES: &[&str] = &[
     "up\n1\nSUP000 U***0**\nP0,0,1\n",
 ];
 
-/// Everything a user sees of a verdict: rendered diagnostics, the lines of what is not
-/// shown, JSON, counts.
-fn seen(c: &Checked) -> String {
-    let mut s = render_plain(&c.diags, &c.sources);
-    for n in &c.not_shown {
-        s += &not_shown_line(n, &c.sources);
-        s.push('\n');
-    }
-    s += &serde_json::to_string(&to_json(&c.diags, &c.sources)).unwrap();
-    s += &format!(
-        "\n{} rules, {} agents, {:?}",
-        c.rule_count, c.agent_count, c.dim
-    );
-    s
-}
-
-fn agents_of(l: &Lattice) -> Vec<([i32; 3], [u8; 5], u8)> {
-    (0..l.pos.len())
-        .map(|i| (l.pos[i], l.state[i], l.attach[i]))
-        .collect()
-}
-
-/// The agents file read as the commands read it (two threads, no lint levels).
-fn streamed(rules: &str, agents: &[u8]) -> latticesim::agents_file::Loaded {
-    load(
-        ("rules.txt", rules.as_bytes()),
-        "agents.txt",
-        Source::Bytes(agents),
-        2,
-        &Default::default(),
-    )
-    .unwrap()
-}
-
 fn same(rules: &str, agents: &[u8]) -> Result<(), TestCaseError> {
-    let l = streamed(rules, agents);
-    let whole = check(
-        Input {
-            name: "rules.txt",
-            bytes: rules.as_bytes(),
-        },
-        Some(Input {
-            name: "agents.txt",
-            bytes: agents,
-        }),
-        None,
-    );
+    let l = streamed(rules.as_bytes(), agents);
+    let whole = whole(rules.as_bytes(), agents);
     prop_assert_eq!(seen(&l.checked), seen(&whole));
     let whole_lat = whole.config.as_ref().map(Lattice::new);
     prop_assert_eq!(
@@ -182,7 +137,7 @@ fn a_warning_far_down_is_quoted_with_its_line() {
     }
     a += "500,500 SWALL0\r\n7,-3\n";
     same(RULES[0], a.as_bytes()).unwrap();
-    let l = streamed(RULES[0], a.as_bytes());
+    let l = streamed(RULES[0].as_bytes(), a.as_bytes());
     let text = render_plain(&l.checked.diags, &l.checked.sources);
     assert!(text.contains("agents.txt:20002:9"), "{text}");
     assert!(text.contains("20003 │ 7,-3"), "{text}");
@@ -194,7 +149,7 @@ fn a_warning_far_down_is_quoted_with_its_line() {
     // the walkers' pattern is matched later in the file).
     let b = format!("0,-5 SQQQQ0\n{a}");
     same(RULES[0], b.as_bytes()).unwrap();
-    let l = streamed(RULES[0], b.as_bytes());
+    let l = streamed(RULES[0].as_bytes(), b.as_bytes());
     let text = render_plain(&l.checked.diags, &l.checked.sources);
     assert!(text.contains("agents.txt:1:6"), "{text}");
     let held = l.checked.sources.text(latticesim_grammar::FileId(1));
@@ -219,7 +174,7 @@ fn a_typo_in_a_few_agents_is_fixed_in_the_agents_file() {
     }
     a += "500,500 SWALX0\r\n";
     same(RULES[0], a.as_bytes()).unwrap();
-    let l = streamed(RULES[0], a.as_bytes());
+    let l = streamed(RULES[0].as_bytes(), a.as_bytes());
     let held = l.checked.sources.text(latticesim_grammar::FileId(1));
     assert!(held.len() < 200, "read on the fast path: {held}");
     let d = &l.checked.diags;
@@ -237,5 +192,8 @@ fn a_typo_in_a_few_agents_is_fixed_in_the_agents_file() {
         fixed.splice(s..t, e.replacement.bytes());
     }
     assert_eq!(fixed, a.replace("SWALX0", "SWALK0").into_bytes());
-    assert!(streamed(RULES[0], &fixed).checked.diags.is_empty());
+    assert!(streamed(RULES[0].as_bytes(), &fixed)
+        .checked
+        .diags
+        .is_empty());
 }

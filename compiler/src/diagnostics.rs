@@ -207,16 +207,22 @@ impl Sources {
             lines += t.matches('\n').count() + (!t.ends_with('\n')) as usize;
         }
         // The whole file's end, where a label past the parts lands (on the line after the
-        // last part: the lines between are not counted).
+        // last part: the lines between are not counted); or, when the last part is the
+        // file's last line without its line end, at the end of that line (before the line
+        // end the excerpt adds), as in the whole file.
         let line = pieces
             .last()
             .map_or(1, |p| p.line + (lines - p.line_excerpt));
+        let open_tail = parts
+            .last()
+            .is_some_and(|&(at, _, t)| at + t.len() == len && !t.is_empty() && !t.ends_with('\n'));
+        let back = usize::from(open_tail);
         pieces.push(Piece {
             at: len,
-            at_excerpt: text.len(),
+            at_excerpt: text.len() - back,
             len: 0,
-            line,
-            line_excerpt: lines,
+            line: line - back,
+            line_excerpt: lines - back,
         });
         self.add_pieces(name.into(), text, Some(pieces))
     }
@@ -658,5 +664,16 @@ mod tests {
         let text = render_plain(&[d], &s);
         assert!(text.contains("agents.txt:700:6"), "{text}");
         assert!(text.contains("700 │ 5,5 ␛SB0000"), "{text}");
+        // The file's last line without a line end: its end is on that line, as in the
+        // whole file (it was placed on the line after).
+        let tail = s.excerpt(
+            "tail.txt",
+            9_003,
+            &[(0, 1, "// head\n"), (9_000, 700, "1,1")],
+        );
+        assert_eq!(s.line_col(tail, 9_003), (700, 4));
+        let mut whole = Sources::new();
+        let w = whole.add("tail.txt", "// head\n1,1");
+        assert_eq!(whole.line_col(w, 11), (2, 4));
     }
 }

@@ -390,7 +390,7 @@ impl CellIndex {
                 [0, 1, 2].map(|k| if k < coords { ul[k] } else { lo[k] }),
                 [0, 1, 2].map(|k| if k < coords { uh[k] } else { hi[k] }),
             );
-            if volume(ul, uh) <= budget {
+            if (1..=budget).contains(&volume(ul, uh)) {
                 (lo, hi) = (ul, uh);
             } else {
                 lo = [0, 1, 2].map(|k| lo[k].max(ul[k]));
@@ -399,7 +399,8 @@ impl CellIndex {
         }
         let size = [0, 1, 2].map(|k| hi[k] as i64 - lo[k] as i64 + 1);
         let volume = volume(lo, hi);
-        if volume > budget {
+        // (An empty box: agents outside a universe, which the callers refuse.)
+        if volume > budget || size.iter().any(|&s| s < 1) {
             return None;
         }
         Some(Grid::empty(lo, size))

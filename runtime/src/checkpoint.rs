@@ -426,6 +426,11 @@ fn read_header<R: Read>(
     if dim != prog.dim {
         return Err(CheckpointError::OtherRules);
     }
+    if order > 1 || static_first > 1 {
+        return Err(CheckpointError::Invalid(format!(
+            "order {order}, static-first {static_first}"
+        )));
+    }
     if order != order_byte(opts.order) {
         return Err(CheckpointError::OtherOptions(
             if order == 1 {
@@ -450,7 +455,17 @@ fn read_header<R: Read>(
         .ok()
         .filter(|&n| n <= u32::MAX as usize - 2)
         .ok_or_else(|| CheckpointError::Invalid(format!("{n} agents")))?;
-    let universe = (has_universe != 0).then_some(b);
+    // Only what the writer writes is read: a flag of 0 or 1, a universe's bounds in order,
+    // none after a flag of 0.
+    let universe = match has_universe {
+        0 if b == [(0, 0); 3] => None,
+        1 if b.iter().all(|(lo, hi)| lo <= hi) => Some(b),
+        _ => {
+            return Err(CheckpointError::Invalid(format!(
+                "a universe of {b:?} (flag {has_universe})"
+            )))
+        }
+    };
     Ok((dim, universe, n))
 }
 

@@ -236,6 +236,49 @@ impl Server {
 }
 
 /// Runs the server on standard input and output until the client says `exit`.
+/// A session over `input`, framed as an editor sends it, without a process (for the fuzz
+/// harness, `crate::fuzzing`): each frame read as [`run`] reads it and handled; what
+/// happened, in words.
+pub fn replay(input: &[u8]) -> Vec<String> {
+    let mut r = std::io::BufReader::new(input);
+    let mut server = Server::new();
+    let mut seen = Vec::new();
+    loop {
+        match frame::read(&mut r) {
+            Ok(None) => break,
+            Err(e) => {
+                seen.push(format!("ended: {:?}", e.kind()));
+                break;
+            }
+            Ok(Some(frame::Frame::Refused(code, _))) => seen.push(format!("refused {code}")),
+            Ok(Some(frame::Frame::Message(m))) => {
+                let what = match &m {
+                    Message::Request(r) => r.method.clone(),
+                    Message::Notification(n) => n.method.clone(),
+                    Message::Response(_) => "a response".into(),
+                };
+                for reply in server.handle(m) {
+                    seen.push(match reply {
+                        Message::Response(Response { error: Some(e), .. }) => {
+                            format!("error {}", e.code)
+                        }
+                        Message::Notification(n) => {
+                            let codes = (n.params["diagnostics"].as_array())
+                                .into_iter()
+                                .flatten()
+                                .filter_map(|d| d["code"].as_str())
+                                .collect::<std::collections::BTreeSet<_>>();
+                            format!("{what}: {} {codes:?}", n.method)
+                        }
+                        _ => format!("answered {what}"),
+                    });
+                }
+            }
+        }
+    }
+    seen
+}
+
 pub fn run() -> ExitCode {
     let (connection, reader, writer) = frame::stdio();
     let caps = serde_json::to_value(capabilities()).expect("capabilities are plain data");

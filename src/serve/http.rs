@@ -38,6 +38,56 @@ pub struct Limits {
     pub connections: usize,
 }
 
+/// What a connection reads from and writes to: a TCP stream, or bytes in memory (the
+/// fuzz harness's).
+pub(crate) trait Wire: Read + Write {
+    /// Reads wait at most this long.
+    fn read_timeout(&mut self, t: Duration) -> std::io::Result<()>;
+    /// Writes wait at most this long.
+    fn write_timeout(&mut self, t: Duration) -> std::io::Result<()>;
+}
+
+impl Wire for TcpStream {
+    fn read_timeout(&mut self, t: Duration) -> std::io::Result<()> {
+        self.set_read_timeout(Some(t))
+    }
+    fn write_timeout(&mut self, t: Duration) -> std::io::Result<()> {
+        self.set_write_timeout(Some(t))
+    }
+}
+
+/// A connection in memory: it reads `input` and keeps what is written (the fuzz
+/// harness's; see `crate::fuzzing`).
+pub(crate) struct Memory<'a> {
+    pub(crate) input: &'a [u8],
+    pub(crate) output: Vec<u8>,
+}
+
+impl Read for Memory<'_> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        self.input.read(buf)
+    }
+}
+
+impl Write for Memory<'_> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.output.extend_from_slice(buf);
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+impl Wire for Memory<'_> {
+    fn read_timeout(&mut self, _: Duration) -> std::io::Result<()> {
+        Ok(())
+    }
+    fn write_timeout(&mut self, _: Duration) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
 /// A whole request as received.
 pub struct Request {
     /// `GET`, `POST`, ...
@@ -171,11 +221,12 @@ where
             let _ = write_response(&mut stream, &r, false, Instant::now() + limits.write);
             continue;
         };
+        let _ = stream.set_nodelay(true);
         let (handler, t) = (handler.clone(), table.clone());
         let spawned = std::thread::Builder::new()
             .name("latticesim-http".into())
             .spawn(move || {
-                connection(stream, limits, &*handler, &|w| t.waiting(id, w));
+                connection(&mut stream, limits, &*handler, &|w| t.waiting(id, w));
                 t.close(id);
             });
         if spawned.is_err() {
@@ -195,24 +246,23 @@ enum Incoming {
 
 /// Serves the requests of one connection; `waiting` is told when it starts waiting for a
 /// request (`true`) and when it has one to answer.
-fn connection(
-    mut stream: TcpStream,
+pub(crate) fn connection(
+    stream: &mut impl Wire,
     limits: Limits,
     handler: &dyn Fn(&Request) -> Response,
     waiting: &dyn Fn(bool),
 ) {
-    let _ = stream.set_nodelay(true);
     // Bytes already read past the previous request (pipelining).
     let mut buf: Vec<u8> = Vec::new();
     loop {
         let deadline = Instant::now() + limits.read;
         waiting(true);
-        let incoming = read_request(&mut stream, &mut buf, &limits, deadline);
+        let incoming = read_request(stream, &mut buf, &limits, deadline);
         waiting(false);
         match incoming {
             Incoming::Gone => return,
             Incoming::Fail(r) => {
-                let _ = write_response(&mut stream, &r, false, Instant::now() + limits.write);
+                let _ = write_response(stream, &r, false, Instant::now() + limits.write);
                 return;
             }
             Incoming::Request(req, keep) => {
@@ -228,8 +278,7 @@ fn connection(
                 } else {
                     r
                 };
-                if write_response(&mut stream, &r, keep, Instant::now() + limits.write).is_err()
-                    || !keep
+                if write_response(stream, &r, keep, Instant::now() + limits.write).is_err() || !keep
                 {
                     return;
                 }
@@ -272,11 +321,11 @@ fn compressed(req: &Request, mut r: Response) -> Response {
 
 /// One read into `buf`, of what is waiting (at least one byte), never past `max` bytes in
 /// all; false at the deadline, an error or the end of the stream.
-fn read_some(stream: &mut TcpStream, buf: &mut Vec<u8>, max: usize, deadline: Instant) -> bool {
+fn read_some(stream: &mut impl Wire, buf: &mut Vec<u8>, max: usize, deadline: Instant) -> bool {
     let mut chunk = [0u8; 16 * 1024];
     loop {
         let left = deadline.saturating_duration_since(Instant::now());
-        if left.is_zero() || stream.set_read_timeout(Some(left)).is_err() {
+        if left.is_zero() || stream.read_timeout(left).is_err() {
             return false;
         }
         let cap = chunk.len().min(max.saturating_sub(buf.len())).max(1);
@@ -293,7 +342,7 @@ fn read_some(stream: &mut TcpStream, buf: &mut Vec<u8>, max: usize, deadline: In
 }
 
 /// Reads into `buf` until it holds at least `want` bytes; false as [`read_some`].
-fn fill(stream: &mut TcpStream, buf: &mut Vec<u8>, want: usize, deadline: Instant) -> bool {
+fn fill(stream: &mut impl Wire, buf: &mut Vec<u8>, want: usize, deadline: Instant) -> bool {
     while buf.len() < want {
         if !read_some(stream, buf, want, deadline) {
             return false;
@@ -305,7 +354,7 @@ fn fill(stream: &mut TcpStream, buf: &mut Vec<u8>, want: usize, deadline: Instan
 /// Reads one request from `stream` (with what `buf` holds already; what follows it stays
 /// in `buf`), within `limits` and by `deadline`.
 fn read_request(
-    stream: &mut TcpStream,
+    stream: &mut impl Wire,
     buf: &mut Vec<u8>,
     limits: &Limits,
     deadline: Instant,
@@ -351,7 +400,7 @@ fn read_request(
         && get("expect").is_some_and(|e| e.eq_ignore_ascii_case("100-continue"))
         && buf.len() == head_end
     {
-        let _ = stream.set_write_timeout(Some(limits.write));
+        let _ = stream.write_timeout(limits.write);
         let _ = stream.write_all(b"HTTP/1.1 100 Continue\r\n\r\n");
     }
     let end = head_end + length;
@@ -380,7 +429,7 @@ fn read_request(
 /// Reads into `buf` up to the blank line that ends the request's head, at most
 /// `limits.head` bytes; where the head ends.
 fn read_head(
-    stream: &mut TcpStream,
+    stream: &mut impl Wire,
     buf: &mut Vec<u8>,
     limits: &Limits,
     deadline: Instant,
@@ -485,7 +534,7 @@ fn find_blank_line(buf: &[u8], from: usize) -> Option<usize> {
 
 /// Writes an answer in pieces, each within what is left of `deadline`.
 fn write_response(
-    stream: &mut TcpStream,
+    stream: &mut impl Wire,
     r: &Response,
     keep: bool,
     deadline: Instant,
@@ -508,7 +557,7 @@ fn write_response(
             if left.is_zero() {
                 return Err(ErrorKind::TimedOut.into());
             }
-            stream.set_write_timeout(Some(left))?;
+            stream.write_timeout(left)?;
             stream.write_all(chunk)?;
         }
     }

@@ -103,14 +103,56 @@ fn reply_json<T: Serialize>(status: u16, v: &T) -> Reply {
     }
 }
 
+/// A request target's path and its query's `key=value` pairs.
+fn path_and_query(target: &str) -> (&str, HashMap<&str, &str>) {
+    let (path, query) = target.split_once('?').unwrap_or((target, ""));
+    let query = (query.split('&'))
+        .filter_map(|kv| kv.split_once('='))
+        .collect();
+    (path, query)
+}
+
+/// The transport and the gate over `input` as one connection sends it, each request that
+/// passes answered 200 (for the fuzz harness, `crate::fuzzing`): the statuses answered.
+pub(crate) fn replay(input: &[u8]) -> Vec<String> {
+    let token = "0123456789abcdef0123456789abcdef";
+    let gate = Gate::new(
+        token.into(),
+        SocketAddr::from(([127, 0, 0, 1], 8321)),
+        "127.0.0.1",
+    );
+    let handler = |r: &http::Request| {
+        let (path, query) = path_and_query(&r.target);
+        match gate.admit(r, path, &query) {
+            Ok(_) => reply_json(200, &json!({ "path": path, "bytes": r.body.len() })),
+            Err(reply) => reply,
+        }
+    };
+    let limits = http::Limits {
+        body: 64 << 10,
+        ..LIMITS
+    };
+    let mut wire = http::Memory {
+        input,
+        output: Vec::new(),
+    };
+    http::connection(&mut wire, limits, &handler, &|_| {});
+    // The statuses at the start of each answer (after the last one's JSON body, or after
+    // a `100 Continue`), not those quoted in a body.
+    let out = &wire.output;
+    (0..out.len())
+        .filter(|&i| out[i..].starts_with(b"HTTP/1.1 "))
+        .filter(|&i| i == 0 || out[..i].ends_with(b"}") || out[..i].ends_with(b"\r\n\r\n"))
+        .filter_map(|i| out.get(i + 9..i + 12))
+        .filter(|s| s.iter().all(u8::is_ascii_digit))
+        .map(|s| format!("status {}", String::from_utf8_lossy(s)))
+        .collect()
+}
+
 /// Answers one request: the gate, then a new tab (`POST /api/tab`), or the handler of the
 /// request's session (its tab's, or the default one) under that session's lock.
 fn answer(gate: &Gate, tabs: &Tabs, r: &http::Request) -> Reply {
-    let (path, query) = r.target.split_once('?').unwrap_or((&r.target, ""));
-    let query: HashMap<&str, &str> = query
-        .split('&')
-        .filter_map(|kv| kv.split_once('='))
-        .collect();
+    let (path, query) = path_and_query(&r.target);
     let extra = match gate.admit(r, path, &query) {
         Ok(h) => h,
         Err(reply) => return reply,
