@@ -5,6 +5,7 @@
 //! plotters; PNG (resvg) and PDF (svg2pdf) are made from the SVG, chosen by the file's name.
 
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 use statrs::distribution::{ContinuousCDF, StudentsT};
 use std::path::Path;
 
@@ -124,18 +125,125 @@ fn integer(v: &f64) -> String {
     format!("{sign}{out}")
 }
 
-/// A log axis's label: only 1, 2 and 5 times a power of ten are written (10, 20, 50,
-/// 100, ...), so that labels never crowd; the other grid lines stay unlabelled.
-fn tick(v: &f64) -> String {
-    let r = v.round() as i64;
-    let d = r.unsigned_abs().to_string();
-    let round = d[1..].bytes().all(|b| b == b'0');
-    if r != 0 && round && matches!(d.as_bytes()[0], b'1' | b'2' | b'5') {
-        integer(v)
-    } else {
-        String::new()
+/// A value as a tick label: integers with thin spaces between thousands, values below 1
+/// with the decimals they need (`0.05`).
+fn number(v: f64) -> String {
+    if v >= 1.0 {
+        return integer(&v);
     }
+    let decimals = (-v.log10()).ceil().max(0.0) as usize;
+    format!("{v:.decimals$}")
 }
+
+/// One grid line of a log axis: its value, whether it is a power of ten (drawn darker:
+/// the others are the minor lines), and its label, if it has one.
+#[derive(Debug, PartialEq)]
+struct GridLine {
+    v: f64,
+    major: bool,
+    label: Option<String>,
+}
+
+/// The grid of a log axis from `lo` to `hi`: a line at each 1..9 times a power of ten,
+/// labelled at 1, 2 and 5 times one (at powers of ten alone when that would crowd, every
+/// other one past eight), and at every line when fewer than two would be labelled, so
+/// that every axis has labels. Each value once (plotters' own log axis could draw 100
+/// twice).
+fn grid(lo: f64, hi: f64) -> Vec<GridLine> {
+    let mut lines: Vec<(f64, u32, i32)> = Vec::new();
+    if !(lo > 0.0 && hi > lo && hi.is_finite()) {
+        return Vec::new();
+    }
+    for k in lo.log10().floor() as i32..=hi.log10().ceil() as i32 {
+        for m in 1..=9 {
+            // Written out, not multiplied, so that 3 x 10^-1 is exactly 0.3.
+            let v: f64 = format!("{m}e{k}").parse().expect("a number");
+            if v >= lo && v <= hi {
+                lines.push((v, m, k));
+            }
+        }
+    }
+    let labelled =
+        |keep: &dyn Fn(u32, i32) -> bool| lines.iter().filter(|l| keep(l.1, l.2)).count();
+    let decades = labelled(&|m, _| m == 1);
+    let keep: Box<dyn Fn(u32, i32) -> bool> = if labelled(&|m, _| matches!(m, 1 | 2 | 5)) < 2 {
+        Box::new(|_, _| true)
+    } else if labelled(&|m, _| matches!(m, 1 | 2 | 5)) <= 8 {
+        Box::new(|m, _| matches!(m, 1 | 2 | 5))
+    } else if decades <= 8 {
+        Box::new(|m, _| m == 1)
+    } else {
+        Box::new(|m, k| m == 1 && k % 2 == 0)
+    };
+    (lines.iter())
+        .map(|&(v, m, k)| GridLine {
+            v,
+            major: m == 1,
+            label: keep(m, k).then(|| number(v)),
+        })
+        .collect()
+}
+
+/// The figure's SVG made as it should look where plotters cannot say it: the reference
+/// slopes (drawn in [`REF_COLOURS`]) dashed as one smooth path, in the legend too, and
+/// exponents (`n^0.39`) set as superscripts.
+fn finish(svg: &str) -> String {
+    let mut out = svg.to_string();
+    for c in REF_COLOURS {
+        let stroke = format!("stroke=\"#{:02X}{:02X}{:02X}\"", c.0, c.1, c.2);
+        out = out.replace(&stroke, &format!("{stroke} stroke-dasharray=\"7 4\""));
+    }
+    superscripts(&out)
+}
+
+/// Each `^` followed by an exponent (`-0.5`, `1.18`) inside text set as a superscript.
+fn superscripts(svg: &str) -> String {
+    let mut out = String::with_capacity(svg.len());
+    let mut in_text = false;
+    let mut rest = svg;
+    while let Some(i) = rest.find(['<', '^']) {
+        out.push_str(&rest[..i]);
+        rest = &rest[i..];
+        if rest.starts_with('<') {
+            let end = rest.find('>').map_or(rest.len(), |e| e + 1);
+            let tag = &rest[..end];
+            if tag.starts_with("<text") {
+                in_text = true;
+            } else if tag.starts_with("</text") {
+                in_text = false;
+            }
+            out.push_str(tag);
+            rest = &rest[end..];
+            continue;
+        }
+        // A `^`: its exponent runs over an optional minus, digits and a point.
+        let body = &rest[1..];
+        let len = body
+            .char_indices()
+            .take_while(|&(k, c)| c.is_ascii_digit() || c == '.' || (k == 0 && c == '-'))
+            .count();
+        let exp = body[..len].trim_end_matches('.');
+        if in_text && exp.bytes().any(|b| b.is_ascii_digit()) {
+            out.push_str(&format!(
+                "<tspan baseline-shift=\"super\" font-size=\"75%\">{exp}</tspan>"
+            ));
+            rest = &body[exp.len()..];
+        } else {
+            out.push('^');
+            rest = body;
+        }
+    }
+    out.push_str(rest);
+    out
+}
+
+/// The colours of the reference slopes (each dashed by [`finish`]; no other element is
+/// drawn in them).
+const REF_COLOURS: [RGBColor; 3] = [
+    RGBColor(90, 90, 91),
+    RGBColor(140, 140, 141),
+    RGBColor(60, 140, 61),
+];
 
 /// Panel size in pixels.
 const PANEL: (u32, u32) = (560, 400);
@@ -164,7 +272,7 @@ pub(crate) fn svg(title: &str, panels: &[Panel], refs: &[Reference]) -> Result<S
         }
         root.present().map_err(e)?;
     }
-    Ok(out)
+    Ok(finish(&out))
 }
 
 /// Per n (ascending) of the points above zero: n, the smallest value, the mean, the
@@ -221,16 +329,66 @@ fn draw_panel(
             (xmin / 1.3..xmax * 1.3).log_scale(),
             (ymin / 2.0..ymax * 2.0).log_scale(),
         )?;
+    let (xr, yr) = ((xmin / 1.3, xmax * 1.3), (ymin / 2.0, ymax * 2.0));
+    // The axes and their names from plotters; the grid and its labels drawn here.
     chart
         .configure_mesh()
+        .disable_mesh()
         .x_desc("agents n")
         .y_desc(p.name)
-        .x_labels(12)
-        .y_labels(12)
-        .x_label_formatter(&tick)
-        .y_label_formatter(&tick)
-        .light_line_style(TRANSPARENT)
+        .x_labels(0)
+        .y_labels(0)
+        .x_label_formatter(&|_| String::new())
+        .y_label_formatter(&|_| String::new())
         .draw()?;
+    let (xs, ys) = (grid(xr.0, xr.1), grid(yr.0, yr.1));
+    let shade = |major: bool| {
+        if major {
+            RGBColor(190, 190, 190)
+        } else {
+            RGBColor(232, 232, 232)
+        }
+    };
+    let label = ("sans-serif", 13).into_font().color(&BLACK);
+    // The minor lines first, the major ones over them.
+    for major in [false, true] {
+        for l in xs.iter().filter(|l| l.major == major) {
+            let line = [(l.v, yr.0), (l.v, yr.1)];
+            chart.draw_series(LineSeries::new(line, shade(l.major).stroke_width(1)))?;
+        }
+        for l in ys.iter().filter(|l| l.major == major) {
+            let line = [(xr.0, l.v), (xr.1, l.v)];
+            chart.draw_series(LineSeries::new(line, shade(l.major).stroke_width(1)))?;
+        }
+    }
+    // Where the panel is on the figure (the chart's coordinates are the figure's).
+    let (bx, by) = area.get_base_pixel();
+    let at = |x: f64, y: f64| {
+        let (px, py) = chart.backend_coord(&(x, y));
+        (px - bx, py - by)
+    };
+    for l in &xs {
+        if let Some(t) = &l.label {
+            let (x, y) = at(l.v, yr.0);
+            let style = label.pos(Pos::new(HPos::Center, VPos::Top));
+            area.draw(&PathElement::new(
+                [(x, y), (x, y + 5)],
+                BLACK.stroke_width(1),
+            ))?;
+            area.draw(&Text::new(t.clone(), (x, y + 8), style))?;
+        }
+    }
+    for l in &ys {
+        if let Some(t) = &l.label {
+            let (x, y) = at(xr.0, l.v);
+            let style = label.pos(Pos::new(HPos::Right, VPos::Center));
+            area.draw(&PathElement::new(
+                [(x - 5, y), (x, y)],
+                BLACK.stroke_width(1),
+            ))?;
+            area.draw(&Text::new(t.clone(), (x - 8, y), style))?;
+        }
+    }
     let blue = RGBColor(31, 94, 168);
     // Every run, faint.
     chart.draw_series(
@@ -262,24 +420,24 @@ fn draw_panel(
             .label(format!("fit: {} (95 %, {} runs)", f.text(), f.k))
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], red.stroke_width(2)));
     }
-    // Reference slopes through the first mean.
+    // Reference slopes through the first mean: one path each (two points for a power
+    // law, a straight line here), dashed by `finish`.
     if let Some(&(n0, _, m0, _)) = stats.first() {
-        let greys = [
-            RGBColor(90, 90, 90),
-            RGBColor(140, 140, 140),
-            RGBColor(60, 140, 60),
-        ];
-        for (r, &grey) in refs.iter().zip(greys.iter().cycle()) {
+        for (r, &grey) in refs.iter().zip(REF_COLOURS.iter().cycle()) {
             let scale = m0 / r.at(n0);
-            let pts: Vec<(f64, f64)> = (0..=40)
+            let mut pts: Vec<(f64, f64)> = (0..=200)
                 .map(|i| {
-                    let x = xmin * (xmax / xmin).powf(i as f64 / 40.0);
+                    let x = xmin * (xmax / xmin).powf(i as f64 / 200.0);
                     (x, scale * r.at(x))
                 })
-                .filter(|q| q.1 >= ymin / 2.0 && q.1 <= ymax * 2.0)
+                .filter(|q| q.1 >= yr.0 && q.1 <= yr.1)
                 .collect();
+            if !r.log && pts.len() > 2 {
+                // A power law is straight on these axes: its ends alone.
+                pts = vec![pts[0], pts[pts.len() - 1]];
+            }
             chart
-                .draw_series(DashedLineSeries::new(pts, 6, 4, grey.stroke_width(1)))?
+                .draw_series(std::iter::once(PathElement::new(pts, grey.stroke_width(1))))?
                 .label(format!("∝ {}", r.label))
                 .legend(move |(x, y)| {
                     PathElement::new([(x, y), (x + 20, y)], grey.stroke_width(1))
@@ -412,12 +570,39 @@ mod tests {
             (10.0, 0.0),
         ];
         assert_eq!(per_n(&pts), [(10.0, 1.0, 2.0, 3.0), (20.0, 4.0, 6.0, 8.0)]);
-        let ticks: Vec<String> = [10.0, 20.0, 30.0, 50.0, 90.0, 100.0, 250.0, 5000.0]
-            .iter()
-            .map(tick)
-            .collect();
-        assert_eq!(ticks, ["10", "20", "", "50", "", "100", "", "5\u{2009}000"]);
+        let labels =
+            |lo, hi| -> Vec<String> { grid(lo, hi).into_iter().filter_map(|l| l.label).collect() };
+        // 1, 2 and 5 times powers of ten, each once (100 was labelled twice).
+        assert_eq!(labels(7.0, 400.0), ["10", "20", "50", "100", "200"]);
+        let g = grid(7.0, 400.0);
+        assert_eq!(g.len(), 3 + 9 + 4);
+        assert_eq!(g.iter().filter(|l| l.major).count(), 2);
+        // A narrow axis is labelled at every line; a wide one at powers of ten, every
+        // other one past eight.
+        assert_eq!(labels(31.0, 95.0), ["40", "50", "60", "70", "80", "90"]);
+        assert_eq!(labels(1.0, 1e6).len(), 7);
+        assert_eq!(
+            labels(1.0, 1e12),
+            [
+                "1",
+                "100",
+                "10\u{2009}000",
+                "1\u{2009}000\u{2009}000",
+                "100\u{2009}000\u{2009}000",
+                "10\u{2009}000\u{2009}000\u{2009}000",
+                "1\u{2009}000\u{2009}000\u{2009}000\u{2009}000"
+            ]
+        );
+        assert_eq!(labels(0.004, 0.03), ["0.005", "0.01", "0.02"]);
+        assert!(grid(0.0, 10.0).is_empty() && grid(5.0, 5.0).is_empty());
         assert_eq!(integer(&-1000.0), "-1\u{2009}000");
+        // Exponents as superscripts in text only; reference slopes dashed.
+        let svg = "<text x=\"1\">fit: n^0.39 ± 0.06, n^-1 log n, a^b</text><path d=\"n^2\"/>";
+        assert_eq!(
+            superscripts(svg),
+            "<text x=\"1\">fit: n<tspan baseline-shift=\"super\" font-size=\"75%\">0.39</tspan> ± 0.06, n<tspan baseline-shift=\"super\" font-size=\"75%\">-1</tspan> log n, a^b</text><path d=\"n^2\"/>"
+        );
+        assert!(finish("<polyline stroke=\"#5A5A5B\"/>").contains("stroke-dasharray"));
         assert_eq!(format_of(Path::new("a/b.PDF")), Some("pdf"));
         assert_eq!(format_of(Path::new("b.png")), Some("png"));
         assert_eq!(format_of(Path::new("b.jpg")), None);

@@ -503,8 +503,8 @@ fn sweep_writes_csv_and_plot() {
     resvg::usvg::Tree::from_str(&svg_text, &resvg::usvg::Options::default())
         .expect("the SVG parses");
     assert!(
-        svg_text.contains("fit: n^"),
-        "the fit and its exponent are labelled"
+        svg_text.contains("fit: n<tspan baseline-shift=\"super\""),
+        "the fit and its exponent (a superscript) are labelled"
     );
     assert!(svg_text.contains("agents n"), "the axis is labelled");
     // Another name is refused before any run.
