@@ -31,6 +31,28 @@ echo "@@files"; ls -A "$D"
 echo "@@old"; cat "$D/$name"
 "#;
 
+/// Run as `bash -c VIEWER_SAVE _ DIR BIN ROOT NAME`: starts `latticesim serve` on the
+/// gravity example in DIR, saves NAME through the viewer's file API, stops the server, and
+/// prints the answer's body on stderr; exit 0 for 200, else 2.
+const VIEWER_SAVE: &str = r#"
+set -u
+D=$1; BIN=$2; R=$3; name=$4
+cd "$D"
+exec 3< <(exec "$BIN" serve "$R/examples/gravity/rules.txt" "$R/examples/gravity/agents.txt" --port 0 2>&1)
+pid=$!
+read -r -t 20 line <&3
+url=$(grep -o 'http://[^ ]*' <<<"$line")
+base=${url%%\?*}
+token=${url#*token=}
+out=$(curl -s -m 20 -w '\n%{http_code}' -H "X-Latticesim-Token: $token" \
+  -H 'Content-Type: application/json' \
+  --data '{"path":"'"$name"'","text":"new text\n"}' "${base%/}/api/file")
+kill "$pid" 2>/dev/null
+code=${out##*$'\n'}
+printf '%s\n' "${out%$'\n'*}" >&2
+[ "$code" = 200 ] && exit 0 || exit 2
+"#;
+
 fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
 }
@@ -42,13 +64,13 @@ fn scratch() -> PathBuf {
     d
 }
 
-/// Runs `args` (with `@D@` for the full directory) so that it writes `name` there; `None`
-/// where no private tmpfs can be mounted.
-fn on_full_disk(name: &str, args: &[&str]) -> Option<String> {
+/// Runs the command `cmd` (with `@D@` for the full directory) so that it writes `name`
+/// there; `None` where no private tmpfs can be mounted.
+fn on_full_disk(name: &str, cmd: &[&str]) -> Option<String> {
     let out = Command::new("unshare")
         .arg("-rm")
-        .args(["bash", "-c", SCRIPT, "_", name, BIN])
-        .args(args)
+        .args(["bash", "-c", SCRIPT, "_", name])
+        .args(cmd)
         .current_dir(root())
         .output()
         .ok()?;
@@ -73,11 +95,18 @@ fn section<'a>(text: &'a str, marker: &str) -> &'a str {
     rest.find("\n@@").map_or(rest, |end| &rest[..end]).trim()
 }
 
+/// `latticesim ARGS` writing `name` on a full disk fails cleanly (false where it cannot be
+/// tried).
 fn check(name: &str, args: &[&str]) -> bool {
-    let Some(text) = on_full_disk(name, args) else {
+    check_command(name, &[&[BIN], args].concat())
+}
+
+/// The command `cmd` writing `name` on a full disk fails cleanly.
+fn check_command(name: &str, cmd: &[&str]) -> bool {
+    let Some(text) = on_full_disk(name, cmd) else {
         return false;
     };
-    let what = format!("{name} by {args:?}:\n{text}");
+    let what = format!("{name} by {cmd:?}:\n{text}");
     assert_eq!(section(&text, "@@exit"), "2", "{what}");
     let stderr = section(&text, "@@stderr");
     assert!(
@@ -206,9 +235,28 @@ fn every_writer_on_a_full_disk_fails_cleanly() {
         }
         checked += 1;
     }
+    // The viewer's save: `POST /api/file` with a text, to a server whose working folder
+    // is the full one; the answer's error is the message (exit 2 for any status but 200).
+    if checked == cases.len()
+        && check_command(
+            "v.txt",
+            &[
+                "bash",
+                "-c",
+                VIEWER_SAVE,
+                "_",
+                "@D@",
+                BIN,
+                root().to_str().unwrap(),
+                "v.txt",
+            ],
+        )
+    {
+        checked += 1;
+    }
     eprintln!(
         "{checked} of {} writers checked on a full disk",
-        cases.len()
+        cases.len() + 1
     );
     let _ = std::fs::remove_dir_all(&s);
 }
