@@ -15,6 +15,8 @@ pub struct DimSource {
     pub why: String,
     /// Where that is written, if in a file.
     pub label: Option<Label>,
+    /// For the rules' own terms: how many of their deciding terms agree (else 0).
+    pub agreeing: usize,
 }
 
 impl DimSource {
@@ -48,6 +50,7 @@ pub fn from_agents(f: &AgentsFile<'_>, file: FileId) -> Option<DimSource> {
                 u.span,
                 format!("{} because of this universe line", dim.name()),
             )),
+            agreeing: 0,
         });
     }
     let a = f.agents.first()?;
@@ -64,6 +67,7 @@ pub fn from_agents(f: &AgentsFile<'_>, file: FileId) -> Option<DimSource> {
             span,
             format!("{} because of this position", dim.name()),
         )),
+        agreeing: 0,
     })
 }
 
@@ -73,6 +77,7 @@ pub fn from_flag(dim: Dim) -> DimSource {
         dim,
         why: format!("--dim {} was given", dim.coords()),
         label: None,
+        agreeing: 0,
     }
 }
 
@@ -82,6 +87,7 @@ pub fn default_2d() -> DimSource {
         dim: Dim::Two,
         why: "no term decides the dimension, so 2D is assumed".into(),
         label: None,
+        agreeing: 0,
     }
 }
 
@@ -121,6 +127,44 @@ pub fn reconcile(
         (Some(f), _) => Some(from_flag(f)),
         (None, a) => a,
     }
+}
+
+/// The agents file against the rules' own terms, when at least two of them say the other
+/// dimension (a single term of the other dimension is that term's error, with its fix):
+/// one E301 on the agents file, the rules' deciding term beside it. The rules are then read
+/// in their own dimension and the agents file in its own, so that a wrong pairing costs
+/// this one error, not one per term.
+pub fn mismatch(agents: &DimSource, rules: &DimSource) -> Option<Diagnostic> {
+    if rules.dim == agents.dim || rules.agreeing < 2 {
+        return None;
+    }
+    let l = agents.label.as_ref()?;
+    let mut d = Diagnostic::new(
+        Code::E301,
+        format!(
+            "the agents file is {}, but the rules are {}",
+            agents.dim.name(),
+            rules.dim.name()
+        ),
+        Label::new(
+            l.file,
+            l.span,
+            format!("this makes the agents file {}", agents.dim.name()),
+        ),
+    )
+    .with_help(format!(
+        "pair these rules with a {} agents file, or write them for {} ({})",
+        rules.dim.name(),
+        agents.dim.name(),
+        match agents.dim {
+            Dim::Three => "patterns of 6 characters, offsets of 3 coordinates",
+            Dim::Two => "patterns of 4 characters, offsets of 2 coordinates",
+        }
+    ));
+    if let Some(r) = rules.secondary() {
+        d = d.with_secondary(r);
+    }
+    Some(d)
 }
 
 fn evidence<'a>(t: &Spanned<Term<'a>>, src: &str) -> Option<(Dim, Span, String)> {
@@ -235,5 +279,6 @@ pub fn from_rules(f: &RulesFile<'_>, file: FileId, src: &str) -> Option<DimSourc
             dim.name()
         ),
         label: Some(Label::new(file, span, format!("{} because of this term", dim.name()))),
+        agreeing: agree,
     })
 }

@@ -232,6 +232,7 @@ fn states_warnings(
         out.extend(idle.into_iter().map(|d| d.diag));
         return out;
     }
+    let spelled = never::spelled(ast);
     for n in never {
         let p = never::pat(n.pattern.node).expect("a pattern of five characters");
         let near = idle
@@ -250,7 +251,7 @@ fn states_warnings(
                 },
             }
         });
-        out.push(never::diagnostic(&n, rid, seen_idle, ast));
+        out.push(never::diagnostic(&n, rid, seen_idle, &spelled));
     }
     out.extend(idle.into_iter().map(|d| d.diag));
     out
@@ -321,7 +322,31 @@ pub fn check_with(
     let hint = fixed.as_ref().map(|d| d.dim.coords() as u8);
     let (mut ast, mut parse_diags) = parse_rules(text, rid, &arena, hint);
     let dim_src = match fixed {
-        Some(d) => d,
+        // The agents file decides, unless the rules' own terms say the other dimension:
+        // then the two are not a pair (one E301) and each is read in its own.
+        Some(d) if dim.is_none() => {
+            let own = dim::from_rules(&ast, rid, text);
+            match own.as_ref().and_then(|own| dim::mismatch(&d, own)) {
+                Some(e) => {
+                    diags.push(e);
+                    let own = own.expect("a mismatch has the rules' dimension");
+                    let hint = Some(own.dim.coords() as u8);
+                    (ast, parse_diags) = parse_rules(text, rid, &arena, hint);
+                    own
+                }
+                None => d,
+            }
+        }
+        // `--dim` against the agents file (E301 said): the agents file wins, unless the
+        // rules' own terms side with the flag.
+        Some(d) => match dim::from_rules(&ast, rid, text) {
+            Some(own) if own.dim != d.dim && own.agreeing >= 2 => {
+                let hint = Some(own.dim.coords() as u8);
+                (ast, parse_diags) = parse_rules(text, rid, &arena, hint);
+                own
+            }
+            _ => d,
+        },
         None => {
             let d = dim::from_rules(&ast, rid, text).unwrap_or_else(dim::default_2d);
             if t_arity_mismatch(&ast, d.dim) {

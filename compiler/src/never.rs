@@ -122,22 +122,28 @@ pub(crate) fn never<'a>(rules: &RulesFile<'a>, start: &[[u8; 5]]) -> Vec<Never<'
     out
 }
 
-/// How many times the rules write the state `name` in full: in `S` and `T` patterns
-/// (negated too) and `S` actions.
-pub(crate) fn spelled(rules: &RulesFile<'_>, name: &str) -> usize {
-    fn walk(terms: &[Spanned<Term<'_>>], name: &str) -> usize {
-        (terms.iter())
-            .map(|t| match t.node {
-                Term::State(s) | Term::RemoteState { state: s, .. } => (s.node == name) as usize,
-                Term::Group(ts) => walk(ts, name),
-                Term::Not(t) => walk(std::slice::from_ref(t), name),
-                _ => 0,
-            })
-            .sum()
+/// How many times the rules write each state in full: in `S` and `T` patterns (negated
+/// too) and `S` actions. Counted once for the file (a walk per pattern was quadratic: 5,005
+/// generated rules took a second).
+pub(crate) fn spelled<'a>(rules: &RulesFile<'a>) -> std::collections::HashMap<&'a str, usize> {
+    fn walk<'a>(terms: &[Spanned<Term<'a>>], out: &mut std::collections::HashMap<&'a str, usize>) {
+        for t in terms {
+            match t.node {
+                Term::State(s) | Term::RemoteState { state: s, .. } => {
+                    *out.entry(s.node).or_default() += 1
+                }
+                Term::Group(ts) => walk(ts, out),
+                Term::Not(t) => walk(std::slice::from_ref(t), out),
+                _ => {}
+            }
+        }
     }
-    (rules.rules.iter())
-        .map(|r| walk(r.pre.node, name) + walk(r.post.node, name))
-        .sum()
+    let mut out = std::collections::HashMap::new();
+    for r in &rules.rules {
+        walk(r.pre.node, &mut out);
+        walk(r.post.node, &mut out);
+    }
+    out
 }
 
 /// Where agents start in a state near a pattern that matches nothing: the same slip seen
@@ -159,7 +165,7 @@ pub(crate) fn diagnostic(
     n: &Never<'_>,
     file: FileId,
     idle: Option<Idle>,
-    rules: &RulesFile<'_>,
+    spelled: &std::collections::HashMap<&str, usize>,
 ) -> Diagnostic {
     let what = if n.is_remote {
         "no neighbour can ever be in a state it matches"
@@ -184,7 +190,7 @@ pub(crate) fn diagnostic(
     if let Some(l) = label {
         d = d.with_secondary(l);
     }
-    let meant = spelled(rules, n.pattern.node) > 1;
+    let meant = spelled.get(n.pattern.node).is_some_and(|&k| k > 1);
     if let (Some(s), false) = (n.nearest, meant) {
         let s = String::from_utf8_lossy(&s).into_owned();
         d = d.with_fix(Fix::replace(

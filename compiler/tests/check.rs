@@ -346,3 +346,33 @@ fn root_causes_come_first() {
     let c = run(rules, Some("0,0\n"), Some(Dim::Three));
     assert_eq!(codes(&c), [Code::E103, Code::E301, Code::E202]);
 }
+
+/// Rules and an agents file of different dimensions are not a pair: one E301 on the agents
+/// file whatever the number of rules (each file read in its own dimension, so the agents
+/// file's own mistakes are still found), either way round; a single term of the other
+/// dimension is that term's error, with its fix.
+#[test]
+fn rules_and_agents_of_two_dimensions_are_one_error() {
+    let rules_2d: String = (0..300)
+        .map(|i| format!("r{i}\n1\nN***0 E1,0\nP1,0\n\n"))
+        .collect();
+    let c = run(&rules_2d, Some("0,0,0\n1,0,0 C77 1\n"), None);
+    assert_eq!(codes(&c), [Code::E301, Code::E404]);
+    assert_eq!(c.diags[0].primary.file.0, 1, "on the agents file");
+    assert_eq!(
+        c.diags[0].secondary[0].file.0, 0,
+        "the rules' term beside it"
+    );
+    assert_eq!(c.dim.dim, Dim::Two, "the rules read in their own dimension");
+    let rules_3d = "r\n1\nN***0** E1,0,0\nP1,0,0\n";
+    let c = run(rules_3d, Some("0,0\n"), None);
+    assert_eq!(codes(&c), [Code::E301]);
+    // One odd term: E302 and its fix, in the agents' dimension.
+    let c = run("r\n1\nN1*0*1*\nS*****\n", Some("0,0\n"), None);
+    assert_eq!(codes(&c), [Code::E302]);
+    assert!(!c.diags[0].fixes.is_empty());
+    // With --dim, the flag is the one reconciled with the agents file; rules that side
+    // with the flag are read in it.
+    let c = run(&rules_2d, Some("0,0,0\n"), Some(Dim::Two));
+    assert_eq!(codes(&c), [Code::E301]);
+}

@@ -1,5 +1,7 @@
 // The latticesim extension: starts `latticesim lsp` for rules and agents files. Everything
-// else (diagnostics, hover, completion, formatting, quick fixes) is the server's.
+// else (diagnostics, hover, completion, formatting, quick fixes, definition, references,
+// rename, symbols, semantic tokens, folding) is the server's, which the language client
+// asks for as the server announces it.
 "use strict";
 
 const vscode = require("vscode");

@@ -24,6 +24,9 @@ use std::str::FromStr;
 struct Pair {
     uris: [Option<String>; 2],
     checked: Checked,
+    /// Each file's line starts, found once (a range per diagnostic indexed the whole file
+    /// each time).
+    starts: [std::cell::OnceCell<Vec<usize>>; 2],
 }
 
 impl Pair {
@@ -38,8 +41,14 @@ impl Pair {
     }
 
     fn range(&self, l: &Label) -> Range {
-        let ix = LineIndex::new(self.checked.sources.text(l.file));
-        ix.range(l.span.start as usize, l.span.end as usize)
+        let text = self.checked.sources.text(l.file);
+        let starts = match self.starts.get(l.file.0 as usize) {
+            Some(cell) => cell
+                .get_or_init(|| super::text::line_starts(text))
+                .as_slice(),
+            None => return LineIndex::new(text).range(l.span.start as usize, l.span.end as usize),
+        };
+        LineIndex::with_starts(text, starts).range(l.span.start as usize, l.span.end as usize)
     }
 }
 
@@ -87,7 +96,11 @@ impl Server {
             None,
             &Default::default(),
         );
-        Some(Pair { uris, checked })
+        Some(Pair {
+            uris,
+            checked,
+            starts: Default::default(),
+        })
     }
 
     fn lsp_diagnostic(pair: &Pair, d: &latticesim_grammar::Diagnostic) -> Diagnostic {

@@ -10,19 +10,26 @@
 //!   used in the files after `S` or a `T` offset.
 //! - Formatting: `latticesim fmt`'s layout.
 //! - Code actions: the diagnostics' fixes as quick fixes.
+//! - Navigation across the pair of files: go to definition, find references and rename of
+//!   states, counters and rule names (`navigate`).
+//! - The document's shape: rules as symbols, semantic tokens, folding ranges (`outline`).
 //!
 //! [`Server::handle`] takes a message and gives the messages to send, so tests drive it
 //! without a process; [`run`] connects it to standard input and output.
 
 mod features;
 mod frame;
+mod names;
+mod navigate;
+mod outline;
 pub mod text;
 
 use lsp_server::{Message, Notification, Request, RequestId, Response};
 use lsp_types::{
     CodeActionProviderCapability, CompletionOptions, DidChangeTextDocumentParams,
-    DidCloseTextDocumentParams, DidOpenTextDocumentParams, HoverProviderCapability, OneOf,
-    PositionEncodingKind, ServerCapabilities, TextDocumentSyncCapability, TextDocumentSyncKind,
+    DidCloseTextDocumentParams, DidOpenTextDocumentParams, FoldingRangeProviderCapability,
+    HoverProviderCapability, OneOf, PositionEncodingKind, RenameOptions, SemanticTokensFullOptions,
+    SemanticTokensOptions, ServerCapabilities, TextDocumentSyncCapability, TextDocumentSyncKind,
 };
 use std::collections::HashMap;
 use std::path::PathBuf;
@@ -67,6 +74,22 @@ pub fn capabilities() -> ServerCapabilities {
         }),
         document_formatting_provider: Some(OneOf::Left(true)),
         code_action_provider: Some(CodeActionProviderCapability::Simple(true)),
+        definition_provider: Some(OneOf::Left(true)),
+        references_provider: Some(OneOf::Left(true)),
+        rename_provider: Some(OneOf::Right(RenameOptions {
+            prepare_provider: Some(true),
+            work_done_progress_options: Default::default(),
+        })),
+        document_symbol_provider: Some(OneOf::Left(true)),
+        semantic_tokens_provider: Some(
+            SemanticTokensOptions {
+                legend: outline::legend(),
+                full: Some(SemanticTokensFullOptions::Bool(true)),
+                ..SemanticTokensOptions::default()
+            }
+            .into(),
+        ),
+        folding_range_provider: Some(FoldingRangeProviderCapability::Simple(true)),
         ..ServerCapabilities::default()
     }
 }
@@ -90,6 +113,11 @@ fn kind_of(language: &str, uri: &str) -> Kind {
             }
         }
     }
+}
+
+/// The answer to a request the server understood but will not carry out, with why.
+fn refused(id: RequestId, why: String) -> Response {
+    Response::new_err(id, lsp_server::ErrorCode::RequestFailed as i32, why)
 }
 
 fn params<P: serde::de::DeserializeOwned>(v: serde_json::Value) -> Option<P> {
@@ -172,6 +200,31 @@ impl Server {
             "textDocument/codeAction" => {
                 params(r.params).map(|p| serde_json::to_value(self.code_actions(p)))
             }
+            "textDocument/definition" => {
+                params(r.params).map(|p| serde_json::to_value(self.definition(p)))
+            }
+            "textDocument/references" => {
+                params(r.params).map(|p| serde_json::to_value(self.references(p)))
+            }
+            "textDocument/documentSymbol" => {
+                params(r.params).map(|p| serde_json::to_value(self.document_symbols(p)))
+            }
+            "textDocument/semanticTokens/full" => {
+                params(r.params).map(|p| serde_json::to_value(self.semantic_tokens(p)))
+            }
+            "textDocument/foldingRange" => {
+                params(r.params).map(|p| serde_json::to_value(self.folding_ranges(p)))
+            }
+            "textDocument/prepareRename" => {
+                match params(r.params).map(|p| self.prepare_rename(p)) {
+                    Some(Err(why)) => return refused(id, why),
+                    other => other.map(|a| serde_json::to_value(a.ok().flatten())),
+                }
+            }
+            "textDocument/rename" => match params(r.params).map(|p| self.rename(p)) {
+                Some(Err(why)) => return refused(id, why),
+                other => other.map(|a| serde_json::to_value(a.ok().flatten())),
+            },
             "shutdown" => Some(Ok(serde_json::Value::Null)),
             _ => {
                 return Response::new_err(

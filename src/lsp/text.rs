@@ -6,15 +6,32 @@ use lsp_types::{Position, Range, TextDocumentContentChangeEvent};
 /// Where each line of a text starts, for turning positions into offsets and back.
 pub struct LineIndex<'t> {
     text: &'t str,
-    starts: Vec<usize>,
+    starts: std::borrow::Cow<'t, [usize]>,
+}
+
+/// Where each line of `text` starts (byte offsets, the first 0).
+pub fn line_starts(text: &str) -> Vec<usize> {
+    let mut starts = vec![0];
+    starts.extend(memchr::memchr_iter(b'\n', text.as_bytes()).map(|i| i + 1));
+    starts
 }
 
 impl<'t> LineIndex<'t> {
     /// The index of a text.
     pub fn new(text: &'t str) -> LineIndex<'t> {
-        let mut starts = vec![0];
-        starts.extend(memchr::memchr_iter(b'\n', text.as_bytes()).map(|i| i + 1));
-        LineIndex { text, starts }
+        LineIndex {
+            text,
+            starts: line_starts(text).into(),
+        }
+    }
+
+    /// The index of a text whose [`line_starts`] are known (kept by the caller, to index a
+    /// large text once for many positions).
+    pub fn with_starts(text: &'t str, starts: &'t [usize]) -> LineIndex<'t> {
+        LineIndex {
+            text,
+            starts: starts.into(),
+        }
     }
 
     /// The byte offset of a position; positions past a line's end or the text's end are

@@ -1,0 +1,345 @@
+//! Go to definition, find references and rename, across a rules file and the agents file it
+//! pairs with ([`Server::partner`]), on the names of [`super::names`]:
+//!
+//! - a state: its definitions are the postconditions that set it (a pattern with `*` that
+//!   could leave it counts) and the agents that start in it; its references are every test,
+//!   setting and agent of it, and the patterns that match it;
+//! - a counter: defined by the calculations that write it and the agents that start with a
+//!   value in it; referenced wherever a rule reads or writes it;
+//! - a rule name: the rule (and any other rule of that name).
+//!
+//! Rename edits the exact places in both files. It refuses, with the place, a new name that
+//! is not a name of that kind, one already used (the two would merge), and a rename that
+//! would change what a pattern matches (`REST*` matches `REST0` but not `WALK0`).
+
+use super::names::{self, Occurrence, What};
+use super::text::LineIndex;
+use super::{Kind, Server};
+use latticesim_grammar::FileId;
+use lsp_types::{
+    GotoDefinitionParams, GotoDefinitionResponse, Location, PrepareRenameResponse, ReferenceParams,
+    RenameParams, TextDocumentPositionParams, TextEdit, Uri, WorkspaceEdit,
+};
+use std::collections::HashMap;
+use std::str::FromStr;
+
+/// At most this many places in the agents file are listed by definition and references
+/// (each agent may start in the state: 10^6 locations take the editor seconds to receive
+/// and are no use in a list); the rules file's places are all listed, and rename edits all.
+pub const AGENT_PLACES: usize = 10_000;
+
+/// The places to list: every one in the rules file, the first [`AGENT_PLACES`] in the
+/// agents file.
+fn listed<'o, 't>(places: impl Iterator<Item = &'o Occurrence<'t>>) -> Vec<&'o Occurrence<'t>>
+where
+    't: 'o,
+{
+    let mut agents = 0;
+    places
+        .filter(|o| {
+            agents += usize::from(o.file == FileId(1));
+            o.file == FileId(0) || agents <= AGENT_PLACES
+        })
+        .collect()
+}
+
+/// The open document and its partner: their URIs and texts (rules first).
+struct Files {
+    uris: [Option<String>; 2],
+    texts: [String; 2],
+    /// Each text's line starts, found once for all the locations given.
+    starts: [std::cell::OnceCell<Vec<usize>>; 2],
+}
+
+impl Files {
+    fn occurrences(&self) -> Vec<Occurrence<'_>> {
+        let mut v = names::in_rules(&self.texts[0]);
+        if self.uris[1].is_some() {
+            v.extend(names::in_agents(&self.texts[1]));
+        }
+        v
+    }
+
+    fn location(&self, o: &Occurrence<'_>) -> Option<Location> {
+        let i = o.file.0 as usize;
+        let uri = Uri::from_str(self.uris[i].as_deref()?).ok()?;
+        let text = &self.texts[i];
+        let starts = self.starts[i].get_or_init(|| super::text::line_starts(text));
+        let ix = LineIndex::with_starts(text, starts);
+        Some(Location {
+            uri,
+            range: ix.range(o.span.start as usize, o.span.end as usize),
+        })
+    }
+
+    fn file_of(&self, uri: &str) -> Option<FileId> {
+        (0..2)
+            .find(|&i| self.uris[i].as_deref() == Some(uri))
+            .map(|i| FileId(i as u32))
+    }
+}
+
+/// Where the cursor is: the files and the name under it.
+struct Target {
+    files: Files,
+    file: FileId,
+    at: usize,
+}
+
+impl Target {
+    /// The name under the cursor.
+    fn name(&self) -> Option<(What, String, Occurrence<'_>)> {
+        let o = self
+            .files
+            .occurrences()
+            .into_iter()
+            .find(|o| o.file == self.file && o.under(self.at))?;
+        Some((o.what, o.text.to_string(), o))
+    }
+}
+
+impl Server {
+    fn files(&self, uri: &str) -> Option<Files> {
+        let kind = self.docs.get(uri)?.kind;
+        let partner = self.partner(uri, kind);
+        let uris = match kind {
+            Kind::Rules => [Some(uri.to_string()), partner],
+            Kind::Agents => [partner, Some(uri.to_string())],
+        };
+        let texts = [0, 1].map(|i| {
+            uris[i]
+                .as_deref()
+                .and_then(|u| self.text_of(u))
+                .unwrap_or_default()
+        });
+        Some(Files {
+            uris,
+            texts,
+            starts: Default::default(),
+        })
+    }
+
+    fn target(&self, p: &TextDocumentPositionParams) -> Option<Target> {
+        let uri = p.text_document.uri.as_str();
+        let files = self.files(uri)?;
+        let file = files.file_of(uri)?;
+        let at = LineIndex::new(&files.texts[file.0 as usize]).offset(p.position);
+        Some(Target { files, file, at })
+    }
+
+    pub(super) fn definition(&self, p: GotoDefinitionParams) -> Option<GotoDefinitionResponse> {
+        let t = self.target(&p.text_document_position_params)?;
+        let (what, name, _) = t.name()?;
+        let all = t.files.occurrences();
+        let found: Vec<Location> = listed(
+            all.iter()
+                .filter(|o| o.role.defines() && o.names(what, &name)),
+        )
+        .into_iter()
+        .filter_map(|o| t.files.location(o))
+        .collect();
+        Some(GotoDefinitionResponse::Array(found))
+    }
+
+    pub(super) fn references(&self, p: ReferenceParams) -> Option<Vec<Location>> {
+        let t = self.target(&p.text_document_position)?;
+        let (what, name, _) = t.name()?;
+        let with_definitions = p.context.include_declaration;
+        let all = t.files.occurrences();
+        let places = all
+            .iter()
+            .filter(|o| o.names(what, &name) && (with_definitions || !o.role.defines()));
+        Some(
+            listed(places)
+                .into_iter()
+                .filter_map(|o| t.files.location(o))
+                .collect(),
+        )
+    }
+
+    pub(super) fn prepare_rename(
+        &self,
+        p: TextDocumentPositionParams,
+    ) -> Result<Option<PrepareRenameResponse>, String> {
+        let Some(t) = self.target(&p) else {
+            return Ok(None);
+        };
+        let Some((what, name, o)) = t.name() else {
+            return Err(
+                "nothing to rename here: put the cursor on a state, a counter or a rule's name"
+                    .into(),
+            );
+        };
+        if o.is_pattern() {
+            return Err(format!(
+                "`{name}` is a pattern; rename one of the states it matches"
+            ));
+        }
+        let ix = LineIndex::new(&t.files.texts[t.file.0 as usize]);
+        let placeholder = match what {
+            What::Counter => format!("C{name}"),
+            _ => name.clone(),
+        };
+        let (start, end) = (o.span.start as usize, o.span.end as usize);
+        let start = start - usize::from(what == What::Counter);
+        Ok(Some(PrepareRenameResponse::RangeWithPlaceholder {
+            range: ix.range(start, end),
+            placeholder,
+        }))
+    }
+
+    pub(super) fn rename(&self, p: RenameParams) -> Result<Option<WorkspaceEdit>, String> {
+        let Some(t) = self.target(&p.text_document_position) else {
+            return Ok(None);
+        };
+        let Some((what, old, o)) = t.name() else {
+            return Err(
+                "nothing to rename here: put the cursor on a state, a counter or a rule's name"
+                    .into(),
+            );
+        };
+        if o.is_pattern() {
+            return Err(format!(
+                "`{old}` is a pattern; rename one of the states it matches"
+            ));
+        }
+        let new = new_name(what, &p.new_name, &t.files)?;
+        let all = t.files.occurrences();
+        let line_of = |o: &Occurrence<'_>| {
+            let text = &t.files.texts[o.file.0 as usize];
+            let line = text[..o.span.start as usize].matches('\n').count() + 1;
+            let file = t.files.uris[o.file.0 as usize]
+                .as_deref()
+                .map_or("", |u| u.rsplit('/').next().unwrap_or(u));
+            format!("{file}:{line}")
+        };
+        if let Some(clash) = all
+            .iter()
+            .find(|o| o.what == what && !o.is_pattern() && o.names(what, &new))
+        {
+            let shown = shown(what, &new);
+            return Err(format!(
+                "`{shown}` is already used ({}): renaming would merge the two",
+                line_of(clash)
+            ));
+        }
+        if let Some(p) = all
+            .iter()
+            .find(|o| o.is_pattern() && o.names(what, &old) != o.names(what, &new))
+        {
+            let (does, not) = if p.names(what, &old) {
+                ("matches", "would not match")
+            } else {
+                ("does not match", "would match")
+            };
+            return Err(format!(
+                "the pattern `{}` ({}) {does} `{old}` but {not} `{new}`: change it first",
+                p.text,
+                line_of(p)
+            ));
+        }
+        #[allow(clippy::mutable_key_type)] // lsp-types' map type for workspace edits
+        let mut changes: HashMap<Uri, Vec<TextEdit>> = HashMap::new();
+        for o in all
+            .iter()
+            .filter(|o| !o.is_pattern() && o.names(what, &old))
+        {
+            let Some(loc) = t.files.location(o) else {
+                continue;
+            };
+            changes.entry(loc.uri).or_default().push(TextEdit {
+                range: loc.range,
+                new_text: new.clone(),
+            });
+        }
+        Ok(Some(WorkspaceEdit {
+            changes: Some(changes),
+            ..WorkspaceEdit::default()
+        }))
+    }
+}
+
+/// A name as the user writes it.
+fn shown(what: What, name: &str) -> String {
+    match what {
+        What::Counter => format!("C{name}"),
+        _ => name.to_string(),
+    }
+}
+
+/// The new name as it is written in the files (a counter's two digits), or why it cannot be.
+fn new_name(what: What, typed: &str, files: &Files) -> Result<String, String> {
+    let typed = typed.trim();
+    match what {
+        What::State => {
+            let typed = typed
+                .strip_prefix('S')
+                .filter(|s| s.len() == 5)
+                .unwrap_or(typed);
+            if typed.chars().count() == 5
+                && typed.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+            {
+                Ok(typed.to_string())
+            } else {
+                Err(format!(
+                    "`{typed}` is not a state: five letters, digits or `_` (e.g. `DONE0`)"
+                ))
+            }
+        }
+        What::Counter => {
+            let digits = typed.strip_prefix(['C', 'c']).unwrap_or(typed);
+            let most = if three_d(files) { 44 } else { 24 };
+            match digits.parse::<u32>() {
+                Ok(n) if digits.chars().all(|c| c.is_ascii_digit()) && n <= most => {
+                    Ok(format!("{n:02}"))
+                }
+                _ => Err(format!(
+                    "`{typed}` is not a counter: C00 to C{most} in these files"
+                )),
+            }
+        }
+        What::Rule => {
+            if typed.is_empty() || typed.contains("//") || typed.contains(['\n', '\r']) {
+                Err("a rule's name is one line of text, without `//`".into())
+            } else {
+                Ok(typed.to_string())
+            }
+        }
+    }
+}
+
+/// True when the files are 3D: the first agent has three coordinates, or (without agents)
+/// a neighbour pattern has six characters.
+fn three_d(files: &Files) -> bool {
+    let (agents, _) = latticesim_grammar::parse_agents(&files.texts[1], FileId(1));
+    if let Some(a) = agents.agents.first() {
+        return a.pos.len() == 3;
+    }
+    files.texts[0]
+        .split([' ', '\t', '\n', '(', '!'])
+        .any(|w| w.len() == 7 && matches!(w.as_bytes()[0], b'N' | b'A' | b'P'))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use latticesim_grammar::Span;
+
+    #[test]
+    fn agents_places_are_listed_up_to_the_limit_and_rules_places_all() {
+        let o = |file| Occurrence {
+            what: What::State,
+            text: "WALK0",
+            span: Span::new(0, 5),
+            role: names::Role::Start,
+            file: FileId(file),
+        };
+        let v: Vec<Occurrence<'_>> = (0..AGENT_PLACES + 5)
+            .map(|_| o(1))
+            .chain((0..7).map(|_| o(0)))
+            .collect();
+        let l = listed(v.iter());
+        assert_eq!(l.len(), AGENT_PLACES + 7);
+        assert_eq!(l.iter().filter(|o| o.file == FileId(0)).count(), 7);
+    }
+}
