@@ -1,6 +1,8 @@
 //! `latticesim lsp` driven as an editor drives it: a process speaking JSON-RPC over its
 //! standard input and output (initialize, didOpen, didChange, hover, completion,
-//! formatting, codeAction, shutdown, exit), with the answers checked.
+//! formatting, codeAction, definition, references, prepareRename, rename, documentSymbol,
+//! semanticTokens/full, foldingRange, shutdown, exit), with the answers checked; a rules file
+//! and an agents file of two dimensions opened as a pair.
 
 use serde_json::{json, Value};
 use std::io::{BufRead, BufReader, Read, Write};
@@ -73,31 +75,30 @@ impl Client {
     }
 
     /// Sends a request and waits for its response (notifications in between are dropped).
-    fn request(&mut self, method: &str, params: Value) -> Value {
+    fn answer(&mut self, method: &str, params: Value) -> Value {
         let id = self.next_id;
         self.next_id += 1;
         self.send(json!({"jsonrpc": "2.0", "id": id, "method": method, "params": params}));
         loop {
             let m = self.next();
             if m["id"] == json!(id) {
-                assert!(m.get("error").is_none(), "{method}: {m}");
-                return m["result"].clone();
+                return m;
             }
         }
     }
 
-    /// Sends a request that must fail; its error.
+    /// A request's result; it must not fail.
+    fn request(&mut self, method: &str, params: Value) -> Value {
+        let m = self.answer(method, params);
+        assert!(m.get("error").is_none(), "{method}: {m}");
+        m["result"].clone()
+    }
+
+    /// A request that must fail; its error.
     fn request_error(&mut self, method: &str, params: Value) -> Value {
-        let id = self.next_id;
-        self.next_id += 1;
-        self.send(json!({"jsonrpc": "2.0", "id": id, "method": method, "params": params}));
-        loop {
-            let m = self.next();
-            if m["id"] == json!(id) {
-                assert!(m.get("error").is_some(), "{method} should fail: {m}");
-                return m["error"].clone();
-            }
-        }
+        let m = self.answer(method, params);
+        assert!(m.get("error").is_some(), "{method} should fail: {m}");
+        m["error"].clone()
     }
 
     /// Waits for the diagnostics published for `uri`.

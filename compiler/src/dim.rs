@@ -129,15 +129,12 @@ pub fn reconcile(
     }
 }
 
-/// The agents file against the rules' own terms, when at least two of them say the other
-/// dimension (a single term of the other dimension is that term's error, with its fix):
-/// one E301 on the agents file, the rules' deciding term beside it. The rules are then read
-/// in their own dimension and the agents file in its own, so that a wrong pairing costs
-/// this one error, not one per term.
+/// The E301 of an agents file whose dimension the rules' own terms contradict (the caller
+/// asks for at least two such terms: a single term of the other dimension is that term's
+/// error, with its fix): on the agents file, the rules' deciding term beside it. Each file
+/// is then read in its own dimension, so that a wrong pairing costs this one error, not
+/// one per term.
 pub fn mismatch(agents: &DimSource, rules: &DimSource) -> Option<Diagnostic> {
-    if rules.dim == agents.dim || rules.agreeing < 2 {
-        return None;
-    }
     let l = agents.label.as_ref()?;
     let mut d = Diagnostic::new(
         Code::E301,

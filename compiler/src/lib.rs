@@ -322,25 +322,14 @@ pub fn check_with(
     let hint = fixed.as_ref().map(|d| d.dim.coords() as u8);
     let (mut ast, mut parse_diags) = parse_rules(text, rid, &arena, hint);
     let dim_src = match fixed {
-        // The agents file decides, unless the rules' own terms say the other dimension:
-        // then the two are not a pair (one E301) and each is read in its own.
-        Some(d) if dim.is_none() => {
-            let own = dim::from_rules(&ast, rid, text);
-            match own.as_ref().and_then(|own| dim::mismatch(&d, own)) {
-                Some(e) => {
-                    diags.push(e);
-                    let own = own.expect("a mismatch has the rules' dimension");
-                    let hint = Some(own.dim.coords() as u8);
-                    (ast, parse_diags) = parse_rules(text, rid, &arena, hint);
-                    own
+        // Rules whose own terms (two or more) say another dimension than the agents file's
+        // are not its pair: one E301 (unless `--dim` against the agents file said it, and
+        // the rules side with the flag), and each file is read in its own dimension.
+        Some(d) => match (agents_dim.as_ref(), dim::from_rules(&ast, rid, text)) {
+            (Some(a), Some(own)) if own.dim != a.dim && own.agreeing >= 2 => {
+                if dim.is_none_or(|f| f == a.dim) {
+                    diags.extend(dim::mismatch(a, &own));
                 }
-                None => d,
-            }
-        }
-        // `--dim` against the agents file (E301 said): the agents file wins, unless the
-        // rules' own terms side with the flag.
-        Some(d) => match dim::from_rules(&ast, rid, text) {
-            Some(own) if own.dim != d.dim && own.agreeing >= 2 => {
                 let hint = Some(own.dim.coords() as u8);
                 (ast, parse_diags) = parse_rules(text, rid, &arena, hint);
                 own

@@ -375,4 +375,13 @@ fn rules_and_agents_of_two_dimensions_are_one_error() {
     // with the flag are read in it.
     let c = run(&rules_2d, Some("0,0,0\n"), Some(Dim::Two));
     assert_eq!(codes(&c), [Code::E301]);
+    // Without an agents file the flag decides: 2D rules under --dim 3 are an error per
+    // term, never read as 2D.
+    let c = run(&rules_2d, None, Some(Dim::Three));
+    let k = codes(&c);
+    assert!(
+        !k.is_empty() && k.iter().all(|&k| k == Code::E302 || k == Code::E316),
+        "{k:?}"
+    );
+    assert_eq!(c.dim.dim, Dim::Three);
 }

@@ -42,12 +42,7 @@ impl Pair {
 
     fn range(&self, l: &Label) -> Range {
         let text = self.checked.sources.text(l.file);
-        let starts = match self.starts.get(l.file.0 as usize) {
-            Some(cell) => cell
-                .get_or_init(|| super::text::line_starts(text))
-                .as_slice(),
-            None => return LineIndex::new(text).range(l.span.start as usize, l.span.end as usize),
-        };
+        let starts = self.starts[l.file.0 as usize].get_or_init(|| super::text::line_starts(text));
         LineIndex::with_starts(text, starts).range(l.span.start as usize, l.span.end as usize)
     }
 }
@@ -75,12 +70,7 @@ pub(super) fn clear(uri: &str) -> Option<Message> {
 
 impl Server {
     fn pair(&self, uri: &str) -> Option<Pair> {
-        let kind = self.docs.get(uri)?.kind;
-        let partner = self.partner(uri, kind);
-        let uris = match kind {
-            Kind::Rules => [Some(uri.to_string()), partner],
-            Kind::Agents => [partner, Some(uri.to_string())],
-        };
+        let uris = self.pair_uris(uri)?;
         let rules = uris[0]
             .as_deref()
             .and_then(|u| self.text_of(u))

@@ -178,6 +178,16 @@ impl Server {
         exists(&plain).then_some(plain)
     }
 
+    /// The URIs of a document and its partner, rules file first (see [`Server::partner`]).
+    fn pair_uris(&self, uri: &str) -> Option<[Option<String>; 2]> {
+        let kind = self.docs.get(uri)?.kind;
+        let partner = self.partner(uri, kind);
+        Some(match kind {
+            Kind::Rules => [Some(uri.to_string()), partner],
+            Kind::Agents => [partner, Some(uri.to_string())],
+        })
+    }
+
     /// Handles one message from the client; gives the messages to send back.
     pub fn handle(&mut self, msg: Message) -> Vec<Message> {
         match msg {

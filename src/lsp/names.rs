@@ -4,7 +4,7 @@
 //! on these lists (`super::navigate`).
 
 use bumpalo::Bump;
-use latticesim_grammar::ast::{Comp, Operand, Term, Value};
+use latticesim_grammar::ast::{Comp, Operand, RulesFile, Term, Value};
 use latticesim_grammar::{FileId, Span, Spanned};
 
 /// What kind of name.
@@ -101,7 +101,7 @@ fn meaningful(pattern: &str) -> bool {
 }
 
 /// True when `pattern` (with `*` for any character) matches `state`.
-pub fn matches(pattern: &str, state: &str) -> bool {
+fn matches(pattern: &str, state: &str) -> bool {
     pattern.chars().count() == state.chars().count()
         && pattern
             .chars()
@@ -109,22 +109,32 @@ pub fn matches(pattern: &str, state: &str) -> bool {
             .all(|(p, s)| p == '*' || p == s)
 }
 
+impl<'t> Occurrence<'t> {
+    /// The place `span` of `text`, if it holds something.
+    fn at(text: &'t str, what: What, span: Span, role: Role, file: FileId) -> Option<Self> {
+        let t = text.get(span.start as usize..span.end as usize)?;
+        (!t.is_empty()).then_some(Occurrence {
+            what,
+            text: t,
+            span,
+            role,
+            file,
+        })
+    }
+}
+
 /// Every name of a rules file, in file order.
 pub fn in_rules(text: &str) -> Vec<Occurrence<'_>> {
     let arena = Bump::new();
     let (f, _) = latticesim_grammar::parse_rules(text, FileId(0), &arena, None);
+    of_rules(&f, text)
+}
+
+/// Every name of the parsed rules file `f` of `text`, in file order.
+pub fn of_rules<'t>(f: &RulesFile<'_>, text: &'t str) -> Vec<Occurrence<'t>> {
     let mut out = Vec::new();
     let mut push = |what: What, span: Span, role: Role| {
-        let (s, e) = (span.start as usize, span.end as usize);
-        if let Some(t) = text.get(s..e).filter(|t| !t.is_empty()) {
-            out.push(Occurrence {
-                what,
-                text: t,
-                span,
-                role,
-                file: FileId(0),
-            });
-        }
+        out.extend(Occurrence::at(text, what, span, role, FileId(0)));
     };
     for r in &f.rules {
         push(What::Rule, r.name.span, Role::Named);
@@ -142,24 +152,11 @@ pub fn in_rules(text: &str) -> Vec<Occurrence<'_>> {
 pub fn in_agents(text: &str) -> Vec<Occurrence<'_>> {
     let (f, _) = latticesim_grammar::parse_agents(text, FileId(1));
     let mut out = Vec::new();
-    let mut push = |what: What, span: Span| {
-        let (s, e) = (span.start as usize, span.end as usize);
-        if let Some(t) = text.get(s..e).filter(|t| !t.is_empty()) {
-            out.push(Occurrence {
-                what,
-                text: t,
-                span,
-                role: Role::Start,
-                file: FileId(1),
-            });
-        }
-    };
     for a in &f.agents {
-        if let Some(s) = a.state {
-            push(What::State, s.span);
-        }
-        for (c, _) in &a.counters {
-            push(What::Counter, c.span);
+        let fields = a.state.iter().map(|s| (What::State, s.span));
+        let counters = a.counters.iter().map(|(c, _)| (What::Counter, c.span));
+        for (what, span) in fields.chain(counters) {
+            out.extend(Occurrence::at(text, what, span, Role::Start, FileId(1)));
         }
     }
     out

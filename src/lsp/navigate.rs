@@ -14,7 +14,7 @@
 
 use super::names::{self, Occurrence, What};
 use super::text::LineIndex;
-use super::{Kind, Server};
+use super::Server;
 use latticesim_grammar::FileId;
 use lsp_types::{
     GotoDefinitionParams, GotoDefinitionResponse, Location, PrepareRenameResponse, ReferenceParams,
@@ -79,7 +79,7 @@ impl Files {
     }
 }
 
-/// Where the cursor is: the files and the name under it.
+/// Where the cursor is: the files, which of them, and the byte offset.
 struct Target {
     files: Files,
     file: FileId,
@@ -87,25 +87,43 @@ struct Target {
 }
 
 impl Target {
-    /// The name under the cursor.
-    fn name(&self) -> Option<(What, String, Occurrence<'_>)> {
-        let o = self
-            .files
-            .occurrences()
-            .into_iter()
-            .find(|o| o.file == self.file && o.under(self.at))?;
-        Some((o.what, o.text.to_string(), o))
+    /// The name under the cursor among the files' names (collected once per request: an
+    /// agents file of 10^6 lines takes a while to read).
+    fn name<'o, 't>(&self, all: &'o [Occurrence<'t>]) -> Option<&'o Occurrence<'t>> {
+        all.iter().find(|o| o.file == self.file && o.under(self.at))
     }
+
+    /// Where a place is, as `file:line`.
+    fn line_of(&self, o: &Occurrence<'_>) -> String {
+        let i = o.file.0 as usize;
+        let line = self.files.texts[i][..o.span.start as usize]
+            .matches('\n')
+            .count()
+            + 1;
+        let file = self.files.uris[i]
+            .as_deref()
+            .map_or("", |u| u.rsplit('/').next().unwrap_or(u));
+        format!("{file}:{line}")
+    }
+}
+
+/// The name under the cursor when it can be renamed, or why not.
+fn renamable<'o, 't>(t: &Target, all: &'o [Occurrence<'t>]) -> Result<&'o Occurrence<'t>, String> {
+    let o = t
+        .name(all)
+        .ok_or("nothing to rename here: put the cursor on a state, a counter or a rule's name")?;
+    if o.is_pattern() {
+        return Err(format!(
+            "`{}` is a pattern; rename one of the states it matches",
+            o.text
+        ));
+    }
+    Ok(o)
 }
 
 impl Server {
     fn files(&self, uri: &str) -> Option<Files> {
-        let kind = self.docs.get(uri)?.kind;
-        let partner = self.partner(uri, kind);
-        let uris = match kind {
-            Kind::Rules => [Some(uri.to_string()), partner],
-            Kind::Agents => [partner, Some(uri.to_string())],
-        };
+        let uris = self.pair_uris(uri)?;
         let texts = [0, 1].map(|i| {
             uris[i]
                 .as_deref()
@@ -129,26 +147,26 @@ impl Server {
 
     pub(super) fn definition(&self, p: GotoDefinitionParams) -> Option<GotoDefinitionResponse> {
         let t = self.target(&p.text_document_position_params)?;
-        let (what, name, _) = t.name()?;
         let all = t.files.occurrences();
-        let found: Vec<Location> = listed(
-            all.iter()
-                .filter(|o| o.role.defines() && o.names(what, &name)),
-        )
-        .into_iter()
-        .filter_map(|o| t.files.location(o))
-        .collect();
+        let n = t.name(&all)?;
+        let places = all
+            .iter()
+            .filter(|o| o.role.defines() && o.names(n.what, n.text));
+        let found = listed(places)
+            .into_iter()
+            .filter_map(|o| t.files.location(o))
+            .collect();
         Some(GotoDefinitionResponse::Array(found))
     }
 
     pub(super) fn references(&self, p: ReferenceParams) -> Option<Vec<Location>> {
         let t = self.target(&p.text_document_position)?;
-        let (what, name, _) = t.name()?;
-        let with_definitions = p.context.include_declaration;
         let all = t.files.occurrences();
+        let n = t.name(&all)?;
+        let with_definitions = p.context.include_declaration;
         let places = all
             .iter()
-            .filter(|o| o.names(what, &name) && (with_definitions || !o.role.defines()));
+            .filter(|o| o.names(n.what, n.text) && (with_definitions || !o.role.defines()));
         Some(
             listed(places)
                 .into_iter()
@@ -164,27 +182,14 @@ impl Server {
         let Some(t) = self.target(&p) else {
             return Ok(None);
         };
-        let Some((what, name, o)) = t.name() else {
-            return Err(
-                "nothing to rename here: put the cursor on a state, a counter or a rule's name"
-                    .into(),
-            );
-        };
-        if o.is_pattern() {
-            return Err(format!(
-                "`{name}` is a pattern; rename one of the states it matches"
-            ));
-        }
+        let all = t.files.occurrences();
+        let o = renamable(&t, &all)?;
         let ix = LineIndex::new(&t.files.texts[t.file.0 as usize]);
-        let placeholder = match what {
-            What::Counter => format!("C{name}"),
-            _ => name.clone(),
-        };
-        let (start, end) = (o.span.start as usize, o.span.end as usize);
-        let start = start - usize::from(what == What::Counter);
+        // A counter is renamed with its `C`.
+        let start = o.span.start as usize - usize::from(o.what == What::Counter);
         Ok(Some(PrepareRenameResponse::RangeWithPlaceholder {
-            range: ix.range(start, end),
-            placeholder,
+            range: ix.range(start, o.span.end as usize),
+            placeholder: shown(o.what, o.text),
         }))
     }
 
@@ -192,42 +197,22 @@ impl Server {
         let Some(t) = self.target(&p.text_document_position) else {
             return Ok(None);
         };
-        let Some((what, old, o)) = t.name() else {
-            return Err(
-                "nothing to rename here: put the cursor on a state, a counter or a rule's name"
-                    .into(),
-            );
-        };
-        if o.is_pattern() {
-            return Err(format!(
-                "`{old}` is a pattern; rename one of the states it matches"
-            ));
-        }
-        let new = new_name(what, &p.new_name, &t.files)?;
         let all = t.files.occurrences();
-        let line_of = |o: &Occurrence<'_>| {
-            let text = &t.files.texts[o.file.0 as usize];
-            let line = text[..o.span.start as usize].matches('\n').count() + 1;
-            let file = t.files.uris[o.file.0 as usize]
-                .as_deref()
-                .map_or("", |u| u.rsplit('/').next().unwrap_or(u));
-            format!("{file}:{line}")
-        };
-        if let Some(clash) = all
-            .iter()
-            .find(|o| o.what == what && !o.is_pattern() && o.names(what, &new))
-        {
-            let shown = shown(what, &new);
+        let o = renamable(&t, &all)?;
+        let (what, old) = (o.what, o.text);
+        let new = new_name(what, &p.new_name, &t.files)?;
+        if let Some(clash) = all.iter().find(|o| !o.is_pattern() && o.names(what, &new)) {
             return Err(format!(
-                "`{shown}` is already used ({}): renaming would merge the two",
-                line_of(clash)
+                "`{}` is already used ({}): renaming would merge the two",
+                shown(what, &new),
+                t.line_of(clash)
             ));
         }
         if let Some(p) = all
             .iter()
-            .find(|o| o.is_pattern() && o.names(what, &old) != o.names(what, &new))
+            .find(|o| o.is_pattern() && o.names(what, old) != o.names(what, &new))
         {
-            let (does, not) = if p.names(what, &old) {
+            let (does, not) = if p.names(what, old) {
                 ("matches", "would not match")
             } else {
                 ("does not match", "would match")
@@ -235,15 +220,12 @@ impl Server {
             return Err(format!(
                 "the pattern `{}` ({}) {does} `{old}` but {not} `{new}`: change it first",
                 p.text,
-                line_of(p)
+                t.line_of(p)
             ));
         }
         #[allow(clippy::mutable_key_type)] // lsp-types' map type for workspace edits
         let mut changes: HashMap<Uri, Vec<TextEdit>> = HashMap::new();
-        for o in all
-            .iter()
-            .filter(|o| !o.is_pattern() && o.names(what, &old))
-        {
+        for o in all.iter().filter(|o| !o.is_pattern() && o.names(what, old)) {
             let Some(loc) = t.files.location(o) else {
                 continue;
             };
@@ -308,16 +290,16 @@ fn new_name(what: What, typed: &str, files: &Files) -> Result<String, String> {
     }
 }
 
-/// True when the files are 3D: the first agent has three coordinates, or (without agents)
-/// a neighbour pattern has six characters.
+/// True when the files are 3D: as the agents file's head says (its universe line or first
+/// position), else as the rules' own terms say (the checker's judgement of both).
 fn three_d(files: &Files) -> bool {
-    let (agents, _) = latticesim_grammar::parse_agents(&files.texts[1], FileId(1));
-    if let Some(a) = agents.agents.first() {
-        return a.pos.len() == 3;
+    use latticesim_compiler::{dim, fast_agents, Dim};
+    if let Some(head) = fast_agents::read_head(files.texts[1].as_bytes()) {
+        return head.dim == Dim::Three;
     }
-    files.texts[0]
-        .split([' ', '\t', '\n', '(', '!'])
-        .any(|w| w.len() == 7 && matches!(w.as_bytes()[0], b'N' | b'A' | b'P'))
+    let arena = bumpalo::Bump::new();
+    let (rules, _) = latticesim_grammar::parse_rules(&files.texts[0], FileId(0), &arena, None);
+    dim::from_rules(&rules, FileId(0), &files.texts[0]).is_some_and(|d| d.dim == Dim::Three)
 }
 
 #[cfg(test)]

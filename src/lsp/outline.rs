@@ -89,7 +89,9 @@ fn comments(text: &str) -> Vec<(usize, usize, Type)> {
 }
 
 fn rules_tokens(text: &str, v: &mut Vec<(usize, usize, Type)>) {
-    for o in names::in_rules(text) {
+    let arena = Bump::new();
+    let (f, _) = latticesim_grammar::parse_rules(text, FileId(0), &arena, None);
+    for o in names::of_rules(&f, text) {
         let (s, e) = (o.span.start as usize, o.span.end as usize);
         match o.what {
             What::Rule => v.push((s, e, Type::Rule)),
@@ -97,8 +99,6 @@ fn rules_tokens(text: &str, v: &mut Vec<(usize, usize, Type)>) {
             What::Counter => v.push((s - 1, e, Type::Counter)),
         }
     }
-    let arena = Bump::new();
-    let (f, _) = latticesim_grammar::parse_rules(text, FileId(0), &arena, None);
     for r in &f.rules {
         let p = r.priority.span;
         v.push((p.start as usize, p.end as usize, Type::Number));
@@ -129,7 +129,7 @@ fn value(x: &Spanned<Value<'_>>, v: &mut Vec<(usize, usize, Type)>) {
 }
 
 /// A term's letters, operators, numbers and messages (its states and counters come from
-/// [`names::in_rules`]).
+/// [`names::of_rules`]).
 fn term(t: &Spanned<Term<'_>>, v: &mut Vec<(usize, usize, Type)>) {
     let s = t.span.start as usize;
     let letter = (s, s + 1, Type::Letter);
