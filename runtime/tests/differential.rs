@@ -761,8 +761,9 @@ fn threads_give_the_same_results() {
 
 /// Threads change nothing where the chunks' results must be joined in order: messages
 /// left with their senders (the plan of senders is made in chunks), records of every
-/// chunk (divisions by zero, saturations), and runs of agents evaluated over chunks' ends;
-/// 1, 2, 3 and 8 threads for eight steps (the thread tuner's first trial included).
+/// chunk (divisions by zero, saturations), runs of agents evaluated over chunks' ends, and
+/// the agents woken for the next step (found in chunks); 1, 2, 3 and 8 threads for eight
+/// steps (the thread tuner's first trial included).
 #[test]
 fn threads_join_chunks_in_order() {
     let hash = |x: i32, y: i32| ((x * 31 + y * 17) % 23) as i64;
@@ -798,18 +799,27 @@ fn threads_join_chunks_in_order() {
     ];
     for (i, (rules, agents)) in cases.iter().enumerate() {
         let (prog, lat) = common::compile(rules, agents);
-        let mk = |threads| {
+        let mk = |threads, skip| {
             Engine::new(
                 prog.clone(),
                 lat.clone(),
                 Options {
                     threads,
+                    skip,
                     ..Options::default()
                 },
             )
         };
-        let mut one = mk(1);
-        let mut more = [mk(2), mk(3), mk(8)];
+        // Skipping always, the agents woken are found on the pool too (more than a
+        // thread takes alone move in gravity's first steps).
+        let mut one = mk(1, Skip::Off);
+        let mut more = [
+            mk(2, Skip::Auto),
+            mk(3, Skip::Auto),
+            mk(8, Skip::Auto),
+            mk(2, Skip::Eager),
+            mk(3, Skip::Eager),
+        ];
         for step in 0..8 {
             let a = one.step();
             assert!(

@@ -87,6 +87,26 @@ impl WakeSet {
         }
     }
 
+    /// Adds the agents of `other` (a set of the same agents) and empties it, visiting only
+    /// the words it touched.
+    fn merge(&mut self, other: &mut WakeSet) {
+        for (t, top) in other.tops.iter_mut().enumerate() {
+            let mut tb = std::mem::take(top);
+            while tb != 0 {
+                let w = t * 64 + tb.trailing_zeros() as usize;
+                tb &= tb - 1;
+                let bits = std::mem::take(&mut other.words[w]);
+                if !self.all {
+                    self.count += (bits & !self.words[w]).count_ones() as usize;
+                    self.words[w] |= bits;
+                    self.tops[w / 64] |= 1 << (w % 64);
+                }
+            }
+        }
+        other.count = 0;
+        self.all |= self.count > self.limit;
+    }
+
     /// Moves the agents of the set into `out` (cleared first), in id order, and empties it.
     fn take(&mut self, out: &mut Vec<u32>) {
         out.clear();
@@ -107,13 +127,18 @@ impl WakeSet {
     }
 }
 
+/// An agent that moved, with the cell it left (its position and slot code).
+pub(super) type Moved = (u32, [i32; 3], u32);
+
 /// What the actions of a step changed, as the activity needs it (kept only while the next
-/// selection may skip agents): agents that moved, with the cell they left; agents whose
+/// selection may skip agents): agents that moved, with the cell they left (`moved`, and
+/// `moved_parts` for the moves made on the pool, a list per chunk of agents); agents whose
 /// state changed; agents whose bonds changed.
 #[derive(Default)]
 pub(super) struct Changes {
     pub(super) on: bool,
-    pub(super) moved: Vec<(u32, [i32; 3], u32)>,
+    pub(super) moved: Vec<Moved>,
+    pub(super) moved_parts: Vec<Vec<Moved>>,
     pub(super) states: Vec<u32>,
     pub(super) bonds: Vec<u32>,
 }
@@ -124,16 +149,6 @@ impl Changes {
     pub(super) fn moved(&mut self, lat: &Lattice, a: u32) {
         if self.on {
             self.moved.push((a, lat.pos[a as usize], lat.code_of(a)));
-        }
-    }
-
-    /// Notes that agent `a` left the cell `off` behind it (after it moved by `off`).
-    #[inline]
-    pub(super) fn moved_back(&mut self, lat: &Lattice, a: u32, off: [i32; 3]) {
-        if self.on {
-            let p = lat.pos[a as usize];
-            let from = [p[0] - off[0], p[1] - off[1], p[2] - off[2]];
-            self.moved.push((a, from, lat.cells.code(from)));
         }
     }
 
@@ -155,6 +170,7 @@ impl Changes {
 
     fn clear(&mut self) {
         self.moved.clear();
+        self.moved_parts.iter_mut().for_each(Vec::clear);
         self.states.clear();
         self.bonds.clear();
     }
@@ -176,6 +192,8 @@ pub(super) struct Activity {
     recipients: Option<Vec<u32>>,
     /// This step's recipients, being found.
     found: Vec<u32>,
+    /// Per thread, the agents it woke in a pass on the pool (merged into `next` after).
+    parts: Vec<WakeSet>,
 }
 
 impl Activity {
@@ -193,12 +211,15 @@ impl Activity {
             listed: false,
             recipients: None,
             found: Vec::new(),
+            parts: Vec::new(),
         }
     }
 
     /// Bytes held.
     pub(super) fn bytes(&self) -> usize {
-        (self.next.words.capacity() + self.next.tops.capacity()) * 8
+        (self.parts.iter().chain([&self.next]))
+            .map(|w| (w.words.capacity() + w.tops.capacity()) * 8)
+            .sum::<usize>()
             + (self.list.capacity() + self.found.capacity()) * 4
             + self.recipients.as_ref().map_or(0, |r| r.capacity() * 4)
     }
@@ -240,33 +261,79 @@ impl Activity {
         !self.next.all
     }
 
-    /// Wakes the agents that read cell `at` (its position and slot code): those at `at`
-    /// minus each of `offsets`.
-    #[inline]
-    fn wake_readers(&mut self, lat: &Lattice, at: ([i32; 3], u32), offsets: &[Back]) {
-        for o in offsets {
-            if let Some(b) = lat.agent_near(at, o.off, o.dir) {
-                self.next.add(b);
+    /// Runs `wake(item, set)` for every item of `lists`, `set` being the agents woken for
+    /// the next selection: on the pool when there are threads and enough items (each
+    /// thread a run of the items, into a set of its own; the sets merged after), else on
+    /// this thread. The set woken is the same either way.
+    fn wake_each<T: Sync>(
+        &mut self,
+        th: &Threads,
+        lists: &[&[T]],
+        wake: impl Fn(&T, &mut WakeSet) + Sync,
+    ) {
+        let total: usize = lists.iter().map(|l| l.len()).sum();
+        let Some((pool, _)) = th.parallel(total) else {
+            for x in lists.iter().flat_map(|l| l.iter()) {
+                wake(x, &mut self.next);
             }
+            return;
+        };
+        // One run of about equal length per thread, cut from the lists in turn.
+        let k = pool.threads;
+        let mut runs: Vec<Vec<&[T]>> = vec![Vec::new(); k];
+        let per = total.div_ceil(k);
+        let (mut r, mut room) = (0, per);
+        for &l in lists {
+            let mut l = l;
+            while !l.is_empty() {
+                let take = room.min(l.len());
+                runs[r].push(&l[..take]);
+                (l, room) = (&l[take..], room - take);
+                if room == 0 {
+                    (r, room) = ((r + 1).min(k - 1), per);
+                }
+            }
+        }
+        let n = self.n;
+        self.parts.resize_with(k, || WakeSet::new(usize::MAX));
+        let items: Vec<_> = runs.into_iter().zip(self.parts.drain(..)).collect();
+        let sets = pool.map(items, |(run, mut set)| {
+            set.ready(n);
+            set.all = false;
+            for x in run.iter().flat_map(|l| l.iter()) {
+                wake(x, &mut set);
+            }
+            set
+        });
+        for mut set in sets {
+            self.next.merge(&mut set);
+            self.parts.push(set);
         }
     }
 
     /// After the actions: wakes the agents that moved, changed state or bonds, and those
     /// that read their cells; `changes` is emptied.
-    pub(super) fn after_actions(&mut self, lat: &Lattice, reads: &Reads, changes: &mut Changes) {
+    pub(super) fn after_actions(
+        &mut self,
+        (lat, th): (&Lattice, &Threads),
+        reads: &Reads,
+        changes: &mut Changes,
+    ) {
         if !self.next.all {
             let back = &reads.back;
-            for &(a, from, code) in &changes.moved {
-                self.next.add(a);
+            let mut moved: Vec<&[Moved]> = vec![&changes.moved];
+            moved.extend(changes.moved_parts.iter().map(|l| &l[..]));
+            self.wake_each(th, &moved, |&(a, from, code), next| {
+                next.add(a);
                 let to = (lat.pos[a as usize], lat.code_of(a));
                 // (Every offset read for a state or counter is read for occupancy too.)
-                self.wake_readers(lat, (from, code), &back.occupancy);
-                self.wake_readers(lat, to, &back.occupancy);
-            }
+                wake_readers(next, lat, (from, code), &back.occupancy);
+                wake_readers(next, lat, to, &back.occupancy);
+            });
             // (An agent whose state changed executed a rule: it is woken as such.)
             for &a in &changes.states {
                 let at = (lat.pos[a as usize], lat.code_of(a));
-                self.wake_readers(lat, at, &back.states);
+                wake_readers(&mut self.next, lat, at, &back.states);
             }
             if reads.bonds {
                 for &a in &changes.bonds {
@@ -284,7 +351,7 @@ impl Activity {
     /// every step (`always`) too. `evaluated`: the agents this selection evaluated.
     pub(super) fn after_step(
         &mut self,
-        (plan, lat): (&Plan, &Lattice),
+        (plan, lat, th): (&Plan, &Lattice, &Threads),
         (sel, active, reused): (&Selection, u64, bool),
         dispatch: &Dispatch,
     ) {
@@ -318,9 +385,7 @@ impl Activity {
             }
         };
         if sel.listed {
-            for &a in &sel.list {
-                each(a, &mut self.next);
-            }
+            self.wake_each(th, &[&sel.list[..]], |&a, next| each(a, next));
         } else {
             for (a, &r) in sel.one.iter().enumerate() {
                 if r != NO_RULE {
@@ -402,5 +467,16 @@ impl Activity {
     /// delivery (possibly with repeats).
     pub(super) fn emptied(&self) -> &[u32] {
         &self.found
+    }
+}
+
+/// Wakes the agents that read cell `at` (its position and slot code): those at `at` minus
+/// each of `offsets`.
+#[inline]
+fn wake_readers(next: &mut WakeSet, lat: &Lattice, at: ([i32; 3], u32), offsets: &[Back]) {
+    for o in offsets {
+        if let Some(b) = lat.agent_near(at, o.off, o.dir) {
+            next.add(b);
+        }
     }
 }

@@ -309,7 +309,7 @@ impl Engine {
                 self.act(&mut sel, &mut rep);
             }
         }
-        let view = (&self.plan, &self.lat);
+        let view = (&self.plan, &self.lat, &self.threads);
         let how = (&sel, self.selection.active, self.selection.reused());
         self.activity.after_step(view, how, &self.dispatch);
         self.selection.sel = sel;
@@ -351,7 +351,8 @@ impl Engine {
             act.all_actions(sel, rep)
         });
         self.selection.states_changed(changed);
-        (self.activity).after_actions(&self.lat, &self.plan.reads, &mut self.actions.changes);
+        let view = (&self.lat, &self.threads);
+        (self.activity).after_actions(view, &self.plan.reads, &mut self.actions.changes);
     }
 
     /// 3. (first half) Calculations and sends, into the outboxes.

@@ -981,6 +981,17 @@ impl Shift<'_> {
         (movers.len(), true)
     }
 
+    /// Where agent `a` stands: its position, and its slot code as [`Lattice::code_of`].
+    ///
+    /// # Safety
+    /// No other thread moves agent `a` meanwhile.
+    pub(crate) unsafe fn at(&self, a: u32) -> ([i32; 3], u32) {
+        let a = a as usize;
+        assert!(a < self.n, "an agent of the lattice");
+        // SAFETY: in bounds (checked); nothing writes agent `a` (the caller's promise).
+        unsafe { (*self.pos.add(a), *self.code.add(a)) }
+    }
+
     /// Whether the cells of `agents` lie scattered over the grid (agents listed in no
     /// spatial order), judged on the first 65 of them: then loops over them ask for the
     /// cells ahead (see `cells::prefetch`); in order, the processor finds them by itself.

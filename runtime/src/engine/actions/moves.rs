@@ -159,35 +159,41 @@ impl Act<'_> {
             // SAFETY: only codes are read, and no thread moves yet.
             unsafe { shift.scattered(&first) }
         };
-        let moves = |(c, part): (usize, &mut FusedPart)| {
+        // The cells the movers leave, for the activity: a list per chunk, made with it.
+        let changes = &mut self.bufs.changes;
+        let noting = changes.on;
+        changes.moved_parts.resize_with(chunks, Vec::new);
+        let moves = |(c, (part, notes)): (usize, (&mut FusedPart, &mut Vec<Moved>))| {
             let (lo, hi) = (c * size, ((c + 1) * size).min(len));
             if sel.listed {
                 part.collect(list[lo..hi].iter().map(|&a| a as usize), (one, mover));
             } else {
                 part.collect(lo..hi, (one, mover));
             }
-            // SAFETY: every chunk's movers are its own agents (each agent in one chunk),
-            // and no other thread uses the lattice but through `shift`.
+            // SAFETY (both): every chunk's movers are its own agents (each agent in one
+            // chunk), and no other thread uses the lattice but through `shift`.
+            if noting {
+                notes.clear();
+                notes.extend((part.movers.iter()).map(|&a| {
+                    let (p, code) = unsafe { shift.at(a) };
+                    (a, p, code)
+                }));
+            }
             unsafe { shift.in_place(&part.movers) }
         };
-        let made: Vec<(usize, bool)> = pool.map(parts.iter_mut().enumerate().collect(), moves);
+        let items = parts.iter_mut().zip(&mut changes.moved_parts);
+        let made: Vec<(usize, bool)> = pool.map(items.enumerate().collect(), moves);
         if made.iter().any(|m| !m.1) {
             let undo: Vec<&[u32]> = (parts.iter().zip(&made))
                 .map(|(p, m)| &p.movers[..m.0])
                 .collect();
             self.lat.unshift(&undo, (off, d));
+            changes.moved_parts.iter_mut().for_each(Vec::clear);
             self.bufs.fused = parts;
             self.bufs.fused_pause = 16;
             return false;
         }
         let moved: usize = parts.iter().map(|p| p.movers.len()).sum();
-        if self.bufs.changes.on {
-            for p in &parts {
-                for &a in &p.movers {
-                    self.bufs.changes.moved_back(self.lat, a, off);
-                }
-            }
-        }
         self.bufs.fused = parts;
         self.stats.moves += moved as u64;
         true
