@@ -315,12 +315,6 @@ impl CellsMut<'_> {
         prefetch(self.occ.as_ptr().wrapping_add(i / 64));
     }
 
-    /// Whether cell `i` holds an agent.
-    #[inline]
-    pub(crate) fn filled(&self, i: usize) -> bool {
-        self.occ[i / 64] >> (i % 64) & 1 != 0
-    }
-
     /// Cell `i`'s slot code: `i`, with [`RIM`] when it is on the rim.
     #[inline]
     pub(crate) fn code_of(&self, i: usize) -> u32 {
@@ -346,6 +340,28 @@ impl CellsMut<'_> {
     pub(crate) fn vacate(&mut self, i: usize) {
         self.cells[i] = EMPTY;
         self.occ[i / 64] &= !(1 << (i % 64));
+    }
+
+    /// Moves agent `a` from cell `from` into cell `to` when `to` is empty, and returns
+    /// whether it did. (Cells next to each other mostly share their word of bits: one read
+    /// and one write of it, which the next move, often in the same word, waits for once.)
+    #[inline]
+    pub(crate) fn relocate(&mut self, a: u32, from: usize, to: usize) -> bool {
+        let (wf, wt) = (from / 64, to / 64);
+        let (bf, bt) = (1u64 << (from % 64), 1u64 << (to % 64));
+        let word = self.occ[wt];
+        if word & bt != 0 {
+            return false;
+        }
+        if wf == wt {
+            self.occ[wt] = word ^ (bf | bt);
+        } else {
+            self.occ[wt] = word | bt;
+            self.occ[wf] &= !bf;
+        }
+        self.cells[from] = EMPTY;
+        self.cells[to] = a;
+        true
     }
 }
 

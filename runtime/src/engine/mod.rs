@@ -327,7 +327,7 @@ impl Engine {
             let kind = RecordKind::CircularPriority;
             record((&mut self.stats, &self.lat), rep, kind, &circle, msg);
         }
-        self.selection.count_firings();
+        self.selection.count_firings(&self.threads);
     }
 
     /// 2. Actions: moves, bonds, states and swaps.

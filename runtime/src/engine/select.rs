@@ -79,32 +79,52 @@ impl Selector {
     }
 
     /// The firing counts of the selection: runs of agents with the same single rule are
-    /// counted at once; a reused selection's counts were kept up to date.
-    pub(super) fn count_firings(&mut self) {
+    /// counted at once, in chunks of agents on the pool when there are threads (and rules
+    /// few enough for a count per chunk); a reused selection's counts were kept up to
+    /// date.
+    pub(super) fn count_firings(&mut self, th: &Threads) {
         if self.reused {
             return;
         }
         let (sel, counts) = (&self.sel, &mut self.fire_counts);
-        counts.fill(0);
-        if sel.listed {
-            self.active = sel.count_listed(counts);
-            for &r in &sel.many {
-                counts[r as usize] += 1;
-            }
-            return;
-        }
+        let rules = counts.len();
+        let len = if sel.listed {
+            sel.list.len()
+        } else {
+            sel.one.len()
+        };
         // With few rules and no agent executing several, one vectorised count per rule
         // (agents alternating between a rule and none would make runs of one); otherwise
         // runs of agents with the same entry are counted at once.
-        self.active = if sel.many.is_empty() && counts.len() <= 4 {
-            let mut active = 0;
-            for (r, c) in counts.iter_mut().enumerate() {
-                *c = sel.one.iter().map(|&v| (v == r as u32) as u64).sum();
-                active += *c;
+        let count = |(lo, hi): (usize, usize), counts: &mut [u64]| -> u64 {
+            if sel.listed {
+                sel.count_listed(&sel.list[lo..hi], counts)
+            } else if sel.many.is_empty() && rules <= 4 {
+                let mut active = 0;
+                for (r, c) in counts.iter_mut().enumerate() {
+                    *c += sel.one[lo..hi]
+                        .iter()
+                        .map(|&v| (v == r as u32) as u64)
+                        .sum::<u64>();
+                    active += *c;
+                }
+                active
+            } else {
+                count_runs(&sel.one[lo..hi], counts)
             }
-            active
+        };
+        counts.fill(0);
+        self.active = if th.parallel(len).is_some() && rules <= 64 {
+            let parts = th.par_chunks(len, &|lo, hi| {
+                let mut c = vec![0; rules];
+                (count((lo, hi), &mut c), c)
+            });
+            for (_, c) in &parts {
+                counts.iter_mut().zip(c).for_each(|(t, k)| *t += k);
+            }
+            parts.iter().map(|p| p.0).sum()
         } else {
-            count_runs(&sel.one, counts)
+            count((0, len), counts)
         };
         for &r in &sel.many {
             counts[r as usize] += 1;

@@ -65,16 +65,16 @@ impl Selection {
         self.listed = true;
     }
 
-    /// Adds to `counts` how many agents execute each rule, from the list; returns how many
-    /// execute any.
-    pub(super) fn count_listed(&self, counts: &mut [u64]) -> u64 {
-        for &a in &self.list {
+    /// Adds to `counts` how many agents of `list` (a part of the list) execute each rule;
+    /// returns how many execute any.
+    pub(super) fn count_listed(&self, list: &[u32], counts: &mut [u64]) -> u64 {
+        for &a in list {
             let r = self.one[a as usize];
             if r & MANY == 0 {
                 counts[r as usize] += 1;
             }
         }
-        self.list.len() as u64
+        list.len() as u64
     }
 }
 

@@ -855,7 +855,7 @@ impl Lattice {
             let a = a as usize;
             let c = code[a];
             let to = Grid::along(c, step);
-            if c >= RIM || attach[a] != 0 || cells.filled(to) {
+            if c >= RIM || attach[a] != 0 || !cells.relocate(a as u32, c as usize, to) {
                 // Back, the last moved first: every cell is as it was.
                 for &b in movers[..k].iter().rev() {
                     let b = b as usize;
@@ -869,8 +869,6 @@ impl Lattice {
                 }
                 return false;
             }
-            cells.vacate(c as usize);
-            cells.occupy(to, a as u32);
             code[a] = cells.code_of(to);
             let p = pos[a];
             pos[a] = [p[0] + off[0], p[1] + off[1], p[2] + off[2]];
