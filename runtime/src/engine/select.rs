@@ -15,6 +15,8 @@ pub(super) struct Selector {
     pub(super) by_state: bool,
     /// The last selection was reused (so the firings of the last step repeat).
     reused: bool,
+    /// The last selection counted its firings as it was made.
+    counted: bool,
     /// Some agent's state changed since the last selection.
     states_changed: bool,
     /// Per rule: how many agents execute it in the current selection; and how many agents
@@ -78,58 +80,73 @@ impl Selector {
         self.reused
     }
 
-    /// The firing counts of the selection: runs of agents with the same single rule are
-    /// counted at once, in chunks of agents on the pool when there are threads (and rules
-    /// few enough for a count per chunk); a reused selection's counts were kept up to
-    /// date.
+    /// The firing counts of the selection (unless the selection counted them as it was
+    /// made, or was reused: then its counts were kept up to date): in chunks of agents on
+    /// the pool when there are threads (and rules few enough for a count per chunk).
     pub(super) fn count_firings(&mut self, th: &Threads) {
         if self.reused {
             return;
         }
         let (sel, counts) = (&self.sel, &mut self.fire_counts);
-        let rules = counts.len();
-        let len = if sel.listed {
-            sel.list.len()
-        } else {
-            sel.one.len()
-        };
-        // With few rules and no agent executing several, one vectorised count per rule
-        // (agents alternating between a rule and none would make runs of one); otherwise
-        // runs of agents with the same entry are counted at once.
-        let count = |(lo, hi): (usize, usize), counts: &mut [u64]| -> u64 {
-            if sel.listed {
-                sel.count_listed(&sel.list[lo..hi], counts)
-            } else if sel.many.is_empty() && rules <= 4 {
-                let mut active = 0;
-                for (r, c) in counts.iter_mut().enumerate() {
-                    *c += sel.one[lo..hi]
-                        .iter()
-                        .map(|&v| (v == r as u32) as u64)
-                        .sum::<u64>();
-                    active += *c;
-                }
-                active
+        if !std::mem::take(&mut self.counted) {
+            let rules = counts.len();
+            let len = if sel.listed {
+                sel.list.len()
             } else {
-                count_runs(&sel.one[lo..hi], counts)
-            }
-        };
-        counts.fill(0);
-        self.active = if th.parallel(len).is_some() && rules <= 64 {
-            let parts = th.par_chunks(len, &|lo, hi| {
-                let mut c = vec![0; rules];
-                (count((lo, hi), &mut c), c)
-            });
-            for (_, c) in &parts {
-                counts.iter_mut().zip(c).for_each(|(t, k)| *t += k);
-            }
-            parts.iter().map(|p| p.0).sum()
-        } else {
-            count((0, len), counts)
-        };
+                sel.one.len()
+            };
+            let count = |(lo, hi): (usize, usize), counts: &mut [u64]| -> u64 {
+                if sel.listed {
+                    sel.count_listed(&sel.list[lo..hi], counts)
+                } else {
+                    tally(&sel.one[lo..hi], counts, !sel.many.is_empty())
+                }
+            };
+            counts.fill(0);
+            self.active = if th.parallel(len).is_some() && rules <= TALLIED {
+                let parts = th.par_chunks(len, &|lo, hi| {
+                    let mut c = vec![0; rules];
+                    (count((lo, hi), &mut c), c)
+                });
+                add_tallies(counts, &parts)
+            } else {
+                count((0, len), counts)
+            };
+        }
         for &r in &sel.many {
             counts[r as usize] += 1;
         }
     }
+}
+
+/// Rules up to which firings are counted per chunk of agents, and the chunks' counts added.
+const TALLIED: usize = 64;
+
+/// Adds to `counts` how many entries of `one` (a part of the selection) name each single
+/// rule, and returns how many name any rule; `many`: some entry may be [`MANY`]. With few
+/// rules and no agent executing several, one vectorised count per rule (agents alternating
+/// between a rule and none would make runs of one); otherwise runs of agents with the same
+/// entry are counted at once.
+fn tally(one: &[u32], counts: &mut [u64], many: bool) -> u64 {
+    if many || counts.len() > 4 {
+        return count_runs(one, counts);
+    }
+    let mut active = 0;
+    for (r, c) in counts.iter_mut().enumerate() {
+        let k: u64 = one.iter().map(|&v| (v == r as u32) as u64).sum();
+        *c += k;
+        active += k;
+    }
+    active
+}
+
+/// Adds the chunks' counts per rule (with how many agents execute any rule) to `counts`,
+/// and returns how many execute any rule.
+fn add_tallies(counts: &mut [u64], parts: &[(u64, Vec<u64>)]) -> u64 {
+    for (_, c) in parts {
+        counts.iter_mut().zip(c).for_each(|(t, k)| *t += k);
+    }
+    parts.iter().map(|p| p.0).sum()
 }
 
 pub(super) const OPEN: i32 = -1;
@@ -275,6 +292,7 @@ impl Selector {
         let (lists, single, of) = (&dispatch.lists, &dispatch.single, &dispatch.of);
         let (par, chunk, _) = th.chunks(n);
         let pre_columns = &plan.pre_columns;
+        let rules = self.fire_counts.len();
         let work = |(c, one): (usize, &mut [u32])| {
             let lo = c * chunk;
             let mut multi: Vec<(u32, Vec<u32>)> = Vec::new();
@@ -326,7 +344,12 @@ impl Selector {
                 one[k] = eval_one(prog, (trivial, &lists[idx]), lat, a, (&mut buf, &mut multi));
                 k += 1;
             }
-            (multi, evaluated)
+            // The chunk's firings, counted while its entries are in this core's cache.
+            let counted = (rules <= TALLIED).then(|| {
+                let mut c = vec![0; rules];
+                (tally(one, &mut c, !multi.is_empty()), c)
+            });
+            (multi, evaluated, counted)
         };
         let parts: Vec<_> = match par {
             Some((pool, _)) => pool.map(one.chunks_mut(chunk).enumerate().collect(), work),
@@ -337,11 +360,18 @@ impl Selector {
         self.sel.many.clear();
         self.sel.listed = false;
         self.by_state = true;
-        for (multi, evaluated) in parts {
+        let mut counted = Vec::with_capacity(parts.len());
+        for (multi, evaluated, count) in parts {
             self.by_state &= !evaluated;
             for (a, rules) in multi {
                 self.sel.set(a as usize, &rules);
             }
+            counted.extend(count);
+        }
+        if rules <= TALLIED {
+            self.fire_counts.fill(0);
+            self.active = add_tallies(&mut self.fire_counts, &counted);
+            self.counted = true;
         }
     }
 }
