@@ -95,9 +95,9 @@ pub fn merge(a: MergeArgs) -> ExitCode {
         return c;
     }
     say!(
-        "{} runs from {} parts; wrote {}",
-        table.rows(),
-        a.parts.len(),
+        "{} from {}; wrote {}",
+        crate::plural(table.rows(), "run"),
+        crate::plural(a.parts.len(), "part"),
         a.out.display()
     );
     if missing.count > 0 {

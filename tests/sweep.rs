@@ -220,3 +220,82 @@ fn a_killed_sweep_leaves_its_journal_and_resume_goes_on_from_it() {
     assert_eq!(without_wall_time(&out), without_wall_time(&whole));
     std::fs::remove_dir_all(&d).unwrap();
 }
+
+/// docs/scale-out.md's example with GNU parallel, run as a user runs it: the block as a
+/// script in a folder of its own (with the repository's `examples/`), `latticesim` on the
+/// PATH. Eight parallel shards of 30 runs, merged into one Parquet table of every run.
+/// Without GNU parallel on the machine the test says so and passes, but not in CI
+/// (`.ci/run` installs it).
+#[test]
+fn the_gnu_parallel_example_of_the_docs_runs_as_a_script() {
+    let has_parallel = Command::new("parallel")
+        .arg("--version")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    if !has_parallel {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "GNU parallel is needed in CI (.ci/run installs it)"
+        );
+        eprintln!("skipped: GNU parallel is not installed");
+        return;
+    }
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let doc = std::fs::read_to_string(root.join("docs/scale-out.md")).unwrap();
+    let block = doc
+        .split("```sh\n")
+        .skip(1)
+        .filter_map(|b| b.split("```").next())
+        .find(|b| b.contains("parallel latticesim sweep"))
+        .expect("docs/scale-out.md has the GNU parallel example");
+    let d = dir("parallel-example");
+    std::os::unix::fs::symlink(root.join("examples"), d.join("examples")).unwrap();
+    std::fs::write(d.join("example.sh"), block).unwrap();
+    let bin_dir = Path::new(BIN).parent().unwrap();
+    let path = format!(
+        "{}:{}",
+        bin_dir.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let mut child = Command::new("bash")
+        .args(["-e", "example.sh"])
+        .current_dir(&d)
+        .env("PATH", path)
+        .stdin(Stdio::null())
+        .stdout(std::fs::File::create(d.join("out.txt")).unwrap())
+        .stderr(std::fs::File::create(d.join("err.txt")).unwrap())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if start.elapsed() > Duration::from_secs(600) {
+            let _ = child.kill();
+            panic!("the example ran for 10 minutes");
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    let err = std::fs::read_to_string(d.join("err.txt")).unwrap();
+    assert!(status.success(), "{block}\n{err}");
+    // Every run of the sweep is in the merged table, each once.
+    let csv = d.join("all.csv");
+    let o = Command::new(BIN)
+        .args(["merge", "leader-election.parquet", "--out"])
+        .arg(&csv)
+        .current_dir(&d)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("30 runs from 1 part;"),
+        "{}",
+        stderr(&o)
+    );
+    let rows = without_wall_time(&csv);
+    assert_eq!(rows.len(), 1 + 3 * 10, "{rows:?}");
+    let _ = std::fs::remove_dir_all(&d);
+}

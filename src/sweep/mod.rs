@@ -542,8 +542,8 @@ fn outputs(
         .filter_map(|&(name, f)| fit(&points(rows, f)).map(|f| format!("{name} ~ {}", f.text())))
         .collect();
     say!(
-        "{} runs; {}; wrote {}",
-        rows.len(),
+        "{}; {}; wrote {}",
+        crate::plural(rows.len(), "run"),
         if fits.is_empty() {
             "nothing to fit (too few sizes, or no metric above zero)".to_string()
         } else {
