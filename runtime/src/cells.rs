@@ -343,25 +343,60 @@ impl CellsMut<'_> {
     }
 
     /// Moves agent `a` from cell `from` into cell `to` when `to` is empty, and returns
-    /// whether it did. (Cells next to each other mostly share their word of bits: one read
-    /// and one write of it, which the next move, often in the same word, waits for once.)
+    /// whether it did. The word of occupancy bits of `to` is held in `held` (a loop of moves
+    /// keeps it in a register: the cells of agents next to each other mostly share their
+    /// word, and each move would otherwise wait for the last one's write of it); it is
+    /// written back when another word is needed, or by [`CellsMut::put_back`], which must
+    /// come before the bits are read any other way.
     #[inline]
-    pub(crate) fn relocate(&mut self, a: u32, from: usize, to: usize) -> bool {
+    pub(crate) fn relocate(&mut self, held: &mut Held, a: u32, from: usize, to: usize) -> bool {
         let (wf, wt) = (from / 64, to / 64);
-        let (bf, bt) = (1u64 << (from % 64), 1u64 << (to % 64));
-        let word = self.occ[wt];
-        if word & bt != 0 {
+        if wt != held.word {
+            self.put_back(held);
+            *held = Held {
+                word: wt,
+                bits: self.occ[wt],
+            };
+        }
+        let bt = 1u64 << (to % 64);
+        if held.bits & bt != 0 {
             return false;
         }
+        let bf = 1u64 << (from % 64);
         if wf == wt {
-            self.occ[wt] = word ^ (bf | bt);
+            held.bits ^= bf | bt;
         } else {
-            self.occ[wt] = word | bt;
+            held.bits |= bt;
             self.occ[wf] &= !bf;
         }
         self.cells[from] = EMPTY;
         self.cells[to] = a;
         true
+    }
+
+    /// Writes back the word of occupancy bits `held` holds, if any.
+    #[inline]
+    pub(crate) fn put_back(&mut self, held: &mut Held) {
+        if held.word != usize::MAX {
+            self.occ[held.word] = held.bits;
+            held.word = usize::MAX;
+        }
+    }
+}
+
+/// A word of a grid's occupancy bits held apart while agents move (see
+/// [`CellsMut::relocate`]).
+pub(crate) struct Held {
+    word: usize,
+    bits: u64,
+}
+
+impl Default for Held {
+    fn default() -> Held {
+        Held {
+            word: usize::MAX,
+            bits: 0,
+        }
     }
 }
 

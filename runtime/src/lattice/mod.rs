@@ -846,6 +846,7 @@ impl Lattice {
         };
         let step = g.step(d);
         let mut cells = g.cells_mut();
+        let mut held = crate::cells::Held::default();
         let (code, pos, attach) = (&mut self.code, &mut self.pos, &self.attach);
         for (k, &a) in movers.iter().enumerate() {
             // The cells a dozen moves ahead (see `cells::prefetch`).
@@ -855,7 +856,9 @@ impl Lattice {
             let a = a as usize;
             let c = code[a];
             let to = Grid::along(c, step);
-            if c >= RIM || attach[a] != 0 || !cells.relocate(a as u32, c as usize, to) {
+            if c >= RIM || attach[a] != 0 || !cells.relocate(&mut held, a as u32, c as usize, to)
+            {
+                cells.put_back(&mut held);
                 // Back, the last moved first: every cell is as it was.
                 for &b in movers[..k].iter().rev() {
                     let b = b as usize;
@@ -873,6 +876,7 @@ impl Lattice {
             let p = pos[a];
             pos[a] = [p[0] + off[0], p[1] + off[1], p[2] + off[2]];
         }
+        cells.put_back(&mut held);
         true
     }
 
