@@ -1378,6 +1378,21 @@ fn state_and_calc_cases() -> Vec<(String, String)> {
                 format!(" S{}AAAA", ["A", "B", "E", "F"][hash(x, y) as usize % 4])
             }),
         ),
+        // One rule alone calculates, an add in place (made in one masked pass over each
+        // chunk), its agents scattered among agents of a rule that does not calculate and
+        // of none; some results saturate (the runs then make the records).
+        (
+            "down\n1\nSA**** N0***\nC00 - C00 0001\n\nturn\n1\nSB**** N1***\nSA****\n".into(),
+            block(12, 30, |x, y, _| {
+                let st = ["A", "B", "A", "C"][hash(x, y) as usize % 4];
+                let c = if (x + y) % 9 == 0 { -32766 } else { (x * 3 + y) % 50 };
+                if (x * 5 + y * 11) % 7 == 0 {
+                    String::new()
+                } else {
+                    format!(" S{st}AAAA C00 {c}")
+                }
+            }),
+        ),
         // A division by zero for some agents of a run, then a product that saturates for
         // the same agents: the second is saturated (and recorded) all the same.
         (

@@ -568,6 +568,46 @@ impl CalcBufs {
     }
 }
 
+/// `Cxx = Cxx + v` ([`Plan::masked_add`]) for the agents of the chunk whose entry of the
+/// selection (`one`, the chunk's part) is rule `r`, in one pass over the column without a
+/// branch per agent (agents that execute `r` scattered among others would make runs of one
+/// or two for [`run_batch`]). Returns false, having changed nothing, when a result would
+/// saturate (the runs then make the records).
+pub(super) fn masked_add(
+    lat: &Lattice,
+    ch: &mut CalcChunk<'_>,
+    one: &[u32],
+    (r, c, v): (u32, u8, i32),
+) -> bool {
+    match lat.width() {
+        Width::W16 => masked_add_in::<i16>(lat, ch, one, (r, c, v)),
+        Width::W32 => masked_add_in::<i32>(lat, ch, one, (r, c, v)),
+    }
+}
+
+/// [`masked_add`] in the lattice's width.
+fn masked_add_in<V: Lane>(
+    lat: &Lattice,
+    ch: &mut CalcChunk<'_>,
+    one: &[u32],
+    (r, c, v): (u32, u8, i32),
+) -> bool {
+    let col = V::of_cut_mut(&mut ch.counters[lat.counter_col[c as usize] as usize]);
+    let m = V::WIDTH.max() as i64;
+    let v = v as i64;
+    let fits = |t: V| (-m..=m).contains(&(Into::<i32>::into(t) as i64 + v));
+    // Every agent's result checked first (without a branch per agent), then added.
+    let all = (col.iter().zip(one)).fold(true, |ok, (&t, &e)| ok & (e != r || fits(t)));
+    if !all {
+        return false;
+    }
+    for (t, &e) in col.iter_mut().zip(one) {
+        let x: i32 = (*t).into();
+        *t = V::of(x + (e == r) as i32 * v as i32);
+    }
+    true
+}
+
 /// Runs rule `r`'s calculations and sends for the chunk's agents `range` (all of which
 /// execute `r` alone), one instruction at a time over up to [`BATCH`] agents, in the
 /// lattice's width. The results, and the issues (in agent order, then instruction order),

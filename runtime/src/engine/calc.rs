@@ -87,6 +87,13 @@ impl Post {
             });
             let mut k = 0;
             let mut i = 0;
+            // One in-place add for the whole chunk, without runs (see the plan).
+            if let (None, Some(add), false) = (mine, plan.masked_add, trace) {
+                let one = &sel.one[ch.lo..ch.lo + ch.len];
+                if sel.many.is_empty() && masked_add(view, &mut ch, one, add) {
+                    k = ch.len;
+                }
+            }
             loop {
                 // The next agent that executes a rule, as `k` (from the chunk's start).
                 match mine {

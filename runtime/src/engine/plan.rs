@@ -15,6 +15,7 @@
 //! | state hops (`acting` = `States`, `direct_bits`) | every acting rule only sets a state: runs of agents in one state take its hop at once (`dispatch.rs`) | `set_state_at_once` per agent | `optimisations_agree_with_reference` (chains of state-only rules taken as hops) |
 //! | literal offsets (`literal_offsets`) | an offset has no counter in it: its value is known once | the offset evaluated per agent | `engine_agrees_with_reference_*` |
 //! | calculations over runs (`post_columns`) | no calculation of the rule reads an external counter or a message from any direction: `batch::column_post` translates the postcondition into `batch::PostStep`s (chains of in-place `max`/`min` found then), which `batch::run_batch` runs over runs of agents (with `fast_calc` for the most frequent ones); any instruction it does not know makes no column program | `run_post` one agent at a time | `optimisations_agree_with_reference` (runs calculating together, chains of in-place max/min, saturation and division by zero inside runs) |
+//! | one in-place add (`masked_add`) | one rule alone calculates or sends, and its only calculation adds a literal to a counter in place (`C00 - C00 0001`); in a step without a list of executing agents, no agent executing several rules, no trace: each chunk adds to the counter of every agent whose entry is that rule in one masked pass over the column (`batch::masked_add`), when no result saturates | runs of agents (`run_batch`) | `differential.rs` `optimisations_agree_with_reference` (one rule counting down beside rules that do not calculate, saturation), `threads_join_chunks_in_order` (gravity) |
 //! | no calculations (`any_computes`, `computes`) | no rule calculates or sends: the calculation phase is skipped; per rule, agents of rules that do not compute are passed over | `calc.rs` | `engine_agrees_with_reference_*` |
 //! | skipping quiet agents (`reads`, `activity.rs`) | an agent that had no valid rule at its last evaluation is evaluated again only when something it reads changed: its own state, counters, bonds or inbox, or a cell at an offset some precondition reads (`reads`: occupancy, states, counters), known here; agents in a state with a rule whose offset depends on a counter (`Reads::unbounded`) are evaluated at every step; no skipping with priority terms, `Skip::Off`, or when more than an eighth of the agents are woken | every agent evaluated (`select_plain` and the dense phases) | `differential.rs` every generated case with `Skip::Eager` and `Skip::Off`, `skipping_agrees_with_reference` |
 //! | messages left with their senders (`defer`) | numeric slots are used, no text message, and no rule moves or swaps: sends stay in the outboxes and are read through the plan of senders (`Pending` in lattice.rs, `post.rs`) | copying every message into its recipient's inbox (`post::deliver`) | `optimisations_agree_with_reference` (messages left with their senders, stale outboxes, sends to all and to one direction), `threads_join_chunks_in_order` |
@@ -53,6 +54,9 @@ pub(super) struct Plan {
     /// Per rule: its calculations as the column interpreter runs them over a run of
     /// agents ([`run_batch`]), when it can (no external counters).
     pub(super) post_columns: Vec<Option<ColumnPost>>,
+    /// When one rule alone calculates or sends, and its only calculation adds a literal to
+    /// a counter in place (`C00 - C00 0001`): that rule, the counter and what is added.
+    pub(super) masked_add: Option<(u32, u8, i32)>,
     /// Some rule calculates or sends.
     pub(super) any_computes: bool,
     /// Per rule: it calculates or sends.
@@ -192,7 +196,7 @@ impl Plan {
         let pre_columns = (prog.rules.iter())
             .map(|r| column_pre(prog, pre(r)))
             .collect();
-        let post_columns = (prog.rules.iter())
+        let post_columns: Vec<_> = (prog.rules.iter())
             .map(|r| column_post(prog, post(r)))
             .collect();
         let has_actions: Vec<bool> = (prog.rules.iter())
@@ -235,6 +239,7 @@ impl Plan {
         let plain_mask = (plain_moves.iter().map(Option::is_some))
             .chain([false])
             .collect();
+        let masked_add = masked_add(prog, &post_columns);
         Plan {
             writes: writes(prog),
             reads: Reads::of(prog),
@@ -250,12 +255,38 @@ impl Plan {
             direct_bits,
             literal_offsets: prog.offsets.iter().map(literal).collect(),
             post_columns,
+            masked_add,
             any_computes: prog.rules.iter().any(|r| r.computes),
             computes: prog.rules.iter().map(|r| r.computes).collect(),
             defer: uses.slots != 0
                 && !uses.texts
                 && (prog.rules.iter()).all(|r| r.moves.is_none() && r.swaps.is_none()),
         }
+    }
+}
+
+/// See [`Plan::masked_add`].
+fn masked_add(prog: &Program, post_columns: &[Option<ColumnPost>]) -> Option<(u32, u8, i32)> {
+    let mut computing = (prog.rules.iter().enumerate()).filter(|(_, r)| r.computes);
+    let (r, _) = computing.next()?;
+    if computing.next().is_some() {
+        return None;
+    }
+    match post_columns[r].as_deref()? {
+        [PostStep::Calc {
+            target: Target::Counter(c),
+            op: op @ (CalcOp::Add | CalcOp::Sub),
+            a: ColVal::Counter(ca),
+            b: ColVal::Lit(v),
+        }] if c == ca => {
+            let v = if *op == CalcOp::Add {
+                *v
+            } else {
+                v.checked_neg()?
+            };
+            Some((r as u32, *c, v))
+        }
+        _ => None,
     }
 }
 

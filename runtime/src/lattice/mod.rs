@@ -856,8 +856,7 @@ impl Lattice {
             let a = a as usize;
             let c = code[a];
             let to = Grid::along(c, step);
-            if c >= RIM || attach[a] != 0 || !cells.relocate(&mut held, a as u32, c as usize, to)
-            {
+            if c >= RIM || attach[a] != 0 || !cells.relocate(&mut held, a as u32, c as usize, to) {
                 cells.put_back(&mut held);
                 // Back, the last moved first: every cell is as it was.
                 for &b in movers[..k].iter().rev() {
