@@ -595,9 +595,13 @@ fn masked_add_in<V: Lane>(
     let col = V::of_cut_mut(&mut ch.counters[lat.counter_col[c as usize] as usize]);
     let m = V::WIDTH.max() as i64;
     let v = v as i64;
-    let fits = |t: V| (-m..=m).contains(&(Into::<i32>::into(t) as i64 + v));
-    // Every agent's result checked first (without a branch per agent), then added.
-    let all = (col.iter().zip(one)).fold(true, |ok, (&t, &e)| ok & (e != r || fits(t)));
+    // (`&` and `|`, not `&&` and `||`: no branch per agent, so that the loop vectorises.)
+    let fits = |t: V| {
+        let x = Into::<i32>::into(t) as i64 + v;
+        (x >= -m) & (x <= m)
+    };
+    // Every agent's result checked first, then added.
+    let all = (col.iter().zip(one)).fold(true, |ok, (&t, &e)| ok & ((e != r) | fits(t)));
     if !all {
         return false;
     }
