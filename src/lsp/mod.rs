@@ -54,10 +54,13 @@ pub struct Doc {
     pub kind: Kind,
 }
 
-/// The server's state: the open documents.
+/// The server's state: the open documents, and the last pair of files checked (see
+/// `features.rs`), forgotten when a document opens, changes or closes.
 #[derive(Default)]
 pub struct Server {
     docs: HashMap<String, Doc>,
+    #[allow(clippy::type_complexity)]
+    pair_cache: std::cell::RefCell<Option<(features::PairKey, std::rc::Rc<features::Pair>)>>,
 }
 
 /// The capabilities the server announces.
@@ -255,6 +258,9 @@ impl Server {
     }
 
     fn notification(&mut self, n: Notification) -> Vec<Message> {
+        if n.method.starts_with("textDocument/did") {
+            *self.pair_cache.get_mut() = None;
+        }
         match n.method.as_str() {
             "textDocument/didOpen" => {
                 let Some(p) = params::<DidOpenTextDocumentParams>(n.params) else {
