@@ -83,32 +83,94 @@ pub(crate) fn never<'a>(rules: &RulesFile<'a>, start: &[[u8; 5]]) -> Vec<Never<'
         })
         .collect();
     let mut out = Vec::new();
+    // A pattern without `*` matches a state that occurs in full when it is that state,
+    // else only a pattern with `*` that occurs (few: `S` actions that keep characters).
+    let whole: std::collections::HashSet<[u8; 5]> = full.iter().copied().collect();
+    let starred: Vec<Pat> = (occ.iter())
+        .filter(|o| o.iter().any(Option::is_none))
+        .copied()
+        .collect();
+    let mut index = Index::of(&full);
     for r in &rules.rules {
         let mut pats = Vec::new();
         tested(r.pre.node, &mut pats);
         for (s, is_remote) in pats {
             let Some(p) = pat(s.node) else { continue };
-            if occ.iter().any(|o| compatible(&p, o)) {
+            let matched = match exact(&p) {
+                Some(e) => whole.contains(&e) || starred.iter().any(|o| compatible(&p, o)),
+                None => occ.iter().any(|o| compatible(&p, o)),
+            };
+            if matched {
                 continue;
             }
             out.push(Never {
                 pattern: s,
                 is_remote,
                 rule: r.name.node,
-                nearest: nearest(&p, &full),
+                nearest: nearest(&p, &full, &mut index),
             });
         }
     }
     out
 }
 
+/// A pattern without `*` as the state it is.
+fn exact(p: &Pat) -> Option<[u8; 5]> {
+    let mut e = [0; 5];
+    for (c, x) in e.iter_mut().zip(p) {
+        *c = (*x)?;
+    }
+    Some(e)
+}
+
+/// Per position and character, the states (indices into a list) with that character
+/// there: a state at most two edits from a pattern without `*` has one of its characters
+/// in place (two edits change four positions at most).
+/// Also, per state, the last search that measured it (so that each is measured once).
+struct Index {
+    at: Vec<Vec<u32>>,
+    seen: Vec<u32>,
+    search: u32,
+}
+
+impl Index {
+    fn of(full: &[[u8; 5]]) -> Index {
+        let mut at = vec![Vec::new(); 5 * 256];
+        for (k, f) in full.iter().enumerate() {
+            for (i, &c) in f.iter().enumerate() {
+                at[i * 256 + c as usize].push(k as u32);
+            }
+        }
+        Index {
+            at,
+            seen: vec![0; full.len()],
+            search: 0,
+        }
+    }
+}
+
 /// The state of `full` nearest to `p`, when one is clearly nearest (no other at its
 /// distance) and at most two edits away; in one pass, each distance given up past two
 /// (a search of two passes over 5,000 states for each of 600 patterns was most of the
 /// language server's check of 5,005 generated rules).
-fn nearest(p: &Pat, full: &[[u8; 5]]) -> Option<[u8; 5]> {
+fn nearest(p: &Pat, full: &[[u8; 5]], index: &mut Index) -> Option<[u8; 5]> {
+    // The states to measure: those with a character of `p` in place (every one when `p`
+    // has a `*`), each once (the answer does not depend on their order).
+    index.search += 1;
+    let (search, seen) = (index.search, &mut index.seen);
+    let ks: Box<dyn Iterator<Item = u32> + '_> = match exact(p) {
+        Some(e) => Box::new(
+            (e.into_iter().enumerate())
+                .flat_map(|(i, c)| index.at[i * 256 + c as usize].iter().copied()),
+        ),
+        None => Box::new(0..full.len() as u32),
+    };
     let mut best: Option<(usize, [u8; 5], bool)> = None;
-    for f in full {
+    for k in ks {
+        if std::mem::replace(&mut seen[k as usize], search) == search {
+            continue;
+        }
+        let f = &full[k as usize];
         let Some(d) = distance_within(p, f, 2) else {
             continue;
         };
