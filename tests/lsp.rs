@@ -238,6 +238,22 @@ fn an_editor_session() {
         l.contains(&"SINIT0".to_string()) && l.contains(&"SLEAD0".to_string()),
         "{l:?}"
     );
+    // The pair checked is kept between requests, but not past a change of the agents file
+    // on disk (its size or time of change).
+    std::fs::write(
+        dir.join("agents.txt"),
+        "0,0 SINIT0\n1,0 SINIT0\n2,0 SWAIT0\n",
+    )
+    .unwrap();
+    let r = c.request(
+        "textDocument/completion",
+        json!({"textDocument": {"uri": rules_uri}, "position": pos(2, 17)}),
+    );
+    assert!(
+        labels(&r).contains(&"SWAIT0".to_string()),
+        "{:?}",
+        labels(&r)
+    );
     let r = c.request(
         "textDocument/completion",
         json!({"textDocument": {"uri": rules_uri}, "position": pos(3, 7)}),
