@@ -593,21 +593,22 @@ fn masked_add_in<V: Lane>(
     (r, c, v): (u32, u8, i32),
 ) -> bool {
     let col = V::of_cut_mut(&mut ch.counters[lat.counter_col[c as usize] as usize]);
+    // `t + v` stays in range exactly when `t` is within `lo..=hi` (counters are always in
+    // range, and so is `v`): compared in the column's own width, with `&` and `|` (not
+    // `&&` and `||`: no branch per agent), so that the loop vectorises.
     let m = V::WIDTH.max() as i64;
-    let v = v as i64;
-    // (`&` and `|`, not `&&` and `||`: no branch per agent, so that the loop vectorises.)
-    let fits = |t: V| {
-        let x = Into::<i32>::into(t) as i64 + v;
-        (x >= -m) & (x <= m)
-    };
+    let bound = |b: i64| V::of(b.clamp(-m, m) as i32);
+    let (lo, hi) = (bound(-m - v as i64), bound(m - v as i64));
     // Every agent's result checked first, then added.
-    let all = (col.iter().zip(one)).fold(true, |ok, (&t, &e)| ok & ((e != r) | fits(t)));
+    let all = (col.iter().zip(one)).fold(true, |ok, (&t, &e)| {
+        ok & ((e != r) | ((t >= lo) & (t <= hi)))
+    });
     if !all {
         return false;
     }
     for (t, &e) in col.iter_mut().zip(one) {
         let x: i32 = (*t).into();
-        *t = V::of(x + (e == r) as i32 * v as i32);
+        *t = V::of(x + (e == r) as i32 * v);
     }
     true
 }
