@@ -1378,6 +1378,29 @@ fn state_and_calc_cases() -> Vec<(String, String)> {
                 format!(" S{}AAAA", ["A", "B", "E", "F"][hash(x, y) as usize % 4])
             }),
         ),
+        // `E` and `F` at offsets of one step (run as neighbour patterns over runs) beside
+        // one at two steps (evaluated per agent), in a bounded universe (a cell outside
+        // it is neither empty nor filled), in 2D and in 3D.
+        (
+            "fall\n1\nE0,-1 F1,0 >C00 0000\nP0,-1 C00 - C00 0001\n\nslide\n1\nE0,-1 E-1,0 E2,0 !F-1,0\nP-1,0\n".into(),
+            format!(
+                "U0,8,0,13\n{}",
+                block(9, 14, |x, y, _| if (x * 7 + y * 3) % 5 < 2 {
+                    " SXXXXX".to_string()
+                } else {
+                    format!(" C00 {}", (x + y) % 4)
+                })
+            ),
+        ),
+        (
+            "fall\n1\nE0,0,-1 !F0,1,0\nP0,0,-1\n".into(),
+            (0..6)
+                .flat_map(|x| (0..6).flat_map(move |y| (0..6).map(move |z| (x, y, z))))
+                .filter(|(x, y, z)| (x * 5 + y * 3 + z * 7) % 4 != 0)
+                .fold("U0,5,0,5,0,5\n".to_string(), |t, (x, y, z)| {
+                    t + &format!("{x},{y},{z}\n")
+                }),
+        ),
         // One rule alone calculates, an add in place (made in one masked pass over each
         // chunk), its agents scattered among agents of a rule that does not calculate and
         // of none; some results saturate (the runs then make the records).

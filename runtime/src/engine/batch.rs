@@ -77,10 +77,27 @@ pub(super) type ColumnPre = Vec<PreStep>;
 pub(super) fn column_pre(prog: &Program, code: &[Op]) -> Option<ColumnPre> {
     let mut depth = 0usize;
     let mut steps = Vec::with_capacity(code.len());
+    // `E` or `F` at a literal offset of one step (`E0,-1`: the cell below is empty) asks
+    // what a neighbour pattern asks (`N***0`), and is run as one.
+    let neighbour = |off: u16| {
+        let o = literal(&prog.offsets[off as usize])?;
+        (0..prog.dim.dirs()).find(|&d| Dir::ALL[d].offset() == o)
+    };
     for op in code {
         let step = match *op {
             Op::True {} => PreStep::True,
             Op::Nbr { mask, want } => PreStep::Nbr { mask, want },
+            Op::Empty { off } => PreStep::Nbr {
+                mask: 1 << neighbour(off)?,
+                want: 0,
+            },
+            Op::Filled { off } => {
+                let bit = 1 << neighbour(off)?;
+                PreStep::Nbr {
+                    mask: bit,
+                    want: bit,
+                }
+            }
             Op::Att { mask, want } => PreStep::Att { mask, want },
             Op::State { pat } => PreStep::State { pat },
             Op::Cmp { op, a, b } => PreStep::Cmp {
@@ -104,6 +121,15 @@ pub(super) fn column_pre(prog: &Program, code: &[Op]) -> Option<ColumnPre> {
         steps.push(step);
     }
     Some(steps)
+}
+
+/// An offset's value when it has no counter in it.
+pub(super) fn literal(o: &latticesim_vm::model::Offset) -> Option<[i32; 3]> {
+    let lit = |c: &Coord| match *c {
+        Coord::Lit(v) => Some(v),
+        Coord::Counter(_) => None,
+    };
+    Some([lit(&o[0])?, lit(&o[1])?, lit(&o[2])?])
 }
 
 /// The agents a column program runs over: a run of consecutive agents from the first,

@@ -7,7 +7,7 @@
 //! | path | applies when | falls back to | test that guards it |
 //! |---|---|---|---|
 //! | state-only rules (`trivial`) | a rule's precondition is only its state filter (or nothing): agents in that state execute it without evaluating (`dispatch.rs`, `cand_single`) | evaluating preconditions (`select.rs`) | `differential.rs` `optimisations_agree_with_reference` (chains of state-only rules), `themes_agree_with_reference_*` |
-//! | preconditions over runs (`pre_columns`) | every op of the precondition is one the column interpreter runs: `batch::column_pre` translates it into `batch::PreStep`s, which `batch::batch_pre` runs (an op it cannot run makes no column program, so none is met mid-run) | `eval_pre` one agent at a time | `optimisations_agree_with_reference` (preconditions over runs, runs longer than a batch) |
+//! | preconditions over runs (`pre_columns`) | every op of the precondition is one the column interpreter runs: `batch::column_pre` translates it into `batch::PreStep`s, which `batch::batch_pre` runs (`E`/`F` at a literal offset of one step as the neighbour pattern it equals; an op it cannot run makes no column program, so none is met mid-run) | `eval_pre` one agent at a time | `optimisations_agree_with_reference` (preconditions over runs, runs longer than a batch, `E`/`F` of one step in a bounded universe in 2D and 3D) |
 //! | priorities (`any_prio`, `prio_offsets`) | no rule reads `P`, `L` or `Q`: the plain selection (`select_plain`); with literal `L`/`Q` offsets, priorities are resolved only where read | `select_with_priorities` over every agent | `semantics.rs` priority tests, `optimisations_agree_with_reference` (priority chains) |
 //! | no actions (`acting` = `Nothing`) | no rule moves, swaps, attaches or sets a state: the actions phase is skipped | `actions.rs` | `engine_agrees_with_reference_*` |
 //! | plain moves (`acting` = `PlainMoves`, `plain_moves`) | every acting rule only moves by a literal, non-zero offset: movers are collected without intents (`actions.rs`), and a mover without bonds moves alone (`moves::move_free`) | intents per agent and `detach_move_attach` | `optimisations_agree_with_reference` (programs of plain moves only, single-agent moves) |
@@ -352,13 +352,4 @@ pub(super) fn pat_bits(pat: &TextPat) -> (u64, u64) {
         }
     }
     (u64::from_le_bytes(mask), u64::from_le_bytes(val))
-}
-
-/// An offset's value when it has no counter in it.
-pub(super) fn literal(o: &latticesim_vm::model::Offset) -> Option<[i32; 3]> {
-    let lit = |c: &Coord| match *c {
-        Coord::Lit(v) => Some(v),
-        Coord::Counter(_) => None,
-    };
-    Some([lit(&o[0])?, lit(&o[1])?, lit(&o[2])?])
 }
