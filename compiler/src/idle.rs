@@ -95,14 +95,11 @@ pub fn idle_states(rules: &CheckedRules, states: &[[u8; 5]]) -> Vec<Idle> {
         .iter()
         .filter(|s| !p.busy(s))
         .map(|s| {
-            // The same nearness as W503's (a swap of two neighbours counts one).
-            let dist = |t: &[u8; 5]| crate::never::distance(&t.map(Some), s);
-            let best = full.iter().map(dist).min().filter(|&d| d <= 2);
-            let mut near = full.iter().filter(|t| Some(dist(t)) == best);
-            let first = near.next().copied();
+            // The same nearness as W503's (a swap of two neighbours counts one; between
+            // two whole states it is the same both ways).
             Idle {
                 state: *s,
-                suggestion: first.filter(|f| near.all(|t| t == f)),
+                suggestion: crate::never::nearest(&s.map(Some), &full),
             }
         })
         .collect()

@@ -224,8 +224,11 @@ fn states_warnings(
         .iter()
         .map(|n| never::pat(n.pattern.node).expect("a pattern of five characters"))
         .collect();
-    let far =
-        |d: &idle::IdleDiagnostic| !pats.iter().any(|p| never::distance(p, &d.idle_state) <= 2);
+    let far = |d: &idle::IdleDiagnostic| {
+        !pats
+            .iter()
+            .any(|p| never::distance_within(p, &d.idle_state, 2).is_some())
+    };
     if idle.iter().any(far) {
         // Agents start in a state no rule tests, far from every pattern: the patterns that
         // match nothing are what follows (`gen` without `--state`), not slips of their own.
@@ -237,7 +240,7 @@ fn states_warnings(
         let p = never::pat(n.pattern.node).expect("a pattern of five characters");
         let near = idle
             .iter()
-            .position(|d| never::distance(&p, &d.idle_state) <= 2);
+            .position(|d| never::distance_within(&p, &d.idle_state, 2).is_some());
         let seen_idle = near.map(|i| {
             let d = idle.remove(i);
             let full = !n.pattern.node.contains('*');

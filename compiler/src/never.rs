@@ -23,11 +23,6 @@ fn compatible(a: &Pat, b: &Pat) -> bool {
         .all(|(x, y)| x.is_none() || y.is_none() || x == y)
 }
 
-/// Edits (changed characters, or two neighbours swapped) between a pattern and a state.
-pub(crate) fn distance(p: &Pat, s: &[u8; 5]) -> usize {
-    distance_within(p, s, usize::MAX).expect("no limit")
-}
-
 /// The states that occur: start states and `S` actions (with their `*`s).
 fn occurring(rules: &RulesFile<'_>, start: &[[u8; 5]]) -> Vec<Pat> {
     let mut out: Vec<Pat> = Vec::new();
@@ -107,7 +102,7 @@ pub(crate) fn never<'a>(rules: &RulesFile<'a>, start: &[[u8; 5]]) -> Vec<Never<'
                 pattern: s,
                 is_remote,
                 rule: r.name.node,
-                nearest: nearest(&p, &full, &mut index),
+                nearest: nearest(&p, index.near(&p, &full)),
             });
         }
     }
@@ -149,28 +144,15 @@ impl Index {
     }
 }
 
-/// The state of `full` nearest to `p`, when one is clearly nearest (no other at its
-/// distance) and at most two edits away; in one pass, each distance given up past two
-/// (a search of two passes over 5,000 states for each of 600 patterns was most of the
-/// language server's check of 5,005 generated rules).
-fn nearest(p: &Pat, full: &[[u8; 5]], index: &mut Index) -> Option<[u8; 5]> {
-    // The states to measure: those with a character of `p` in place (every one when `p`
-    // has a `*`), each once (the answer does not depend on their order).
-    index.search += 1;
-    let (search, seen) = (index.search, &mut index.seen);
-    let ks: Box<dyn Iterator<Item = u32> + '_> = match exact(p) {
-        Some(e) => Box::new(
-            (e.into_iter().enumerate())
-                .flat_map(|(i, c)| index.at[i * 256 + c as usize].iter().copied()),
-        ),
-        None => Box::new(0..full.len() as u32),
-    };
+/// The state among `candidates` nearest to `p`, when one is clearly nearest (no other
+/// state at its distance) and at most two edits away; in one pass, each distance given up
+/// past two. The answer does not depend on the candidates' order.
+pub(crate) fn nearest<'s>(
+    p: &Pat,
+    candidates: impl IntoIterator<Item = &'s [u8; 5]>,
+) -> Option<[u8; 5]> {
     let mut best: Option<(usize, [u8; 5], bool)> = None;
-    for k in ks {
-        if std::mem::replace(&mut seen[k as usize], search) == search {
-            continue;
-        }
-        let f = &full[k as usize];
+    for f in candidates {
         let Some(d) = distance_within(p, f, 2) else {
             continue;
         };
@@ -183,7 +165,28 @@ fn nearest(p: &Pat, full: &[[u8; 5]], index: &mut Index) -> Option<[u8; 5]> {
     best.filter(|b| b.2).map(|b| b.1)
 }
 
-/// [`distance`] when it is at most `max`, else `None` (found without going further).
+impl Index {
+    /// The states of `full` that can be at most two edits from `p`: those with a character
+    /// of `p` in place (every one when `p` has a `*`), each once. (A search of every state
+    /// for each of 600 patterns was most of the language server's check of 5,005
+    /// generated rules.)
+    fn near<'a>(&'a mut self, p: &Pat, full: &'a [[u8; 5]]) -> impl Iterator<Item = &'a [u8; 5]> {
+        self.search += 1;
+        let (search, seen, at) = (self.search, &mut self.seen, &self.at);
+        let ks: Box<dyn Iterator<Item = u32> + 'a> = match exact(p) {
+            Some(e) => Box::new(
+                (e.into_iter().enumerate())
+                    .flat_map(move |(i, c)| at[i * 256 + c as usize].iter().copied()),
+            ),
+            None => Box::new(0..full.len() as u32),
+        };
+        ks.filter(move |&k| std::mem::replace(&mut seen[k as usize], search) != search)
+            .map(move |k| &full[k as usize])
+    }
+}
+
+/// The edits (changed characters, or two neighbours swapped) between a pattern and a
+/// state, when they are at most `max`, else `None` (found without going further).
 pub(crate) fn distance_within(p: &Pat, s: &[u8; 5], max: usize) -> Option<usize> {
     let same = |i: usize, c: u8| p[i].is_none_or(|x| x == c);
     let (mut i, mut d) = (0, 0);
@@ -292,6 +295,10 @@ pub(crate) fn diagnostic(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn distance(p: &Pat, s: &[u8; 5]) -> usize {
+        distance_within(p, s, usize::MAX).expect("no limit")
+    }
 
     #[test]
     fn distances_count_swaps_once_and_stars_as_any() {

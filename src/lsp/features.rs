@@ -37,6 +37,9 @@ pub(super) struct Pair {
 /// notifications, which forget the pair).
 pub(super) type PairKey = [Option<(String, Option<(u64, Option<std::time::SystemTime>)>)>; 2];
 
+/// The pair last checked, with what it was made from.
+pub(super) type Kept = Option<(PairKey, Rc<Pair>)>;
+
 impl Pair {
     fn uri(&self, f: FileId) -> Option<&str> {
         self.uris.get(f.0 as usize).and_then(|u| u.as_deref())

@@ -59,8 +59,7 @@ pub struct Doc {
 #[derive(Default)]
 pub struct Server {
     docs: HashMap<String, Doc>,
-    #[allow(clippy::type_complexity)]
-    pair_cache: std::cell::RefCell<Option<(features::PairKey, std::rc::Rc<features::Pair>)>>,
+    pair_cache: std::cell::RefCell<features::Kept>,
 }
 
 /// The capabilities the server announces.

@@ -297,11 +297,14 @@ impl Activity {
             }
         }
         let n = self.n;
-        self.parts.resize_with(k, || WakeSet::new(usize::MAX));
+        // (Sets of no limit, never "all".)
+        self.parts.resize_with(k, || WakeSet {
+            limit: usize::MAX,
+            ..WakeSet::default()
+        });
         let items: Vec<_> = runs.into_iter().zip(self.parts.drain(..)).collect();
         let sets = pool.map(items, |(run, mut set)| {
             set.ready(n);
-            set.all = false;
             for x in run.iter().flat_map(|l| l.iter()) {
                 wake(x, &mut set);
             }
