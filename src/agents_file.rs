@@ -12,10 +12,12 @@
 //! again, and the file is held as its head and those lines (`Sources::excerpt`).
 
 use crate::output::say;
-use latticesim_compiler::fast_agents::{check_with_head, read_head, read_lines, Head};
+use latticesim_compiler::fast_agents::{
+    check_with_head, read_head, read_lines, Head, LineCheck, Verdict,
+};
 use latticesim_compiler::lints::Lints;
 use latticesim_compiler::{check_with, Checked, Columns, Input, StartState};
-use latticesim_runtime::{Defect, Lattice};
+use latticesim_runtime::{Lattice, Mends};
 use std::fs::File;
 use std::io::{self, BufReader, BufWriter, Read, Write};
 use std::path::Path;
@@ -347,37 +349,6 @@ fn too_large(
                 format!("note: only its first {lines} lines were checked: {why}; fix what is said above and check it again"),
             )
         }
-        Declined::Lattice(d) => {
-            // The head's verdict (rules and dimension), then the agents' lines.
-            let head = first_part(1 << 20)?;
-            let c = checked_part(&head[..head_end(&head)]);
-            let agents: Vec<u32> = match d {
-                Defect::SharedCell { first, second, .. } => vec![first, second],
-                Defect::OneSidedBond { agent, .. } => vec![agent],
-            };
-            let lines: Vec<u64> = (agent_lines(open, &agents)?.into_iter())
-                .map(|l| l.number)
-                .collect();
-            let at = |k: usize| format!("{agents_name}:{}", lines[k]);
-            let what = match d {
-                Defect::SharedCell {
-                    first, second, pos, ..
-                } => format!(
-                    "error: two agents on the cell {},{}{}: agent {first} ({}) and agent {second} ({})",
-                    pos[0],
-                    pos[1],
-                    if c.dim.dim.coords() == 3 { format!(",{}", pos[2]) } else { String::new() },
-                    at(0),
-                    at(1)
-                ),
-                Defect::OneSidedBond { agent, dir } => format!(
-                    "error: agent {agent} ({}) declares a bond towards {} that no agent there declares back (the checker would warn and make or drop it; here it is an error)",
-                    at(0),
-                    dir.letter()
-                ),
-            };
-            (c, format!("{what}\nnote: {why}"))
-        }
     };
     Ok(Loaded {
         checked,
@@ -394,12 +365,6 @@ fn bytecount_lines(bytes: &[u8]) -> usize {
     n + (bytes.last().is_some_and(|&b| b != b'\n')) as usize
 }
 
-/// The length of the head of an agents file's first bytes (through its first agent line),
-/// as the fast reader finds it; all of them when it finds none.
-fn head_end(bytes: &[u8]) -> usize {
-    read_head(bytes).map_or(bytes.len(), |h| h.end)
-}
-
 /// An agent's line, found in its file.
 #[derive(Default, Clone)]
 struct AgentLine {
@@ -414,14 +379,51 @@ struct AgentLine {
 /// The lines of the agents with these ids (ids count the agent lines: not blank, not a
 /// comment, not the `U` line), in the order given; read until the last of them.
 fn agent_lines(open: Source<'_>, ids: &[u32]) -> io::Result<Vec<AgentLine>> {
+    Ok(find_lines(open, false, &[], ids, &[])?.1)
+}
+
+/// Lines of an agents file found again, read until the last of them: those that start at
+/// `offsets`, and those of the agents with the ids `ids` (ids count the agent lines: not
+/// blank, not a comment, not the `U` line, and not a line that starts at one of
+/// `not_agents`, ascending), each in the order given. `with_context`: the lines before
+/// and after those found too, after those at `offsets` (for the excerpt of the file).
+fn find_lines(
+    open: Source<'_>,
+    with_context: bool,
+    offsets: &[u64],
+    ids: &[u32],
+    not_agents: &[u64],
+) -> io::Result<(Vec<AgentLine>, Vec<AgentLine>)> {
     use std::io::BufRead;
+    let mut at_offsets = vec![AgentLine::default(); offsets.len()];
+    let mut context = Vec::new();
     let mut found = vec![AgentLine::default(); ids.len()];
     let mut at = 0u64;
     let mut r = io::BufReader::with_capacity(1 << 20, open.open()?);
     let (mut line, mut id) = (0u64, 0u32);
     let mut buf = Vec::new();
-    let last = ids.iter().copied().max().unwrap_or(0);
-    while id <= last {
+    let last = ids.iter().copied().max();
+    let last_offset = offsets.iter().copied().max();
+    let mut skip = not_agents.iter().copied().peekable();
+    let sorted = |v: Vec<(u64, usize)>| {
+        let mut v = v;
+        v.sort_unstable();
+        v
+    };
+    let by_offset = sorted(offsets.iter().enumerate().map(|(k, &o)| (o, k)).collect());
+    let by_id = sorted(
+        ids.iter()
+            .enumerate()
+            .map(|(k, &i)| (i as u64, k))
+            .collect(),
+    );
+    let mut by_offset = by_offset.iter().peekable();
+    let mut by_id = by_id.iter().peekable();
+    // The line before the last found, and whether the line after it is wanted: a label on
+    // each of two lines with one between shows that one too.
+    let mut prev = AgentLine::default();
+    let mut after = false;
+    while last.is_some_and(|l| id <= l) || last_offset.is_some_and(|l| at <= l) || after {
         buf.clear();
         if r.read_until(b'\n', &mut buf)? == 0 {
             break;
@@ -429,27 +431,43 @@ fn agent_lines(open: Source<'_>, ids: &[u32]) -> io::Result<Vec<AgentLine>> {
         line += 1;
         let start = at;
         at += buf.len() as u64;
+        let here = || AgentLine {
+            number: line,
+            at: start,
+            text: buf.clone(),
+        };
+        if std::mem::take(&mut after) {
+            context.push(here());
+        }
+        let (offsets_before, ids_before) = (by_offset.len(), by_id.len());
+        // An offset within the line (after its leading blanks, say) finds it.
+        while let Some(&(_, k)) = by_offset.next_if(|&&(o, _)| o < at.max(start + 1)) {
+            at_offsets[k] = here();
+        }
+        while skip.next_if(|&o| o < start).is_some() {}
+        let skipped = skip.next_if_eq(&start).is_some();
         let text = buf.split(|&b| b == b'\n').next().unwrap_or(&[]);
         let text = match memchr::memmem::find(text, b"//") {
             Some(c) => &text[..c],
             None => text,
         };
         let t = text.trim_ascii();
-        if t.is_empty() || t[0] == b'U' {
-            continue;
-        }
-        for (k, &want) in ids.iter().enumerate() {
-            if want == id {
-                found[k] = AgentLine {
-                    number: line,
-                    at: start,
-                    text: buf.clone(),
-                };
+        if !(t.is_empty() || t[0] == b'U' || skipped) {
+            while let Some(&(_, k)) = by_id.next_if(|&&(i, _)| i <= id as u64) {
+                found[k] = here();
             }
+            id += 1;
         }
-        id += 1;
+        if with_context && (by_offset.len(), by_id.len()) != (offsets_before, ids_before) {
+            context.push(std::mem::take(&mut prev));
+            after = true;
+        }
+        prev = here();
     }
-    Ok(found)
+    if with_context {
+        at_offsets.append(&mut context);
+    }
+    Ok((at_offsets, found))
 }
 
 /// A buffer of bytes read from a file: `buf[..len]` holds them; the rest is room, zeroed
@@ -498,17 +516,74 @@ impl Window {
     }
 }
 
-/// Reads whole lines into columns on up to `threads` threads (cut at line ends): `Err`
-/// with where the first line that needs the checker starts.
+/// What the lines the fast reader left said, read as the checker reads them.
+#[derive(Default)]
+struct Said {
+    /// Their diagnostics, with the start of each one's line.
+    diags: Vec<(latticesim_grammar::Diagnostic, usize)>,
+    /// Agent lines with an error (agents read, not in the lattice).
+    refused: usize,
+    /// Where the lines start that are not agents of the lattice (ascending).
+    not_agents: Vec<u64>,
+}
+
+impl Said {
+    fn append(&mut self, mut other: Said) {
+        self.diags.append(&mut other.diags);
+        self.refused += other.refused;
+        self.not_agents.append(&mut other.not_agents);
+    }
+}
+
+/// Reads whole lines (`bytes`, which start at offset `at` of the file) into columns: the
+/// fast reader, and the lines it leaves checked one at a time (`check`). `Err` with where
+/// a line starts that only the checker of the whole file reads (one not UTF-8).
+fn read_part(
+    bytes: &[u8],
+    at: u64,
+    (head, check): (&Head, &LineCheck),
+    out: &mut Columns,
+    said: &mut Said,
+) -> Result<(), u64> {
+    let mut from = 0;
+    while from < bytes.len() {
+        let Err(k) = read_lines(&bytes[from..], head, out) else {
+            return Ok(());
+        };
+        let s = from + k;
+        let len = memchr::memchr(b'\n', &bytes[s..]).unwrap_or(bytes.len() - s);
+        let line_at = at + s as u64;
+        let mut diags = Vec::new();
+        match check.line(&bytes[s..s + len], line_at as usize, out, &mut diags) {
+            None => return Err(line_at),
+            Some(Verdict::Agent | Verdict::Nothing) => {}
+            Some(Verdict::Refused) => {
+                said.refused += 1;
+                said.not_agents.push(line_at);
+            }
+            Some(Verdict::Other) => said.not_agents.push(line_at),
+        }
+        (said.diags).extend(diags.into_iter().map(|d| (d, line_at as usize)));
+        from = s + len + 1;
+    }
+    out.fill();
+    Ok(())
+}
+
+/// Reads whole lines (`bytes`, at offset `at` of the file) into columns on up to `threads`
+/// threads (cut at line ends), as [`read_part`] does.
 fn read_parallel(
     bytes: &[u8],
-    head: &Head,
+    at: u64,
+    how: (&Head, &LineCheck),
     out: &mut Columns,
     threads: usize,
-) -> Result<(), usize> {
+) -> Result<Said, u64> {
+    let mut said = Said::default();
     let parts = threads.min(bytes.len() / BYTES_PER_THREAD).max(1);
     if parts == 1 {
-        return read_lines(bytes, head, out);
+        read_part(bytes, at, how, out, &mut said)?;
+        return Ok(said);
     }
     let mut cuts = vec![0];
     for k in 1..parts {
@@ -520,35 +595,38 @@ fn read_parallel(
     // This thread reads the first piece straight into `out`; the others, read beside it,
     // are appended after.
     let (first, rest) = (&bytes[..cuts[1]], &cuts[1..]);
-    type Part = (Result<(), usize>, Columns);
-    let (done, results): (Result<(), usize>, Vec<Part>) = std::thread::scope(|s| {
+    let width = how.0.width;
+    type Part = (Result<(), u64>, Columns, Said);
+    let (done, results): (Result<(), u64>, Vec<Part>) = std::thread::scope(|s| {
         let handles: Vec<_> = rest
             .windows(2)
             .map(|w| {
                 let (from, piece) = (w[0], &bytes[w[0]..w[1]]);
                 s.spawn(move || {
-                    let mut cols = Columns::new(head.width);
-                    let done = read_lines(piece, head, &mut cols).map_err(|at| from + at);
-                    (done, cols)
+                    let mut cols = Columns::new(width);
+                    let mut said = Said::default();
+                    let done = read_part(piece, at + from as u64, how, &mut cols, &mut said);
+                    (done, cols, said)
                 })
             })
             .collect();
-        let done = read_lines(first, head, out);
+        let done = read_part(first, at, how, out, &mut said);
         let results = handles
             .into_iter()
             .map(|h| {
                 h.join()
-                    .unwrap_or_else(|_| (Err(0), Columns::new(head.width)))
+                    .unwrap_or_else(|_| (Err(at), Columns::new(width), Said::default()))
             })
             .collect();
         (done, results)
     });
     done?;
-    for (done, cols) in results {
+    for (done, cols, part) in results {
         done?;
         out.append(cols);
+        said.append(part);
     }
-    Ok(())
+    Ok(said)
 }
 
 /// Why the fast path left a file to the checker.
@@ -557,8 +635,6 @@ enum Declined {
     Head,
     /// The line that starts at this offset (of the decompressed text).
     Line(u64),
-    /// Its agents, read, do not make a lattice as they are.
-    Lattice(Defect),
 }
 
 /// The distinct states of `states`, in order of first appearance, with their first
@@ -594,18 +670,17 @@ fn distinct(states: &[[u8; 5]]) -> Vec<StartState> {
 }
 
 /// The spans of the first agents of the idle start states of `seen` (the others are not
-/// quoted), from their lines read again, and the agents file held as its head and those
-/// lines (see `Sources::excerpt`), in place of the head alone.
+/// quoted), from their lines read again; the lines, for the excerpt of the agents file.
 fn quote_idle(
-    checked: &mut Checked,
-    (open, head, name, size): (Source<'_>, &[u8], &str, usize),
+    checked: &Checked,
+    open: Source<'_>,
     seen: &mut [StartState],
-) -> io::Result<()> {
+) -> io::Result<Vec<AgentLine>> {
     let rules = checked.rules.as_ref().expect("a clean head has rules");
     let states: Vec<[u8; 5]> = seen.iter().map(|s| s.state).collect();
     let idle = latticesim_compiler::idle_states(rules, &states);
     if idle.is_empty() {
-        return Ok(());
+        return Ok(Vec::new());
     }
     // Per idle state, its first agent, and the others when a fix can edit every one: (the
     // state's index in `seen`, None for the first or the index in its `rest`).
@@ -624,27 +699,55 @@ fn quote_idle(
     };
     let ids: Vec<u32> = quoted.iter().map(id).collect();
     let lines = agent_lines(open, &ids)?;
-    let aid = latticesim_grammar::FileId(1);
     for (&(k, r), l) in quoted.iter().zip(&lines) {
-        let text = String::from_utf8_lossy(&l.text);
-        let (f, _) = latticesim_grammar::parse_agents(&text, aid);
-        if let Some(a) = f.agents.first() {
-            let span = latticesim_compiler::state_field(a);
-            let span = latticesim_grammar::Span {
-                start: span.start + l.at as u32,
-                end: span.end + l.at as u32,
-            };
+        if let Some(a) = parse_line_again(l) {
+            let span = l.shift(latticesim_compiler::state_field(&a.agent()));
             match r {
                 None => seen[k].span = span,
                 Some(r) => seen[k].rest[r].1 = span,
             }
         }
     }
+    Ok(lines)
+}
+
+/// An agent line read again, parsed on its own (spans from its start).
+struct Reparsed {
+    text: String,
+}
+
+impl Reparsed {
+    fn agent(&self) -> latticesim_grammar::ast::AgentLine<'_> {
+        let (mut f, _) =
+            latticesim_grammar::parse_agents(&self.text, latticesim_grammar::FileId(1));
+        f.agents.remove(0)
+    }
+}
+
+/// The agent of a line found again, when it parses.
+fn parse_line_again(l: &AgentLine) -> Option<Reparsed> {
+    let text = String::from_utf8_lossy(&l.text).into_owned();
+    let (f, _) = latticesim_grammar::parse_agents(&text, latticesim_grammar::FileId(1));
+    (!f.agents.is_empty()).then_some(Reparsed { text })
+}
+
+impl AgentLine {
+    /// A span of the line's own text as a span of the file.
+    fn shift(&self, s: latticesim_grammar::Span) -> latticesim_grammar::Span {
+        latticesim_grammar::Span {
+            start: s.start + self.at as u32,
+            end: s.end + self.at as u32,
+        }
+    }
+}
+
+/// The agents file held as its head and these lines (see `Sources::excerpt`), in place of
+/// its whole text, beside the rules.
+fn excerpt(checked: &mut Checked, (head, name, size): (&[u8], &str, usize), lines: &[&AgentLine]) {
     let head_text = String::from_utf8_lossy(head).into_owned();
     let mut parts: Vec<(usize, usize, String)> = vec![(0, 1, head_text)];
-    let mut later: Vec<&AgentLine> = lines
-        .iter()
-        .filter(|l| l.at as usize >= head.len())
+    let mut later: Vec<&AgentLine> = (lines.iter().copied())
+        .filter(|l| l.at as usize >= head.len() && l.number > 0)
         .collect();
     later.sort_by_key(|l| l.at);
     later.dedup_by_key(|l| l.at);
@@ -662,7 +765,138 @@ fn quote_idle(
         parts.iter().map(|(a, n, t)| (*a, *n, t.as_str())).collect();
     sources.excerpt(name, size, &parts);
     checked.sources = sources;
-    Ok(())
+}
+
+/// The diagnostics of what the lattice mended (agents on one cell, one-sided bonds), as
+/// the checker says them, into `shown`; the lines they quote. Only the first of them can be
+/// shown (`per_file` of a file): the others are counted, by code, from their first.
+fn mended(
+    mends: &Mends,
+    (open, dim, levels): (Source<'_>, latticesim_compiler::Dim, &Lints),
+    not_agents: &[u64],
+    shown: &mut latticesim_compiler::Shown,
+) -> io::Result<Vec<AgentLine>> {
+    use latticesim_compiler::{bond_dropped, bond_made, position_span, shared_cell};
+    use latticesim_grammar::Code;
+    // Every mend, in file order: (the column of its agent's line, its place), and what
+    // it is.
+    enum Mend {
+        Shared(u32, u32),
+        Bond(u32, latticesim_compiler::checked::Dir, Option<u32>),
+    }
+    let mut all: Vec<(u32, usize, Mend)> = Vec::new();
+    for &(gone, first) in &mends.shared {
+        all.push((gone, 0, Mend::Shared(gone, first)));
+    }
+    for (k, &(a, d, b)) in mends.bonds.iter().enumerate() {
+        all.push((mends.column_of(a), k + 1, Mend::Bond(a, d, b)));
+    }
+    let code = |m: &Mend| match m {
+        Mend::Shared(..) => Code::E402,
+        Mend::Bond(_, _, Some(_)) => Code::W601,
+        Mend::Bond(_, _, None) => Code::W602,
+    };
+    // Allowed ones are not said at all.
+    all.retain(|m| !levels.allows(code(&m.2)));
+    // In the order of the diagnostics: by line, then (the bonds of one agent share their
+    // span) by code.
+    all.sort_by_key(|m| (m.0, code(&m.2), m.1));
+    // Quoted in full: the first `per_file` (the others cannot be shown), and of each
+    // code the first after them, which stands for the others in the count.
+    let per_file = levels.shown();
+    let mut full: Vec<usize> = (0..all.len().min(per_file)).collect();
+    for c in [Code::E402, Code::W601, Code::W602] {
+        if let Some(k) = (per_file..all.len()).find(|&k| code(&all[k].2) == c) {
+            full.push(k);
+        }
+    }
+    full.sort_unstable();
+    full.dedup();
+    let mut cols: Vec<u32> = Vec::new();
+    for &k in &full {
+        match all[k].2 {
+            Mend::Shared(gone, first) => cols.extend([gone, first]),
+            Mend::Bond(a, _, b) => {
+                cols.push(mends.column_of(a));
+                cols.extend(b.map(|b| mends.column_of(b)));
+            }
+        }
+    }
+    let offsets: Vec<u64> = shown.lines().iter().map(|&l| l as u64).collect();
+    let (mut at_offsets, lines) = find_lines(open, true, &offsets, &cols, not_agents)?;
+    let agents: Vec<Option<Reparsed>> = lines.iter().map(parse_line_again).collect();
+    let line_of = |col: u32| {
+        let k = cols
+            .iter()
+            .position(|&c| c == col)
+            .expect("a line looked for");
+        (&lines[k], agents[k].as_ref())
+    };
+    let aid = latticesim_grammar::FileId(1);
+    let pos_span = |col: u32| {
+        let (l, a) = line_of(col);
+        a.map_or(
+            latticesim_grammar::Span::new(l.at as usize, l.at as usize),
+            |a| l.shift(position_span(&a.agent())),
+        )
+    };
+    let attach_or_pos = |col: u32| {
+        let (l, a) = line_of(col);
+        match a.and_then(|a| latticesim_compiler::attach_span(&a.agent())) {
+            Some(s) => l.shift(s),
+            None => pos_span(col),
+        }
+    };
+    let mut last_of: Vec<(Code, latticesim_compiler::diagnostics::Key, Option<bool>)> = Vec::new();
+    for (k, (col, _, m)) in all.iter().enumerate() {
+        if full.binary_search(&k).is_err() {
+            let c = code(m);
+            let (_, key, verdict) =
+                (last_of.iter().find(|f| f.0 == c)).expect("one before is quoted");
+            if let Some(error) = verdict {
+                shown.hide(c, *error, *key);
+            }
+            continue;
+        }
+        let d = match *m {
+            Mend::Shared(gone, first) => {
+                let (l, a) = line_of(gone);
+                let pos = a.map_or([0; 3], |a| {
+                    let mut p = [0i32; 3];
+                    for (i, c) in a.agent().pos.iter().enumerate().take(3) {
+                        p[i] = c.node as i32;
+                    }
+                    p
+                });
+                let _ = l;
+                shared_cell(
+                    aid,
+                    (pos, dim),
+                    (pos_span(gone), mends.id_of(gone) as usize),
+                    (pos_span(first), mends.id_of(first) as usize),
+                )
+            }
+            Mend::Bond(a, d, None) => bond_dropped(aid, a as usize, d, attach_or_pos(*col)),
+            Mend::Bond(a, d, Some(b)) => bond_made(
+                aid,
+                (a as usize, attach_or_pos(*col)),
+                d,
+                (b as usize, pos_span(mends.column_of(b))),
+            ),
+        };
+        let key = latticesim_compiler::diagnostics::key(&d);
+        let line = line_of(*col).0.at as usize;
+        let d = levels.admit(d);
+        let c = code(m);
+        // The last of its code quoted in full stands for the ones after it that are not.
+        last_of.retain(|f| f.0 != c);
+        last_of.push((c, key, d.as_ref().map(|d| d.is_error())));
+        if let Some(d) = d {
+            shown.push(d, line);
+        }
+    }
+    at_offsets.extend(lines);
+    Ok(at_offsets)
 }
 
 /// The fast path: `Err` when the checker must read the file.
@@ -702,6 +936,9 @@ fn fast(
     let head_bytes = w.bytes()[..head.end].to_vec();
     // The agents' counters are read in the rules' width.
     head.width = checked.lints.width();
+    let Some(check) = LineCheck::new(&head_bytes, head.width) else {
+        return Ok(Err(Declined::Head));
+    };
     let mut cols = Columns::new(head.width);
     // Room for the agents the file's size suggests (from the lines of its first bytes), so
     // that the columns do not move as they grow.
@@ -713,15 +950,38 @@ fn fast(
         cols.state.reserve(guess);
         cols.attach.reserve(guess);
     }
+    // What the lines the fast reader leaves say: the diagnostics that can still be shown,
+    // and counts.
+    let lints = &checked.lints;
+    let mut shown = latticesim_compiler::Shown::new(lints.shown());
+    let mut said = Said::default();
+    let mut errors = 0;
     let mut from = head.agents_at;
     // The offset in the file of the window's first byte.
     let mut base = 0u64;
     loop {
         let upto = w.whole();
         if upto > from {
-            if let Err(at) = read_parallel(&w.bytes()[from..upto], &head, &mut cols, threads) {
-                return Ok(Err(Declined::Line(base + (from + at) as u64)));
+            let part = read_parallel(
+                &w.bytes()[from..upto],
+                base + from as u64,
+                (&head, &check),
+                &mut cols,
+                threads,
+            );
+            let mut part = match part {
+                Ok(p) => p,
+                Err(at) => return Ok(Err(Declined::Line(at))),
+            };
+            for (d, line) in part.diags.drain(..) {
+                // As the checker, which finds the warnings that follow from the start
+                // states only where there is no error (denied warnings aside).
+                errors += d.is_error() as usize;
+                if let Some(d) = lints.admit(d) {
+                    shown.push(d, line);
+                }
             }
+            said.append(part);
         }
         if w.eof {
             base += upto as u64;
@@ -736,23 +996,52 @@ fn fast(
     }
     drop(w);
     cols.fill();
-    let n = cols.len();
-    let lat = match Lattice::from_columns(head.dim, head.universe, cols) {
-        Ok(lat) => lat,
-        Err(d) => return Ok(Err(Declined::Lattice(d))),
-    };
-    let mut seen = distinct(&lat.state);
-    quote_idle(
-        &mut checked,
-        (open, &head_bytes, agents_name, base as usize),
-        &mut seen,
-    )?;
-    let mut more =
-        latticesim_compiler::states_warnings_of(&checked, latticesim_grammar::FileId(1), &seen);
-    checked.lints.apply(&mut more);
-    checked.diags.extend(more);
+    let agents_read = cols.len() + said.refused;
+    let (lat, mends) = Lattice::from_columns_mended(head.dim, head.universe, cols);
+    let mut quoted: Vec<AgentLine> = Vec::new();
+    if !mends.shared.is_empty() || !mends.bonds.is_empty() || !shown.lines().is_empty() {
+        quoted = mended(
+            &mends,
+            (open, head.dim, lints),
+            &said.not_agents,
+            &mut shown,
+        )?;
+        errors += mends.shared.len();
+    }
+    if errors == 0 {
+        let mut seen = distinct(&lat.state);
+        quoted.extend(quote_idle(&checked, open, &mut seen)?);
+        let more =
+            latticesim_compiler::states_warnings_of(&checked, latticesim_grammar::FileId(1), &seen);
+        for d in more {
+            let Some(d) = checked.lints.admit(d) else {
+                continue;
+            };
+            if d.primary.file == latticesim_grammar::FileId(1) {
+                let line = (quoted.iter())
+                    .filter(|l| l.at <= d.primary.span.start as u64)
+                    .map(|l| l.at)
+                    .max()
+                    .unwrap_or(0);
+                shown.push(d, line as usize);
+            } else {
+                checked.diags.push(d);
+            }
+        }
+    }
+    let (file_diags, hidden) = shown.finish();
+    checked.diags.extend(file_diags.into_iter().map(|(d, _)| d));
+    checked.not_shown.extend(hidden);
     latticesim_compiler::diagnostics::sort(&mut checked.diags);
-    checked.agent_count = n;
+    if !quoted.is_empty() {
+        let refs: Vec<&AgentLine> = quoted.iter().collect();
+        excerpt(
+            &mut checked,
+            (&head_bytes, agents_name, base as usize),
+            &refs,
+        );
+    }
+    checked.agent_count = agents_read;
     checked.config = None;
     // A denied warning fails the check, as on the checker's path: nothing to run.
     let failed = checked.errors() > 0;

@@ -76,12 +76,21 @@ pub fn whole(rules: &[u8], agents: &[u8]) -> Checked {
 /// The agents file read as the commands read it (the streaming reader, two threads, no
 /// lint levels).
 pub fn streamed(rules: &[u8], agents: &[u8]) -> crate::agents_file::Loaded {
+    streamed_with(rules, agents, &Default::default())
+}
+
+/// The agents file read as the commands read it, with lint levels (two threads).
+pub fn streamed_with(
+    rules: &[u8],
+    agents: &[u8],
+    levels: &latticesim_compiler::lints::Lints,
+) -> crate::agents_file::Loaded {
     load(
         ("rules.txt", rules),
         "agents.txt",
         Source::Bytes(agents),
         2,
-        &Default::default(),
+        levels,
     )
     .expect("bytes in memory are read whole")
 }

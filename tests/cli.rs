@@ -1382,27 +1382,29 @@ fn an_output_that_is_a_device_is_written_not_replaced() {
     assert!(temporary_files(Path::new("/dev")).is_empty());
 }
 
+/// Errors and agents on one cell are found by the streaming reader, which needs no more
+/// memory for them than for a clean file: with the checker's memory capped
+/// (LATTICESIM_CHECK_MEMORY) below what these files need, they are said in full, as the
+/// checker says them. A line the streaming reader leaves to the checker of the whole file
+/// (not UTF-8) still gets the checker's verdict on the file's first part.
 #[test]
-fn a_file_too_large_for_the_checker_is_checked_up_to_its_defect() {
-    // The checker's memory is capped (LATTICESIM_CHECK_MEMORY) below what these files need.
+fn a_file_too_large_for_the_checker_is_streamed_to_its_end() {
     let rules = "examples/maxflood/rules.txt";
     let mut text = b1_text(200);
     let good_len = text.len();
     text += "1,2 C77 5\n";
     text += &b1_text(100).replace('\n', " C01 3\n");
+    text += "1,2 C78 5\n";
     let bad = tmp("too-large-bad.txt", text.as_bytes());
-    let o = bin()
-        .args([
-            "check",
-            rules,
-            "--agents",
-            bad.to_str().unwrap(),
-            "--color",
-            "never",
-        ])
-        .env("LATTICESIM_CHECK_MEMORY", "100000")
-        .output()
-        .unwrap();
+    let check = |path: &Path| {
+        bin()
+            .args(["check", rules, "--agents", path.to_str().unwrap()])
+            .args(["--color", "never"])
+            .env("LATTICESIM_CHECK_MEMORY", "100000")
+            .output()
+            .unwrap()
+    };
+    let o = check(&bad);
     assert_eq!(o.status.code(), Some(1));
     let err = stderr(&o);
     assert!(err.contains(&format!("{}:40001:5", bad.display())), "{err}");
@@ -1410,13 +1412,16 @@ fn a_file_too_large_for_the_checker_is_checked_up_to_its_defect() {
         err.contains("error[E404]: `C77` is not a counter of 2D"),
         "{err}"
     );
-    assert!(err.contains("note: only its first"), "{err}");
+    // The other 100 x 100 agents stand on the first ones' cells; the last line's error
+    // is counted.
     assert!(
-        err.contains("is too large to be checked whole here"),
+        err.contains("9802 more errors and 0 more warnings: 9801 E402, 1 E404"),
         "{err}"
     );
+    assert!(err.contains("50002 agents; 10002 errors"), "{err}");
+    assert!(!err.contains("too large"), "{err}");
     assert!(good_len < 1 << 20);
-    // Two agents on a cell: named with their lines, in `run` too.
+    // Two agents on a cell: said with both lines, in `run` too.
     let mut text = b1_text(200);
     text += "// a comment line\n3,4\n";
     let dup = tmp("too-large-dup.txt", text.as_bytes());
@@ -1429,22 +1434,26 @@ fn a_file_too_large_for_the_checker_is_checked_up_to_its_defect() {
     let err = stderr(&o);
     let d = dup.display();
     assert!(
-        err.contains(&format!(
-            "error: two agents on the cell 3,4: agent 604 ({d}:605) and agent 40000 ({d}:40002)"
-        )),
+        err.contains("error[E402]: two agents on the cell 3,4"),
         "{err}"
     );
+    assert!(err.contains(&format!("{d}:40002:1")), "{err}");
+    assert!(err.contains("agent 40000 would stand here"), "{err}");
+    assert!(err.contains("605 │ 3,4"), "{err}");
+    assert!(err.contains("agent 604 stands here already"), "{err}");
     assert!(err.contains("nothing was run"), "{err}");
-    // Without the cap, the checker says the same with its excerpts.
-    let o = run(&[
-        "check",
-        rules,
-        "--agents",
-        dup.to_str().unwrap(),
-        "--color",
-        "never",
-    ]);
-    assert!(stderr(&o).contains("error[E402]: two agents on the cell 3,4"));
+    // A line that is not UTF-8: the checker reads the file's first part.
+    let mut bytes = text.into_bytes();
+    bytes.extend_from_slice(b"5,5 S\xff0000\n");
+    let odd = tmp("too-large-odd.txt", &bytes);
+    let o = check(&odd);
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert!(err.contains("note: only its first"), "{err}");
+    assert!(
+        err.contains("is too large to be checked whole here"),
+        "{err}"
+    );
 }
 
 /// A line of A and B agents: each A swaps with a B east of it until the Bs stand west.

@@ -4,8 +4,9 @@
 //! same counts and the same agents, on files with warnings (states no rule tests, agents
 //! without a state, comments, CRLF, a `U` line, 3D) and on mutated files; never a panic.
 
-use latticesim::fuzzing::{agents_of, seen, streamed, whole};
+use latticesim::fuzzing::{agents_of, seen, streamed, streamed_with, whole};
 use latticesim_compiler::diagnostics::render_plain;
+use latticesim_compiler::lints::Lints;
 use latticesim_runtime::Lattice;
 use proptest::prelude::*;
 
@@ -106,6 +107,76 @@ fn mutated() -> impl Strategy<Value = Vec<u8>> {
         })
 }
 
+/// An agents file of `n` lines after its first: errors of every kind an agent line can
+/// have, agents on one cell, bonds declared on one side (or towards no agent), among good
+/// lines.
+fn faulty_file(n: usize) -> impl Strategy<Value = Vec<u8>> {
+    (
+        prop::collection::vec((0..16usize, 0..6i32, 0..4i32, 0..16u8), n),
+        any::<bool>(),
+    )
+        .prop_map(|(lines, universe)| {
+            let mut s = String::from(if universe { "U-1,8,-1,8\n" } else { "" });
+            s += "0,0 SWALK0\n";
+            for (kind, x, y, bits) in lines {
+                let a = format!("A{bits:04b}");
+                s += &match kind {
+                    0..=5 => format!("{x},{y} SWALK0 {a}"),
+                    6 => format!("{x},{y} {a} C01 5"),
+                    7 => format!("{x},{y} SBAD"),
+                    8 => format!("{x},{y} C01 40000"),
+                    9 => format!("{x},{y},1"),
+                    10 => format!("{x},{y} X"),
+                    11 => format!("{x},{y} SWALK0 SWALK0 C99 1"),
+                    12 => "U0,1,0,1".to_string(),
+                    13 => format!("{},{y}", x + 20),
+                    14 => format!("{x} ,{y}"),
+                    _ => format!("  {x},{y}  // ok"),
+                };
+                s += "\n";
+            }
+            s.into_bytes()
+        })
+}
+
+/// Lint levels for W601 and W602 (allowed, warned of, denied), and how many diagnostics
+/// of a file are shown.
+fn levels() -> impl Strategy<Value = Lints> {
+    (
+        0..3usize,
+        0..3usize,
+        prop::sample::select(vec![1usize, 2, 3, 7, 200]),
+    )
+        .prop_map(|(w601, w602, shown)| {
+            let (mut allow, mut warn, mut deny) = (Vec::new(), Vec::new(), Vec::new());
+            for (level, code) in [(w601, "W601"), (w602, "W602")] {
+                [&mut allow, &mut warn, &mut deny][level].push(code.to_string());
+            }
+            let mut l = Lints::from_flags(&allow, &warn, &deny).expect("known codes");
+            l.set_shown(shown);
+            l
+        })
+}
+
+/// The streaming reader against the checker, both with these levels.
+fn same_with(rules: &str, agents: &[u8], levels: &Lints) -> Result<(), TestCaseError> {
+    let l = streamed_with(rules.as_bytes(), agents, levels);
+    let input = |name, bytes| latticesim_compiler::Input { name, bytes };
+    let whole = latticesim_compiler::check_with(
+        input("rules.txt", rules.as_bytes()),
+        Some(input("agents.txt", agents)),
+        None,
+        levels,
+    );
+    prop_assert_eq!(seen(&l.checked), seen(&whole));
+    let whole_lat = whole.config.as_ref().map(Lattice::new);
+    prop_assert_eq!(
+        l.lattice.as_ref().map(agents_of),
+        whole_lat.as_ref().map(agents_of)
+    );
+    Ok(())
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 400, ..ProptestConfig::default() })]
 
@@ -117,6 +188,17 @@ proptest! {
     #[test]
     fn the_streaming_reader_says_what_the_checker_says_of_mutated_files(r in 0..RULES.len(), a in mutated()) {
         same(RULES[r], &a)?;
+    }
+
+    /// Errors streamed (the first shown, the rest counted: compaction with 1 to 7 shown),
+    /// agents on one cell and one-sided bonds mended from the lattice, lint levels.
+    #[test]
+    fn the_streaming_reader_finds_errors_and_mends_as_the_checker(
+        r in 0..RULES.len(),
+        a in (1..400usize).prop_flat_map(faulty_file),
+        levels in levels(),
+    ) {
+        same_with(RULES[r], &a, &levels)?;
     }
 
     #[test]

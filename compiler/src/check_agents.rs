@@ -39,6 +39,7 @@ pub fn check_agents(
     let mut ck = Checker {
         file,
         src,
+        base: 0,
         dim,
         diags,
         width,
@@ -49,33 +50,20 @@ pub fn check_agents(
     let mut spans = Vec::with_capacity(f.agents.len());
     let mut attach_spans: Vec<Option<Span>> = Vec::with_capacity(f.agents.len());
     for a in &f.agents {
-        let pos_span = a.pos[0].span.to(a.pos[a.pos.len() - 1].span);
-        let Some((pos, mut ok)) = ck.position(a, pos_span, universe.zip(f.universe.as_ref()))
-        else {
+        let Some(agent) = ck.agent(a, universe.zip(f.universe.as_ref())) else {
             continue;
         };
-        let state = a.state.map(|s| ck.state(s, &mut ok));
-        let attach = a.attach.map_or(0, |s| ck.attach(s, &mut ok));
-        let mut counters = ck.counters(a, &mut ok);
-        if !ok {
-            continue;
-        }
-        if let Some(&prev) = cells.get(&pos) {
+        let pos_span = position_span(a);
+        if let Some(&prev) = cells.get(&agent.pos) {
             let here = (pos_span, agents.len());
             ck.diags
-                .push(two_agents(a, file, here, (spans[prev], prev)));
+                .push(shared_cell(file, (agent.pos, d), here, (spans[prev], prev)));
             continue;
         }
-        counters.sort_unstable();
-        cells.insert(pos, agents.len());
+        cells.insert(agent.pos, agents.len());
         spans.push(pos_span);
         attach_spans.push(a.attach.map(|s| field(s.span)));
-        agents.push(AgentInit {
-            pos,
-            state: state.unwrap_or(*b"00000"),
-            attach,
-            counters,
-        });
+        agents.push(agent);
     }
     bonds(
         &mut agents,
@@ -93,31 +81,70 @@ pub fn check_agents(
 
 /// What the checks of one agents file share: the file, its text, its dimension (with its
 /// source, for the labels) and where the diagnostics go.
-struct Checker<'a, 'd> {
-    file: FileId,
-    src: &'a str,
-    dim: &'a DimSource,
-    diags: &'d mut Vec<Diagnostic>,
+pub(crate) struct Checker<'a, 'd> {
+    pub(crate) file: FileId,
+    /// The text the spans point into, which starts at offset `base` of the file.
+    pub(crate) src: &'a str,
+    pub(crate) base: usize,
+    pub(crate) dim: &'a DimSource,
+    pub(crate) diags: &'d mut Vec<Diagnostic>,
     /// The width of counters, which bounds their values.
-    width: Width,
+    pub(crate) width: Width,
+}
+
+/// The span of an agent's position.
+pub fn position_span(a: &AgentLine<'_>) -> Span {
+    a.pos[0].span.to(a.pos[a.pos.len() - 1].span)
+}
+
+/// The span of an agent's attachments field, if it has one.
+pub fn attach_span(a: &AgentLine<'_>) -> Option<Span> {
+    a.attach.map(|s| field(s.span))
 }
 
 impl Checker<'_, '_> {
+    /// The text of a span.
+    fn written(&self, span: Span) -> &str {
+        let at = |o: u32| (o as usize).wrapping_sub(self.base);
+        self.src.get(at(span.start)..at(span.end)).unwrap_or("?")
+    }
+
+    /// An agent line checked on its own (all but the cell it stands on and its bonds):
+    /// `None` when it has an error. `universe`: its bounds and line.
+    pub(crate) fn agent(
+        &mut self,
+        a: &AgentLine<'_>,
+        universe: Option<(Bounds, &Universe)>,
+    ) -> Option<AgentInit> {
+        let (pos, mut ok) = self.position(a, position_span(a), universe)?;
+        let state = a.state.map(|s| self.state(s, &mut ok));
+        let attach = a.attach.map_or(0, |s| self.attach(s, &mut ok));
+        let mut counters = self.counters(a, &mut ok);
+        if !ok {
+            return None;
+        }
+        counters.sort_unstable();
+        Some(AgentInit {
+            pos,
+            state: state.unwrap_or(*b"00000"),
+            attach,
+            counters,
+        })
+    }
+
     /// The universe's bounds, when every one is in the 32-bit range (E406).
-    fn universe(&mut self, u: &Universe) -> Option<Bounds> {
-        let (file, src, diags) = (self.file, self.src, &mut *self.diags);
+    pub(crate) fn universe(&mut self, u: &Universe) -> Option<Bounds> {
+        let file = self.file;
         let mut b: Bounds = [(0, 0); 3];
         let mut ok = true;
         for (i, pair) in u.bounds.chunks(2).enumerate() {
             for v in pair {
                 if i32::try_from(v.node).is_err() {
-                    diags.push(
+                    let text = self.written(v.span).to_string();
+                    self.diags.push(
                         Diagnostic::new(
                             Code::E406,
-                            format!(
-                                "the universe bound {} is outside the 32-bit range",
-                                crate::written(src, v.span)
-                            ),
+                            format!("the universe bound {} is outside the 32-bit range", text),
                             Label::new(file, v.span, size_word(v.node)),
                         )
                         .with_help("leave out the `U` line for an unbounded universe"),
@@ -139,7 +166,7 @@ impl Checker<'_, '_> {
         pos_span: Span,
         universe: Option<(Bounds, &Universe)>,
     ) -> Option<([i32; 3], bool)> {
-        let (file, src, d) = (self.file, self.src, self.dim.dim);
+        let (file, d) = (self.file, self.dim.dim);
         if a.pos.len() != d.coords() {
             let msg = format!(
                 "this position has {} coordinates; the file is {} and needs {}",
@@ -166,19 +193,19 @@ impl Checker<'_, '_> {
             );
             return None;
         }
-        let diags = &mut *self.diags;
         let mut pos = [0i32; 3];
         let mut ok = true;
         for (i, c) in a.pos.iter().enumerate() {
             match i32::try_from(c.node) {
                 Ok(v) => pos[i] = v,
                 Err(_) => {
-                    diags.push(
+                    let text = self.written(c.span).to_string();
+                    self.diags.push(
                         Diagnostic::new(
                             Code::E410,
                             format!(
                                 "the coordinate {} is outside the 32-bit range of the lattice",
-                                crate::written(src, c.span)
+                                text
                             ),
                             Label::new(file, c.span, size_word(c.node)),
                         )
@@ -188,6 +215,7 @@ impl Checker<'_, '_> {
                 }
             }
         }
+        let diags = &mut *self.diags;
         if ok {
             if let Some((b, u)) = universe {
                 let outside = (0..d.coords()).find(|&i| pos[i] < b[i].0 || pos[i] > b[i].1);
@@ -303,10 +331,12 @@ impl Checker<'_, '_> {
     /// An agent's non-zero counters (E404 for a counter the dimension has not, or a value
     /// out of range).
     fn counters(&mut self, a: &AgentLine<'_>, ok: &mut bool) -> Vec<(u8, i32)> {
-        let (file, src, d, diags) = (self.file, self.src, self.dim.dim, &mut *self.diags);
+        let (file, d) = (self.file, self.dim.dim);
         let w = self.width;
         let mut counters = Vec::with_capacity(a.counters.len());
         for (c, v) in &a.counters {
+            let text = self.written(v.span).to_string();
+            let diags = &mut *self.diags;
             let idx: usize = c.node.parse().unwrap_or(usize::MAX);
             if c.node.len() != 2 || idx >= d.counters() {
                 diags.push(
@@ -331,7 +361,7 @@ impl Checker<'_, '_> {
                         Code::E404,
                         format!(
                             "the value {} of C{} is outside {}",
-                            crate::written(src, v.span),
+                            text,
                             c.node,
                             w.range_text()
                         ),
@@ -348,10 +378,11 @@ impl Checker<'_, '_> {
     }
 }
 
-/// E402: agent `here.1` (at `here.0`) stands on the cell of agent `prev.1` (at `prev.0`).
-fn two_agents(
-    a: &AgentLine<'_>,
+/// E402: agent `here.1` (at `here.0`) stands on the cell `pos` of agent `prev.1` (at
+/// `prev.0`), in dimension `d`.
+pub fn shared_cell(
     file: FileId,
+    (pos, d): ([i32; 3], Dim),
     here: (Span, usize),
     prev: (Span, usize),
 ) -> Diagnostic {
@@ -359,9 +390,9 @@ fn two_agents(
         Code::E402,
         format!(
             "two agents on the cell {}",
-            a.pos
+            pos[..d.coords()]
                 .iter()
-                .map(|p| p.node.to_string())
+                .map(|p| p.to_string())
                 .collect::<Vec<_>>()
                 .join(",")
         ),
@@ -375,6 +406,46 @@ fn two_agents(
     .with_help("move one of them, or delete the duplicate line")
 }
 
+/// W602: agent `i` is attached towards `dir` (its attachments field, or its position,
+/// at `here`), where no agent stands.
+pub fn bond_dropped(file: FileId, i: usize, dir: Dir, here: Span) -> Diagnostic {
+    Diagnostic::new(
+        Code::W602,
+        format!(
+            "agent {i} is attached towards {}, where no agent stands; the attachment is dropped",
+            dir.letter()
+        ),
+        Label::new(file, here, format!("attachment {}", dir.letter())),
+    )
+    .with_help(format!(
+        "set the {} character to 0, or add an agent there",
+        dir.letter()
+    ))
+}
+
+/// W601: agent `i` (at `here`) is attached towards `dir` to agent `j` (whose position is
+/// at `there`), which does not declare the bond back.
+pub fn bond_made(
+    file: FileId,
+    (i, here): (usize, Span),
+    dir: Dir,
+    (j, there): (usize, Span),
+) -> Diagnostic {
+    Diagnostic::new(
+        Code::W601,
+        format!(
+            "agent {i} is attached towards {} to agent {j}, which does not declare the bond; the bond is made",
+            dir.letter()
+        ),
+        Label::new(file, here, format!("declares the bond towards {}", dir.letter())),
+    )
+    .with_secondary(Label::new(file, there, format!("agent {j} does not declare it")))
+    .with_help(format!(
+        "set the {} character of agent {j}'s attachments to 1 as well",
+        dir.opposite().letter()
+    ))
+}
+
 /// Attachments made symmetric: a warning where only one side declared a bond (W601, the
 /// bond is made), and bonds towards empty cells dropped (W602). `spans`: each agent's
 /// position and attachments field.
@@ -385,7 +456,6 @@ fn bonds(
     (spans, attach_spans): (&[Span], &[Option<Span>]),
     diags: &mut Vec<Diagnostic>,
 ) {
-    // bonds towards empty cells.
     for i in 0..agents.len() {
         for dir in Dir::ALL.iter().take(d.dirs()) {
             let bit = 1u8 << dir.index();
@@ -394,39 +464,25 @@ fn bonds(
             }
             let o = dir.offset();
             let p = agents[i].pos;
-            let key = [p[0] + o[0], p[1] + o[1], p[2] + o[2]];
+            // A cell past the lattice's last (at the 32-bit range's end) holds no agent.
+            let key = (|| {
+                Some([
+                    p[0].checked_add(o[0])?,
+                    p[1].checked_add(o[1])?,
+                    p[2].checked_add(o[2])?,
+                ])
+            })();
             let here = attach_spans[i].unwrap_or(spans[i]);
-            match cells.get(&key) {
+            match key.and_then(|k| cells.get(&k)) {
                 None => {
                     agents[i].attach &= !bit;
-                    diags.push(
-                        Diagnostic::new(
-                            Code::W602,
-                            format!("agent {i} is attached towards {}, where no agent stands; the attachment is dropped", dir.letter()),
-                            Label::new(file, here, format!("attachment {}", dir.letter())),
-                        )
-                        .with_help(format!("set the {} character to 0, or add an agent there", dir.letter())),
-                    );
+                    diags.push(bond_dropped(file, i, *dir, here));
                 }
                 Some(&j) => {
                     let back = 1u8 << dir.opposite().index();
                     if agents[j].attach & back == 0 {
                         agents[j].attach |= back;
-                        diags.push(
-                            Diagnostic::new(
-                                Code::W601,
-                                format!(
-                                    "agent {i} is attached towards {} to agent {j}, which does not declare the bond; the bond is made",
-                                    dir.letter()
-                                ),
-                                Label::new(file, here, format!("declares the bond towards {}", dir.letter())),
-                            )
-                            .with_secondary(Label::new(file, spans[j], format!("agent {j} does not declare it")))
-                            .with_help(format!(
-                                "set the {} character of agent {j}'s attachments to 1 as well",
-                                dir.opposite().letter()
-                            )),
-                        );
+                        diags.push(bond_made(file, (i, here), *dir, (j, spans[j])));
                     }
                 }
             }

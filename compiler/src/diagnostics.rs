@@ -181,7 +181,8 @@ impl Sources {
 
     /// Adds a file held in part: `parts` are (offset in the whole file, 1-based number of
     /// its first line, whole lines of text), in order and apart; `len` is the whole file's
-    /// length. Diagnostics on it are given in offsets of the whole file, and may only point
+    /// length. Where lines are left out between parts, a break is shown (one line left
+    /// out is shown as a break too, where the whole file would show it: give it as a part). Diagnostics on it are given in offsets of the whole file, and may only point
     /// into the parts.
     pub fn excerpt(
         &mut self,
@@ -190,9 +191,16 @@ impl Sources {
         parts: &[(usize, usize, &str)],
     ) -> FileId {
         let mut text = String::new();
-        let mut pieces = Vec::new();
+        let mut pieces: Vec<Piece> = Vec::new();
         let mut lines = 0;
         for &(at, line, t) in parts {
+            // Lines left out between two parts: two lines that stand for them, so that a
+            // label on each side is shown with a break between, as in the whole file.
+            let after = pieces.last().map(|p| p.line + (lines - p.line_excerpt));
+            if after.is_some_and(|n| line > n) {
+                text.push_str("\n\n");
+                lines += 2;
+            }
             pieces.push(Piece {
                 at,
                 at_excerpt: text.len(),
@@ -201,28 +209,26 @@ impl Sources {
                 line_excerpt: lines,
             });
             text.push_str(t);
-            if !t.ends_with('\n') {
+            // A line end after each part but the file's last line when it has none.
+            let open_tail = at + t.len() == len && !t.ends_with('\n');
+            if !t.ends_with('\n') && !open_tail {
                 text.push('\n');
             }
-            lines += t.matches('\n').count() + (!t.ends_with('\n')) as usize;
+            lines += t.matches('\n').count() + (!t.ends_with('\n') && !open_tail) as usize;
         }
         // The whole file's end, where a label past the parts lands (on the line after the
         // last part: the lines between are not counted); or, when the last part is the
-        // file's last line without its line end, at the end of that line (before the line
-        // end the excerpt adds), as in the whole file.
+        // file's last line without its line end, at the end of that line, as in the whole
+        // file.
         let line = pieces
             .last()
             .map_or(1, |p| p.line + (lines - p.line_excerpt));
-        let open_tail = parts
-            .last()
-            .is_some_and(|&(at, _, t)| at + t.len() == len && !t.is_empty() && !t.ends_with('\n'));
-        let back = usize::from(open_tail);
         pieces.push(Piece {
             at: len,
-            at_excerpt: text.len() - back,
+            at_excerpt: text.len(),
             len: 0,
-            line: line - back,
-            line_excerpt: lines - back,
+            line,
+            line_excerpt: lines,
         });
         self.add_pieces(name.into(), text, Some(pieces))
     }
@@ -298,17 +304,22 @@ pub fn is_root_cause(code: Code) -> bool {
 /// Sorts diagnostics: root causes first ([`is_root_cause`]), then file order (by file, then
 /// position, then code); exact duplicates are dropped.
 pub fn sort(diags: &mut Vec<Diagnostic>) {
-    let key = |d: &Diagnostic| {
-        (
-            !is_root_cause(d.code),
-            d.primary.file,
-            d.primary.span.start,
-            d.primary.span.end,
-            d.code,
-        )
-    };
     diags.sort_by_key(key);
     diags.dedup();
+}
+
+/// The order of diagnostics ([`sort`]'s).
+pub type Key = (bool, FileId, u32, u32, Code);
+
+/// A diagnostic's place in [`sort`]'s order.
+pub fn key(d: &Diagnostic) -> Key {
+    (
+        !is_root_cause(d.code),
+        d.primary.file,
+        d.primary.span.start,
+        d.primary.span.end,
+        d.code,
+    )
 }
 
 fn clamp(l: &Label, sources: &Sources) -> std::ops::Range<usize> {

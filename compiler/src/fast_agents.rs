@@ -436,6 +436,106 @@ fn line(raw: &[u8], head: &Head, out: &mut Columns) -> bool {
     true
 }
 
+/// The lines the fast reader leaves, checked one at a time as the checker checks them
+/// (after the head, which fixes the dimension and the universe): the streaming reader of
+/// files with errors and warnings. What lies beyond a line (agents on one cell, bonds) is
+/// the lattice's to find ([`crate::shared_cell`], [`crate::bond_made`],
+/// [`crate::bond_dropped`] say it).
+pub struct LineCheck {
+    dim: crate::dim::DimSource,
+    width: Width,
+    universe: Option<(Bounds, latticesim_grammar::ast::Universe)>,
+}
+
+/// What a line was, to [`LineCheck::line`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Verdict {
+    /// Blank or a comment.
+    Nothing,
+    /// An agent, read into the columns (perhaps with diagnostics).
+    Agent,
+    /// An agent line with an error (it counts among the agents read, not in the lattice).
+    Refused,
+    /// A line that is no agent (a universe line, a line that is not one) with an error.
+    Other,
+}
+
+impl LineCheck {
+    /// The checks of the lines after the head `head` (the file's bytes up to
+    /// [`Head::end`]), whose counters are of width `width`; `None` when the head does not
+    /// read cleanly.
+    pub fn new(head: &[u8], width: Width) -> Option<LineCheck> {
+        let text = std::str::from_utf8(head).ok()?;
+        let file = FileId(1);
+        let (f, diags) = latticesim_grammar::parse_agents(text, file);
+        let dim = crate::dim::from_agents(&f, file)?;
+        let mut scratch = Vec::new();
+        let mut ck = crate::check_agents::Checker {
+            file,
+            src: text,
+            base: 0,
+            dim: &dim,
+            diags: &mut scratch,
+            width,
+        };
+        let universe = match &f.universe {
+            Some(u) => Some((ck.universe(u)?, u.clone())),
+            None => None,
+        };
+        (diags.is_empty() && scratch.is_empty()).then_some(LineCheck {
+            dim,
+            width,
+            universe,
+        })
+    }
+
+    /// Checks the line `raw` (without its line end) that starts at offset `at` of the
+    /// file, as the checker would in the whole file: its diagnostics into `diags`, its
+    /// agent (when it has no error) into `out`. `None` for a line that is not UTF-8 (the
+    /// checker speaks of the whole file then).
+    pub fn line(
+        &self,
+        raw: &[u8],
+        at: usize,
+        out: &mut Columns,
+        diags: &mut Vec<latticesim_grammar::Diagnostic>,
+    ) -> Option<Verdict> {
+        let text = std::str::from_utf8(raw).ok()?;
+        let Some(line) = latticesim_grammar::lines::significant_lines(text).next() else {
+            return Some(Verdict::Nothing);
+        };
+        let line = latticesim_grammar::lines::Line {
+            start: line.start + at,
+            ..line
+        };
+        let file = FileId(1);
+        let mut f = latticesim_grammar::ast::AgentsFile::default();
+        latticesim_grammar::agents::parse_line(line, false, file, diags, &mut f);
+        let Some(a) = f.agents.first() else {
+            return Some(Verdict::Other);
+        };
+        let mut ck = crate::check_agents::Checker {
+            file,
+            src: text,
+            base: at,
+            dim: &self.dim,
+            diags,
+            width: self.width,
+        };
+        let universe = self.universe.as_ref().map(|(b, u)| (*b, u));
+        let Some(agent) = ck.agent(a, universe) else {
+            return Some(Verdict::Refused);
+        };
+        out.pos.push(agent.pos);
+        out.state.push(agent.state);
+        out.attach.push(agent.attach);
+        for (c, v) in agent.counters {
+            out.set_counter(c as usize, v);
+        }
+        Some(Verdict::Agent)
+    }
+}
+
 /// The rules checked against the head of their agents file (its first bytes up to
 /// [`Head::end`]), for the fast path: `None` when the diagnostic path must check the whole
 /// pair, because there is an error, or something is said of the agents file. Otherwise

@@ -21,7 +21,9 @@ pub mod fast_agents;
 pub mod lints;
 mod lower;
 
-pub use check_agents::check_agents;
+pub use check_agents::{
+    attach_span, bond_dropped, bond_made, check_agents, position_span, shared_cell,
+};
 pub use check_rules::{check_rules, VALUE_MAX};
 pub use checked::{CheckedRules, Columns, Config, Dim};
 pub use diagnostics::Sources;
@@ -149,10 +151,36 @@ pub(crate) fn written(src: &str, span: latticesim_grammar::Span) -> &str {
 /// file order, so the first ones), counting the others per file and code.
 fn cap(diags: &mut Vec<Diagnostic>, sources: &Sources, per_file: usize) -> Vec<NotShown> {
     let mut not_shown: Vec<NotShown> = Vec::new();
+    let line_of = |d: &Diagnostic| sources.line_index(d.primary.file, d.primary.span.start);
+    cap_by(diags, per_file, line_of, |d| {
+        let f = d.primary.file;
+        if not_shown.last().is_none_or(|n| n.file != f) {
+            not_shown.push(NotShown {
+                file: f,
+                errors: 0,
+                warnings: 0,
+                codes: Vec::new(),
+                per_file,
+            });
+        }
+        not_shown.last_mut().expect("just pushed").count(d);
+    });
+    not_shown
+}
+
+/// Keeps at most [`SHOWN_PER_LINE`] diagnostics of a line (`line_of` tells them apart)
+/// and `per_file` of a file, of diagnostics sorted ([`diagnostics::sort`]); `hidden` sees
+/// the others, in order, as they are taken out.
+fn cap_by(
+    diags: &mut Vec<Diagnostic>,
+    per_file: usize,
+    line_of: impl Fn(&Diagnostic) -> usize,
+    mut hidden: impl FnMut(&Diagnostic),
+) {
     let (mut file, mut line, mut in_file, mut in_line) = (None, None, 0, 0);
     diags.retain(|d| {
         let f = d.primary.file;
-        let l = sources.line_index(f, d.primary.span.start);
+        let l = line_of(d);
         if file != Some(f) {
             (file, line, in_file, in_line) = (Some(f), None, 0, 0);
         }
@@ -163,31 +191,152 @@ fn cap(diags: &mut Vec<Diagnostic>, sources: &Sources, per_file: usize) -> Vec<N
         in_line += 1;
         let keep = in_file <= per_file && in_line <= SHOWN_PER_LINE;
         if !keep {
-            if not_shown.last().is_none_or(|n| n.file != f) {
-                not_shown.push(NotShown {
-                    file: f,
-                    errors: 0,
-                    warnings: 0,
-                    codes: Vec::new(),
-                    per_file,
-                });
-            }
-            let n = not_shown.last_mut().expect("just pushed");
-            if d.is_error() {
-                n.errors += 1;
-            } else {
-                n.warnings += 1;
-            }
-            match n.codes.iter_mut().find(|c| c.0 == d.code) {
-                Some(c) => c.1 += 1,
-                None => n.codes.push((d.code, 1)),
-            }
+            hidden(d);
             // Only what is shown counts towards the file's limit.
             in_file -= 1;
         }
         keep
     });
-    not_shown
+}
+
+impl NotShown {
+    /// Counts one more diagnostic not shown.
+    fn count(&mut self, d: &Diagnostic) {
+        if d.is_error() {
+            self.errors += 1;
+        } else {
+            self.warnings += 1;
+        }
+        match self.codes.iter_mut().find(|c| c.0 == d.code) {
+            Some(c) => c.1 += 1,
+            None => self.codes.push((d.code, 1)),
+        }
+    }
+}
+
+/// The diagnostics of one file found a line at a time (the streaming reader of agents
+/// files), of which only those that can still be shown are held: the same ones, and the
+/// same counts of the others, as the checker keeps of the whole file ([`check`]), in
+/// memory that does not grow with the file.
+pub struct Shown {
+    per_file: usize,
+    /// The diagnostics that may be shown, and the starts of their lines (sorted).
+    kept: Vec<Diagnostic>,
+    lines: Vec<usize>,
+    /// The others, counted; per code, the sort key of its first.
+    hidden: Option<NotShown>,
+    firsts: Vec<diagnostics::Key>,
+}
+
+impl Shown {
+    /// No diagnostics yet; `per_file` of them are shown (see [`lints::Lints::shown`]).
+    pub fn new(per_file: usize) -> Shown {
+        Shown {
+            per_file,
+            kept: Vec::new(),
+            lines: Vec::new(),
+            hidden: None,
+            firsts: Vec::new(),
+        }
+    }
+
+    /// One more diagnostic, on the line that starts at `line` (its primary label's).
+    pub fn push(&mut self, d: Diagnostic, line: usize) {
+        self.kept.push(d);
+        if let Err(k) = self.lines.binary_search(&line) {
+            self.lines.insert(k, line);
+        }
+        if self.kept.len() > 2 * self.per_file + 64 {
+            self.compact();
+        }
+    }
+
+    /// Counts one diagnostic not shown, of code `code` (an error or not) whose place in
+    /// the order is at or after `key` (not made, as it cannot be shown: the first
+    /// `per_file` of the file come before it).
+    pub fn hide(&mut self, code: latticesim_grammar::Code, error: bool, key: diagnostics::Key) {
+        let n = self.hidden.get_or_insert_with(|| NotShown {
+            file: key.1,
+            errors: 0,
+            warnings: 0,
+            codes: Vec::new(),
+            per_file: 0,
+        });
+        if error {
+            n.errors += 1;
+        } else {
+            n.warnings += 1;
+        }
+        match n.codes.iter().position(|c| c.0 == code) {
+            Some(k) => {
+                n.codes[k].1 += 1;
+                self.firsts[k] = self.firsts[k].min(key);
+            }
+            None => {
+                n.codes.push((code, 1));
+                self.firsts.push(key);
+            }
+        }
+    }
+
+    /// The starts of the lines of the diagnostics held (ascending).
+    pub fn lines(&self) -> &[usize] {
+        &self.lines
+    }
+
+    /// Takes out what can no longer be shown: as the checker caps the whole file, which
+    /// shows a diagnostic only when fewer than `per_file` are shown before it (and fewer
+    /// than [`SHOWN_PER_LINE`] on its line); diagnostics found later can only add to those.
+    fn compact(&mut self) {
+        diagnostics::sort(&mut self.kept);
+        let lines = &self.lines;
+        let line_of =
+            |d: &Diagnostic| lines.partition_point(|&l| l <= d.primary.span.start as usize);
+        let (hidden, firsts) = (&mut self.hidden, &mut self.firsts);
+        cap_by(&mut self.kept, self.per_file, line_of, |d| {
+            let n = hidden.get_or_insert_with(|| NotShown {
+                file: d.primary.file,
+                errors: 0,
+                warnings: 0,
+                codes: Vec::new(),
+                per_file: 0,
+            });
+            let known = n.codes.len();
+            n.count(d);
+            let key = diagnostics::key(d);
+            match n.codes.iter().position(|c| c.0 == d.code) {
+                Some(k) if k < known => firsts[k] = firsts[k].min(key),
+                _ => firsts.push(key),
+            }
+        });
+        let mut still: Vec<usize> = (self.kept.iter())
+            .map(|d| self.lines[line_of(d) - 1])
+            .collect();
+        still.sort_unstable();
+        still.dedup();
+        self.lines = still;
+    }
+
+    /// The diagnostics shown, in order (their lines' starts beside them), and the count of
+    /// the others, as [`check`] keeps them.
+    pub fn finish(mut self) -> (Vec<(Diagnostic, usize)>, Option<NotShown>) {
+        self.compact();
+        let lines = &self.lines;
+        let shown = (self.kept.into_iter())
+            .map(|d| {
+                let k = lines.partition_point(|&l| l <= d.primary.span.start as usize);
+                (d, lines[k - 1])
+            })
+            .collect();
+        let hidden = self.hidden.map(|mut n| {
+            n.per_file = self.per_file;
+            let mut codes: Vec<_> = n.codes.into_iter().zip(self.firsts).collect();
+            codes.sort_by_key(|c| c.1);
+            n.codes = codes.into_iter().map(|(c, _)| c).collect();
+            n
+        });
+        (shown, hidden)
+    }
 }
 
 fn t_arity_mismatch(f: &RulesFile<'_>, dim: Dim) -> bool {

@@ -172,27 +172,40 @@ impl Lints {
         last(Target::Code(code)).or_else(|| last(Target::Warnings))
     }
 
+    /// True when diagnostics of `code` are allowed (taken out).
+    pub fn allows(&self, code: Code) -> bool {
+        code.severity() == Severity::Warning && matches!(self.level(code), Some((Level::Allow, _)))
+    }
+
     /// Applies the levels: allowed warnings are taken out, denied ones marked errors.
     pub fn apply(&self, diags: &mut Vec<Diagnostic>) {
         if self.said.is_empty() {
             return;
         }
-        diags.retain_mut(|d| {
-            if d.code.severity() != Severity::Warning {
-                return true;
+        diags.retain_mut(|d| self.mark(d));
+    }
+
+    /// Applies the levels to one diagnostic: `None` when it is allowed.
+    pub fn admit(&self, mut d: Diagnostic) -> Option<Diagnostic> {
+        self.mark(&mut d).then_some(d)
+    }
+
+    /// Marks a denied warning; false for an allowed one.
+    fn mark(&self, d: &mut Diagnostic) -> bool {
+        if self.said.is_empty() || d.code.severity() != Severity::Warning {
+            return true;
+        }
+        match self.level(d.code) {
+            Some((Level::Allow, _)) => false,
+            Some((Level::Deny, origin)) => {
+                d.denied = Some(origin.to_string());
+                true
             }
-            match self.level(d.code) {
-                Some((Level::Allow, _)) => false,
-                Some((Level::Deny, origin)) => {
-                    d.denied = Some(origin.to_string());
-                    true
-                }
-                Some((Level::Warn, _)) | None => {
-                    d.denied = None;
-                    true
-                }
+            Some((Level::Warn, _)) | None => {
+                d.denied = None;
+                true
             }
-        });
+        }
     }
 
     /// The levels a rules file says on its directive lines (`// latticesim: ...`), and an

@@ -70,31 +70,45 @@ pub fn parse_agents(src: &str, file: FileId) -> (AgentsFile<'_>, Vec<Diagnostic>
     let mut diags = Vec::new();
     let mut out = AgentsFile::default();
     for (i, line) in significant_lines(src).enumerate() {
-        if let Some(rest) = line.text.strip_prefix('U') {
-            let u = parse_universe(line, rest, file, &mut diags);
-            if i > 0 {
-                diags.push(
-                    Diagnostic::new(
-                        Code::E406,
-                        "the universe line must be the first line of the file",
-                        Label::new(
-                            file,
-                            Span::new(line.start, line.start + 1),
-                            "universe line here",
-                        ),
-                    )
-                    .with_help("move the `U` line above the first agent"),
-                );
-            } else {
-                out.universe = u;
-            }
-            continue;
-        }
-        if let Some(a) = parse_agent(line, file, &mut diags) {
-            out.agents.push(a);
-        }
+        parse_line(line, i == 0, file, &mut diags, &mut out);
     }
     (out, diags)
+}
+
+/// One significant line of an agents file, read as [`parse_agents`] reads it (`first`: no
+/// significant line stands before it): a universe line sets `out.universe` when it is the
+/// first, an agent line without an error joins `out.agents`. The streaming reader of large
+/// files reads the lines its fast path leaves with this, one at a time.
+pub fn parse_line<'a>(
+    line: Line<'a>,
+    first: bool,
+    file: FileId,
+    diags: &mut Vec<Diagnostic>,
+    out: &mut AgentsFile<'a>,
+) {
+    if let Some(rest) = line.text.strip_prefix('U') {
+        let u = parse_universe(line, rest, file, diags);
+        if !first {
+            diags.push(
+                Diagnostic::new(
+                    Code::E406,
+                    "the universe line must be the first line of the file",
+                    Label::new(
+                        file,
+                        Span::new(line.start, line.start + 1),
+                        "universe line here",
+                    ),
+                )
+                .with_help("move the `U` line above the first agent"),
+            );
+        } else {
+            out.universe = u;
+        }
+        return;
+    }
+    if let Some(a) = parse_agent(line, file, diags) {
+        out.agents.push(a);
+    }
 }
 
 fn parse_universe(

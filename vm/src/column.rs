@@ -253,6 +253,11 @@ impl Column {
         each_width!(self, v => v.resize(n, 0))
     }
 
+    /// Takes out the values of the rows in `gone` (ascending), keeping the others' order.
+    pub fn drop_rows(&mut self, gone: &[u32]) {
+        each_width!(self, v => drop_rows(v, gone))
+    }
+
     /// Gives back unused room.
     pub fn shrink_to_fit(&mut self) {
         each_width!(self, v => v.shrink_to_fit())
@@ -438,6 +443,18 @@ impl<'a> CutMut<'a> {
             (d, s) => (0..s.len()).for_each(|i| d.set(i, s.get(i))),
         }
     }
+}
+
+/// Takes out the items at the indices `gone` (ascending), keeping the others' order.
+pub fn drop_rows<T: Copy>(v: &mut Vec<T>, gone: &[u32]) {
+    let mut k = 0;
+    let mut at = 0;
+    v.retain(|_| {
+        let keep = gone.get(k) != Some(&(at as u32));
+        k += !keep as usize;
+        at += 1;
+        keep
+    });
 }
 
 #[cfg(test)]

@@ -322,6 +322,17 @@ impl Columns {
         }
     }
 
+    /// Takes out the agents in `gone` (ascending ids; the columns filled).
+    pub fn drop_rows(&mut self, gone: &[u32]) {
+        use crate::column::drop_rows;
+        drop_rows(&mut self.pos, gone);
+        drop_rows(&mut self.state, gone);
+        drop_rows(&mut self.attach, gone);
+        for c in self.counters.iter_mut().filter(|c| !c.is_empty()) {
+            c.drop_rows(gone);
+        }
+    }
+
     /// Appends `other`'s agents after these (both filled).
     pub fn append(&mut self, mut other: Columns) {
         let (n, m) = (self.len(), other.len());

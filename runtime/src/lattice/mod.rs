@@ -17,6 +17,7 @@ use crate::cells::{CellIndex, Grid, AHEAD, EMPTY, NO_SLOT, RIM};
 use latticesim_vm::column::Value;
 use latticesim_vm::eval::Cell;
 use latticesim_vm::model::{AgentInit, Bounds, Column, Columns, Config, Dim, Dir, Width};
+use std::collections::HashMap;
 
 // Its parts: messages left with their senders, the agents file text, the undo point.
 mod pending;
@@ -95,6 +96,39 @@ pub enum Defect {
         /// Its direction.
         dir: Dir,
     },
+}
+
+/// What [`Lattice::from_columns_mended`] mended, as the checker does and says.
+#[derive(Debug, Default, Clone, PartialEq, Eq)]
+pub struct Mends {
+    /// The agents left out (column ids, ascending): an earlier agent stands on their cell.
+    pub gone: Vec<u32>,
+    /// Per agent left out: (it, the earlier agent on its cell), column ids.
+    pub shared: Vec<(u32, u32)>,
+    /// Bonds mended, in the order the checker finds them: (the agent that declares it, its
+    /// direction, the agent there that did not declare it back, made now; `None`: no agent
+    /// stands there, the bond is dropped). Ids of the lattice (the agents left out gone).
+    pub bonds: Vec<(u32, Dir, Option<u32>)>,
+}
+
+impl Mends {
+    /// The column id (the agent's place among the agent lines read) of lattice id `id`.
+    pub fn column_of(&self, id: u32) -> u32 {
+        let mut k = id;
+        for &g in &self.gone {
+            if g <= k {
+                k += 1;
+            } else {
+                break;
+            }
+        }
+        k
+    }
+
+    /// The lattice id of the agent in column `col` (the id it would have had when left out).
+    pub fn id_of(&self, col: u32) -> u32 {
+        col - self.gone.partition_point(|&g| g < col) as u32
+    }
 }
 
 /// In the neighbour table and in [`Lattice::neighbours`]: a free cell.
@@ -185,6 +219,30 @@ impl Lattice {
         universe: Option<Bounds>,
         cols: Columns,
     ) -> Result<Lattice, Defect> {
+        let n = cols.len();
+        let (lat, one_each) = Lattice::of_columns(dim, universe, cols);
+        if !one_each {
+            // A later agent on an earlier one's cell took its place in the index.
+            let first = (0..n)
+                .find(|&a| lat.cells.get(lat.pos[a]) != Some(a as u32))
+                .expect("an agent lost its cell");
+            let pos = lat.pos[first];
+            let second = lat.cells.get(pos).expect("the cell is taken");
+            return Err(Defect::SharedCell {
+                first: first as u32,
+                second,
+                pos,
+            });
+        }
+        match lat.one_sided_bond() {
+            Some((agent, dir)) => Err(Defect::OneSidedBond { agent, dir }),
+            None => Ok(lat),
+        }
+    }
+
+    /// The lattice of columns, and false when two agents stand on one cell (the index then
+    /// holds one of them).
+    fn of_columns(dim: Dim, universe: Option<Bounds>, cols: Columns) -> (Lattice, bool) {
         let Columns {
             pos,
             state,
@@ -205,23 +263,97 @@ impl Lattice {
                 lat.counters.push(col);
             }
         }
-        let (lat, one_each) = b.finish_checked();
+        b.finish_checked()
+    }
+
+    /// Builds the lattice of agents read as columns as the checker makes a configuration
+    /// of an agents file with defects of the lattice: an agent on the cell of an earlier
+    /// one is left out (E402), a bond towards an empty cell dropped (W602) and a bond
+    /// declared on one side only made (W601), agent by agent in id order. What was mended
+    /// is said in [`Mends`], for the diagnostics.
+    pub fn from_columns_mended(
+        dim: Dim,
+        universe: Option<Bounds>,
+        cols: Columns,
+    ) -> (Lattice, Mends) {
+        let mut mends = Mends::default();
+        let (mut lat, one_each) = Lattice::of_columns(dim, universe, cols);
         if !one_each {
-            // A later agent on an earlier one's cell took its place in the index.
-            let first = (0..n)
-                .find(|&a| lat.cells.get(lat.pos[a]) != Some(a as u32))
-                .expect("an agent lost its cell");
-            let pos = lat.pos[first];
-            let second = lat.cells.get(pos).expect("the cell is taken");
-            return Err(Defect::SharedCell {
-                first: first as u32,
-                second,
-                pos,
-            });
+            // The agents not in the index, and the ones that are, on the cells they share:
+            // the first of each cell stays.
+            let n = lat.len();
+            let mut first: HashMap<[i32; 3], u32> = HashMap::new();
+            let lost: Vec<u32> = (0..n as u32)
+                .filter(|&a| lat.cells.get(lat.pos[a as usize]) != Some(a))
+                .collect();
+            for &a in &lost {
+                let p = lat.pos[a as usize];
+                let holder = lat.cells.get(p).expect("the cell is taken");
+                let e = first.entry(p).or_insert(holder);
+                *e = (*e).min(a);
+            }
+            let holders = first.keys().filter_map(|p| lat.cells.get(*p));
+            let mut gone: Vec<u32> = lost
+                .iter()
+                .copied()
+                .chain(holders)
+                .filter(|&a| first[&lat.pos[a as usize]] != a)
+                .collect();
+            gone.sort_unstable();
+            gone.dedup();
+            mends.shared = (gone.iter())
+                .map(|&a| (a, first[&lat.pos[a as usize]]))
+                .collect();
+            mends.gone = gone;
+            let mut cols = lat.into_columns();
+            cols.drop_rows(&mends.gone);
+            lat = Lattice::of_columns(dim, universe, cols).0;
         }
-        match lat.one_sided_bond() {
-            Some((agent, dir)) => Err(Defect::OneSidedBond { agent, dir }),
-            None => Ok(lat),
+        for a in 0..lat.len() as u32 {
+            let bits = lat.attach[a as usize];
+            if bits == 0 {
+                continue;
+            }
+            for d in Dir::ALL.iter().take(lat.dim.dirs()) {
+                if bits & (1 << d.index()) == 0 {
+                    continue;
+                }
+                match lat.neighbour(a, *d) {
+                    None => {
+                        lat.attach[a as usize] &= !(1 << d.index());
+                        mends.bonds.push((a, *d, None));
+                    }
+                    Some(b) => {
+                        let back = 1 << d.opposite().index();
+                        if lat.attach[b as usize] & back == 0 {
+                            lat.attach[b as usize] |= back;
+                            mends.bonds.push((a, *d, Some(b)));
+                        }
+                    }
+                }
+            }
+        }
+        (lat, mends)
+    }
+
+    /// The agents as columns again (the lattice's other parts let go).
+    fn into_columns(self) -> Columns {
+        let mut counters: Vec<Column> = (0..45)
+            .map(|_| Column::with_capacity(self.width, 0))
+            .collect();
+        let mut mine: Vec<Option<Column>> = self.counters.into_iter().map(Some).collect();
+        for (i, &c) in self.counter_col.iter().enumerate() {
+            if c != NO_COL {
+                if let Some(col) = mine[c as usize].take() {
+                    counters[i] = col;
+                }
+            }
+        }
+        Columns {
+            pos: self.pos,
+            state: self.state,
+            attach: self.attach,
+            counters,
         }
     }
 
@@ -1009,6 +1141,35 @@ impl Shift<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Agents on one cell (three on one) are left out but the first; one-sided bonds are
+    /// made and bonds towards no agent dropped, in id order; ids map to columns and back.
+    #[test]
+    fn columns_with_defects_are_mended_as_the_checker_mends_them() {
+        let mut cols = Columns::new(Width::W16);
+        // (position, attachments N W E S)
+        for (p, a) in [
+            ([0, 0, 0], 0b0100u8), // E, to 1, which does not declare W: made
+            ([1, 0, 0], 0),
+            ([0, 0, 0], 0),      // on agent 0's cell
+            ([5, 5, 0], 0b0001), // N, towards no agent: dropped
+            ([0, 0, 0], 0b1000), // on agent 0's cell
+            ([1, 0, 0], 0),      // on agent 1's cell
+        ] {
+            cols.pos.push(p);
+            cols.state.push(*b"AAAAA");
+            cols.attach.push(a);
+        }
+        let (lat, m) = Lattice::from_columns_mended(Dim::Two, None, cols);
+        assert_eq!(m.gone, vec![2, 4, 5]);
+        assert_eq!(m.shared, vec![(2, 0), (4, 0), (5, 1)]);
+        assert_eq!(m.bonds, vec![(0, Dir::E, Some(1)), (2, Dir::N, None)]);
+        assert_eq!(lat.len(), 3);
+        assert_eq!(lat.attach, vec![0b0100, 0b0010, 0]);
+        assert_eq!(lat.one_sided_bond(), None);
+        assert_eq!((m.column_of(2), m.id_of(3)), (3, 2));
+        assert_eq!((m.id_of(4), m.id_of(6)), (3, 3));
+    }
 
     /// A block that walks out of its grid is given a grid again where it is, a few times
     /// over a long walk (the room to grow amortises it); agents that jump far away stay in
