@@ -13,7 +13,7 @@
 
 use crate::output::say;
 use latticesim_compiler::fast_agents::{
-    check_with_head, read_head, read_lines, Head, LineCheck, Verdict,
+    check_with_head, clean_head, read_head, read_lines, Cleaned, Head, LineCheck, Verdict,
 };
 use latticesim_compiler::lints::Lints;
 use latticesim_compiler::{check_with, Checked, Columns, Input, StartState};
@@ -167,6 +167,9 @@ pub struct Loaded {
     pub read: Duration,
     /// The time spent checking.
     pub check: Duration,
+    /// True when the streaming reader read the file to its end (the checker did not read
+    /// it whole).
+    pub streamed: bool,
 }
 
 /// Where an agents file comes from (opened again for the diagnostic path).
@@ -283,6 +286,7 @@ pub fn load(
         note: None,
         read,
         check: t.elapsed(),
+        streamed: false,
     })
 }
 
@@ -356,6 +360,7 @@ fn too_large(
         note: Some(note),
         read: started.elapsed(),
         check: Duration::ZERO,
+        streamed: false,
     })
 }
 
@@ -394,14 +399,9 @@ fn find_lines(
     ids: &[u32],
     not_agents: &[u64],
 ) -> io::Result<(Vec<AgentLine>, Vec<AgentLine>)> {
-    use std::io::BufRead;
     let mut at_offsets = vec![AgentLine::default(); offsets.len()];
     let mut context = Vec::new();
     let mut found = vec![AgentLine::default(); ids.len()];
-    let mut at = 0u64;
-    let mut r = io::BufReader::with_capacity(1 << 20, open.open()?);
-    let (mut line, mut id) = (0u64, 0u32);
-    let mut buf = Vec::new();
     let last = ids.iter().copied().max();
     let last_offset = offsets.iter().copied().max();
     let mut skip = not_agents.iter().copied().peekable();
@@ -423,46 +423,83 @@ fn find_lines(
     // each of two lines with one between shows that one too.
     let mut prev = AgentLine::default();
     let mut after = false;
-    while last.is_some_and(|l| id <= l) || last_offset.is_some_and(|l| at <= l) || after {
-        buf.clear();
-        if r.read_until(b'\n', &mut buf)? == 0 {
+    let (mut line, mut id) = (0u64, 0u32);
+    let mut r = open.open()?;
+    let mut w = Window {
+        buf: Vec::new(),
+        len: 0,
+        eof: false,
+    };
+    // The offset in the file of the window's first byte.
+    let mut base = 0u64;
+    'read: loop {
+        let want = w.len + CHUNK;
+        w.fill(&mut *r, want)?;
+        let upto = w.whole();
+        let bytes = &w.bytes()[..upto];
+        let mut i = 0;
+        while i < upto {
+            let wanted = last.is_some_and(|l| id <= l)
+                || last_offset.is_some_and(|l| base + i as u64 <= l)
+                || after;
+            if !wanted {
+                break 'read;
+            }
+            let e = memchr::memchr(b'\n', &bytes[i..]).map_or(upto, |p| i + p + 1);
+            let raw = &bytes[i..e];
+            let (start, end) = (base + i as u64, base + e as u64);
+            i = e;
+            line += 1;
+            let here = || AgentLine {
+                number: line,
+                at: start,
+                text: raw.to_vec(),
+            };
+            if std::mem::take(&mut after) {
+                context.push(here());
+            }
+            let (offsets_before, ids_before) = (by_offset.len(), by_id.len());
+            // An offset within the line (after its leading blanks, say) finds it.
+            while let Some(&(_, k)) = by_offset.next_if(|&&(o, _)| o < end.max(start + 1)) {
+                at_offsets[k] = here();
+            }
+            while skip.next_if(|&o| o < start).is_some() {}
+            let skipped = skip.next_if_eq(&start).is_some();
+            let text = raw.strip_suffix(b"\n").unwrap_or(raw);
+            // The usual agent line starts with a digit; others are looked at closer.
+            let agent = match text.first() {
+                Some(b'0'..=b'9') => true,
+                _ => {
+                    let text = match memchr::memmem::find(text, b"//") {
+                        Some(c) => &text[..c],
+                        None => text,
+                    };
+                    let t = text.trim_ascii();
+                    !(t.is_empty() || t[0] == b'U')
+                }
+            };
+            if agent && !skipped {
+                while let Some(&(_, k)) = by_id.next_if(|&&(i, _)| i <= id as u64) {
+                    found[k] = here();
+                }
+                id += 1;
+            }
+            if with_context {
+                if (by_offset.len(), by_id.len()) != (offsets_before, ids_before) {
+                    context.push(std::mem::take(&mut prev));
+                    after = true;
+                }
+                prev.number = line;
+                prev.at = start;
+                prev.text.clear();
+                prev.text.extend_from_slice(raw);
+            }
+        }
+        if w.eof {
             break;
         }
-        line += 1;
-        let start = at;
-        at += buf.len() as u64;
-        let here = || AgentLine {
-            number: line,
-            at: start,
-            text: buf.clone(),
-        };
-        if std::mem::take(&mut after) {
-            context.push(here());
-        }
-        let (offsets_before, ids_before) = (by_offset.len(), by_id.len());
-        // An offset within the line (after its leading blanks, say) finds it.
-        while let Some(&(_, k)) = by_offset.next_if(|&&(o, _)| o < at.max(start + 1)) {
-            at_offsets[k] = here();
-        }
-        while skip.next_if(|&o| o < start).is_some() {}
-        let skipped = skip.next_if_eq(&start).is_some();
-        let text = buf.split(|&b| b == b'\n').next().unwrap_or(&[]);
-        let text = match memchr::memmem::find(text, b"//") {
-            Some(c) => &text[..c],
-            None => text,
-        };
-        let t = text.trim_ascii();
-        if !(t.is_empty() || t[0] == b'U' || skipped) {
-            while let Some(&(_, k)) = by_id.next_if(|&&(i, _)| i <= id as u64) {
-                found[k] = here();
-            }
-            id += 1;
-        }
-        if with_context && (by_offset.len(), by_id.len()) != (offsets_before, ids_before) {
-            context.push(std::mem::take(&mut prev));
-            after = true;
-        }
-        prev = here();
+        w.consume(upto);
+        base += upto as u64;
     }
     if with_context {
         at_offsets.append(&mut context);
@@ -547,8 +584,13 @@ fn read_part(
 ) -> Result<(), u64> {
     let mut from = 0;
     while from < bytes.len() {
-        let Err(k) = read_lines(&bytes[from..], head, out) else {
-            return Ok(());
+        let k = if check.agentless() {
+            0
+        } else {
+            match read_lines(&bytes[from..], head, out) {
+                Ok(()) => return Ok(()),
+                Err(k) => k,
+            }
         };
         let s = from + k;
         let len = memchr::memchr(b'\n', &bytes[s..]).unwrap_or(bytes.len() - s);
@@ -768,8 +810,9 @@ fn excerpt(checked: &mut Checked, (head, name, size): (&[u8], &str, usize), line
 }
 
 /// The diagnostics of what the lattice mended (agents on one cell, one-sided bonds), as
-/// the checker says them, into `shown`; the lines they quote. Only the first of them can be
-/// shown (`per_file` of a file): the others are counted, by code, from their first.
+/// the checker says them, into `shown`; the lines they quote. In the order of the
+/// diagnostics, only the first `per_file` can be shown: they are said in full, and of each
+/// code the first after them, which stands for the others, counted.
 fn mended(
     mends: &Mends,
     (open, dim, levels): (Source<'_>, latticesim_compiler::Dim, &Lints),
@@ -778,45 +821,106 @@ fn mended(
 ) -> io::Result<Vec<AgentLine>> {
     use latticesim_compiler::{bond_dropped, bond_made, position_span, shared_cell};
     use latticesim_grammar::Code;
-    // Every mend, in file order: (the column of its agent's line, its place), and what
-    // it is.
+    type Bond = (u32, latticesim_compiler::checked::Dir, Option<u32>);
+    #[derive(Clone, Copy)]
     enum Mend {
         Shared(u32, u32),
-        Bond(u32, latticesim_compiler::checked::Dir, Option<u32>),
-    }
-    let mut all: Vec<(u32, usize, Mend)> = Vec::new();
-    for &(gone, first) in &mends.shared {
-        all.push((gone, 0, Mend::Shared(gone, first)));
-    }
-    for (k, &(a, d, b)) in mends.bonds.iter().enumerate() {
-        all.push((mends.column_of(a), k + 1, Mend::Bond(a, d, b)));
+        Bond(Bond),
     }
     let code = |m: &Mend| match m {
         Mend::Shared(..) => Code::E402,
-        Mend::Bond(_, _, Some(_)) => Code::W601,
-        Mend::Bond(_, _, None) => Code::W602,
+        Mend::Bond((_, _, Some(_))) => Code::W601,
+        Mend::Bond((_, _, None)) => Code::W602,
     };
-    // Allowed ones are not said at all.
-    all.retain(|m| !levels.allows(code(&m.2)));
-    // In the order of the diagnostics: by line, then (the bonds of one agent share their
-    // span) by code.
-    all.sort_by_key(|m| (m.0, code(&m.2), m.1));
-    // Quoted in full: the first `per_file` (the others cannot be shown), and of each
-    // code the first after them, which stands for the others in the count.
+    // The order of the diagnostics: by line (the column of the agent), then (the bonds of
+    // one agent share their span) by code, then as found.
+    let key = |m: &Mend, k: usize| match *m {
+        Mend::Shared(gone, _) => (gone, code(m), k),
+        Mend::Bond((a, ..)) => (mends.column_of(a), code(m), k),
+    };
+    let bonds: Vec<(u32, Code, usize, Mend)> = {
+        let mut v: Vec<_> = (mends.bonds.iter().enumerate())
+            .map(|(k, &b)| {
+                let m = Mend::Bond(b);
+                let (c, code, k) = key(&m, k);
+                (c, code, k, m)
+            })
+            .collect();
+        v.sort_by_key(|e| (e.0, e.1, e.2));
+        v
+    };
+    // The bonds held of each kind end before these columns (where one is not held).
+    let cut = |kind: usize| mends.first_more[kind].map_or(u32::MAX, |(a, ..)| mends.column_of(a));
+    let allowed = |c: Code| levels.allows(c);
+    let cutoff = [(Code::W601, 0), (Code::W602, 1)]
+        .iter()
+        .filter(|(c, _)| !allowed(*c))
+        .map(|&(_, kind)| cut(kind))
+        .min()
+        .unwrap_or(u32::MAX);
     let per_file = levels.shown();
-    let mut full: Vec<usize> = (0..all.len().min(per_file)).collect();
-    for c in [Code::E402, Code::W601, Code::W602] {
-        if let Some(k) = (per_file..all.len()).find(|&k| code(&all[k].2) == c) {
-            full.push(k);
+    let mut full: Vec<Mend> = Vec::new();
+    let mut reps: Vec<Code> = Vec::new();
+    let (mut si, mut bi, mut index) = (0, 0, 0usize);
+    loop {
+        let s = mends.shared.get(si).map(|&(g, f)| Mend::Shared(g, f));
+        let b = bonds.get(bi).filter(|e| e.0 < cutoff).map(|e| e.3);
+        let next = match (s, b) {
+            (Some(sm), Some(bm)) if key(&sm, 0) < key(&bm, 0) => {
+                si += 1;
+                sm
+            }
+            (_, Some(bm)) => {
+                bi += 1;
+                bm
+            }
+            (Some(sm), None) => {
+                si += 1;
+                sm
+            }
+            (None, None) => break,
+        };
+        let c = code(&next);
+        if allowed(c) {
+            continue;
+        }
+        if index < per_file || !reps.contains(&c) {
+            if index >= per_file {
+                reps.push(c);
+            }
+            full.push(next);
+        }
+        index += 1;
+        if index >= per_file && reps.len() == 3 {
+            break;
         }
     }
-    full.sort_unstable();
-    full.dedup();
+    // Past the cut every bond stands after the first `per_file`: of a kind with none said
+    // yet past them, its first held there, or else its first not held, stands for it.
+    for (c, kind) in [(Code::W601, 0), (Code::W602, 1)] {
+        if allowed(c) || reps.contains(&c) {
+            continue;
+        }
+        let held = (bonds.iter())
+            .find(|e| e.0 >= cutoff && e.1 == c)
+            .map(|e| e.3);
+        if let Some(m) = held.or(mends.first_more[kind].map(Mend::Bond)) {
+            reps.push(c);
+            full.push(m);
+        }
+    }
+    // How many of each code there are, and how many are said in full.
+    let made = mends.bonds.iter().filter(|b| b.2.is_some()).count();
+    let total = |c: Code| match c {
+        Code::E402 => mends.shared.len(),
+        Code::W601 => made + mends.more[0],
+        _ => mends.bonds.len() - made + mends.more[1],
+    };
     let mut cols: Vec<u32> = Vec::new();
-    for &k in &full {
-        match all[k].2 {
+    for m in &full {
+        match *m {
             Mend::Shared(gone, first) => cols.extend([gone, first]),
-            Mend::Bond(a, _, b) => {
+            Mend::Bond((a, _, b)) => {
                 cols.push(mends.column_of(a));
                 cols.extend(b.map(|b| mends.column_of(b)));
             }
@@ -835,10 +939,8 @@ fn mended(
     let aid = latticesim_grammar::FileId(1);
     let pos_span = |col: u32| {
         let (l, a) = line_of(col);
-        a.map_or(
-            latticesim_grammar::Span::new(l.at as usize, l.at as usize),
-            |a| l.shift(position_span(&a.agent())),
-        )
+        let at = latticesim_grammar::Span::new(l.at as usize, l.at as usize);
+        a.map_or(at, |a| l.shift(position_span(&a.agent())))
     };
     let attach_or_pos = |col: u32| {
         let (l, a) = line_of(col);
@@ -847,28 +949,19 @@ fn mended(
             None => pos_span(col),
         }
     };
-    let mut last_of: Vec<(Code, latticesim_compiler::diagnostics::Key, Option<bool>)> = Vec::new();
-    for (k, (col, _, m)) in all.iter().enumerate() {
-        if full.binary_search(&k).is_err() {
-            let c = code(m);
-            let (_, key, verdict) =
-                (last_of.iter().find(|f| f.0 == c)).expect("one before is quoted");
-            if let Some(error) = verdict {
-                shown.hide(c, *error, *key);
-            }
-            continue;
-        }
+    let mut said = [0usize; 3];
+    let mut rep: Vec<(Code, latticesim_compiler::diagnostics::Key, Option<bool>)> = Vec::new();
+    for m in &full {
+        let col = key(m, 0).0;
         let d = match *m {
             Mend::Shared(gone, first) => {
-                let (l, a) = line_of(gone);
-                let pos = a.map_or([0; 3], |a| {
+                let pos = line_of(gone).1.map_or([0; 3], |a| {
                     let mut p = [0i32; 3];
                     for (i, c) in a.agent().pos.iter().enumerate().take(3) {
                         p[i] = c.node as i32;
                     }
                     p
                 });
-                let _ = l;
                 shared_cell(
                     aid,
                     (pos, dim),
@@ -876,23 +969,37 @@ fn mended(
                     (pos_span(first), mends.id_of(first) as usize),
                 )
             }
-            Mend::Bond(a, d, None) => bond_dropped(aid, a as usize, d, attach_or_pos(*col)),
-            Mend::Bond(a, d, Some(b)) => bond_made(
+            Mend::Bond((a, d, None)) => bond_dropped(aid, a as usize, d, attach_or_pos(col)),
+            Mend::Bond((a, d, Some(b))) => bond_made(
                 aid,
-                (a as usize, attach_or_pos(*col)),
+                (a as usize, attach_or_pos(col)),
                 d,
                 (b as usize, pos_span(mends.column_of(b))),
             ),
         };
-        let key = latticesim_compiler::diagnostics::key(&d);
-        let line = line_of(*col).0.at as usize;
-        let d = levels.admit(d);
         let c = code(m);
-        // The last of its code quoted in full stands for the ones after it that are not.
-        last_of.retain(|f| f.0 != c);
-        last_of.push((c, key, d.as_ref().map(|d| d.is_error())));
+        said[[Code::E402, Code::W601, Code::W602]
+            .iter()
+            .position(|&x| x == c)
+            .expect("a code of mends")] += 1;
+        let k = latticesim_compiler::diagnostics::key(&d);
+        let line = line_of(col).0.at as usize;
+        let d = levels.admit(d);
+        // The last of its code said in full stands for the others.
+        rep.retain(|r| r.0 != c);
+        rep.push((c, k, d.as_ref().map(|d| d.is_error())));
         if let Some(d) = d {
             shown.push(d, line);
+        }
+    }
+    for (i, c) in [Code::E402, Code::W601, Code::W602].into_iter().enumerate() {
+        let rest = total(c) - said[i];
+        if rest == 0 || allowed(c) {
+            continue;
+        }
+        let (_, k, verdict) = *rep.iter().find(|r| r.0 == c).expect("one is said in full");
+        if let Some(error) = verdict {
+            shown.hide(c, error, k, rest);
         }
     }
     at_offsets.extend(lines);
@@ -915,9 +1022,46 @@ fn fast(
         eof: false,
     };
     w.fill(&mut *r, 1 << 20)?;
-    let Some(mut head) = read_head(&w.bytes()[..w.whole()]) else {
-        return Ok(Err(Declined::Head));
+    // The head: the `U` line and the first agent line; when the first agent lines have
+    // errors, the head made of the first that parses (it decides the dimension), and the
+    // lines before it read with the others.
+    // The head, as the rules are checked against it: the `U` line and the position of
+    // the first line that parses as an agent (which decides the dimension); the rest of
+    // that line, and the lines before it, are read with the others. When no line parses
+    // as an agent in the first bytes, the head is the `U` line (or nothing), the rules
+    // decide the dimension, and a later line that parses as an agent leaves the file to
+    // the checker.
+    let first = &w.bytes()[..w.whole()];
+    let (mut head, cleaned, agentless) = match clean_head(first) {
+        Some(Cleaned::Head(cleaned, from)) => {
+            let Some(h) = read_head(&cleaned) else {
+                return Ok(Err(Declined::Head));
+            };
+            (
+                Head {
+                    agents_at: from,
+                    ..h
+                },
+                cleaned,
+                None,
+            )
+        }
+        Some(c @ (Cleaned::Universe(end) | Cleaned::NoAgent(end))) => {
+            // Dimension and universe are set below, from the `U` line or the rules.
+            let h = Head {
+                dim: latticesim_compiler::Dim::Two,
+                universe: None,
+                agents_at: end,
+                end,
+                width: latticesim_compiler::checked::Width::W16,
+            };
+            let none = matches!(c, Cleaned::NoAgent(_));
+            (h, first[..end].to_vec(), Some(none))
+        }
+        None => return Ok(Err(Declined::Head)),
     };
+    let head_bytes = w.bytes()[..head.end].to_vec();
+    let clean = &cleaned[..];
     let t = Instant::now();
     let Some(mut checked) = check_with_head(
         Input {
@@ -926,19 +1070,25 @@ fn fast(
         },
         Input {
             name: agents_name,
-            bytes: &w.bytes()[..head.end],
+            bytes: clean,
         },
         levels,
     ) else {
         return Ok(Err(Declined::Head));
     };
     let check_time = t.elapsed();
-    let head_bytes = w.bytes()[..head.end].to_vec();
     // The agents' counters are read in the rules' width.
     head.width = checked.lints.width();
-    let Some(check) = LineCheck::new(&head_bytes, head.width) else {
+    let check = match agentless {
+        Some(none) => LineCheck::without_agents(clean, &checked.dim, head.width, none),
+        None => LineCheck::new(clean, head.width),
+    };
+    let Some(check) = check else {
         return Ok(Err(Declined::Head));
     };
+    if agentless.is_some() {
+        head = check.head(head.end);
+    }
     let mut cols = Columns::new(head.width);
     // Room for the agents the file's size suggests (from the lines of its first bytes), so
     // that the columns do not move as they grow.
@@ -955,7 +1105,8 @@ fn fast(
     let lints = &checked.lints;
     let mut shown = latticesim_compiler::Shown::new(lints.shown());
     let mut said = Said::default();
-    let mut errors = 0;
+    // The errors found (before lint levels), the rules' among them.
+    let mut errors = checked.errors();
     let mut from = head.agents_at;
     // The offset in the file of the window's first byte.
     let mut base = 0u64;
@@ -997,7 +1148,8 @@ fn fast(
     drop(w);
     cols.fill();
     let agents_read = cols.len() + said.refused;
-    let (lat, mends) = Lattice::from_columns_mended(head.dim, head.universe, cols);
+    let keep = checked.lints.shown() + 1;
+    let (lat, mends) = Lattice::from_columns_mended(head.dim, head.universe, cols, keep);
     let mut quoted: Vec<AgentLine> = Vec::new();
     if !mends.shared.is_empty() || !mends.bonds.is_empty() || !shown.lines().is_empty() {
         quoted = mended(
@@ -1033,14 +1185,14 @@ fn fast(
     checked.diags.extend(file_diags.into_iter().map(|(d, _)| d));
     checked.not_shown.extend(hidden);
     latticesim_compiler::diagnostics::sort(&mut checked.diags);
-    if !quoted.is_empty() {
-        let refs: Vec<&AgentLine> = quoted.iter().collect();
-        excerpt(
-            &mut checked,
-            (&head_bytes, agents_name, base as usize),
-            &refs,
-        );
-    }
+    // The head as written (the rules were checked against it made clean), and the lines
+    // quoted.
+    let refs: Vec<&AgentLine> = quoted.iter().collect();
+    excerpt(
+        &mut checked,
+        (&head_bytes, agents_name, base as usize),
+        &refs,
+    );
     checked.agent_count = agents_read;
     checked.config = None;
     // A denied warning fails the check, as on the checker's path: nothing to run.
@@ -1054,5 +1206,6 @@ fn fast(
         note: None,
         read: started.elapsed() - check_time,
         check: check_time,
+        streamed: true,
     }))
 }

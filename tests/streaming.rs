@@ -7,6 +7,7 @@
 use latticesim::fuzzing::{agents_of, seen, streamed, streamed_with, whole};
 use latticesim_compiler::diagnostics::render_plain;
 use latticesim_compiler::lints::Lints;
+use latticesim_grammar::Code;
 use latticesim_runtime::Lattice;
 use proptest::prelude::*;
 
@@ -107,18 +108,29 @@ fn mutated() -> impl Strategy<Value = Vec<u8>> {
         })
 }
 
-/// An agents file of `n` lines after its first: errors of every kind an agent line can
-/// have, agents on one cell, bonds declared on one side (or towards no agent), among good
-/// lines.
+/// An agents file of `n` lines (after a clean first, or not): errors of every kind an
+/// agent line can have, agents on one cell, bonds declared on one side (or towards no
+/// agent), among good lines.
 fn faulty_file(n: usize) -> impl Strategy<Value = Vec<u8>> {
     (
         prop::collection::vec((0..16usize, 0..6i32, 0..4i32, 0..16u8), n),
         any::<bool>(),
+        0..4u8,
     )
-        .prop_map(|(lines, universe)| {
+        .prop_map(|(lines, universe, first)| {
             let mut s = String::from(if universe { "U-1,8,-1,8\n" } else { "" });
-            s += "0,0 SWALK0\n";
+            // A clean first agent, or none; or no line that parses as an agent at all,
+            // but perhaps the last (3D).
+            let unparsed = first >= 2;
+            if first == 0 {
+                s += "0,0 SWALK0\n";
+            }
             for (kind, x, y, bits) in lines {
+                let kind = if unparsed {
+                    [10, 12, 14][kind % 3]
+                } else {
+                    kind
+                };
                 let a = format!("A{bits:04b}");
                 s += &match kind {
                     0..=5 => format!("{x},{y} SWALK0 {a}"),
@@ -134,6 +146,9 @@ fn faulty_file(n: usize) -> impl Strategy<Value = Vec<u8>> {
                     _ => format!("  {x},{y}  // ok"),
                 };
                 s += "\n";
+            }
+            if first == 3 {
+                s += "1,1,1\n";
             }
             s.into_bytes()
         })
@@ -168,6 +183,12 @@ fn same_with(rules: &str, agents: &[u8], levels: &Lints) -> Result<(), TestCaseE
         None,
         levels,
     );
+    // Read to its end while streaming, but where a line that parses as an agent comes
+    // after lines that do not (the dimension is then the checker's to find), or the
+    // rules are not of the agents' dimension.
+    let late = agents.ends_with(b"1,1,1\n");
+    let e301 = whole.diags.iter().any(|d| d.code == Code::E301);
+    prop_assert!(l.streamed || late || e301, "the checker read the file");
     prop_assert_eq!(seen(&l.checked), seen(&whole));
     let whole_lat = whole.config.as_ref().map(Lattice::new);
     prop_assert_eq!(

@@ -201,6 +201,70 @@ pub fn read_head(bytes: &[u8]) -> Option<Head> {
     None
 }
 
+/// The head of an agents file as the rules are checked against it, whatever its agent
+/// lines say: its `U` line, or else the first bytes of the file up to the end of its first
+/// line that parses as an agent (whose position then decides the dimension, as in the
+/// checker), with every line before it blanked, and that line cut to its position
+/// (blanks in place of the rest: every offset stays). Every agent line is then read with
+/// the others, the head's too. `None` when the `U` line or that position has an error
+/// of its own.
+pub fn clean_head(bytes: &[u8]) -> Option<Cleaned> {
+    use latticesim_grammar::lines::significant_lines;
+    let text = std::str::from_utf8(bytes).ok()?;
+    let file = FileId(1);
+    let mut out = bytes.to_vec();
+    let blank = |out: &mut Vec<u8>, r: std::ops::Range<usize>| {
+        for b in &mut out[r] {
+            if *b != b'\n' {
+                *b = b' ';
+            }
+        }
+    };
+    let from = 0;
+    // Where the previous significant line ended (the bytes between are comments, blanks).
+    let mut done = 0;
+    for (i, line) in significant_lines(text).enumerate() {
+        let end = text[line.start..]
+            .find('\n')
+            .map_or(text.len(), |e| line.start + e + 1);
+        let mut diags = Vec::new();
+        let mut f = latticesim_grammar::ast::AgentsFile::default();
+        latticesim_grammar::agents::parse_line(line, i == 0, file, &mut diags, &mut f);
+        if i == 0 && line.text.starts_with('U') {
+            if !diags.is_empty() || f.universe.is_none() {
+                return None;
+            }
+            // The universe line decides the dimension: every agent line is read after.
+            return Some(Cleaned::Universe(end));
+        }
+        let Some(a) = f.agents.first() else {
+            blank(&mut out, done..end);
+            done = end;
+            continue;
+        };
+        let pos = crate::check_agents::position_span(a);
+        blank(&mut out, done..line.start);
+        blank(&mut out, pos.end as usize..end);
+        out.truncate(end);
+        let head = read_head(&out)?;
+        return (head.end == end || head.end == out.len()).then_some(Cleaned::Head(out, from));
+    }
+    Some(Cleaned::NoAgent(from))
+}
+
+/// What [`clean_head`] made of a file's first bytes.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Cleaned {
+    /// The head made readable, and where the agents' lines start.
+    Head(Vec<u8>, usize),
+    /// The file starts with a `U` line, which ends here and decides the dimension.
+    Universe(usize),
+    /// No line parses as an agent in these bytes, and there is no `U` line: the head ends
+    /// here (before the first significant line). The rules decide the dimension unless a
+    /// later line parses as an agent.
+    NoAgent(usize),
+}
+
 /// Reads whole agent lines (after the head: from [`Head::agents_at`] on, cut anywhere at
 /// a line end) into `out`. `Err` with where it starts when a line needs the diagnostic
 /// path; `out` then holds part of them.
@@ -445,6 +509,9 @@ pub struct LineCheck {
     dim: crate::dim::DimSource,
     width: Width,
     universe: Option<(Bounds, latticesim_grammar::ast::Universe)>,
+    /// No agent line was found in the head: the first line that parses as an agent would
+    /// decide the dimension, and is left to the checker of the whole file.
+    agentless: bool,
 }
 
 /// What a line was, to [`LineCheck::line`].
@@ -486,13 +553,71 @@ impl LineCheck {
             dim,
             width,
             universe,
+            agentless: false,
         })
+    }
+
+    /// The checks of the lines after a head without agents (`head`: the `U` line, if
+    /// any, with what stands before it), in the dimension of the universe line or else
+    /// `rules_dim` (the rules' own, as the checker decides it). `agentless` (no `U` line):
+    /// lines are then read only here (see [`LineCheck::agentless`]), and one that parses
+    /// as an agent is not.
+    pub fn without_agents(
+        head: &[u8],
+        rules_dim: &crate::dim::DimSource,
+        width: Width,
+        agentless: bool,
+    ) -> Option<LineCheck> {
+        let text = std::str::from_utf8(head).ok()?;
+        let file = FileId(1);
+        let (f, diags) = latticesim_grammar::parse_agents(text, file);
+        if !diags.is_empty() || !f.agents.is_empty() {
+            return None;
+        }
+        let dim = crate::dim::from_agents(&f, file).unwrap_or_else(|| rules_dim.clone());
+        let mut scratch = Vec::new();
+        let mut ck = crate::check_agents::Checker {
+            file,
+            src: text,
+            base: 0,
+            dim: &dim,
+            diags: &mut scratch,
+            width,
+        };
+        let universe = match &f.universe {
+            Some(u) => Some((ck.universe(u)?, u.clone())),
+            None => None,
+        };
+        scratch.is_empty().then_some(LineCheck {
+            dim,
+            width,
+            universe,
+            agentless,
+        })
+    }
+
+    /// True when no agent line was found in the head: the fast reader must not read any
+    /// line (it would take an agent line in a dimension not yet decided).
+    pub fn agentless(&self) -> bool {
+        self.agentless
+    }
+
+    /// The head that stands for this one's dimension and universe, for the lattice.
+    pub fn head(&self, end: usize) -> Head {
+        Head {
+            dim: self.dim.dim,
+            universe: self.universe.as_ref().map(|u| u.0),
+            agents_at: end,
+            end,
+            width: self.width,
+        }
     }
 
     /// Checks the line `raw` (without its line end) that starts at offset `at` of the
     /// file, as the checker would in the whole file: its diagnostics into `diags`, its
     /// agent (when it has no error) into `out`. `None` for a line that is not UTF-8 (the
-    /// checker speaks of the whole file then).
+    /// checker speaks of the whole file then), and after a head without agents for a line
+    /// that parses as one.
     pub fn line(
         &self,
         raw: &[u8],
@@ -514,6 +639,9 @@ impl LineCheck {
         let Some(a) = f.agents.first() else {
             return Some(Verdict::Other);
         };
+        if self.agentless {
+            return None;
+        }
         let mut ck = crate::check_agents::Checker {
             file,
             src: text,
@@ -538,9 +666,10 @@ impl LineCheck {
 
 /// The rules checked against the head of their agents file (its first bytes up to
 /// [`Head::end`]), for the fast path: `None` when the diagnostic path must check the whole
-/// pair, because there is an error, or something is said of the agents file. Otherwise
-/// its diagnostics (warnings of the rules) are those the whole pair would have, once the
-/// rest of the agents file has been read cleanly.
+/// pair, because something is said of the agents file's head, or the files do not agree
+/// on the dimension. Otherwise its diagnostics (of the rules) are those the whole pair
+/// would have but the warnings that follow from the agents' start states (found once the
+/// whole agents file is read).
 pub fn check_with_head(
     rules: Input<'_>,
     head: Input<'_>,
@@ -550,13 +679,26 @@ pub fn check_with_head(
     // Patterns no start state matches and states no rule tests are judged with the whole
     // file's states (see [`crate::states_warnings_of`]), not the first part's.
     use latticesim_grammar::Code;
-    c.diags
-        .retain(|d| d.code != Code::W503 && d.code != Code::W603);
-    let clean = c.rules.is_some()
-        && c.config.is_some()
-        && c.errors() == 0
-        && !c.diags.iter().any(|d| d.primary.file == FileId(1))
-        && c.not_shown.iter().all(|n| n.file != FileId(1));
+    let later = |code: Code| code == Code::W503 || code == Code::W603;
+    c.diags.retain(|d| !later(d.code));
+    for n in &mut c.not_shown {
+        for &(code, k) in &n.codes {
+            if later(code) {
+                n.warnings -= k;
+            }
+        }
+        n.codes.retain(|&(code, _)| !later(code));
+    }
+    c.not_shown.retain(|n| n.errors + n.warnings > 0);
+    // Errors of the rules alone are the whole pair's too (the agents are then checked,
+    // not run); a dimension the files do not agree on, and rules too large to compile
+    // (said only of a pair without other errors, after its warnings), are the checker's.
+    let whole = |code: Code| code == Code::E301 || code == Code::E321;
+    let clean = !c
+        .diags
+        .iter()
+        .any(|d| d.primary.file == FileId(1) || whole(d.code))
+        && (c.not_shown.iter()).all(|n| n.file != FileId(1) && n.codes.iter().all(|k| !whole(k.0)));
     clean.then_some(c)
 }
 

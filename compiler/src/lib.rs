@@ -251,10 +251,16 @@ impl Shown {
         }
     }
 
-    /// Counts one diagnostic not shown, of code `code` (an error or not) whose place in
-    /// the order is at or after `key` (not made, as it cannot be shown: the first
-    /// `per_file` of the file come before it).
-    pub fn hide(&mut self, code: latticesim_grammar::Code, error: bool, key: diagnostics::Key) {
+    /// Counts `count` diagnostics not shown, of code `code` (errors or not), the first of
+    /// them at `key` in the order (not made, as they cannot be shown: the first `per_file`
+    /// of the file come before them).
+    pub fn hide(
+        &mut self,
+        code: latticesim_grammar::Code,
+        error: bool,
+        key: diagnostics::Key,
+        count: usize,
+    ) {
         let n = self.hidden.get_or_insert_with(|| NotShown {
             file: key.1,
             errors: 0,
@@ -263,17 +269,17 @@ impl Shown {
             per_file: 0,
         });
         if error {
-            n.errors += 1;
+            n.errors += count;
         } else {
-            n.warnings += 1;
+            n.warnings += count;
         }
         match n.codes.iter().position(|c| c.0 == code) {
             Some(k) => {
-                n.codes[k].1 += 1;
+                n.codes[k].1 += count;
                 self.firsts[k] = self.firsts[k].min(key);
             }
             None => {
-                n.codes.push((code, 1));
+                n.codes.push((code, count));
                 self.firsts.push(key);
             }
         }

@@ -108,7 +108,13 @@ pub struct Mends {
     /// Bonds mended, in the order the checker finds them: (the agent that declares it, its
     /// direction, the agent there that did not declare it back, made now; `None`: no agent
     /// stands there, the bond is dropped). Ids of the lattice (the agents left out gone).
+    /// Of each kind (made, dropped), those of the first agents until `keep` are held
+    /// (an agent's whole); the others are counted in `more`.
     pub bonds: Vec<(u32, Dir, Option<u32>)>,
+    /// Per kind (made, dropped): how many are not held, and the first of them.
+    pub more: [usize; 2],
+    /// See `more`.
+    pub first_more: [Option<(u32, Dir, Option<u32>)>; 2],
 }
 
 impl Mends {
@@ -270,11 +276,13 @@ impl Lattice {
     /// of an agents file with defects of the lattice: an agent on the cell of an earlier
     /// one is left out (E402), a bond towards an empty cell dropped (W602) and a bond
     /// declared on one side only made (W601), agent by agent in id order. What was mended
-    /// is said in [`Mends`], for the diagnostics.
+    /// is said in [`Mends`], for the diagnostics: of the bonds, the first `keep` of each
+    /// kind (made, dropped) in full, the others counted.
     pub fn from_columns_mended(
         dim: Dim,
         universe: Option<Bounds>,
         cols: Columns,
+        keep: usize,
     ) -> (Lattice, Mends) {
         let mut mends = Mends::default();
         let (mut lat, one_each) = Lattice::of_columns(dim, universe, cols);
@@ -309,27 +317,39 @@ impl Lattice {
             cols.drop_rows(&mends.gone);
             lat = Lattice::of_columns(dim, universe, cols).0;
         }
+        let mut held = [0usize; 2];
         for a in 0..lat.len() as u32 {
             let bits = lat.attach[a as usize];
             if bits == 0 {
                 continue;
             }
+            // Whether this agent's bonds of each kind are held (decided for all of them).
+            let hold = held.map(|h| h < keep);
             for d in Dir::ALL.iter().take(lat.dim.dirs()) {
                 if bits & (1 << d.index()) == 0 {
                     continue;
                 }
-                match lat.neighbour(a, *d) {
+                let mend = match lat.neighbour(a, *d) {
                     None => {
                         lat.attach[a as usize] &= !(1 << d.index());
-                        mends.bonds.push((a, *d, None));
+                        (a, *d, None)
                     }
                     Some(b) => {
                         let back = 1 << d.opposite().index();
-                        if lat.attach[b as usize] & back == 0 {
-                            lat.attach[b as usize] |= back;
-                            mends.bonds.push((a, *d, Some(b)));
+                        if lat.attach[b as usize] & back != 0 {
+                            continue;
                         }
+                        lat.attach[b as usize] |= back;
+                        (a, *d, Some(b))
                     }
+                };
+                let kind = mend.2.is_none() as usize;
+                if hold[kind] {
+                    mends.bonds.push(mend);
+                    held[kind] += 1;
+                } else {
+                    mends.more[kind] += 1;
+                    mends.first_more[kind].get_or_insert(mend);
                 }
             }
         }
@@ -1160,7 +1180,14 @@ mod tests {
             cols.state.push(*b"AAAAA");
             cols.attach.push(a);
         }
-        let (lat, m) = Lattice::from_columns_mended(Dim::Two, None, cols);
+        let (lat, m) = Lattice::from_columns_mended(Dim::Two, None, cols.clone(), 10);
+        let (_, few) = Lattice::from_columns_mended(Dim::Two, None, cols, 0);
+        assert_eq!(few.bonds, vec![]);
+        assert_eq!(few.more, [1, 1]);
+        assert_eq!(
+            few.first_more,
+            [Some((0, Dir::E, Some(1))), Some((2, Dir::N, None))]
+        );
         assert_eq!(m.gone, vec![2, 4, 5]);
         assert_eq!(m.shared, vec![(2, 0), (4, 0), (5, 1)]);
         assert_eq!(m.bonds, vec![(0, Dir::E, Some(1)), (2, Dir::N, None)]);
