@@ -154,17 +154,18 @@ fn faulty_file(n: usize) -> impl Strategy<Value = Vec<u8>> {
         })
 }
 
-/// Lint levels for W601 and W602 (allowed, warned of, denied), and how many diagnostics
-/// of a file are shown.
+/// Lint levels for W601, W602 and W603 (allowed, warned of, denied), and how many
+/// diagnostics of a file are shown.
 fn levels() -> impl Strategy<Value = Lints> {
     (
         0..3usize,
         0..3usize,
+        0..3usize,
         prop::sample::select(vec![1usize, 2, 3, 7, 200]),
     )
-        .prop_map(|(w601, w602, shown)| {
+        .prop_map(|(w601, w602, w603, shown)| {
             let (mut allow, mut warn, mut deny) = (Vec::new(), Vec::new(), Vec::new());
-            for (level, code) in [(w601, "W601"), (w602, "W602")] {
+            for (level, code) in [(w601, "W601"), (w602, "W602"), (w603, "W603")] {
                 [&mut allow, &mut warn, &mut deny][level].push(code.to_string());
             }
             let mut l = Lints::from_flags(&allow, &warn, &deny).expect("known codes");
@@ -188,7 +189,19 @@ fn same_with(rules: &str, agents: &[u8], levels: &Lints) -> Result<(), TestCaseE
     // rules are not of the agents' dimension.
     let late = agents.ends_with(b"1,1,1\n");
     let e301 = whole.diags.iter().any(|d| d.code == Code::E301);
-    prop_assert!(l.streamed || late || e301, "the checker read the file");
+    // A `U` line with an error (the head's) leaves the file to the checker too.
+    let text = String::from_utf8_lossy(agents);
+    let first = latticesim_grammar::lines::significant_lines(&text).next();
+    let bad_universe = first.is_some_and(|l| {
+        l.text.starts_with('U')
+            && !latticesim_grammar::parse_agents(l.text, latticesim_grammar::FileId(1))
+                .1
+                .is_empty()
+    });
+    prop_assert!(
+        l.streamed || late || e301 || bad_universe,
+        "the checker read the file"
+    );
     prop_assert_eq!(seen(&l.checked), seen(&whole));
     let whole_lat = whole.config.as_ref().map(Lattice::new);
     prop_assert_eq!(
@@ -204,6 +217,15 @@ proptest! {
     #[test]
     fn the_streaming_reader_says_what_the_checker_says(r in 0..RULES.len(), a in agents_file()) {
         same(RULES[r], &a)?;
+    }
+
+    #[test]
+    fn the_streaming_reader_says_what_the_checker_says_with_lint_levels(
+        r in 0..RULES.len(),
+        a in agents_file(),
+        levels in levels(),
+    ) {
+        same_with(RULES[r], &a, &levels)?;
     }
 
     #[test]

@@ -37,8 +37,13 @@ pub fn latticesim() -> PathBuf {
 
 /// Runs a command to its end: wall time and peak resident bytes of the child (reaped by
 /// `wait4`, which gives its own peak, rather than by `Child::wait`).
-#[allow(clippy::zombie_processes)]
 pub fn measure(cmd: &mut Command) -> (Duration, u64) {
+    measure_exit(cmd, 0)
+}
+
+/// As [`measure`], for a command that must end with the exit status `code`.
+#[allow(clippy::zombie_processes)]
+pub fn measure_exit(cmd: &mut Command, code: i32) -> (Duration, u64) {
     let t = Instant::now();
     let child = cmd
         .stdout(std::process::Stdio::null())
@@ -50,7 +55,7 @@ pub fn measure(cmd: &mut Command) -> (Duration, u64) {
     let r = unsafe { libc::wait4(child.id() as i32, &mut status, 0, &mut ru) };
     let wall = t.elapsed();
     assert!(
-        r > 0 && libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0,
+        r > 0 && libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == code,
         "{cmd:?} failed"
     );
     (wall, ru.ru_maxrss as u64 * 1024)

@@ -675,11 +675,19 @@ pub fn check_with_head(
     head: Input<'_>,
     levels: &crate::lints::Lints,
 ) -> Option<Checked> {
-    let mut c = crate::check_with(rules, Some(head), None, levels);
     // Patterns no start state matches and states no rule tests are judged with the whole
-    // file's states (see [`crate::states_warnings_of`]), not the first part's.
+    // file's states (see [`crate::states_warnings_of`]), not the head's: allowed here (a
+    // denied one would fail the rules), with the levels as said kept for later.
+    use crate::lints::{Level, Lints, Target};
     use latticesim_grammar::Code;
     let later = |code: Code| code == Code::W503 || code == Code::W603;
+    let mut quiet = levels.clone();
+    for code in [Code::W503, Code::W603] {
+        quiet.push(Target::Code(code), Level::Allow, "the head");
+    }
+    let mut c = crate::check_with(rules, Some(head), None, &quiet);
+    let (said, _) = Lints::from_rules(c.sources.text(FileId(0)), FileId(0));
+    c.lints = said.then(levels);
     c.diags.retain(|d| !later(d.code));
     for n in &mut c.not_shown {
         for &(code, k) in &n.codes {
