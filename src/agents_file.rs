@@ -859,8 +859,15 @@ fn mended(
         .min()
         .unwrap_or(u32::MAX);
     let per_file = levels.shown();
+    // When the mends are all the file's diagnostics, those after the first `per_file`
+    // need not be found (their order among themselves is that of their agents): else
+    // the first of each code after them is, to place its code among the others in the
+    // count of what is not shown.
+    let alone = shown.is_empty();
     let mut full: Vec<Mend> = Vec::new();
     let mut reps: Vec<Code> = Vec::new();
+    // The first of each code after them, by the column of its agent, when not found.
+    let mut firsts: Vec<(Code, u32)> = Vec::new();
     let (mut si, mut bi, mut index) = (0, 0, 0usize);
     loop {
         let s = mends.shared.get(si).map(|&(g, f)| Mend::Shared(g, f));
@@ -884,11 +891,15 @@ fn mended(
         if allowed(c) {
             continue;
         }
-        if index < per_file || !reps.contains(&c) {
-            if index >= per_file {
-                reps.push(c);
-            }
+        if index < per_file {
             full.push(next);
+        } else if !reps.contains(&c) {
+            reps.push(c);
+            if alone {
+                firsts.push((c, key(&next, 0).0));
+            } else {
+                full.push(next);
+            }
         }
         index += 1;
         if index >= per_file && reps.len() == 3 {
@@ -906,7 +917,11 @@ fn mended(
             .map(|e| e.3);
         if let Some(m) = held.or(mends.first_more[kind].map(Mend::Bond)) {
             reps.push(c);
-            full.push(m);
+            if alone {
+                firsts.push((c, key(&m, 0).0));
+            } else {
+                full.push(m);
+            }
         }
     }
     // How many of each code there are, and how many are said in full.
@@ -997,10 +1012,18 @@ fn mended(
         if rest == 0 || allowed(c) {
             continue;
         }
-        let (_, k, verdict) = *rep.iter().find(|r| r.0 == c).expect("one is said in full");
-        if let Some(error) = verdict {
-            shown.hide(c, error, k, rest);
-        }
+        let (k, error) = match firsts.iter().find(|f| f.0 == c) {
+            // After every diagnostic made, in the order of their agents.
+            Some(&(_, col)) => ((true, aid, u32::MAX, col, c), levels.is_error(c)),
+            None => {
+                let (_, k, verdict) = *rep.iter().find(|r| r.0 == c).expect("one is said in full");
+                let Some(error) = verdict else {
+                    continue;
+                };
+                (k, error)
+            }
+        };
+        shown.hide(c, error, k, rest);
     }
     at_offsets.extend(lines);
     Ok(at_offsets)
@@ -1150,16 +1173,10 @@ fn fast(
     let agents_read = cols.len() + said.refused;
     let keep = checked.lints.shown() + 1;
     let (lat, mends) = Lattice::from_columns_mended(head.dim, head.universe, cols, keep);
+    // As the checker: the warnings that follow from the start states where there is no
+    // error (agents on one cell are one), then the mends in their place.
+    errors += mends.shared.len();
     let mut quoted: Vec<AgentLine> = Vec::new();
-    if !mends.shared.is_empty() || !mends.bonds.is_empty() || !shown.lines().is_empty() {
-        quoted = mended(
-            &mends,
-            (open, head.dim, lints),
-            &said.not_agents,
-            &mut shown,
-        )?;
-        errors += mends.shared.len();
-    }
     if errors == 0 {
         let mut seen = distinct(&lat.state);
         quoted.extend(quote_idle(&checked, open, &mut seen)?);
@@ -1180,6 +1197,15 @@ fn fast(
                 checked.diags.push(d);
             }
         }
+    }
+    if !mends.shared.is_empty() || !mends.bonds.is_empty() || !shown.lines().is_empty() {
+        let lines = mended(
+            &mends,
+            (open, head.dim, lints),
+            &said.not_agents,
+            &mut shown,
+        )?;
+        quoted.extend(lines);
     }
     let (file_diags, hidden) = shown.finish();
     checked.diags.extend(file_diags.into_iter().map(|(d, _)| d));

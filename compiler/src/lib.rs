@@ -285,6 +285,11 @@ impl Shown {
         }
     }
 
+    /// True when no diagnostic was pushed or counted yet.
+    pub fn is_empty(&self) -> bool {
+        self.kept.is_empty() && self.hidden.is_none()
+    }
+
     /// The starts of the lines of the diagnostics held (ascending).
     pub fn lines(&self) -> &[usize] {
         &self.lines

@@ -172,6 +172,11 @@ impl Lints {
         last(Target::Code(code)).or_else(|| last(Target::Warnings))
     }
 
+    /// True when diagnostics of `code` are errors (of their own, or denied warnings).
+    pub fn is_error(&self, code: Code) -> bool {
+        code.severity() == Severity::Error || matches!(self.level(code), Some((Level::Deny, _)))
+    }
+
     /// True when diagnostics of `code` are allowed (taken out).
     pub fn allows(&self, code: Code) -> bool {
         code.severity() == Severity::Warning && matches!(self.level(code), Some((Level::Allow, _)))
