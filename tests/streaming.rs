@@ -2,11 +2,15 @@
 //! found as it reads, the checker only when it declines) against the checker alone
 //! (`compiler::check` on the whole pair): the same diagnostics, rendered and as JSON, the
 //! same counts and the same agents, on files with warnings (states no rule tests, agents
-//! without a state, comments, CRLF, a `U` line, 3D) and on mutated files; never a panic.
+//! without a state, comments, CRLF, a `U` line, 3D), on files with errors, agents on one
+//! cell and one-sided bonds (which stream too, in bounded memory), with lint levels and few
+//! diagnostics shown, and on mutated files; never a panic.
 
+use latticesim::agents_file::Loaded;
 use latticesim::fuzzing::{agents_of, seen, streamed, streamed_with, whole};
 use latticesim_compiler::diagnostics::render_plain;
 use latticesim_compiler::lints::Lints;
+use latticesim_compiler::Checked;
 use latticesim_grammar::Code;
 use latticesim_runtime::Lattice;
 use proptest::prelude::*;
@@ -23,9 +27,15 @@ const RULES: &[&str] = &[
 ];
 
 fn same(rules: &str, agents: &[u8]) -> Result<(), TestCaseError> {
-    let l = streamed(rules.as_bytes(), agents);
-    let whole = whole(rules.as_bytes(), agents);
-    prop_assert_eq!(seen(&l.checked), seen(&whole));
+    agree(
+        &streamed(rules.as_bytes(), agents),
+        &whole(rules.as_bytes(), agents),
+    )
+}
+
+/// The same diagnostics, counts and agents.
+fn agree(l: &Loaded, whole: &Checked) -> Result<(), TestCaseError> {
+    prop_assert_eq!(seen(&l.checked), seen(whole));
     let whole_lat = whole.config.as_ref().map(Lattice::new);
     prop_assert_eq!(
         l.lattice.as_ref().map(agents_of),
@@ -202,13 +212,7 @@ fn same_with(rules: &str, agents: &[u8], levels: &Lints) -> Result<(), TestCaseE
         l.streamed || late || e301 || bad_universe,
         "the checker read the file"
     );
-    prop_assert_eq!(seen(&l.checked), seen(&whole));
-    let whole_lat = whole.config.as_ref().map(Lattice::new);
-    prop_assert_eq!(
-        l.lattice.as_ref().map(agents_of),
-        whole_lat.as_ref().map(agents_of)
-    );
-    Ok(())
+    agree(&l, &whole)
 }
 
 proptest! {

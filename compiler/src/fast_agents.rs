@@ -532,10 +532,39 @@ impl LineCheck {
     /// [`Head::end`]), whose counters are of width `width`; `None` when the head does not
     /// read cleanly.
     pub fn new(head: &[u8], width: Width) -> Option<LineCheck> {
+        LineCheck::of_head(head, width, None)
+    }
+
+    /// The checks of the lines after a head without agents (`head`: the `U` line, if
+    /// any, with what stands before it), in the dimension of the universe line or else
+    /// `rules_dim` (the rules' own, as the checker decides it). `agentless` (no `U` line):
+    /// lines are then read only here (see [`LineCheck::agentless`]), and one that parses
+    /// as an agent is not.
+    pub fn without_agents(
+        head: &[u8],
+        rules_dim: &crate::dim::DimSource,
+        width: Width,
+        agentless: bool,
+    ) -> Option<LineCheck> {
+        LineCheck::of_head(head, width, Some((rules_dim, agentless)))
+    }
+
+    /// [`LineCheck::new`], or with `no_agent` [`LineCheck::without_agents`].
+    fn of_head(
+        head: &[u8],
+        width: Width,
+        no_agent: Option<(&crate::dim::DimSource, bool)>,
+    ) -> Option<LineCheck> {
         let text = std::str::from_utf8(head).ok()?;
         let file = FileId(1);
         let (f, diags) = latticesim_grammar::parse_agents(text, file);
-        let dim = crate::dim::from_agents(&f, file)?;
+        let dim = match no_agent {
+            None => crate::dim::from_agents(&f, file)?,
+            Some(_) if !f.agents.is_empty() => return None,
+            Some((rules_dim, _)) => {
+                crate::dim::from_agents(&f, file).unwrap_or_else(|| rules_dim.clone())
+            }
+        };
         let mut scratch = Vec::new();
         let mut ck = crate::check_agents::Checker {
             file,
@@ -553,46 +582,7 @@ impl LineCheck {
             dim,
             width,
             universe,
-            agentless: false,
-        })
-    }
-
-    /// The checks of the lines after a head without agents (`head`: the `U` line, if
-    /// any, with what stands before it), in the dimension of the universe line or else
-    /// `rules_dim` (the rules' own, as the checker decides it). `agentless` (no `U` line):
-    /// lines are then read only here (see [`LineCheck::agentless`]), and one that parses
-    /// as an agent is not.
-    pub fn without_agents(
-        head: &[u8],
-        rules_dim: &crate::dim::DimSource,
-        width: Width,
-        agentless: bool,
-    ) -> Option<LineCheck> {
-        let text = std::str::from_utf8(head).ok()?;
-        let file = FileId(1);
-        let (f, diags) = latticesim_grammar::parse_agents(text, file);
-        if !diags.is_empty() || !f.agents.is_empty() {
-            return None;
-        }
-        let dim = crate::dim::from_agents(&f, file).unwrap_or_else(|| rules_dim.clone());
-        let mut scratch = Vec::new();
-        let mut ck = crate::check_agents::Checker {
-            file,
-            src: text,
-            base: 0,
-            dim: &dim,
-            diags: &mut scratch,
-            width,
-        };
-        let universe = match &f.universe {
-            Some(u) => Some((ck.universe(u)?, u.clone())),
-            None => None,
-        };
-        scratch.is_empty().then_some(LineCheck {
-            dim,
-            width,
-            universe,
-            agentless,
+            agentless: no_agent.is_some_and(|n| n.1),
         })
     }
 
