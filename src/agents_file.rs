@@ -389,22 +389,24 @@ fn agent_lines(open: Source<'_>, ids: &[u32]) -> io::Result<Vec<AgentLine>> {
 
 /// Lines of an agents file found again, read until the last of them: those that start at
 /// `offsets`, and those of the agents with the ids `ids` (ids count the agent lines: not
-/// blank, not a comment, not the `U` line, and not a line that starts at one of
-/// `not_agents`, ascending), each in the order given. `with_context`: the lines before
+/// blank, not a comment, not the `U` line, and not in the runs `not_agents`, ascending),
+/// each in the order given. `with_context`: the lines before
 /// and after those found too, after those at `offsets` (for the excerpt of the file).
 fn find_lines(
     open: Source<'_>,
     with_context: bool,
     offsets: &[u64],
     ids: &[u32],
-    not_agents: &[u64],
+    not_agents: &[(u64, u32)],
 ) -> io::Result<(Vec<AgentLine>, Vec<AgentLine>)> {
     let mut at_offsets = vec![AgentLine::default(); offsets.len()];
     let mut context = Vec::new();
     let mut found = vec![AgentLine::default(); ids.len()];
     let last = ids.iter().copied().max();
     let last_offset = offsets.iter().copied().max();
-    let mut skip = not_agents.iter().copied().peekable();
+    let mut runs = not_agents.iter().copied().peekable();
+    // Lines of the current run still to pass.
+    let mut skipping = 0u32;
     let sorted = |v: Vec<(u64, usize)>| {
         let mut v = v;
         v.sort_unstable();
@@ -463,21 +465,28 @@ fn find_lines(
             while let Some(&(_, k)) = by_offset.next_if(|&&(o, _)| o < end.max(start + 1)) {
                 at_offsets[k] = here();
             }
-            while skip.next_if(|&o| o < start).is_some() {}
-            let skipped = skip.next_if_eq(&start).is_some();
+            // A line is significant as `significant_lines` has it: not blank, not a comment.
             let text = raw.strip_suffix(b"\n").unwrap_or(raw);
-            // The usual agent line starts with a digit; others are looked at closer.
-            let agent = match text.first() {
-                Some(b'0'..=b'9') => true,
-                _ => {
-                    let text = match memchr::memmem::find(text, b"//") {
-                        Some(c) => &text[..c],
-                        None => text,
-                    };
-                    let t = text.trim_ascii();
-                    !(t.is_empty() || t[0] == b'U')
-                }
+            let text = text.strip_suffix(b"\r").unwrap_or(text);
+            let text = match memchr::memmem::find(text, b"//") {
+                Some(c) => &text[..c],
+                None => text,
             };
+            let blank = |c: &u8| *c == b' ' || *c == b'\t';
+            let significant = text.iter().position(|c| !blank(c));
+            let mut skipped = false;
+            if let Some(first) = significant {
+                while runs.next_if(|&(o, _)| o < start).is_some() {}
+                if let Some((_, n)) = runs.next_if(|&(o, _)| o == start) {
+                    skipping = n;
+                }
+                if skipping > 0 {
+                    skipping -= 1;
+                    skipped = true;
+                }
+                skipped |= text[first] == b'U';
+            }
+            let agent = significant.is_some();
             if agent && !skipped {
                 while let Some(&(_, k)) = by_id.next_if(|&&(i, _)| i <= id as u64) {
                     found[k] = here();
@@ -560,8 +569,11 @@ struct Said {
     diags: Vec<(latticesim_grammar::Diagnostic, usize)>,
     /// Agent lines with an error (agents read, not in the lattice).
     refused: usize,
-    /// Where the lines start that are not agents of the lattice (ascending).
-    not_agents: Vec<u64>,
+    /// The lines that are not agents of the lattice, as runs: (where the first starts, how
+    /// many significant lines from it are such), ascending.
+    not_agents: Vec<(u64, u32)>,
+    /// The agents read when the last run was extended (a run goes on while none is).
+    run_at: Option<usize>,
 }
 
 impl Said {
@@ -569,6 +581,15 @@ impl Said {
         self.diags.append(&mut other.diags);
         self.refused += other.refused;
         self.not_agents.append(&mut other.not_agents);
+    }
+
+    /// One more line that is not an agent of the lattice, at `at`, with `agents` read.
+    fn not_agent(&mut self, at: u64, agents: usize) {
+        match self.not_agents.last_mut() {
+            Some((_, n)) if self.run_at == Some(agents) => *n += 1,
+            _ => self.not_agents.push((at, 1)),
+        }
+        self.run_at = Some(agents);
     }
 }
 
@@ -601,9 +622,9 @@ fn read_part(
             Some(Verdict::Agent | Verdict::Nothing) => {}
             Some(Verdict::Refused) => {
                 said.refused += 1;
-                said.not_agents.push(line_at);
+                said.not_agent(line_at, out.len());
             }
-            Some(Verdict::Other) => said.not_agents.push(line_at),
+            Some(Verdict::Other) => said.not_agent(line_at, out.len()),
         }
         (said.diags).extend(diags.into_iter().map(|d| (d, line_at as usize)));
         from = s + len + 1;
@@ -816,7 +837,7 @@ fn excerpt(checked: &mut Checked, (head, name, size): (&[u8], &str, usize), line
 fn mended(
     mends: &Mends,
     (open, dim, levels): (Source<'_>, latticesim_compiler::Dim, &Lints),
-    not_agents: &[u64],
+    not_agents: &[(u64, u32)],
     shown: &mut latticesim_compiler::Shown,
 ) -> io::Result<Vec<AgentLine>> {
     use latticesim_compiler::{bond_dropped, bond_made, position_span, shared_cell};
