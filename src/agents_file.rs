@@ -563,10 +563,12 @@ impl Window {
 }
 
 /// What the lines the fast reader left said, read as the checker reads them.
-#[derive(Default)]
 struct Said {
-    /// Their diagnostics, with the start of each one's line.
-    diags: Vec<(latticesim_grammar::Diagnostic, usize)>,
+    /// Their diagnostics that can still be shown, lint levels applied; the others counted.
+    shown: latticesim_compiler::Shown,
+    /// The errors found (before lint levels: as the checker, which finds the warnings that
+    /// follow from the start states only where there is no error, denied warnings aside).
+    errors: usize,
     /// Agent lines with an error (agents read, not in the lattice).
     refused: usize,
     /// The lines that are not agents of the lattice, as runs: (where the first starts, how
@@ -577,8 +579,20 @@ struct Said {
 }
 
 impl Said {
+    fn new(levels: &Lints) -> Said {
+        Said {
+            shown: latticesim_compiler::Shown::new(levels.shown()),
+            errors: 0,
+            refused: 0,
+            not_agents: Vec::new(),
+            run_at: None,
+        }
+    }
+
+    /// Takes in what the lines after these said.
     fn append(&mut self, mut other: Said) {
-        self.diags.append(&mut other.diags);
+        self.shown.absorb(other.shown);
+        self.errors += other.errors;
         self.refused += other.refused;
         self.not_agents.append(&mut other.not_agents);
     }
@@ -599,7 +613,7 @@ impl Said {
 fn read_part(
     bytes: &[u8],
     at: u64,
-    (head, check): (&Head, &LineCheck),
+    (head, check, levels): (&Head, &LineCheck, &Lints),
     out: &mut Columns,
     said: &mut Said,
 ) -> Result<(), u64> {
@@ -626,7 +640,12 @@ fn read_part(
             }
             Some(Verdict::Other) => said.not_agent(line_at, out.len()),
         }
-        (said.diags).extend(diags.into_iter().map(|d| (d, line_at as usize)));
+        for d in diags {
+            said.errors += d.is_error() as usize;
+            if let Some(d) = levels.admit(d) {
+                said.shown.push(d, line_at as usize);
+            }
+        }
         from = s + len + 1;
     }
     out.fill();
@@ -638,11 +657,11 @@ fn read_part(
 fn read_parallel(
     bytes: &[u8],
     at: u64,
-    how: (&Head, &LineCheck),
+    how: (&Head, &LineCheck, &Lints),
     out: &mut Columns,
     threads: usize,
 ) -> Result<Said, u64> {
-    let mut said = Said::default();
+    let mut said = Said::new(how.2);
     let parts = threads.min(bytes.len() / BYTES_PER_THREAD).max(1);
     if parts == 1 {
         read_part(bytes, at, how, out, &mut said)?;
@@ -667,7 +686,7 @@ fn read_parallel(
                 let (from, piece) = (w[0], &bytes[w[0]..w[1]]);
                 s.spawn(move || {
                     let mut cols = Columns::new(width);
-                    let mut said = Said::default();
+                    let mut said = Said::new(how.2);
                     let done = read_part(piece, at + from as u64, how, &mut cols, &mut said);
                     (done, cols, said)
                 })
@@ -678,7 +697,7 @@ fn read_parallel(
             .into_iter()
             .map(|h| {
                 h.join()
-                    .unwrap_or_else(|_| (Err(at), Columns::new(width), Said::default()))
+                    .unwrap_or_else(|_| (Err(at), Columns::new(width), Said::new(how.2)))
             })
             .collect();
         (done, results)
@@ -1147,10 +1166,7 @@ fn fast(
     // What the lines the fast reader leaves say: the diagnostics that can still be shown,
     // and counts.
     let lints = &checked.lints;
-    let mut shown = latticesim_compiler::Shown::new(lints.shown());
-    let mut said = Said::default();
-    // The errors found (before lint levels), the rules' among them.
-    let mut errors = checked.errors();
+    let mut said = Said::new(lints);
     let mut from = head.agents_at;
     // The offset in the file of the window's first byte.
     let mut base = 0u64;
@@ -1160,23 +1176,14 @@ fn fast(
             let part = read_parallel(
                 &w.bytes()[from..upto],
                 base + from as u64,
-                (&head, &check),
+                (&head, &check, lints),
                 &mut cols,
                 threads,
             );
-            let mut part = match part {
-                Ok(p) => p,
+            match part {
+                Ok(p) => said.append(p),
                 Err(at) => return Ok(Err(Declined::Line(at))),
-            };
-            for (d, line) in part.diags.drain(..) {
-                // As the checker, which finds the warnings that follow from the start
-                // states only where there is no error (denied warnings aside).
-                errors += d.is_error() as usize;
-                if let Some(d) = lints.admit(d) {
-                    shown.push(d, line);
-                }
             }
-            said.append(part);
         }
         if w.eof {
             base += upto as u64;
@@ -1191,12 +1198,21 @@ fn fast(
     }
     drop(w);
     cols.fill();
-    let agents_read = cols.len() + said.refused;
+    let agents_read = cols.len();
     let keep = checked.lints.shown() + 1;
     let (lat, mends) = Lattice::from_columns_mended(head.dim, head.universe, cols, keep);
     // As the checker: the warnings that follow from the start states where there is no
     // error (agents on one cell are one), then the mends in their place.
-    errors += mends.shared.len();
+    let Said {
+        mut shown,
+        errors,
+        refused,
+        not_agents,
+        ..
+    } = said;
+    // The errors found before lint levels, the rules' among them.
+    let errors = errors + checked.errors() + mends.shared.len();
+    let agents_read = agents_read + refused;
     let mut quoted: Vec<AgentLine> = Vec::new();
     if errors == 0 {
         let mut seen = distinct(&lat.state);
@@ -1220,12 +1236,7 @@ fn fast(
         }
     }
     if !mends.shared.is_empty() || !mends.bonds.is_empty() || !shown.lines().is_empty() {
-        let lines = mended(
-            &mends,
-            (open, head.dim, lints),
-            &said.not_agents,
-            &mut shown,
-        )?;
+        let lines = mended(&mends, (open, head.dim, lints), &not_agents, &mut shown)?;
         quoted.extend(lines);
     }
     let (file_diags, hidden) = shown.finish();

@@ -254,6 +254,31 @@ proptest! {
     }
 }
 
+/// A file of several megabytes, read in parts on two threads: errors, agents on one cell
+/// and one-sided bonds in every part, some of each shown, the others counted, as the
+/// checker says them; with few diagnostics shown and with many.
+#[test]
+fn errors_in_every_part_of_a_large_file_are_said_as_the_checker_says_them() {
+    let mut text = String::new();
+    for k in 0..240_000u32 {
+        let (x, y) = (k % 500, k / 500);
+        text += &match k % 997 {
+            17 => format!("{x},{y} SBAD\n"),
+            29 => format!("{x},{y} C01 99999\n"),
+            31 => "0,0 SWALK0\n".to_string(),
+            37 => format!("{x},{y} SWALK0 A0010\n"),
+            41 => format!("{x} ,{y}\n"),
+            _ => format!("{x},{y} SWALK0\n"),
+        };
+    }
+    assert!(text.len() > 3 << 20);
+    for shown in [3, 200] {
+        let mut levels = Lints::new();
+        levels.set_shown(shown);
+        same_with(RULES[0], text.as_bytes(), &levels).unwrap();
+    }
+}
+
 /// A warning deep in a large file is quoted with its own line number, as the checker
 /// quotes it, though only the file's head and that line are held.
 #[test]

@@ -223,9 +223,11 @@ pub struct Shown {
     /// The diagnostics that may be shown, and the starts of their lines (sorted).
     kept: Vec<Diagnostic>,
     lines: Vec<usize>,
-    /// The others, counted; per code, the sort key of its first.
+    /// The others, counted; per code, the sort key of its first and whether it is an
+    /// error.
     hidden: Option<NotShown>,
     firsts: Vec<diagnostics::Key>,
+    errors: Vec<bool>,
 }
 
 impl Shown {
@@ -237,7 +239,32 @@ impl Shown {
             lines: Vec::new(),
             hidden: None,
             firsts: Vec::new(),
+            errors: Vec::new(),
         }
+    }
+
+    /// Takes in the diagnostics of `later`, which were all found after these (in file
+    /// order, as the parts of a file read on several threads).
+    pub fn absorb(&mut self, later: Shown) {
+        for (d, line) in later.with_lines() {
+            self.push(d, line);
+        }
+        if let Some(n) = later.hidden {
+            for (k, &(code, count)) in n.codes.iter().enumerate() {
+                self.hide(code, later.errors[k], later.firsts[k], count);
+            }
+        }
+    }
+
+    /// The diagnostics held, each with the start of its line.
+    fn with_lines(&self) -> Vec<(Diagnostic, usize)> {
+        let lines = &self.lines;
+        (self.kept.iter())
+            .map(|d| {
+                let k = lines.partition_point(|&l| l <= d.primary.span.start as usize);
+                (d.clone(), lines[k - 1])
+            })
+            .collect()
     }
 
     /// One more diagnostic, on the line that starts at `line` (its primary label's).
@@ -281,6 +308,7 @@ impl Shown {
             None => {
                 n.codes.push((code, count));
                 self.firsts.push(key);
+                self.errors.push(error);
             }
         }
     }
@@ -303,7 +331,7 @@ impl Shown {
         let lines = &self.lines;
         let line_of =
             |d: &Diagnostic| lines.partition_point(|&l| l <= d.primary.span.start as usize);
-        let (hidden, firsts) = (&mut self.hidden, &mut self.firsts);
+        let (hidden, firsts, errors) = (&mut self.hidden, &mut self.firsts, &mut self.errors);
         cap_by(&mut self.kept, self.per_file, line_of, |d| {
             let n = hidden.get_or_insert_with(|| NotShown {
                 file: d.primary.file,
@@ -317,7 +345,10 @@ impl Shown {
             let key = diagnostics::key(d);
             match n.codes.iter().position(|c| c.0 == d.code) {
                 Some(k) if k < known => firsts[k] = firsts[k].min(key),
-                _ => firsts.push(key),
+                _ => {
+                    firsts.push(key);
+                    errors.push(d.is_error());
+                }
             }
         });
         let mut still: Vec<usize> = (self.kept.iter())
@@ -332,13 +363,7 @@ impl Shown {
     /// the others, as [`check`] keeps them.
     pub fn finish(mut self) -> (Vec<(Diagnostic, usize)>, Option<NotShown>) {
         self.compact();
-        let lines = &self.lines;
-        let shown = (self.kept.into_iter())
-            .map(|d| {
-                let k = lines.partition_point(|&l| l <= d.primary.span.start as usize);
-                (d, lines[k - 1])
-            })
-            .collect();
+        let shown = self.with_lines();
         let hidden = self.hidden.map(|mut n| {
             n.per_file = self.per_file;
             let mut codes: Vec<_> = n.codes.into_iter().zip(self.firsts).collect();
