@@ -1239,6 +1239,8 @@ fn fast(
         let lines = mended(&mends, (open, head.dim, lints), &not_agents, &mut shown)?;
         quoted.extend(lines);
     }
+    // The rules' diagnostics capped as the checker caps them, with those just found.
+    latticesim_compiler::cap_checked(&mut checked);
     let (file_diags, hidden) = shown.finish();
     checked.diags.extend(file_diags.into_iter().map(|(d, _)| d));
     checked.not_shown.extend(hidden);

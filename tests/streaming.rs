@@ -24,6 +24,9 @@ const RULES: &[&str] = &[
     "fall\n1\nN***0\nP0,-1\n",
     // 3D.
     "up\n1\nSUP000 U***0**\nP0,0,1\n",
+    // Warnings of the rules file: W502, and W503 three times when agents start in WALK0
+    // (then capped with the rules' others when few are shown).
+    "a\n1\nSWALK0 SWALK1\nSWALK2\n\nb\n1\nSWALK3\nSWALK0\n\nc\n1\nSWALK4\nSWALK0\n",
 ];
 
 fn same(rules: &str, agents: &[u8]) -> Result<(), TestCaseError> {
@@ -251,6 +254,17 @@ proptest! {
     #[test]
     fn the_streaming_reader_never_panics_on_bytes(r in 0..RULES.len(), a in prop::collection::vec(any::<u8>(), 0..200)) {
         same(RULES[r], &a)?;
+    }
+}
+
+/// The rules' warnings that follow from the start states (W503) are capped with the
+/// rules' other diagnostics, as the checker caps them, when few are shown.
+#[test]
+fn the_rules_warnings_found_late_are_capped_with_the_others() {
+    for shown in [1, 2, 200] {
+        let mut levels = Lints::new();
+        levels.set_shown(shown);
+        same_with(RULES[4], b"0,0 SWALK0\n1,0 SWALK0\n", &levels).unwrap();
     }
 }
 

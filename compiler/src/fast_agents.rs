@@ -675,19 +675,12 @@ pub fn check_with_head(
     for code in [Code::W503, Code::W603] {
         quiet.push(Target::Code(code), Level::Allow, "the head");
     }
-    let mut c = crate::check_with(rules, Some(head), None, &quiet);
+    // Not capped: the warnings added later take their place among the others, and then
+    // the caller caps them as the checker does ([`crate::cap_checked`]).
+    let mut c = crate::check_uncapped(rules, Some(head), None, &quiet);
     let (said, _) = Lints::from_rules(c.sources.text(FileId(0)), FileId(0));
     c.lints = said.then(levels);
     c.diags.retain(|d| !later(d.code));
-    for n in &mut c.not_shown {
-        for &(code, k) in &n.codes {
-            if later(code) {
-                n.warnings -= k;
-            }
-        }
-        n.codes.retain(|&(code, _)| !later(code));
-    }
-    c.not_shown.retain(|n| n.errors + n.warnings > 0);
     // Errors of the rules alone are the whole pair's too (the agents are then checked,
     // not run); a dimension the files do not agree on, and rules too large to compile
     // (said only of a pair without other errors, after its warnings), are the checker's.

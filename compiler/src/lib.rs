@@ -477,6 +477,27 @@ pub fn check_with(
     dim: Option<Dim>,
     levels: &lints::Lints,
 ) -> Checked {
+    let mut c = check_uncapped(rules, agents, dim, levels);
+    cap_checked(&mut c);
+    c
+}
+
+/// Sorts a verdict's diagnostics and keeps those shown ([`SHOWN_PER_LINE`] of a line, the
+/// levels' number of a file), counting the others: the last step of [`check_with`], for
+/// a verdict to which diagnostics were added.
+pub fn cap_checked(c: &mut Checked) {
+    diagnostics::sort(&mut c.diags);
+    let more = cap(&mut c.diags, &c.sources, c.lints.shown());
+    c.not_shown.extend(more);
+}
+
+/// [`check_with`] with every diagnostic kept (sorted), none counted as not shown.
+pub(crate) fn check_uncapped(
+    rules: Input<'_>,
+    agents: Option<Input<'_>>,
+    dim: Option<Dim>,
+    levels: &lints::Lints,
+) -> Checked {
     let mut sources = Sources::new();
     let mut diags = Vec::new();
     let (rules_text, bad) = decode(rules.bytes, FileId(0));
@@ -560,7 +581,7 @@ pub fn check_with(
     levels.apply(&mut diags);
     diagnostics::sort(&mut diags);
     let ok = !diags.iter().any(|d| d.is_error());
-    let not_shown = cap(&mut diags, &sources, levels.shown());
+    let not_shown = Vec::new();
     Checked {
         lints: levels,
         not_shown,
