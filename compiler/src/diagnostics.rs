@@ -233,6 +233,11 @@ impl Sources {
         self.add_pieces(name.into(), text, Some(pieces))
     }
 
+    /// True when a file is held whole (not in part: see [`Sources::excerpt`]).
+    pub fn is_whole(&self, id: FileId) -> bool {
+        !matches!(self.files.pieces.get(id.0 as usize), Some(Some(_)))
+    }
+
     /// The length of a file (of the whole file, for one held in part).
     pub fn len(&self, id: FileId) -> usize {
         match self.files.pieces.get(id.0 as usize) {

@@ -24,6 +24,8 @@ use std::str::FromStr;
 /// files and the checker's findings.
 pub(super) struct Pair {
     uris: [Option<String>; 2],
+    /// The two files' texts as checked (empty for a missing one).
+    texts: [String; 2],
     checked: Checked,
     /// Each file's line starts, found once (a range per diagnostic indexed the whole file
     /// each time).
@@ -52,7 +54,13 @@ impl Pair {
     }
 
     fn range(&self, l: &Label) -> Range {
-        let text = self.checked.sources.text(l.file);
+        // The text the spans point into: the checker's, or, for a large agents file read
+        // by the streaming reader (held in part by the verdict), the document's.
+        let sources = &self.checked.sources;
+        let text = match sources.is_whole(l.file) {
+            true => sources.text(l.file),
+            false => &self.texts[l.file.0 as usize],
+        };
         let starts = self.starts[l.file.0 as usize].get_or_init(|| super::text::line_starts(text));
         LineIndex::with_starts(text, starts).range(l.span.start as usize, l.span.end as usize)
     }
@@ -85,15 +93,7 @@ impl Server {
     /// a second beside 10^6 agents).
     fn pair(&self, uri: &str) -> Option<Rc<Pair>> {
         let uris = self.pair_uris(uri)?;
-        let key: PairKey = uris.clone().map(|u| {
-            u.map(|u| {
-                let disk = (!self.docs.contains_key(&u))
-                    .then(|| super::path_of(&u)?.metadata().ok())
-                    .flatten()
-                    .map(|m| (m.len(), m.modified().ok()));
-                (u, disk)
-            })
-        });
+        let key = self.pair_key(&uris);
         if let Some((k, p)) = &*self.pair_cache.borrow() {
             if *k == key {
                 return Some(Rc::clone(p));
@@ -102,6 +102,20 @@ impl Server {
         let pair = Rc::new(self.check(uris)?);
         *self.pair_cache.borrow_mut() = Some((key, Rc::clone(&pair)));
         Some(pair)
+    }
+
+    /// What a pair of files is made from: the URIs, and for a file that is not open its
+    /// size and time of change on disk.
+    pub(super) fn pair_key(&self, uris: &[Option<String>; 2]) -> PairKey {
+        uris.clone().map(|u| {
+            u.map(|u| {
+                let disk = (!self.docs.contains_key(&u))
+                    .then(|| super::path_of(&u)?.metadata().ok())
+                    .flatten()
+                    .map(|m| (m.len(), m.modified().ok()));
+                (u, disk)
+            })
+        })
     }
 
     /// Checks the files of `uris` (rules, agents) as a pair.
@@ -113,16 +127,26 @@ impl Server {
         let agents = uris[1].as_deref().and_then(|u| self.text_of(u));
         let rules_name = uris[0].as_deref().map_or("(no rules file)".into(), name_of);
         let agents_name = uris[1].as_deref().map(name_of).unwrap_or_default();
-        let checked = crate::check_pair(
-            (&rules_name, rules.as_bytes()),
-            agents
-                .as_deref()
-                .map(|a| (agents_name.as_str(), a.as_bytes())),
-            None,
-            &Default::default(),
-        );
+        // An agents file is read as the commands read it (the streaming reader, which
+        // gives the checker's diagnostics in the time and memory of reading the file: a
+        // 10^6-line agents file beside the rules no longer takes the checker a second).
+        let checked = match agents.as_deref() {
+            Some(a) => {
+                let source = crate::agents_file::Source::Bytes(a.as_bytes());
+                let rules = (rules_name.as_str(), rules.as_bytes());
+                let levels = Default::default();
+                (crate::agents_file::load(rules, &agents_name, source, 1, &levels).ok()?).checked
+            }
+            None => crate::check_pair(
+                (&rules_name, rules.as_bytes()),
+                None,
+                None,
+                &Default::default(),
+            ),
+        };
         Some(Pair {
             uris,
+            texts: [rules, agents.unwrap_or_default()],
             checked,
             starts: Default::default(),
             states: Default::default(),
@@ -239,7 +263,7 @@ impl Server {
             (p.states.get_or_init(|| {
                 let mut v: Vec<String> = Vec::new();
                 for f in (0..2).filter(|&f| p.uris[f].is_some()) {
-                    states_in(p.checked.sources.text(FileId(f as u32)), &mut v);
+                    states_in(&p.texts[f], &mut v);
                 }
                 v.sort();
                 v.dedup();

@@ -60,6 +60,8 @@ pub struct Doc {
 pub struct Server {
     docs: HashMap<String, Doc>,
     pair_cache: std::cell::RefCell<features::Kept>,
+    /// The files last navigated (see `navigate.rs`), forgotten as the pair is.
+    nav_cache: std::cell::RefCell<navigate::KeptFiles>,
 }
 
 /// The capabilities the server announces.
@@ -259,6 +261,7 @@ impl Server {
     fn notification(&mut self, n: Notification) -> Vec<Message> {
         if n.method.starts_with("textDocument/did") {
             *self.pair_cache.get_mut() = None;
+            *self.nav_cache.get_mut() = None;
         }
         match n.method.as_str() {
             "textDocument/didOpen" => {

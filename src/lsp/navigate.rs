@@ -43,29 +43,53 @@ where
         .collect()
 }
 
-/// The open document and its partner: their URIs and texts (rules first).
-struct Files {
+/// The open document and its partner: their URIs and texts (rules first). Kept between
+/// requests while neither changes (`Server::nav_cache`), with what is slow to find again
+/// in a large agents file: its line starts and its names.
+pub(super) struct Files {
     uris: [Option<String>; 2],
     texts: [String; 2],
     /// Each text's line starts, found once for all the locations given.
     starts: [std::cell::OnceCell<Vec<usize>>; 2],
+    /// The agents file's names: (what, where, role).
+    agent_names: std::cell::OnceCell<Vec<(What, latticesim_grammar::Span, names::Role)>>,
 }
+
+/// The files last navigated, with what they were made from (as the pair checked).
+pub(super) type KeptFiles = Option<(super::features::PairKey, std::rc::Rc<Files>)>;
 
 impl Files {
     fn occurrences(&self) -> Vec<Occurrence<'_>> {
         let mut v = names::in_rules(&self.texts[0]);
         if self.uris[1].is_some() {
-            v.extend(names::in_agents(&self.texts[1]));
+            let text = &self.texts[1];
+            let kept = self.agent_names.get_or_init(|| {
+                (names::in_agents(text).into_iter())
+                    .map(|o| (o.what, o.span, o.role))
+                    .collect()
+            });
+            v.extend(kept.iter().map(|&(what, span, role)| Occurrence {
+                what,
+                text: &text[span.start as usize..span.end as usize],
+                span,
+                role,
+                file: FileId(1),
+            }));
         }
         v
+    }
+
+    /// The line index of file `i`, its line starts found once.
+    fn index(&self, i: usize) -> LineIndex<'_> {
+        let text = &self.texts[i];
+        let starts = self.starts[i].get_or_init(|| super::text::line_starts(text));
+        LineIndex::with_starts(text, starts)
     }
 
     fn location(&self, o: &Occurrence<'_>) -> Option<Location> {
         let i = o.file.0 as usize;
         let uri = Uri::from_str(self.uris[i].as_deref()?).ok()?;
-        let text = &self.texts[i];
-        let starts = self.starts[i].get_or_init(|| super::text::line_starts(text));
-        let ix = LineIndex::with_starts(text, starts);
+        let ix = self.index(i);
         Some(Location {
             uri,
             range: ix.range(o.span.start as usize, o.span.end as usize),
@@ -81,7 +105,7 @@ impl Files {
 
 /// Where the cursor is: the files, which of them, and the byte offset.
 struct Target {
-    files: Files,
+    files: std::rc::Rc<Files>,
     file: FileId,
     at: usize,
 }
@@ -122,26 +146,37 @@ fn renamable<'o, 't>(t: &Target, all: &'o [Occurrence<'t>]) -> Result<&'o Occurr
 }
 
 impl Server {
-    fn files(&self, uri: &str) -> Option<Files> {
+    /// The document `uri` and its partner, kept from the last request while neither
+    /// changed (a 10^6-line agents file was read and its names found at every request).
+    fn files(&self, uri: &str) -> Option<std::rc::Rc<Files>> {
         let uris = self.pair_uris(uri)?;
+        let key = self.pair_key(&uris);
+        if let Some((k, f)) = &*self.nav_cache.borrow() {
+            if *k == key {
+                return Some(std::rc::Rc::clone(f));
+            }
+        }
         let texts = [0, 1].map(|i| {
             uris[i]
                 .as_deref()
                 .and_then(|u| self.text_of(u))
                 .unwrap_or_default()
         });
-        Some(Files {
+        let files = std::rc::Rc::new(Files {
             uris,
             texts,
             starts: Default::default(),
-        })
+            agent_names: Default::default(),
+        });
+        *self.nav_cache.borrow_mut() = Some((key, std::rc::Rc::clone(&files)));
+        Some(files)
     }
 
     fn target(&self, p: &TextDocumentPositionParams) -> Option<Target> {
         let uri = p.text_document.uri.as_str();
         let files = self.files(uri)?;
         let file = files.file_of(uri)?;
-        let at = LineIndex::new(&files.texts[file.0 as usize]).offset(p.position);
+        let at = files.index(file.0 as usize).offset(p.position);
         Some(Target { files, file, at })
     }
 
