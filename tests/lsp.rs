@@ -566,6 +566,31 @@ fn a_3d_agents_file_beside_2d_rules_is_one_error() {
     };
     assert_eq!(codes(&got[&rules]), Vec::<String>::new());
     assert_eq!(codes(&got[&agents]), vec!["E301", "E404"]);
+    // Hover numbers the agents as the checker does (the last line, with an error, is
+    // still an agent that parses), and follows an edit.
+    let hover = |c: &mut Client, line: u32| {
+        let h = c.request(
+            "textDocument/hover",
+            json!({"textDocument": {"uri": agents}, "position": pos(line, 2)}),
+        );
+        h["contents"]["value"].as_str().unwrap_or("").to_string()
+    };
+    assert!(
+        hover(&mut c, 7).starts_with("**Agent 7** at (7, 0, 0)"),
+        "{}",
+        hover(&mut c, 7)
+    );
+    assert!(hover(&mut c, 200).starts_with("**Agent 200** at (0, 1, 0)"));
+    c.notify(
+        "textDocument/didChange",
+        json!({"textDocument": {"uri": agents, "version": 2}, "contentChanges": [
+            {"range": {"start": pos(0, 0), "end": pos(0, 0)}, "text": "U0,300,0,2,0,2\n// a comment\n"}
+        ]}),
+    );
+    let h = hover(&mut c, 0);
+    assert!(h.starts_with("**Universe**: x from 0 to 300"), "{h}");
+    assert!(hover(&mut c, 9).starts_with("**Agent 7** at (7, 0, 0)"));
+    assert_eq!(hover(&mut c, 1), "");
     std::fs::remove_dir_all(&dir).ok();
 }
 

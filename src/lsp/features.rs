@@ -227,11 +227,23 @@ impl Server {
     pub(super) fn hover(&self, p: HoverParams) -> Option<Hover> {
         let uri = p.text_document_position_params.text_document.uri.as_str();
         let doc = self.docs.get(uri)?;
-        let ix = LineIndex::new(&doc.text);
+        // The document's line starts and agents, found once per version of it (a
+        // 10^6-line agents file was parsed whole at each hover).
+        let known = self.hover_cache.borrow().clone();
+        let kept = match known {
+            Some((u, v, k)) if u == uri && v == doc.version => k,
+            _ => {
+                let k = Rc::new(Outline::of(&doc.text, doc.kind));
+                *self.hover_cache.borrow_mut() =
+                    Some((uri.to_string(), doc.version, Rc::clone(&k)));
+                k
+            }
+        };
+        let ix = LineIndex::with_starts(&doc.text, &kept.starts);
         let at = ix.offset(p.text_document_position_params.position);
         let (text, span) = match doc.kind {
             Kind::Rules => rules_hover(&doc.text, at)?,
-            Kind::Agents => agents_hover(&doc.text, at)?,
+            Kind::Agents => agents_hover(&doc.text, at, &kept.agents)?,
         };
         Some(Hover {
             contents: HoverContents::Markup(MarkupContent {
@@ -536,8 +548,46 @@ fn rules_hover(text: &str, at: usize) -> Option<(String, Span)> {
     ))
 }
 
-fn agents_hover(text: &str, at: usize) -> Option<(String, Span)> {
-    let (f, _) = latticesim_grammar::parse_agents(text, FileId(1));
+/// What hover needs of a document, found once per version: its line starts and, for an
+/// agents file, where each agent's line stands (the agents that parse, in order).
+pub(super) struct Outline {
+    starts: Vec<usize>,
+    agents: Vec<(u32, u32)>,
+}
+
+impl Outline {
+    fn of(text: &str, kind: Kind) -> Outline {
+        let agents = match kind {
+            Kind::Rules => Vec::new(),
+            Kind::Agents => (latticesim_grammar::parse_agents(text, FileId(1))
+                .0
+                .agents
+                .iter())
+            .map(|a| (a.span.start, a.span.end))
+            .collect(),
+        };
+        Outline {
+            starts: super::text::line_starts(text),
+            agents,
+        }
+    }
+}
+
+/// The hover of an agents file at `at`: the agent there (numbered by `agents`, the lines
+/// of the agents that parse), or the universe line.
+fn agents_hover(text: &str, at: usize, agents: &[(u32, u32)]) -> Option<(String, Span)> {
+    let k = agents.partition_point(|&(s, _)| s as usize <= at);
+    if let Some(i) = k.checked_sub(1).filter(|&i| at <= agents[i].1 as usize) {
+        // The agent's line alone, parsed again.
+        let (s, e) = (agents[i].0 as usize, agents[i].1 as usize);
+        let (f, _) = latticesim_grammar::parse_agents(&text[s..e], FileId(1));
+        let a = f.agents.first()?;
+        return Some((agent_text(i, a), Span::new(s, e)));
+    }
+    // The universe line: the first significant line.
+    let first = latticesim_grammar::lines::significant_lines(text).next()?;
+    let end = first.start + first.text.len();
+    let (f, _) = latticesim_grammar::parse_agents(&text[..end], FileId(1));
     if let Some(u) = f
         .universe
         .as_ref()
@@ -551,11 +601,11 @@ fn agents_hover(text: &str, at: usize) -> Option<(String, Span)> {
             .collect();
         return Some((format!("**Universe**: {}", axes.join(", ")), u.span));
     }
-    let (i, a) = f
-        .agents
-        .iter()
-        .enumerate()
-        .find(|(_, a)| (a.span.start as usize) <= at && at <= a.span.end as usize)?;
+    None
+}
+
+/// The hover text of agent `i`.
+fn agent_text(i: usize, a: &latticesim_grammar::ast::AgentLine<'_>) -> String {
     let pos: Vec<String> = a.pos.iter().map(|p| p.node.to_string()).collect();
     let mut s = format!("**Agent {i}** at ({})", pos.join(", "));
     s += &format!(", state `{}`", a.state.map_or("00000", |s| s.node));
@@ -565,5 +615,5 @@ fn agents_hover(text: &str, at: usize) -> Option<(String, Span)> {
     for (c, v) in &a.counters {
         s += &format!(", C{} = {}", c.node, v.node);
     }
-    Some((s, a.span))
+    s
 }

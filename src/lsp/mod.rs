@@ -62,6 +62,8 @@ pub struct Server {
     pair_cache: std::cell::RefCell<features::Kept>,
     /// The files last navigated (see `navigate.rs`), forgotten as the pair is.
     nav_cache: std::cell::RefCell<navigate::KeptFiles>,
+    /// The document last hovered, its version and its outline (see `features.rs`).
+    hover_cache: std::cell::RefCell<Option<(String, i32, std::rc::Rc<features::Outline>)>>,
 }
 
 /// The capabilities the server announces.
