@@ -27,6 +27,8 @@ const RULES: &[&str] = &[
     // Warnings of the rules file: W502, and W503 three times when agents start in WALK0
     // (then capped with the rules' others when few are shown).
     "a\n1\nSWALK0 SWALK1\nSWALK2\n\nb\n1\nSWALK3\nSWALK0\n\nc\n1\nSWALK4\nSWALK0\n",
+    // 32-bit counters: `C01 40000` is in range.
+    "// latticesim: counters 32\nwalk\n1\nSWALK0 N**0* >C01 0000\nP1,0 C01 - C01 0001\n",
 ];
 
 fn same(rules: &str, agents: &[u8]) -> Result<(), TestCaseError> {
@@ -254,6 +256,28 @@ proptest! {
     #[test]
     fn the_streaming_reader_never_panics_on_bytes(r in 0..RULES.len(), a in prop::collection::vec(any::<u8>(), 0..200)) {
         same(RULES[r], &a)?;
+    }
+}
+
+/// A 3D file of 10^5 agents (read in two parts) with one-sided bonds up (`A`), states given
+/// twice and counters past their range, beside 3D rules: as the checker says it.
+#[test]
+fn a_3d_file_with_errors_and_bonds_is_said_as_the_checker_says_it() {
+    let mut text = String::new();
+    for k in 0..100_000u32 {
+        let (x, y, z) = (k / 1000, k / 10 % 100, k % 10);
+        text += &format!("{x},{y},{z} SUP000");
+        for (m, field) in [(97, " A000010"), (101, " SBAD"), (103, " C44 40000")] {
+            if k % m == 0 {
+                text += field;
+            }
+        }
+        text += "\n";
+    }
+    for shown in [5, 200] {
+        let mut levels = Lints::new();
+        levels.set_shown(shown);
+        same_with(RULES[3], text.as_bytes(), &levels).unwrap();
     }
 }
 
