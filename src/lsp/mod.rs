@@ -264,6 +264,9 @@ impl Server {
         if n.method.starts_with("textDocument/did") {
             *self.pair_cache.get_mut() = None;
             *self.nav_cache.get_mut() = None;
+            // A document's version need not change with its text (an editor may reopen it,
+            // or send a change without a new version).
+            *self.hover_cache.get_mut() = None;
         }
         match n.method.as_str() {
             "textDocument/didOpen" => {
