@@ -1,15 +1,17 @@
 //! Agents files in and out: compressed or not, read on several threads straight into the
-//! lattice's columns when the file is clean (the diagnostic path reads it when not), and
-//! written from the columns through a buffered, streaming writer.
+//! lattice's columns, and written from the columns through a buffered, streaming writer.
 //!
-//! This module is the one place that decides which path reads an agents file: the fast
-//! reader of `latticesim_compiler::fast_agents` first; when it (or the lattice's check of
-//! cells and bonds, or the rules checked against the file's head) says no, the whole pair
-//! is read and checked by `latticesim_compiler::check`, whose diagnostics are the project's
-//! one source of truth. The warnings that follow from the states agents start in (W503,
-//! W603) are found on the fast path from the states read, with the checker's own code
-//! (`states_warnings_of`); the first agent of each idle state is quoted from its line, read
-//! again, and the file is held as its head and those lines (`Sources::excerpt`).
+//! This module is the one place that decides which path reads an agents file. The
+//! streaming path first: the fast reader of `latticesim_compiler::fast_agents`, and the
+//! lines it leaves checked one at a time with the checker's code (`LineCheck`); agents on
+//! one cell and one-sided bonds found in the lattice once built (`from_columns_mended`);
+//! the warnings that follow from the states agents start in (W503, W603) from the states
+//! read (`states_warnings_of`). Only the diagnostics that can still be shown are held
+//! (`Shown`); their lines are read again at the end, and the file is held as its head and
+//! those lines (`Sources::excerpt`). When the head cannot be read so (see
+//! `fast_agents::clean_head`, `check_with_head`) or a line is not UTF-8, the whole pair is
+//! read and checked by `latticesim_compiler::check`, whose diagnostics are the project's
+//! one source of truth (and the streaming path's, line by line).
 
 use crate::output::say;
 use latticesim_compiler::fast_agents::{
@@ -224,10 +226,9 @@ fn available_memory() -> Option<u64> {
 /// path when the file is clean, the checker otherwise. `Err` only when the file cannot be
 /// read.
 ///
-/// A file the checker cannot hold (it needs about 36 times the file's size, all its agents
-/// described with their spans) is checked as far as its first defect and a megabyte past
-/// it, with a note that says so (`Loaded::note`); agents on one cell, or a bond declared on
-/// one side only, in such a file are an error that names the agents and their lines.
+/// A file left to the checker that it cannot hold (it needs about 36 times the file's size,
+/// all its agents described with their spans) is checked as far as its first defect and a
+/// megabyte past it, with a note that says so (`Loaded::note`).
 pub fn load(
     rules: (&str, &[u8]),
     agents_name: &str,

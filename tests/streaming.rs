@@ -259,6 +259,15 @@ proptest! {
     }
 }
 
+/// [`same_with`] with each number of diagnostics shown.
+fn same_showing(rules: &str, agents: &[u8], shown: &[usize]) {
+    for &n in shown {
+        let mut levels = Lints::new();
+        levels.set_shown(n);
+        same_with(rules, agents, &levels).unwrap();
+    }
+}
+
 /// A 3D file of 10^5 agents (read in two parts) with one-sided bonds up (`A`), states given
 /// twice and counters past their range, beside 3D rules: as the checker says it.
 #[test]
@@ -274,22 +283,14 @@ fn a_3d_file_with_errors_and_bonds_is_said_as_the_checker_says_it() {
         }
         text += "\n";
     }
-    for shown in [5, 200] {
-        let mut levels = Lints::new();
-        levels.set_shown(shown);
-        same_with(RULES[3], text.as_bytes(), &levels).unwrap();
-    }
+    same_showing(RULES[3], text.as_bytes(), &[5, 200]);
 }
 
 /// The rules' warnings that follow from the start states (W503) are capped with the
 /// rules' other diagnostics, as the checker caps them, when few are shown.
 #[test]
 fn the_rules_warnings_found_late_are_capped_with_the_others() {
-    for shown in [1, 2, 200] {
-        let mut levels = Lints::new();
-        levels.set_shown(shown);
-        same_with(RULES[4], b"0,0 SWALK0\n1,0 SWALK0\n", &levels).unwrap();
-    }
+    same_showing(RULES[4], b"0,0 SWALK0\n1,0 SWALK0\n", &[1, 2, 200]);
 }
 
 /// A file of several megabytes, read in parts on two threads: errors, agents on one cell
@@ -310,11 +311,7 @@ fn errors_in_every_part_of_a_large_file_are_said_as_the_checker_says_them() {
         };
     }
     assert!(text.len() > 3 << 20);
-    for shown in [3, 200] {
-        let mut levels = Lints::new();
-        levels.set_shown(shown);
-        same_with(RULES[0], text.as_bytes(), &levels).unwrap();
-    }
+    same_showing(RULES[0], text.as_bytes(), &[3, 200]);
 }
 
 /// A warning deep in a large file is quoted with its own line number, as the checker

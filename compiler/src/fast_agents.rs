@@ -1,12 +1,11 @@
 //! The fast path of agents files: bytes straight into [`Columns`], with no per-agent
 //! allocation, no spans and no diagnostics.
 //!
-//! It accepts exactly the files the diagnostic path ([`crate::check`]) accepts without a
-//! word said of them, and reads them to the same agents; on anything else (an error, a
-//! warning, a byte it does not expect) it answers "no", and the caller takes the
-//! diagnostic path, which reports what is wrong. What lies beyond one line (two agents on
-//! a cell, bonds not declared on both sides) is the lattice's to find once it is built:
-//! it too only answers yes or no here.
+//! It reads exactly the lines the diagnostic path ([`crate::check`]) reads without a word
+//! said of them, to the same agents; any other line it leaves ("no", and where it starts)
+//! to [`LineCheck`], which checks it alone with the checker's code. What lies beyond one
+//! line (two agents on a cell, bonds not declared on both sides) is the lattice's to find
+//! once it is built.
 //!
 //! The head of a file (its `U` line and its first agent line) is read first, alone; it
 //! fixes the dimension and the universe, after which every chunk of whole lines can be

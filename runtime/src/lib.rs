@@ -20,7 +20,7 @@ mod trace;
 
 pub use engine::{Engine, Options, Order, Skip, Stats, StepReport, AGENTS_PER_THREAD};
 pub use history::History;
-pub use lattice::{Defect, Lattice, LatticeBuilder, Mends, Undo, Writes};
+pub use lattice::{Lattice, LatticeBuilder, Mends, Undo, Writes};
 pub use record::{Record, RecordKind};
 pub use series::StepCost;
 pub use trace::TraceEvent;

@@ -6,7 +6,7 @@
 use latticesim_compiler::checked::Width;
 use latticesim_compiler::fast_agents::{read_head, read_lines};
 use latticesim_compiler::Columns;
-use latticesim_runtime::Lattice;
+use latticesim_runtime::{Lattice, Mends};
 use proptest::prelude::*;
 
 /// The fast path as the command line takes it, with the lines after the head cut into
@@ -38,7 +38,9 @@ fn fast(src: &[u8], cuts: &[usize], width: Width) -> Option<Lattice> {
         from = end;
     }
     cols.fill();
-    Lattice::from_columns(head.dim, head.universe, cols).ok()
+    // Agents on one cell or a bond declared on one side: the fast path has something to say.
+    let (lat, mends) = Lattice::from_columns_mended(head.dim, head.universe, cols, 0);
+    (mends == Mends::default()).then_some(lat)
 }
 
 /// The diagnostic path (with counters of `width`): the lattice when it has nothing to say

@@ -77,27 +77,6 @@ pub struct Lattice {
     regrow_at: usize,
 }
 
-/// Why agents read as columns do not make a lattice as they are ([`Lattice::from_columns`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Defect {
-    /// Two agents (ids in file order) on one cell.
-    SharedCell {
-        /// The earlier agent.
-        first: u32,
-        /// The later one.
-        second: u32,
-        /// The cell.
-        pos: [i32; 3],
-    },
-    /// A bond towards a direction where no agent declares it back (or none stands).
-    OneSidedBond {
-        /// The agent that declares it.
-        agent: u32,
-        /// Its direction.
-        dir: Dir,
-    },
-}
-
 /// What [`Lattice::from_columns_mended`] mended, as the checker does and says.
 #[derive(Debug, Default, Clone, PartialEq, Eq)]
 pub struct Mends {
@@ -217,35 +196,6 @@ impl LatticeBuilder {
 }
 
 impl Lattice {
-    /// Builds the lattice of agents read as columns (the fast path of agents files),
-    /// without copying them; `Err` when two agents stand on one cell or a bond is not
-    /// declared by both agents (the checker then reads the file and says so).
-    pub fn from_columns(
-        dim: Dim,
-        universe: Option<Bounds>,
-        cols: Columns,
-    ) -> Result<Lattice, Defect> {
-        let n = cols.len();
-        let (lat, one_each) = Lattice::of_columns(dim, universe, cols);
-        if !one_each {
-            // A later agent on an earlier one's cell took its place in the index.
-            let first = (0..n)
-                .find(|&a| lat.cells.get(lat.pos[a]) != Some(a as u32))
-                .expect("an agent lost its cell");
-            let pos = lat.pos[first];
-            let second = lat.cells.get(pos).expect("the cell is taken");
-            return Err(Defect::SharedCell {
-                first: first as u32,
-                second,
-                pos,
-            });
-        }
-        match lat.one_sided_bond() {
-            Some((agent, dir)) => Err(Defect::OneSidedBond { agent, dir }),
-            None => Ok(lat),
-        }
-    }
-
     /// The lattice of columns, and false when two agents stand on one cell (the index then
     /// holds one of them).
     fn of_columns(dim: Dim, universe: Option<Bounds>, cols: Columns) -> (Lattice, bool) {
