@@ -409,10 +409,14 @@ impl CellIndex {
         CellIndex::new_coded(pos, shape).0
     }
 
-    /// The grid over the agents' bounding box with `margin` cells around it per axis (or
-    /// over a bounded universe small enough, or the box clipped to the universe), when it
-    /// has few enough cells per agent.
-    fn grid_for(pos: &[[i32; 3]], (three_d, universe): Shape, margin: [i32; 3]) -> Option<Grid> {
+    /// The grid over the agents' bounding box with `margin` cells below and above it per
+    /// axis (or over a bounded universe small enough, or the box clipped to the universe),
+    /// when it has few enough cells per agent.
+    fn grid_for(
+        pos: &[[i32; 3]],
+        (three_d, universe): Shape,
+        margin: [[i32; 2]; 3],
+    ) -> Option<Grid> {
         let coords = if three_d { 3 } else { 2 };
         let (mut lo, mut hi) = ([i32::MAX; 3], [i32::MIN; 3]);
         for p in pos {
@@ -431,9 +435,9 @@ impl CellIndex {
             })
         };
         let mut lo =
-            [0, 1, 2].map(|k| lo[k].saturating_sub(if k < coords { margin[k] } else { 0 }));
+            [0, 1, 2].map(|k| lo[k].saturating_sub(if k < coords { margin[k][0] } else { 0 }));
         let mut hi =
-            [0, 1, 2].map(|k| hi[k].saturating_add(if k < coords { margin[k] } else { 0 }));
+            [0, 1, 2].map(|k| hi[k].saturating_add(if k < coords { margin[k][1] } else { 0 }));
         if let Some(u) = universe {
             // No cell outside the universe holds an agent: the grid need not cover it.
             let (ul, uh) = ([0, 1, 2].map(|k| u[k].0), [0, 1, 2].map(|k| u[k].1));
@@ -461,7 +465,7 @@ impl CellIndex {
     /// agent stands on an earlier one's cell, and took it in the index), and every agent's
     /// [`CellIndex::code`], in one pass.
     pub fn new_coded(pos: &[[i32; 3]], shape: Shape) -> (CellIndex, bool, Vec<u32>) {
-        let margin = [MARGIN; 3];
+        let margin = [[MARGIN; 2]; 3];
         CellIndex::made(CellIndex::grid_for(pos, shape, margin), pos, shape)
     }
 
@@ -501,10 +505,19 @@ impl CellIndex {
     }
 
     /// The index made again for agents at `pos` (each on a cell of its own) over where
-    /// they are now, with a quarter of each axis's extent as room to grow on every side
-    /// (less when that is over the budget), and every agent's code; `None` when even the
-    /// agents' box with the usual margin is over the budget.
-    pub fn regrow(&self, pos: &[[i32; 3]]) -> Option<(CellIndex, Vec<u32>)> {
+    /// they are now, and every agent's code; `None` when even the agents' box with the
+    /// usual margin is over the budget. The sides of the box that agents crossed to leave
+    /// the grid (all sides without one), and those `toward` names (per axis, below and
+    /// above), get room to grow: a quarter of the axis's extent, halved until the grid is
+    /// within the budget. A cloud that falls, or a line that walks
+    /// away, so gets a grid long in its direction of travel, which agents leave again only
+    /// after as many steps as the room is long (room on every side would be over the budget
+    /// for a cloud that fills its box, and leave it a grid no larger than before).
+    pub fn regrow(
+        &self,
+        pos: &[[i32; 3]],
+        toward: [[bool; 2]; 3],
+    ) -> Option<(CellIndex, Vec<u32>)> {
         let shape = (self.coords == 3, self.walls);
         let (mut lo, mut hi) = ([i32::MAX; 3], [i32::MIN; 3]);
         for p in pos {
@@ -513,10 +526,25 @@ impl CellIndex {
                 hi[k] = hi[k].max(p[k]);
             }
         }
-        let room = [0, 1, 2]
+        let crossed = [0, 1, 2].map(|k| match &self.grid {
+            Some(g) => [
+                toward[k][0] || lo[k] < g.lo[k],
+                toward[k][1] || hi[k] as i64 >= g.lo[k] as i64 + g.size[k],
+            ],
+            None => [true; 2],
+        });
+        let mut room = [0, 1, 2]
             .map(|k| ((hi[k] as i64 - lo[k] as i64) / 4).clamp(MARGIN as i64, 1 << 20) as i32);
-        let grid = CellIndex::grid_for(pos, shape, room)
-            .or_else(|| CellIndex::grid_for(pos, shape, [MARGIN; 3]))?;
+        let grid = loop {
+            let margin = [0, 1, 2].map(|k| crossed[k].map(|c| if c { room[k] } else { MARGIN }));
+            if let Some(g) = CellIndex::grid_for(pos, shape, margin) {
+                break g;
+            }
+            if room.iter().all(|&r| r <= MARGIN) {
+                return None;
+            }
+            room = room.map(|r| (r / 2).max(MARGIN));
+        };
         let (idx, _, code) = CellIndex::made(Some(grid), pos, shape);
         Some((idx, code))
     }
@@ -694,6 +722,11 @@ impl CellIndex {
         if self.map.get(&p) == Some(&a) {
             self.map.remove(&p);
         }
+    }
+
+    /// The grid's low corner and size, if there is a grid.
+    pub fn grid_box(&self) -> Option<([i32; 3], [i64; 3])> {
+        self.grid.as_ref().map(|g| (g.lo, g.size))
     }
 
     /// Whether the index is a grid.

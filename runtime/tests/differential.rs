@@ -1105,6 +1105,78 @@ fn moves_at_once_agree_with_reference() {
     }
 }
 
+/// Movers that reach the grid's rim find room made ahead of them (the grid made again,
+/// longer in their direction of travel) instead of leaving the grid one by one for the
+/// hash map: blocks of movers (every other cell along their way, so that every target is
+/// empty) beside agents that stay, in every direction in 2D and 3D, far past the grid they
+/// started in. The same as the reference evaluator on one thread and on three (blocks of
+/// more than two threads' share of agents), and no agent of the large blocks is ever off
+/// the grid (a grid made again for a score of movers would cost more than their moves
+/// the slow way: some go there).
+#[test]
+fn movers_at_the_rim_grow_the_grid() {
+    let dirs: Vec<[i32; 3]> = (0..6)
+        .map(|k| {
+            let mut o = [0; 3];
+            o[k / 2] = if k % 2 == 0 { 1 } else { -1 };
+            o
+        })
+        .collect();
+    for (d3, size) in [
+        (false, [5, 4, 1]),
+        (false, [48, 50, 1]),
+        (true, [3, 3, 2]),
+        (true, [13, 13, 13]),
+    ] {
+        for off in dirs.iter().filter(|o| d3 || o[2] == 0) {
+            let k = off.iter().position(|&c| c != 0).unwrap();
+            let text = |p: [i32; 3]| match d3 {
+                true => format!("{},{},{}", p[0], p[1], p[2]),
+                false => format!("{},{}", p[0], p[1]),
+            };
+            let mut agents = String::new();
+            for x in 0..size[0] {
+                for y in 0..size[1] {
+                    for z in 0..size[2] {
+                        let mut p = [x, y, z];
+                        p[k] *= 2;
+                        agents += &format!("{} SE0000 C01 30\n", text(p));
+                    }
+                }
+            }
+            // Agents that stay, beside the block (across its way).
+            let mut side = [0; 3];
+            side[(k + 1) % if d3 { 3 } else { 2 }] = -2;
+            agents += &format!("{} SR0000\n", text(side));
+            let rules = format!(
+                "// steps 36\ngo\n1\nSE0000 >C01 0000\nP{} C01 - C01 0001\n",
+                text(*off)
+            );
+            let threads = if size[0] > 10 { 3 } else { 1 };
+            for skip in [Skip::Eager, Skip::Off] {
+                if let Err(e) =
+                    differential_on(&rules, &agents, (Order::ActionsFirst, false, skip), threads)
+                {
+                    panic!("{size:?} moving {off:?}, {skip:?}: {e}");
+                }
+            }
+            if threads == 1 {
+                continue;
+            }
+            let (prog, lat) = common::compile(&rules, &agents);
+            let opts = Options {
+                threads,
+                ..Options::default()
+            };
+            let mut e = Engine::new(prog, lat, opts);
+            for step in 1..=36 {
+                e.step();
+                assert_eq!(e.lat.off_grid(), 0, "{size:?} moving {off:?}, step {step}");
+            }
+        }
+    }
+}
+
 /// The cases of [`skipping_agrees_with_reference`]: `// steps N` first says how many steps
 /// each runs.
 fn skipping_cases() -> Vec<(String, String)> {

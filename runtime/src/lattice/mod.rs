@@ -365,7 +365,17 @@ impl Lattice {
 
     /// How many agents outside the grid make it worth making again.
     fn first_regrow(&self) -> usize {
-        (self.len() / 16).max(64)
+        (self.len() / 64).max(64)
+    }
+
+    /// The agents on cells the cell index's grid does not cover (they are found through a
+    /// hash map, the slow way).
+    pub fn off_grid(&self) -> usize {
+        if self.cells.is_grid() {
+            self.cells.outside()
+        } else {
+            self.len()
+        }
     }
 
     /// Number of agents.
@@ -871,7 +881,7 @@ impl Lattice {
         if out < self.regrow_at {
             return;
         }
-        match self.cells.regrow(&self.pos) {
+        match self.cells.regrow(&self.pos, [[false; 2]; 3]) {
             Some((cells, code)) => {
                 (self.cells, self.code) = (cells, code);
                 self.regrow_at = self.first_regrow().max(self.cells.outside() * 2);
@@ -881,6 +891,29 @@ impl Lattice {
                 }
             }
             None => self.regrow_at = out * 2,
+        }
+    }
+
+    /// Before `movers` agents move by `off` from the grid's rim: the grid made again with
+    /// room on the sides `off` points to, when that pays (the grid and its agents cost less
+    /// to make than 16 steps of such moves, which would otherwise go the general way) and
+    /// gives a grid other than this one (a universe's walls may keep it as it is). Says
+    /// whether it did.
+    pub(crate) fn grow_toward(&mut self, off: [i32; 3], movers: usize) -> bool {
+        let Some(old) = self.cells.grid_box() else {
+            return false;
+        };
+        if (movers as u64 * 16) < (self.len() + self.cells.slots()) as u64 {
+            return false;
+        }
+        let toward = [0, 1, 2].map(|k| [off[k] < 0, off[k] > 0]);
+        match self.cells.regrow(&self.pos, toward) {
+            Some((cells, code)) if cells.grid_box() != Some(old) => {
+                (self.cells, self.code) = (cells, code);
+                self.regrow_at = self.first_regrow().max(self.cells.outside() * 2);
+                true
+            }
+            _ => false,
         }
     }
 
@@ -981,9 +1014,9 @@ impl Lattice {
         true
     }
 
-    /// Moves agents to their targets in the grid, given as slot codes
-    /// ([`CellIndex::code`], none [`NO_SLOT`]), which no two share and which are empty or
-    /// left by movers: the same as [`Lattice::relocate`]. `targeted` tells whether a slot
+    /// Moves agents to their targets, given with their slot codes ([`CellIndex::code`];
+    /// [`NO_SLOT`] for a target outside the grid), which no two share and which are empty
+    /// or left by movers: the same as [`Lattice::relocate`], with a grid. `targeted` tells whether a slot
     /// is one of the targets: a mover's old cell is emptied only when it is not, without
     /// reading the grid.
     pub(crate) fn relocate_to_slots(
@@ -993,8 +1026,9 @@ impl Lattice {
         targeted: impl Fn(usize) -> bool,
     ) {
         // (With a grid there is no neighbour table.)
-        // Movers that come from outside the grid leave the hash map after the loop.
-        let mut outside = Vec::new();
+        // Movers that come from outside the grid leave the hash map after the loop, and
+        // those that go outside it enter it then.
+        let (mut outside, mut leaving) = (Vec::new(), Vec::new());
         let (pos, code) = (&mut self.pos, &mut self.code);
         if let Some(g) = self.cells.grid_mut() {
             let mut g = g.cells_mut();
@@ -1013,11 +1047,18 @@ impl Lattice {
                 } else if !targeted(o) {
                     g.vacate(o);
                 }
-                g.occupy((c & !RIM) as usize, a);
+                if c == NO_SLOT {
+                    leaving.push((p, a));
+                } else {
+                    g.occupy((c & !RIM) as usize, a);
+                }
             }
         }
         for (old, a) in outside {
             self.cells.remove(old, a);
+        }
+        for (p, a) in leaving {
+            self.cells.insert(p, a);
         }
         self.after_moves();
     }

@@ -5,45 +5,63 @@
 
 use super::*;
 
-/// The common case of [`Act::move_alone`]: every target in the grid (the
-/// targets' slot codes are in `sc.codes`), none targeted twice or held by an agent that
-/// stays. Then the moves are made and true is returned; otherwise nothing changes.
-/// `one_offset`: every mover moves by the same offset.
+/// The common case of [`Act::move_alone`]: with a grid, no target targeted twice or held
+/// by an agent that stays (the targets' slot codes are in `sc.codes`; targets outside the
+/// grid are checked in a hash map of their own, so that a few agents that walk off the
+/// grid do not send every mover of the step the slow way). Then the moves are made and
+/// true is returned; otherwise nothing changes. `one_offset`: every mover moves by the
+/// same offset.
 pub(super) fn move_free(
     lat: &mut Lattice,
     live: &[(u32, [i32; 3])],
     sc: &mut MoveScratch,
     one_offset: bool,
 ) -> bool {
+    if !lat.cells.is_grid() {
+        return false;
+    }
     let codes = std::mem::take(&mut sc.codes);
-    let mut free = !codes.contains(&NO_SLOT);
+    let off = |k: usize| codes[k] == NO_SLOT;
+    let empty = |k: usize| match codes[k] {
+        NO_SLOT => lat.cells.get(live[k].1).is_none(),
+        c => !lat.cells.filled_slot((c & !RIM) as usize),
+    };
     // Movers by one offset have distinct targets; when every target is empty, none is
     // held by an agent that stays and none is a mover's old cell: no marks are needed.
-    if free
-        && one_offset
-        && codes
-            .iter()
-            .all(|&c| !lat.cells.filled_slot((c & !RIM) as usize))
-    {
+    if one_offset && (0..live.len()).all(empty) {
         lat.relocate_to_slots(live, &codes, |_| false);
         sc.codes = codes;
         return true;
     }
+    let slot = |k: usize| (!off(k)).then(|| (codes[k] & !RIM) as usize);
+    for (k, &(a, _)) in live.iter().enumerate() {
+        sc.claim(a, slot(k));
+    }
+    // Targets outside the grid, counted.
+    let mut count: FxHashMap<[i32; 3], u32> = FxHashMap::default();
+    for (k, &(_, t)) in live.iter().enumerate() {
+        if off(k) {
+            *count.entry(t).or_insert(0) += 1;
+        }
+    }
+    let mut free = count.values().all(|&n| n == 1);
+    for (k, &(_, t)) in live.iter().enumerate() {
+        if !free {
+            break;
+        }
+        free &= match slot(k) {
+            Some(s) => {
+                let stays = lat.cells.filled_slot(s) && !sc.moving(lat.cells.at_slot(s));
+                !sc.claimed_twice(s) && !stays
+            }
+            None => lat.cells.get(t).is_none_or(|b| sc.moving(b)),
+        };
+    }
     if free {
-        let slots = || codes.iter().map(|&c| (c & !RIM) as usize);
-        for (&(a, _), s) in live.iter().zip(slots()) {
-            sc.claim(a, Some(s));
-        }
-        for s in slots() {
-            let stays = lat.cells.filled_slot(s) && !sc.moving(lat.cells.at_slot(s));
-            free &= !sc.claimed_twice(s) && !stays;
-        }
-        if free {
-            lat.relocate_to_slots(live, &codes, |s| sc.claimed(s));
-        }
-        for (&(a, _), s) in live.iter().zip(slots()) {
-            sc.unclaim(a, Some(s));
-        }
+        lat.relocate_to_slots(live, &codes, |s| sc.claimed(s));
+    }
+    for (k, &(a, _)) in live.iter().enumerate() {
+        sc.unclaim(a, slot(k));
     }
     sc.codes = codes;
     free
@@ -93,19 +111,41 @@ impl Act<'_> {
     /// nothing, when that does not hold (the moves then go the general way), and then does
     /// not try for the next 16 steps.
     pub(super) fn plain_moves_at_once(&mut self, sel: &Selection) -> bool {
-        let Some((off, d)) = self.plan.plain_step else {
+        let Some((off, _)) = self.plan.plain_step else {
             return false;
         };
+        match self.plain_moves_on_grid(sel) {
+            AtOnce::Done => true,
+            AtOnce::NotTried => false,
+            // Movers at the grid's rim (a cloud that falls, a line that walks away) find
+            // room made ahead of them, and try again; other failures pause.
+            AtOnce::Failed { rim, movers } => {
+                let again = rim
+                    && self.lat.grow_toward(off, movers)
+                    && matches!(self.plain_moves_on_grid(sel), AtOnce::Done);
+                if !again {
+                    self.bufs.fused_pause = 16;
+                }
+                again
+            }
+        }
+    }
+
+    /// [`Act::plain_moves_at_once`] on the grid as it is, without the pause it sets.
+    fn plain_moves_on_grid(&mut self, sel: &Selection) -> AtOnce {
+        let Some((off, d)) = self.plan.plain_step else {
+            return AtOnce::NotTried;
+        };
         if self.opts.trace {
-            return false;
+            return AtOnce::NotTried;
         }
         if self.bufs.fused_pause > 0 {
             self.bufs.fused_pause -= 1;
-            return false;
+            return AtOnce::NotTried;
         }
         match self.lat.cells.grid_mut() {
             Some(g) => g.ready_rim(),
-            None => return false,
+            None => return AtOnce::NotTried,
         }
         let (one, mover) = (&sel.one[..], &self.plan.plain_mask[..]);
         let th = self.threads;
@@ -130,14 +170,15 @@ impl Act<'_> {
             }
             let ahead = scattered(self.lat, &part.movers);
             let done = self.lat.shift_alone(&part.movers, (off, d), ahead);
-            if done {
+            let went = if done {
                 self.stats.moves += part.movers.len() as u64;
+                AtOnce::Done
             } else {
                 self.bufs.changes.moved.clear();
-                self.bufs.fused_pause = 16;
-            }
+                AtOnce::failed(self.lat, [&part.movers[..]])
+            };
             self.bufs.fused.push(part);
-            return done;
+            return went;
         }
         let Some((pool, _)) = par else {
             unreachable!("one thread went above")
@@ -189,14 +230,38 @@ impl Act<'_> {
                 .collect();
             self.lat.unshift(&undo, (off, d));
             changes.moved_parts.iter_mut().for_each(Vec::clear);
+            let went = AtOnce::failed(self.lat, parts.iter().map(|p| &p.movers[..]));
             self.bufs.fused = parts;
-            self.bufs.fused_pause = 16;
-            return false;
+            return went;
         }
         let moved: usize = parts.iter().map(|p| p.movers.len()).sum();
         self.bufs.fused = parts;
         self.stats.moves += moved as u64;
-        true
+        AtOnce::Done
+    }
+}
+
+/// How the plain moves of a step at once went.
+enum AtOnce {
+    Done,
+    /// Not tried: not a step of plain moves on a grid, or paused.
+    NotTried,
+    /// Tried and undone: whether a mover stood on the grid's rim, and how many movers.
+    Failed {
+        rim: bool,
+        movers: usize,
+    },
+}
+
+impl AtOnce {
+    /// Failed, for these movers (back where they stood).
+    fn failed<'m>(lat: &Lattice, movers: impl IntoIterator<Item = &'m [u32]>) -> AtOnce {
+        let (mut rim, mut count) = (false, 0);
+        for part in movers {
+            rim |= part.iter().any(|&a| lat.code_of(a) >= RIM);
+            count += part.len();
+        }
+        AtOnce::Failed { rim, movers: count }
     }
 }
 
