@@ -130,7 +130,7 @@ impl Checker<'_> {
         self.dim.dim
     }
 
-    fn label(&self, span: Span, msg: impl Into<String>) -> Label {
+    fn label(&self, span: Span, msg: impl Into<latticesim_grammar::Text>) -> Label {
         Label::new(self.file, span, msg)
     }
 
@@ -1054,6 +1054,7 @@ pub fn check_rules(
             });
         }
     }
+    crate::slips::check(f, &rules, (file, dim.dim, src), ck.diags);
     CheckedRules {
         dim: dim.dim,
         width,

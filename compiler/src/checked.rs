@@ -9,7 +9,7 @@ pub use latticesim_vm::model::{
 };
 
 /// A readable value.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Val {
     /// A literal of the rules' width (-32767..32767, or the 32-bit range).
     Lit(i32),

@@ -3,12 +3,12 @@
 //! is not negated) that demand opposite things of the same cell, attachment, state or message,
 //! and comparisons of two literals that are false.
 
-use crate::checked::{Cond, Coord, Dim, Dir, Offset, TextPat, Val};
+use crate::checked::{CmpOp, Cond, Coord, Dim, Dir, Offset, TextPat, Val};
 use latticesim_grammar::ast::Term;
 use latticesim_grammar::{Code, Diagnostic, FileId, Label, Spanned};
 
 /// Collects the AND-joined conditions with the term that wrote each.
-fn flatten<'c, 't, 'a>(
+pub(crate) fn flatten<'c, 't, 'a>(
     terms: &'t [Spanned<Term<'a>>],
     conds: &'c [Cond],
     out: &mut Vec<(&'c Cond, &'t Spanned<Term<'a>>)>,
@@ -21,7 +21,7 @@ fn flatten<'c, 't, 'a>(
     }
 }
 
-fn lit(o: &Offset) -> Option<[i32; 3]> {
+pub(crate) fn lit(o: &Offset) -> Option<[i32; 3]> {
     let mut out = [0; 3];
     for (v, c) in out.iter_mut().zip(o) {
         match c {
@@ -33,7 +33,7 @@ fn lit(o: &Offset) -> Option<[i32; 3]> {
 }
 
 /// What a condition says about whether cells are filled: (offset, filled?), at most six.
-fn cells(c: &Cond) -> impl Iterator<Item = ([i32; 3], bool)> {
+pub(crate) fn cells(c: &Cond) -> impl Iterator<Item = ([i32; 3], bool)> {
     let (mask, want, single) = match c {
         Cond::Neighbors(p) => (p.mask, p.want, None),
         Cond::Attached(p) => (p.mask & p.want, p.want, None),
@@ -57,7 +57,7 @@ fn disjoint(a: &TextPat, b: &TextPat) -> bool {
         .any(|(x, y)| matches!((x, y), (Some(x), Some(y)) if x != y))
 }
 
-fn fmt_offset(o: [i32; 3], dim3: bool) -> String {
+pub(crate) fn fmt_offset(o: [i32; 3], dim3: bool) -> String {
     let xy = if dim3 {
         format!("{},{},{}", o[0], o[1], o[2])
     } else {
@@ -124,6 +124,64 @@ fn conflict(a: &Cond, b: &Cond, dim3: bool) -> Option<String> {
     None
 }
 
+/// What a comparison of a counter or a numeric message slot with a literal allows of that
+/// value: its key and the range it must lie in (both ends included).
+pub(crate) fn range(c: &Cond) -> Option<(Val, i64, i64)> {
+    let Cond::Compare(op, a, b) = c else {
+        return None;
+    };
+    // `<a b` is a < b; with the literal first, the value's side is mirrored.
+    let (v, n, op) = match (a, b) {
+        (Val::Lit(_), Val::Lit(_)) => return None,
+        (v, Val::Lit(n)) => (*v, *n as i64, *op),
+        (Val::Lit(n), v) => {
+            let op = match op {
+                CmpOp::Lt => CmpOp::Gt,
+                CmpOp::Gt => CmpOp::Lt,
+                CmpOp::Eq => CmpOp::Eq,
+            };
+            (*v, *n as i64, op)
+        }
+        _ => return None,
+    };
+    // `#*` speaks of whichever message: two comparisons of it need not see one value.
+    if matches!(v, Val::Msg { dir: None, .. }) {
+        return None;
+    }
+    Some(match op {
+        CmpOp::Lt => (v, i64::MIN, n - 1),
+        CmpOp::Gt => (v, n + 1, i64::MAX),
+        CmpOp::Eq => (v, n, n),
+    })
+}
+
+/// Why two comparisons of one value with literals cannot both hold, if they cannot.
+fn ranges_clash(a: &Cond, b: &Cond) -> Option<String> {
+    let ((va, la, ha), (vb, lb, hb)) = (range(a)?, range(b)?);
+    if va != vb || (la.max(lb) <= ha.min(hb)) {
+        return None;
+    }
+    let name = |v: Val| match v {
+        Val::Counter(c) => format!("counter C{c:02}"),
+        Val::Msg { dir: Some(d), slot } => {
+            format!("message slot {:02} from {}", slot + 1, d.letter())
+        }
+        _ => "the value".into(),
+    };
+    // One comparison's range in words.
+    let words = |l: i64, h: i64| match (l, h) {
+        (i64::MIN, h) => format!("below {}", h + 1),
+        (l, i64::MAX) => format!("above {}", l - 1),
+        (l, _) => format!("equal to {l}"),
+    };
+    Some(format!(
+        "{} cannot be {} and {} at once",
+        name(va),
+        words(lb, hb),
+        words(la, ha)
+    ))
+}
+
 fn always_false(c: &Cond) -> bool {
     match c {
         Cond::Compare(op, Val::Lit(a), Val::Lit(b)) => !op.holds(*a, *b),
@@ -135,7 +193,7 @@ fn always_false(c: &Cond) -> bool {
 /// it demands there. Two conditions conflict exactly when they pin one key to different
 /// values, so the check is linear in the number of terms (see [`Earliest`]).
 #[derive(Clone, Copy, PartialEq, Eq, Hash)]
-enum Key {
+pub(crate) enum Key {
     /// A cell at a literal offset: filled (1) or empty (0).
     Cell([i32; 3]),
     /// An own attachment: attached (1) or not (0).
@@ -154,7 +212,7 @@ fn text_keys(pat: &TextPat, key: impl Fn(u8) -> Key) -> impl Iterator<Item = (Ke
 }
 
 /// Every (key, value) a condition pins down; [`conflict`] says why two of them clash.
-fn keys(c: &Cond) -> Vec<(Key, u8)> {
+pub(crate) fn keys(c: &Cond) -> Vec<(Key, u8)> {
     let mut out: Vec<(Key, u8)> = cells(c).map(|(o, f)| (Key::Cell(o), f as u8)).collect();
     match c {
         Cond::Attached(p) => out.extend(
@@ -244,6 +302,22 @@ pub(crate) fn check(
                 Label::new(file, sj, "always false"),
             )
             .with_help("compare a counter or a message with the number instead");
+            diags.push(d);
+            continue;
+        }
+        // Comparisons of one value with literals: the earliest whose range misses this
+        // one's (ranges on a line: when all cannot hold, two cannot).
+        let clash = (facts[..j].iter().enumerate())
+            .find_map(|(i, &(ci, _))| ranges_clash(cj, ci).map(|why| (i, why)));
+        if let Some((i, why)) = clash {
+            let (si, ti) = (facts[i].1.span, crate::written(src, facts[i].1.span));
+            let d = Diagnostic::new(
+                Code::W502,
+                format!("`{tj}` contradicts `{ti}`: {why}, so this rule never fires"),
+                Label::new(file, sj, "contradicts an earlier term"),
+            )
+            .with_secondary(Label::new(file, si, "the earlier term"))
+            .with_help("check the two numbers and which way each comparison points: `<C00 0005` holds when C00 is below 5");
             diags.push(d);
             continue;
         }

@@ -12,6 +12,7 @@ pub mod checked;
 mod contradict;
 mod idle;
 mod never;
+mod slips;
 pub use idle::{idle_states, state_field, Idle, StartState, FIXABLE};
 pub mod describe;
 pub mod diagnostics;
@@ -421,7 +422,24 @@ fn states_warnings(
         return out;
     }
     let spelled = never::spelled(ast);
-    for n in never {
+    // W507 where the state tested is set by no rule: where agents start in it, a W507; where
+    // not, the tested pattern matches nothing (a W503) and one of the two spellings is the
+    // slip: the one the rules write less often (a tie: the pattern, as W503 says).
+    let mut said = Vec::new();
+    for m in slips::misspelt_states(ast)
+        .iter()
+        .filter(|m| !m.tested_is_set)
+    {
+        let written = |s: &[u8]| spelled.get(std::str::from_utf8(s).unwrap_or("")).copied();
+        if states.contains(&m.tested)
+            || written(&m.tested).unwrap_or(0) > written(m.set.node.as_bytes()).unwrap_or(0)
+        {
+            out.push(m.diagnostic(rid));
+            said.push(m.tested);
+        }
+    }
+    let said = |n: &never::Never| said.iter().any(|t| n.pattern.node.as_bytes() == t);
+    for n in never.into_iter().filter(|n| !said(n)) {
         let p = never::pat(n.pattern.node).expect("a pattern of five characters");
         let near = idle
             .iter()
@@ -434,7 +452,7 @@ fn states_warnings(
                     .filter(|_| full)
                     .map(|f| idle::restate(aid, f, n.pattern.node, "the state the rule tests")),
                 label: latticesim_grammar::Label {
-                    message: format!("{}, which no rule tests", d.diag.primary.message),
+                    message: format!("{}, which no rule tests", d.diag.primary.message).into(),
                     ..d.diag.primary
                 },
             }
@@ -569,6 +587,14 @@ pub(crate) fn check_uncapped(
                 id,
             ));
         }
+    }
+    if agents_id.is_none() && !diags.iter().any(|d| d.is_error()) {
+        // Without agents, no start state is known: a state tested that no rule sets may
+        // be where agents start, and a state set one letter away from it is the slip.
+        let unset = slips::misspelt_states(&ast)
+            .into_iter()
+            .filter(|m| !m.tested_is_set);
+        diags.extend(unset.map(|m| m.diagnostic(rid)));
     }
     if !diags.iter().any(|d| d.is_error()) {
         if let Some((i, why)) = lower::too_large(&rules) {

@@ -385,3 +385,164 @@ fn rules_and_agents_of_two_dimensions_are_one_error() {
     );
     assert_eq!(c.dim.dim, Dim::Three);
 }
+
+/// The slips that check but are wrong (issue 33): each told once, with its code, and
+/// nothing said where the rules mean what they say.
+#[test]
+fn semantic_slips_are_told_once_each() {
+    let one = |rules: &str, agents: Option<&str>| codes(&run(rules, agents, None));
+    // W502: comparisons of one value that cannot hold together.
+    for pre in [
+        ">C00 0005 <C00 0003",
+        "=C00 0002 =C00 0003",
+        "<0003 C00 <C00 0002",
+        "=#N01 0004 >#N01 0004",
+    ] {
+        assert_eq!(
+            one(&format!("r\n1\n{pre}\nS*****\n"), None),
+            [Code::W502],
+            "{pre}"
+        );
+    }
+    for pre in [
+        ">C00 0002 <C00 0005",
+        "=#*01 0001 =#*01 0002",
+        ">C00 0001 <C01 0000",
+    ] {
+        assert_eq!(one(&format!("r\n1\n{pre}\nS*****\n"), None), [], "{pre}");
+    }
+    // W504: a move onto a cell required to hold an agent; not when a bond carries it.
+    assert_eq!(one("up\n1\nN1***\nP0,1\n", None), [Code::W504]);
+    assert_eq!(one("up\n1\nT0,1,WALK0\nP0,1\n", None), [Code::W504]);
+    assert_eq!(one("up\n1\nN0***\nP0,1\n", None), []);
+    assert_eq!(one("up\n1\nA1*** N1***\nP0,1\n", None), []);
+    assert_eq!(one("up\n1\nN1***\nP0,1 A+***\n", None), []);
+    assert_eq!(one("up\n1\n!N1***\nP0,1\n", None), []);
+    // W505: one priority, one precondition (in any order), states set differently; not
+    // when a term differs or the characters agree.
+    let pair = |p: &str, q: &str, a: &str, b: &str| format!("a\n1\n{p}\n{a}\n\nb\n1\n{q}\n{b}\n");
+    assert_eq!(
+        one(
+            &pair("SW**** N0***", "N0*** SW****", "S*A***", "S*B***"),
+            None
+        ),
+        [Code::W505]
+    );
+    assert_eq!(
+        one(&pair("SW****", "SW****", "P1,0", "P-1,0"), None),
+        [Code::W505]
+    );
+    assert_eq!(
+        one(
+            &pair("SW**** N0***", "SW**** N*0**", "S*A***", "S*B***"),
+            None
+        ),
+        []
+    );
+    assert_eq!(one(&pair("SW****", "SW****", "S*A***", "S**B**"), None), []);
+    // W506: a higher rule that holds wherever a lower one does; not with priority terms
+    // (they depend on the neighbours), nor with a term of its own.
+    let ranked = |hi: &str, lo: &str| format!("h\n5\n{hi}\nSDONE0\n\nl\n2\n{lo}\nC00 + C00 0001\n");
+    for (hi, lo) in [
+        ("SWORK0", "SWORK0 N1***"),
+        ("N1**0", "N11*0 SWORK0"),
+        (">C00 0000", "SWORK0 >C00 0004"),
+        ("S*****", "SWORK0"),
+        ("S**R**", "SWORK0"),
+    ] {
+        assert_eq!(one(&ranked(hi, lo), None), [Code::W506], "{hi} over {lo}");
+    }
+    for (hi, lo) in [
+        ("SWORK0 P<***", "SWORK0"),
+        ("SWORK0 L1,0", "SWORK0"),
+        ("SWORK0 =C01 0000", "SWORK0"),
+        (">C00 0004", "SWORK0 >C00 0000"),
+        ("SWORK0 M*ping*", "SWORK0"),
+        ("S**X**", "SWORK0"),
+    ] {
+        assert_eq!(one(&ranked(hi, lo), None), [], "{hi} over {lo}");
+    }
+    // W507, the state `STOP0` misspelt where it is set.
+    let stop = |set: &str, also: &str| {
+        format!("go\n1\nSGO000 >C00 0000\nS{set}\n\nstop\n1\nSSTOP0\nSDONE0\n{also}")
+    };
+    assert_eq!(one(&stop("STPO0", ""), None), [Code::W507]);
+    assert_eq!(one(&stop("STOP1", ""), None), [], "a digit is meant");
+    assert_eq!(one(&stop("SPOT0", ""), None), [], "not one slip");
+    // Another rule sets `STOP0`: certain whatever the agents.
+    let halt = "\nhalt\n1\nSHALT0\nSSTOP0\n";
+    assert_eq!(
+        one(&stop("STPO0", halt), Some("0,0 SGO000 C00 1\n1,0 SHALT0\n")),
+        [Code::W507]
+    );
+    // No rule sets `STOP0`: agents start in it, or the rules write it more often than the
+    // slip (the pattern is then not a W503 too); written as often, the pattern is the slip.
+    assert_eq!(
+        one(&stop("STPO0", ""), Some("0,0 SGO000 C00 1\n1,0 SSTOP0\n")),
+        [Code::W507]
+    );
+    let twice = "\nstop2\n2\nSSTOP0 N1***\nSDONE0\n";
+    assert_eq!(
+        one(&stop("STPO0", twice), Some("0,0 SGO000 C00 1\n")),
+        [Code::W507]
+    );
+    assert_eq!(
+        one(&stop("STPO0", ""), Some("0,0 SGO000 C00 1\n")),
+        [Code::W503]
+    );
+    // The fix writes the tested state, and the file then checks clean.
+    let c = run(&stop("STPO0", halt), None, None);
+    let text = stop("STPO0", halt);
+    let fixed = c.diags[0].fixes[0].apply(&text, c.diags[0].primary.file);
+    assert_eq!(fixed, stop("STOP0", halt));
+    assert_eq!(one(&fixed, None), []);
+}
+
+/// No shipped example warns: each rules file alone, and with each agents file of its
+/// folder that is its pair (the same dimension). `examples/mistakes` shows mistakes.
+#[test]
+fn shipped_examples_check_clean() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples");
+    let mut checked = 0;
+    for dir in std::fs::read_dir(&root).unwrap().map(|e| e.unwrap().path()) {
+        if !dir.is_dir() || dir.ends_with("mistakes") {
+            continue;
+        }
+        let files: Vec<std::path::PathBuf> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "txt"))
+            .collect();
+        let named =
+            |p: &std::path::Path, s: &str| p.file_name().unwrap().to_string_lossy().starts_with(s);
+        for r in files.iter().filter(|p| named(p, "rules")) {
+            let rules = std::fs::read_to_string(r).unwrap();
+            let alone = run(&rules, None, None);
+            let said = alone.render(false);
+            assert_eq!(
+                alone.errors() + alone.warnings(),
+                0,
+                "{}:\n{said}",
+                r.display()
+            );
+            for a in files.iter().filter(|p| named(p, "agents")) {
+                // A pair is of one dimension (`-3d` in both names or in neither).
+                if named(r, "rules-3d") != named(a, "agents-3d") {
+                    continue;
+                }
+                let agents = std::fs::read_to_string(a).unwrap();
+                let c = run(&rules, Some(&agents), None);
+                let said = c.render(false);
+                assert_eq!(
+                    c.errors() + c.warnings(),
+                    0,
+                    "{} {}:\n{said}",
+                    r.display(),
+                    a.display()
+                );
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked >= 20, "{checked} pairs checked");
+}

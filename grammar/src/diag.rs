@@ -125,6 +125,10 @@ codes! {
     W501 Warning "duplicate-rule-name" "two rules with the same name";
     W502 Warning "contradictory-precondition" "a precondition that can never hold";
     W503 Warning "pattern-never-matches" "an `S` or `T` pattern that no state an agent starts in or a rule sets matches";
+    W504 Warning "move-onto-agent" "a move onto a cell the precondition requires to hold an agent";
+    W505 Warning "certain-conflict" "two rules of one priority and precondition whose actions conflict";
+    W506 Warning "rule-always-outranked" "a rule that a rule of higher priority always outranks";
+    W507 Warning "state-one-letter-off" "a state set one letter away from a state the rules test, which no rule tests";
     W601 Warning "one-sided-attachment" "an attachment declared by only one of two agents";
     W602 Warning "attachment-to-empty-cell" "an attachment towards an empty cell";
     W603 Warning "idle-start-state" "agents that start in a state no rule tests or sets";
@@ -138,12 +142,16 @@ pub struct Label {
     /// The bytes it marks.
     pub span: Span,
     /// What it says about that place (may be empty).
-    pub message: String,
+    pub message: Text,
 }
+
+/// The text of a message: a literal kept as it is, or one made for the case (most labels
+/// and help lines are literals: a file with tens of thousands of warnings holds no copy).
+pub type Text = std::borrow::Cow<'static, str>;
 
 impl Label {
     /// A label with a message.
-    pub fn new(file: FileId, span: Span, message: impl Into<String>) -> Label {
+    pub fn new(file: FileId, span: Span, message: impl Into<Text>) -> Label {
         Label {
             file,
             span,
@@ -220,13 +228,13 @@ pub struct Diagnostic {
     /// The stable code.
     pub code: Code,
     /// One sentence.
-    pub message: String,
+    pub message: Text,
     /// The exact place.
     pub primary: Label,
     /// Other places involved.
     pub secondary: Vec<Label>,
     /// How to fix it, if we can say.
-    pub help: Option<String>,
+    pub help: Option<Text>,
     /// Machine-applicable fixes, most likely first.
     pub fixes: Vec<Fix>,
     /// For a warning made an error by a lint level: where it was denied (`--deny W603`).
@@ -235,7 +243,7 @@ pub struct Diagnostic {
 
 impl Diagnostic {
     /// A diagnostic with its code, message and primary label.
-    pub fn new(code: Code, message: impl Into<String>, primary: Label) -> Diagnostic {
+    pub fn new(code: Code, message: impl Into<Text>, primary: Label) -> Diagnostic {
         Diagnostic {
             code,
             message: message.into(),
@@ -260,7 +268,7 @@ impl Diagnostic {
     }
 
     /// Sets the help line.
-    pub fn with_help(mut self, help: impl Into<String>) -> Diagnostic {
+    pub fn with_help(mut self, help: impl Into<Text>) -> Diagnostic {
         self.help = Some(help.into());
         self
     }

@@ -22,7 +22,7 @@ pub mod span;
 pub mod structure;
 
 pub use agents::parse_agents;
-pub use diag::{Code, Diagnostic, Edit, Fix, Label, Severity};
+pub use diag::{Code, Diagnostic, Edit, Fix, Label, Severity, Text};
 pub use parser::{parse_rules, MAX_NESTING};
 pub use span::{FileId, Span, Spanned};
 

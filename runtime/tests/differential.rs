@@ -11,7 +11,8 @@ mod common;
 mod reference;
 
 use latticesim_compiler::compile;
-use latticesim_runtime::{Engine, Lattice, Options, Order, Skip, TraceEvent};
+use latticesim_grammar::Code;
+use latticesim_runtime::{Engine, Lattice, Options, Order, RecordKind, Skip, TraceEvent};
 use proptest::prelude::*;
 use reference::{Rec, World};
 
@@ -501,6 +502,44 @@ proptest! {
     #[test]
     fn themes_agree_with_reference_3d(r in themes(true), a in agents(true)) {
         every_option(&r, &a, 1)?;
+    }
+
+    /// The checker's claims that a rule never fires hold in runs: a rule with a
+    /// contradictory precondition (W502) or always outranked (W506) fires in no step, and
+    /// of two rules that always conflict (W505) neither fires without a conflict record.
+    #[test]
+    fn rules_said_never_to_fire_never_fire(
+        (_, r, a) in proptest::bool::ANY.prop_flat_map(|d3| (Just(d3), rules(d3), agents(d3)))
+    ) {
+        let c = common::checked(&r, &a);
+        prop_assume!(c.errors() == 0);
+        // The rule of a diagnostic: rules are blocks between blank lines.
+        let rule_of = |d: &latticesim_grammar::Diagnostic| {
+            r[..d.primary.span.start as usize].matches("\n\n").count()
+        };
+        let never: Vec<usize> = (c.diags.iter())
+            .filter(|d| matches!(d.code, Code::W502 | Code::W506))
+            .map(rule_of)
+            .collect();
+        let conflicting: Vec<usize> = (c.diags.iter())
+            .filter(|d| d.code == Code::W505)
+            .map(rule_of)
+            .collect();
+        let (prog, lat) = common::compile(&r, &a);
+        let mut e = Engine::new(prog, lat, Options::default());
+        let mut conflicts = 0;
+        for _ in 0..6 {
+            let rep = e.step();
+            conflicts += (rep.records.iter())
+                .filter(|x| matches!(x.kind, RecordKind::StateConflict | RecordKind::MoveConflict))
+                .count();
+        }
+        for &i in &never {
+            prop_assert_eq!(e.stats.firings[i], 0, "rule {} fired\n{}\n{}", i, r, a);
+        }
+        for &i in &conflicting {
+            prop_assert!(e.stats.firings[i] == 0 || conflicts > 0, "rule {} fired without a conflict\n{}\n{}", i, r, a);
+        }
     }
 
     /// `latticesim fmt` on generated rules: the formatted file runs exactly as the original

@@ -163,11 +163,11 @@ impl Server {
                         uri: to_uri(pair.uri(l.file)?)?,
                         range: pair.range(l),
                     },
-                    message: l.message.clone(),
+                    message: l.message.to_string(),
                 })
             })
             .collect();
-        let mut message = d.message.clone();
+        let mut message = d.message.to_string();
         if !d.primary.message.is_empty() {
             message += &format!(" ({})", d.primary.message);
         }

@@ -25,6 +25,7 @@ RL, RLA = "examples/reconfigure-line/rules.txt", "examples/reconfigure-line/agen
 G3, G3A = "examples/gravity-3d/rules.txt", "examples/gravity-3d/agents.txt"
 ST3, ST3A = "examples/spanning-tree/rules-3d.txt", "examples/spanning-tree/agents-3d.txt"
 CO, COA = "examples/counting/rules.txt", "examples/counting/agents-40.txt"
+RW, RWA = "examples/reconfigure-walk/rules.txt", "examples/reconfigure-walk/agents-30.txt"
 
 # name, rules, agents, which file the slip is in, find, replace, code, fix, line
 # (line: where the diagnostic must be, relative to the changed line: 0 the changed line,
@@ -97,6 +98,12 @@ SLIPS = [
     ("agents-state-typo", ST, STA, A, " SWAIT0\n", " SWIAT0\n", "W603", "restores", 0),
     ("comparison-written-as-assignment", OE, OEA, R, "S0**** =C01 0000", "S0**** C01 = 0000", "E201", "restores", 0),
     ("state-missing-a-character", ST, STA, R, "SWAIT0 =#N01 0001", "SWAT0 =#N01 0001", "E303", "restores", 0),
+    # Slips that check but are wrong (issue 33).
+    ("comparisons-contradict", GR, GRA, R, "N***0 >C00 0000", "N***0 >C00 0005 <C00 0003", "W502", "none", 0),
+    ("move-onto-agent", GR, GRA, R, "N***0 >C00 0000", "N***1 >C00 0000", "W504", "none", 1),
+    ("copied-rule-same-priority", ST, STA, R, "joinW\n3\nSWAIT0 =#W01 0001", "joinW\n4\nSWAIT0 =#N01 0001", "W505", "none", 3),
+    ("rule-always-outranked", LE, LEA, R, ">#*01 C01\n", "SINIT0 >#*01 C01\n", "W506", "none", -2),
+    ("state-set-one-letter-off", RW, RWA, R, "SRWALK #N03 + 0001 0000", "SRWLAK #N03 + 0001 0000", "W507", "restores", 0),
 ]
 
 
