@@ -8,7 +8,7 @@ use crate::checked::{
 use crate::contradict;
 use crate::dim::DimSource;
 use latticesim_grammar::ast::{self, Comp, Term, Value};
-use latticesim_grammar::{Code, Diagnostic, FileId, Fix, Label, Span, Spanned};
+use latticesim_grammar::{Code, Diagnostic, Edit, FileId, Fix, Label, Span, Spanned};
 use std::collections::HashMap;
 
 fn cmp_op(op: ast::CmpOp) -> crate::checked::CmpOp {
@@ -983,6 +983,80 @@ impl Checker<'_> {
     }
 }
 
+/// E322: a rule whose precondition line holds actions and no test, and whose postcondition
+/// line holds tests and no action (`S`, `A` and `M` are both): the two lines were
+/// written in each other's place. One error, with the swap as its fix, instead of one for
+/// every term.
+fn swapped(r: &latticesim_grammar::ast::Rule<'_>, file: FileId, src: &str) -> Option<Diagnostic> {
+    let action =
+        |t: &Spanned<Term<'_>>| matches!(t.node, Term::Move(_) | Term::Swap(_) | Term::Calc(_));
+    let test = |t: &Spanned<Term<'_>>| {
+        matches!(
+            t.node,
+            Term::Neighbors(_)
+                | Term::Priorities(_)
+                | Term::Empty(_)
+                | Term::Filled(_)
+                | Term::Less(_)
+                | Term::LessEq(_)
+                | Term::RemoteState { .. }
+                | Term::Compare(_)
+                | Term::RemoteCompare(_)
+                | Term::Not(_)
+                | Term::Group(_)
+        )
+    };
+    let broken = |ts: &[Spanned<Term<'_>>]| ts.iter().any(|t| matches!(t.node, Term::Error));
+    let (pre, post) = (r.pre.node, r.post.node);
+    let swapped = pre.iter().any(action)
+        && !pre.iter().any(test)
+        && post.iter().any(test)
+        && !post.iter().any(action)
+        && !broken(pre)
+        && !broken(post);
+    if !swapped {
+        return None;
+    }
+    let (a, b) = (
+        crate::written(src, r.pre.span),
+        crate::written(src, r.post.span),
+    );
+    Some(
+        Diagnostic::new(
+            Code::E322,
+            format!(
+                "the precondition and postcondition of the rule `{}` are swapped",
+                r.name.node
+            ),
+            Label::new(file, r.pre.span, "actions: this is a postcondition"),
+        )
+        .with_secondary(Label::new(
+            file,
+            r.post.span,
+            "tests: this is a precondition",
+        ))
+        .with_help(
+            "a rule is four lines: name, priority, precondition (what must hold), \
+             postcondition (what the agent does)",
+        )
+        .with_fix(Fix {
+            message: "swap the two lines".into(),
+            edits: vec![
+                Edit {
+                    file,
+                    span: r.pre.span,
+                    replacement: b.to_string(),
+                },
+                Edit {
+                    file,
+                    span: r.post.span,
+                    replacement: a.to_string(),
+                },
+            ],
+        }),
+    )
+}
+
 /// Checks a parsed rules file in the given dimension. The program holds the rules that
 /// passed; it is complete only when no error was reported.
 pub fn check_rules(
@@ -1039,6 +1113,10 @@ pub fn check_rules(
             }
             None => None,
         };
+        if let Some(d) = swapped(r, file, src) {
+            ck.push(d);
+            continue;
+        }
         let pre = ck.conds(r.pre.node);
         if let Some(conds) = &pre {
             contradict::check(r.pre.node, conds, (ck.file, ck.d(), ck.src), ck.diags);

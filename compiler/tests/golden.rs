@@ -131,3 +131,72 @@ fn language_reference_lists_every_code() {
     }
     assert!(doc[a..b] == section, "docs/language.md is out of date: run UPDATE_GOLDEN=1 cargo test -p latticesim-compiler --test golden");
 }
+
+/// Every fix of every diagnostic of every golden case, applied alone, gives files with
+/// fewer diagnostics of that code and no more errors than before (a fix never makes a file
+/// worse; where a case shows one slip, it checks clean after its fix).
+#[test]
+fn every_fix_of_every_case_applies() {
+    let mut applied = 0;
+    let mut failures = Vec::new();
+    for case in cases() {
+        let name = case.file_name().unwrap().to_string_lossy().to_string();
+        let Ok(rules) = fs::read_to_string(case.join("rules.txt")) else {
+            continue; // not UTF-8: no fix edits it
+        };
+        let agents = fs::read_to_string(case.join("agents.txt")).ok();
+        let dim = match fs::read_to_string(case.join("args"))
+            .unwrap_or_default()
+            .trim()
+        {
+            "dim=2" => Some(Dim::Two),
+            "dim=3" => Some(Dim::Three),
+            _ => None,
+        };
+        let run = |rules: &str, agents: Option<&str>| {
+            check(
+                Input {
+                    name: "rules.txt",
+                    bytes: rules.as_bytes(),
+                },
+                agents.map(|a| Input {
+                    name: "agents.txt",
+                    bytes: a.as_bytes(),
+                }),
+                dim,
+            )
+        };
+        let before = run(&rules, agents.as_deref());
+        let count = |c: &latticesim_compiler::Checked, code: Code| {
+            let shown = c.diags.iter().filter(|d| d.code == code).count();
+            let hidden: usize = (c.not_shown.iter())
+                .flat_map(|n| n.codes.iter())
+                .filter(|(k, _)| *k == code)
+                .map(|(_, n)| *n)
+                .sum();
+            shown + hidden
+        };
+        for d in &before.diags {
+            for f in &d.fixes {
+                let r = f.apply(&rules, latticesim_grammar::FileId(0));
+                let a = agents
+                    .as_deref()
+                    .map(|a| f.apply(a, latticesim_grammar::FileId(1)));
+                let after = run(&r, a.as_deref());
+                applied += 1;
+                if count(&after, d.code) >= count(&before, d.code)
+                    || after.errors() > before.errors()
+                {
+                    failures.push(format!(
+                        "{name}: the fix `{}` of {:?} leaves:\n{}",
+                        f.message,
+                        d.code,
+                        after.render(false)
+                    ));
+                }
+            }
+        }
+    }
+    assert!(applied >= 8, "only {applied} fixes applied");
+    assert!(failures.is_empty(), "{}", failures.join("\n\n"));
+}

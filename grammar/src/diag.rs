@@ -112,6 +112,7 @@ codes! {
     E319 Error "remote-counter-form" "a remote or external counter written wrongly";
     E320 Error "logic-in-postcondition" "`!`, `(` or `)` in a postcondition";
     E321 Error "rule-too-large" "a rule too large for the bytecode";
+    E322 Error "lines-swapped" "a rule whose precondition and postcondition lines are swapped";
     E401 Error "agents-syntax" "an agents line that cannot be read";
     E402 Error "agents-same-cell" "two agents on one cell";
     E403 Error "agents-outside-universe" "an agent outside the universe";

@@ -183,6 +183,15 @@ fn missing_lines(l: &Layout<'_>, last: bool, file: FileId) -> Diagnostic {
             d = d.with_secondary(Label::new(file, line_span(n), "the rule starts here"));
         }
     }
+    // Only the priority missing: the rule reads whole once it has one.
+    if let (["priority"], Some(pre)) = (lacks.as_slice(), l.pre) {
+        d = d.with_fix(Fix::replace(
+            "add the priority line `1` (the lowest: a higher number wins over lower ones)",
+            file,
+            Span::new(pre.start, pre.start),
+            "1\n",
+        ));
+    }
     d
 }
 
@@ -493,8 +502,14 @@ fn parse_line<'a>(
             .iter()
             .any(|x| (x.start as usize) <= upto && from <= x.end as usize);
         if !touches {
-            let fix = syntax_fix(line, in_post, file, toks, s, k);
-            diags.push(syntax_error(e, line, file, (from, end), fix));
+            let d = match operator_slip(line, in_post, file, toks, (s, k)) {
+                Some(d) => d,
+                None => {
+                    let fix = syntax_fix(line, in_post, file, toks, s, k);
+                    syntax_error(e, line, file, (from, end), fix)
+                }
+            };
+            diags.push(d);
         }
         removed.push(Span::new(from, to));
         let before = toks.len();
@@ -580,6 +595,91 @@ fn syntax_error(
         Some(f) => d.with_fix(f),
         None => d,
     }
+}
+
+/// The comparison operators of other languages (`>=`, `<=`, `==`, `=>`, `=<`, `<>`), as
+/// two signs written together, and what the rules language says for each: "at least" is
+/// "not below" (`!<`), "at most" is "not above" (`!>`).
+fn foreign_operator(a: &Tok<'_>, b: &Tok<'_>) -> Option<&'static str> {
+    Some(match (a, b) {
+        (Tok::Gt, Tok::Eq) | (Tok::Eq, Tok::Gt) => "!<",
+        (Tok::Lt, Tok::Eq) | (Tok::Eq, Tok::Lt) => "!>",
+        (Tok::Eq, Tok::Eq) => "=",
+        (Tok::Lt, Tok::Gt) => "!=",
+        _ => return None,
+    })
+}
+
+/// E201 with its own message for a comparison written as other languages write it: an
+/// operator of two signs (`>=C00 0003`), or a sign between the values (`C00 >= 0003`,
+/// `C00 > 0003`, in a precondition), at token `k` of a term that starts at token `s`. The
+/// fix writes the paper's form, which means the same for every value.
+fn operator_slip(
+    line: Line<'_>,
+    in_post: bool,
+    file: FileId,
+    toks: &[Spanned3<'_>],
+    (s, k): (usize, usize),
+) -> Option<Diagnostic> {
+    let sign = |j: usize| matches!(toks.get(j)?.1, Tok::Lt | Tok::Gt | Tok::Eq).then_some(j);
+    let value = |j: usize| {
+        let t = toks.get(j)?;
+        matches!(t.1, Tok::Int(_) | Tok::Counter(_) | Tok::MsgRef(_)).then_some(j)
+    };
+    let src = |a: usize, b: usize| line_src(line, toks[a].0, toks[b].2);
+    let together = |a: usize| toks[a].2 == toks[a + 1].0;
+    // The signs as written, the first and last token of the slip, and the comparison in
+    // the paper's form.
+    let (written, first, last, right) = if k > s && sign(k - 1).is_some() && sign(k).is_some() {
+        // `>=C00 0003`: the term starts with two signs.
+        let op = foreign_operator(&toks[k - 1].1, &toks[k].1).filter(|_| together(k - 1))?;
+        let (a, b) = (value(k + 1)?, value(k + 2)?);
+        (
+            src(k - 1, k),
+            k - 1,
+            b,
+            format!("{op}{} {}", src(a, a), src(b, b)),
+        )
+    } else if !in_post && value(s).is_some() && sign(k).is_some() && k == s + 1 {
+        // `C00 >= 0003` or `C00 > 0003`: the sign between the values.
+        let (op, last_sign) = match sign(k + 1).filter(|&j| together(j - 1)) {
+            Some(j) => (foreign_operator(&toks[k].1, &toks[j].1)?, j),
+            None => (line_src(line, toks[k].0, toks[k].2), k),
+        };
+        let b = value(last_sign + 1)?;
+        let op = match op {
+            "<" | ">" | "=" | "!<" | "!>" | "!=" => op,
+            _ => return None,
+        };
+        (
+            src(k, last_sign),
+            s,
+            b,
+            format!("{op}{} {}", src(s, s), src(b, b)),
+        )
+    } else {
+        return None;
+    };
+    let span = Span::new(toks[first].0, toks[last].2);
+    Some(
+        Diagnostic::new(
+            Code::E201,
+            format!(
+                "`{}` is not how the rules language compares: write `{right}`",
+                line_src(line, toks[first].0, toks[last].2)
+            ),
+            Label::new(
+                file,
+                span,
+                format!("`{written}` is another language's comparison"),
+            ),
+        )
+        .with_help(
+            "a comparison is its sign, then two values: `<C00 0003` (below), `>C00 0003` \
+             (above), `=C00 0003`; `!<` is at least, `!>` at most, `!=` not equal",
+        )
+        .with_fix(Fix::replace(format!("write `{right}`"), file, span, right)),
+    )
 }
 
 /// A fix for a syntax error at token `k` of a term that starts at token `s`, when the slip

@@ -104,6 +104,11 @@ SLIPS = [
     ("copied-rule-same-priority", ST, STA, R, "joinW\n3\nSWAIT0 =#W01 0001", "joinW\n4\nSWAIT0 =#N01 0001", "W505", "none", 3),
     ("rule-always-outranked", LE, LEA, R, ">#*01 C01\n", "SINIT0 >#*01 C01\n", "W506", "none", -2),
     ("state-set-one-letter-off", RW, RWA, R, "SRWALK #N03 + 0001 0000", "SRWLAK #N03 + 0001 0000", "W507", "restores", 0),
+    ("precondition-and-postcondition-swapped", GR, GRA, R, "N***0 >C00 0000\nP0,-1 C00 - C00 0001", "P0,-1 C00 - C00 0001\nN***0 >C00 0000", "E322", "restores", 0),
+    ("at-least-written-greater-equal", GR, GRA, R, ">C00 0000", ">=C00 0001", "E201", "clean", 0),
+    ("comparison-sign-between-values", GR, GRA, R, ">C00 0000", "C00 > 0000", "E201", "restores", 0),
+    ("equality-written-twice", ST, STA, R, "SWAIT0 =#N01 0001", "SWAIT0 ==#N01 0001", "E201", "restores", 0),
+    ("missing-priority", GR, GRA, R, "fall\n1\n", "fall\n", "E104", "restores", 0),
 ]
 
 
