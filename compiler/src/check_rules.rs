@@ -130,6 +130,32 @@ impl Checker<'_> {
         self.dim.dim
     }
 
+    /// `Mpath!`: a message term whose direction was left out (its first text character
+    /// read as the direction, and four characters left): one E317 for the term, not one
+    /// for the direction and one for the text.
+    fn has_direction(&mut self, dir: &Spanned<char>, text: &Spanned<&str>) -> Option<()> {
+        let known = matches!(dir.node, 'N' | 'W' | 'E' | 'S' | 'A' | 'B' | '*');
+        if known || text.node.chars().count() != 4 {
+            return Some(());
+        }
+        let term = format!("M{}{}", dir.node, text.node);
+        self.push(
+            Diagnostic::new(
+                Code::E317,
+                format!("`{term}` has no direction"),
+                self.label(
+                    Span::new(dir.span.start as usize, text.span.end as usize),
+                    "no direction before the text",
+                ),
+            )
+            .with_help(
+                "a message term is `M`, a direction (N, W, E, S; A, B in 3D; `*` for any), \
+                 then five characters, e.g. `MNpath!`",
+            ),
+        );
+        None
+    }
+
     fn label(&self, span: Span, msg: impl Into<latticesim_grammar::Text>) -> Label {
         Label::new(self.file, span, msg)
     }
@@ -643,6 +669,7 @@ impl Checker<'_> {
             }
             Term::State(p) => Cond::State(self.text(p, "the state pattern", true)?),
             Term::Message { dir, text } => {
+                self.has_direction(dir, text)?;
                 let d = self.dir(dir.node, dir.span, true, "a message test");
                 let pat = self.text(text, "the message pattern", true);
                 let stars = text.node.chars().filter(|&c| c == '*').count();
@@ -849,6 +876,7 @@ impl Checker<'_> {
             }
             Term::State(p) => Action::State(self.text(p, "the new state", true)?),
             Term::Message { dir, text } => {
+                self.has_direction(dir, text)?;
                 let d = self.dir(dir.node, dir.span, true, "a sent message");
                 let pat = self.text(text, "the sent text", false)?;
                 let mut out = [0u8; 5];

@@ -386,7 +386,7 @@ fn outranked<'c>(
 }
 
 /// A state an `S` action sets, which no precondition pattern matches, one letter away from
-/// a whole state that one tests: W507.
+/// a whole state a precondition tests: W507.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub(crate) struct Misspelt<'a> {
     /// The state as the action writes it.
@@ -424,9 +424,10 @@ impl Misspelt<'_> {
 }
 
 /// Every whole state set by an `S` action that no precondition pattern matches (anywhere,
-/// `!` or not) and that is one slip from exactly one whole state a pattern tests: a
-/// letter typed for another letter, or two neighbouring characters swapped (digits changed
-/// are taken as meant: `WAIT1` beside `WAIT0` is a state of its own).
+/// `!` or not) and that is one slip from one whole state a pattern tests (of several, the
+/// one that also occurs): a letter typed for another letter, or two neighbouring
+/// characters swapped, one of them a letter (digits changed are taken as meant: `WAIT1`
+/// beside `WAIT0` is a state of its own).
 pub(crate) fn misspelt_states<'a>(f: &RulesFile<'a>) -> Vec<Misspelt<'a>> {
     let mut patterns = Vec::new();
     for r in &f.rules {
@@ -457,8 +458,15 @@ pub(crate) fn misspelt_states<'a>(f: &RulesFile<'a>) -> Vec<Misspelt<'a>> {
             if tests.any_matches(&set) {
                 continue;
             }
-            let mut near = one_slip_from(&set).filter(|w| tests.whole.contains(w));
-            if let (Some(tested), None) = (near.next(), near.next()) {
+            // One state a pattern matches; of several, the one state that also occurs.
+            let near: Vec<[u8; 5]> = one_slip_from(&set).filter(|w| tests.whole(w)).collect();
+            let occurring: Vec<&[u8; 5]> = near.iter().filter(|w| sets.any_matches(w)).collect();
+            let one = match (near.as_slice(), occurring.as_slice()) {
+                ([w], _) => Some(*w),
+                (_, [w]) => Some(**w),
+                _ => None,
+            };
+            if let Some(tested) = one {
                 out.push(Misspelt {
                     set: s,
                     tested,
@@ -476,8 +484,6 @@ struct Patterns {
     /// Per mask of the characters given (bit k: character k), the patterns' characters
     /// there (others zero).
     by_mask: HashMap<u8, HashSet<[u8; 5]>>,
-    /// The patterns that give all five characters.
-    whole: HashSet<[u8; 5]>,
 }
 
 impl Patterns {
@@ -492,8 +498,15 @@ impl Patterns {
                 .or_default()
                 .insert(p.map(|c| c.unwrap_or(0)));
         }
-        let whole = by_mask.get(&0b11111).cloned().unwrap_or_default();
-        Patterns { by_mask, whole }
+        Patterns { by_mask }
+    }
+
+    /// Whether a pattern gives all five characters of `s` (a pattern with `*` matches
+    /// end states one letter from the states it means too often to be a sign of a slip).
+    fn whole(&self, s: &[u8; 5]) -> bool {
+        self.by_mask
+            .get(&0b11111)
+            .is_some_and(|set| set.contains(s))
     }
 
     fn any_matches(&self, s: &[u8; 5]) -> bool {

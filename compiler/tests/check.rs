@@ -546,3 +546,40 @@ fn shipped_examples_check_clean() {
     }
     assert!(checked >= 20, "{checked} pairs checked");
 }
+
+/// Slips that used to give several diagnostics give one (issue 33): a message term without
+/// its direction, a counter with a blank inside, a number with the letter O read as the
+/// number its fix writes (the rest of the line reads as meant), an operator of another
+/// language, swapped lines; each fix gives a file that checks clean.
+#[test]
+fn one_slip_one_diagnostic() {
+    let cases = [
+        ("MNpath!", "Mpath!", Code::E317, false),
+        ("C15 + 0009 0000", "C 15 + 0009 0000", Code::E204, true),
+        ("C15 + 0009 0000", "C15 + 0O09 0000", Code::E102, true),
+        (">C00 0002", ">=C00 0003", Code::E201, true),
+        (">C00 0002", "C00 > 0002", Code::E201, true),
+    ];
+    for (right, slip, code, fixed) in cases {
+        let (pre, post) = if right.starts_with('>') {
+            (right, "S***** #*01 + 0001 0000")
+        } else {
+            ("S*****", right)
+        };
+        let good = format!("r\n1\n{pre}\n{post} #*02 + 0001 0000\n");
+        assert_eq!(codes(&run(&good, None, None)), [], "{good}");
+        let bad = good.replacen(right, slip, 1);
+        let c = run(&bad, None, None);
+        assert_eq!(codes(&c), [code], "{bad}");
+        assert_eq!(!c.diags[0].fixes.is_empty(), fixed, "{bad}");
+        if fixed {
+            let after = c.diags[0].fixes[0].apply(&bad, c.diags[0].primary.file);
+            assert_eq!(codes(&run(&after, None, None)), [], "{after}");
+        }
+    }
+    let swapped = "fall\n1\nP0,-1 C00 - C00 0001\nN***0 >C00 0000\n";
+    let c = run(swapped, None, None);
+    assert_eq!(codes(&c), [Code::E322]);
+    let after = c.diags[0].fixes[0].apply(swapped, c.diags[0].primary.file);
+    assert_eq!(after, "fall\n1\nN***0 >C00 0000\nP0,-1 C00 - C00 0001\n");
+}

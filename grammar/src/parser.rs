@@ -229,11 +229,13 @@ fn parse_priority(
             })
             .collect();
         if crate::structure::is_priority(&digits) {
+            // As a number is written: `O5` was `5` with a stray letter, not `05`.
+            let number = digits.parse::<i64>().map_or(digits, |n| n.to_string());
             d = d.with_fix(Fix::replace(
-                format!("write the number `{digits}` with digits"),
+                format!("write the number `{number}` with digits"),
                 file,
                 span,
-                digits,
+                number,
             ));
         }
         diags.push(d);
@@ -343,15 +345,34 @@ fn clean_tokens<'a>(
         }
         let (ws, we) = word_around(line, start, end);
         word_end = Some(we);
-        diags.push(bad_char(line, file, start, end));
+        let d = bad_char(line, file, start, end);
+        // A number with the letter O or l for a digit (`0O09`): read as the number its
+        // fix writes, so that the rest of the line reads as it was meant.
+        let number = (d.fixes.first())
+            .filter(|f| f.edits.len() == 1 && matches!(&*f.edits[0].replacement, "0" | "1"))
+            .and_then(|f| {
+                let (e, word) = (&f.edits[0], line_src(line, ws, we));
+                let a = (e.span.start as usize).checked_sub(ws)?;
+                let b = (e.span.end as usize).checked_sub(ws)?;
+                let (x, y) = (word.get(..a)?, word.get(b..)?);
+                format!("{x}{}{y}", e.replacement).parse::<i64>().ok()
+            });
+        diags.push(d);
         while j < toks.len() && toks[j].0 < ws {
             j += 1;
         }
+        let first = j;
         while j < toks.len() && toks[j].0 < we {
             if !matches!(toks[j].1, Tok::LParen | Tok::RParen) {
                 drop.push(j);
             }
             j += 1;
+        }
+        if let (Some(n), Some(t)) = (number, toks.get_mut(first).filter(|_| first < j)) {
+            // The word's first token stands for it all.
+            *t = (ws, Tok::Int(n), we);
+            drop.retain(|&k| k != first);
+            continue;
         }
         // The range reaches the next token: a term that starts there and fails is the
         // rest of this one (`c01 A C01 C02`).
@@ -765,6 +786,22 @@ fn bad_char(line: Line<'_>, file: FileId, start: usize, end: usize) -> Diagnosti
         )),
         _ => None,
     };
+    // `C 15`: a counter with a blank inside (the letter alone starts no term).
+    let rest = &line.text[end - line.start..];
+    let digits_after = rest.trim_start_matches([' ', '\t']);
+    if ch == 'C'
+        && word_start
+        && rest.len() > digits_after.len()
+        && digits_after.len() >= 2
+        && digits_after.as_bytes()[..2].iter().all(u8::is_ascii_digit)
+        && !digits_after
+            .as_bytes()
+            .get(2)
+            .is_some_and(u8::is_ascii_digit)
+    {
+        let blank = Span::new(end, end + rest.len() - digits_after.len());
+        return blank_inside(file, blank);
+    }
     match fix {
         Some((with, message)) => {
             d.with_fix(Fix::replace(message, file, Span::new(start, end), with))

@@ -40,7 +40,7 @@ SLIPS = [
     ("missing-name", LE, LEA, R, "adopt\n", "", "E104", "none", 0),
     ("extra-line", LE, LEA, R, "SFOLLW\n", "SFOLLW\nSFOLLW\n", "E105", "none", 1),
     ("priority-letter-l", LE, LEA, R, "adopt\n1\n", "adopt\nl\n", "E205", "restores", 1),
-    ("priority-letter-O", ST, STA, R, "joinN\n4\n", "joinN\nO4\n", "E205", "clean", 1),
+    ("priority-letter-O", ST, STA, R, "joinN\n4\n", "joinN\nO4\n", "E205", "restores", 1),
     ("priority-letter-I", ST, STA, R, "joinS\n1\n", "joinS\nI\n", "E205", "restores", 1),
     ("state-typo-swapped", LE, LEA, R, "SINIT0\n", "SINTI0\n", "W503", "restores", 0),
     ("state-typo-letter", ST, STA, R, "SWAIT0 =#N01 0001", "SWAJT0 =#N01 0001", "W503", "restores", 0),
