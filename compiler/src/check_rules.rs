@@ -351,6 +351,15 @@ impl Checker<'_> {
                     'N'
                 }
             ));
+            // The letters O and l (or I) typed for the digits 0 and 1.
+            let as_digits: String = (digits.chars())
+                .map(|d| match d {
+                    'O' | 'o' => '0',
+                    'l' | 'I' => '1',
+                    d => d,
+                })
+                .collect();
+            let m: usize = as_digits.parse().unwrap_or(0);
             let d = if digits.len() != 2
                 && !digits.is_empty()
                 && digits.bytes().all(|b| b.is_ascii_digit())
@@ -361,6 +370,17 @@ impl Checker<'_> {
                     self.file,
                     span,
                     format!("#{c}{n:02}"),
+                ))
+            } else if as_digits != digits
+                && as_digits.len() == 2
+                && as_digits.bytes().all(|b| b.is_ascii_digit())
+                && (1..=slots).contains(&m)
+            {
+                d.with_fix(Fix::replace(
+                    format!("write the slot with digits: `#{c}{as_digits}`"),
+                    self.file,
+                    span,
+                    format!("#{c}{as_digits}"),
                 ))
             } else {
                 d

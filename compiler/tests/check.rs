@@ -577,6 +577,12 @@ fn one_slip_one_diagnostic() {
             assert_eq!(codes(&run(&after, None, None)), [], "{after}");
         }
     }
+    // A slot with the letter l for the digit 1.
+    let slot = "r\n1\n=#N0l 0001\nS*****\n";
+    let c = run(slot, None, None);
+    assert_eq!(codes(&c), [Code::E306]);
+    let after = c.diags[0].fixes[0].apply(slot, c.diags[0].primary.file);
+    assert_eq!(after, "r\n1\n=#N01 0001\nS*****\n");
     let swapped = "fall\n1\nP0,-1 C00 - C00 0001\nN***0 >C00 0000\n";
     let c = run(swapped, None, None);
     assert_eq!(codes(&c), [Code::E322]);
