@@ -14,14 +14,13 @@ import json, os, subprocess, sys, tempfile
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "..", ".."))
 EXE = sys.argv[1] if len(sys.argv) > 1 else os.path.join(ROOT, "target", "release", "latticesim")
 
+sys.dont_write_bytecode = True  # (a __pycache__ folder would read as a case of the corpus)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from make import G3, G3A, MF, MFA, PF, PFA, RL, RLA, ST3, ST3A, TO, TOA  # noqa: E402
+
+# Examples the corpus does not use.
 CO3, CO3A = "examples/counting/rules-3d.txt", "examples/counting/agents-3d.txt"
-PF, PFA = "examples/path-finding/rules.txt", "examples/path-finding/agents-wall.txt"
-RL, RLA = "examples/reconfigure-line/rules.txt", "examples/reconfigure-line/agents-30.txt"
-ST3, ST3A = "examples/spanning-tree/rules-3d.txt", "examples/spanning-tree/agents-3d.txt"
 BB, BBA = "examples/bounding-box/rules.txt", "examples/bounding-box/agents-40.txt"
-MF, MFA = "examples/maxflood/rules.txt", "examples/maxflood/agents.txt"
-TO, TOA = "examples/tour/rules.txt", "examples/tour/agents.txt"
-G3, G3A = "examples/gravity-3d/rules.txt", "examples/gravity-3d/agents.txt"
 
 # name, rules, agents, find, replace (the first occurrence, in the rules file), the line of
 # the slip relative to the first changed line, semantic (a slip that checks but is wrong).
