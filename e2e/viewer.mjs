@@ -47,6 +47,8 @@ async function open(browser, url, viewport = { width: 1100, height: 640 }) {
   const page = await browser.newPage({ viewport });
   const errors = [];
   page.on('pageerror', (e) => errors.push(e.message));
+  // Messages the page logs as errors (a resource not found, a request refused) too.
+  page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
   await page.goto(url);
   await page.waitForFunction(() => window.latticesim && window.latticesim.ready);
   return { page, errors };
@@ -338,6 +340,10 @@ async function testPalette(browser) {
     }
   }
   assert.ok(min >= 0.15, `the closest states ${pair} are ${min.toFixed(3)} apart in OKLab`);
+  // The mark of a highlighted state's agents is a colour no state is drawn in.
+  const marks = await page.evaluate(() => window.latticesim.marks);
+  const far = Math.min(...states.map((s) => { const [a, b] = [oklab(s[1]), oklab(marks.highlight[1])]; return Math.hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]); }));
+  assert.ok(far >= 0.15, `the highlight ${marks.highlight[1]} is ${far.toFixed(3)} from a state's colour`);
   // Highlight, then hide the state of agent 0; hidden, it is not picked where it was drawn.
   const f = await page.evaluate(() => { const f = window.latticesim.frame(); return { s: f.states[f.state[0]].name }; });
   const [x, y] = await page.evaluate(() => window.latticesim.screenOf(0));
@@ -355,7 +361,7 @@ async function testPalette(browser) {
   await page.click(name);
   await page.waitForSelector(`#legend li[data-state="${f.s}"]:not(.hidden):not(.highlight)`);
   assert.deepEqual(errors, [], 'no script errors in the page');
-  console.log(`ok: ${states.length} states at step 9, the closest (${pair}) ${min.toFixed(3)} apart in OKLab; a state highlighted, hidden (not picked) and shown again`);
+  console.log(`ok: ${states.length} states at step 9, the closest (${pair}) ${min.toFixed(3)} apart in OKLab, the highlight ${far.toFixed(3)} from them all; a state highlighted, hidden (not picked) and shown again`);
   await page.close();
 }
 
@@ -516,6 +522,40 @@ async function screenshot(browser, rules, agents, steps, file, setup) {
 }
 
 const browser = await launch();
+// Finding one's way (issue 34): `?` shows the keys and Esc hides them, the Pause button
+// draws its glyph (not a character fonts lack), applying files with errors says so in the
+// page and logs nothing in the console, the favicon costs no request that fails.
+async function testWayfinding(browser) {
+  const url = await serve(RULES, AGENTS);
+  const { page, errors } = await open(browser, url);
+  const failed = [];
+  page.on('response', (r) => { if (r.status() >= 400) failed.push(`${r.status()} ${r.url()}`); });
+  await page.keyboard.press('?');
+  await page.waitForSelector('#help', { state: 'visible' });
+  assert.match(await page.textContent('#help'), /Space/);
+  await page.keyboard.press('Escape');
+  await page.waitForSelector('#help', { state: 'hidden' });
+  await page.click('#keys');
+  await page.waitForSelector('#help', { state: 'visible' });
+  await page.click('#keys');
+  await page.waitForSelector('#help', { state: 'hidden' });
+  await page.click('#run');
+  assert.match(await page.innerHTML('#run'), /<svg[^>]*class="glyph"/, 'the Pause glyph is drawn');
+  await page.click('#run');
+  assert.match(await page.textContent('#run'), /Run/);
+  await page.click('#tab-edit');
+  await page.fill('#ed-rules textarea', 'x');
+  await page.click('#apply');
+  await page.waitForFunction(() => /error/.test(document.getElementById('check-summary').textContent));
+  assert.ok(await page.isVisible('#edit'), 'files with errors are not applied: the editor stays');
+  const favicon = await page.evaluate(() => document.querySelector('link[rel="icon"]').href.startsWith('data:'));
+  assert.ok(favicon, 'the favicon is in the page');
+  assert.deepEqual(failed, [], 'no request failed');
+  assert.deepEqual(errors, [], 'no errors in the console');
+  console.log('ok: `?` shows the keys and Esc hides them; the Pause glyph is drawn; files with errors applied: said in the page, nothing in the console; no request failed');
+  await page.close();
+}
+
 const guard = setTimeout(() => { console.error('e2e: timed out'); process.exit(1); }, 180_000);
 try {
   await test(browser);
@@ -526,6 +566,7 @@ try {
   await testTabs(browser);
   await testSlabs(browser);
   await testLargeFile(browser);
+  await testWayfinding(browser);
   if (process.env.SCREENSHOTS) {
     await screenshot(browser, 'examples/reconfigure-line/rules.txt', 'examples/reconfigure-line/agents-30.txt', 450, 'viewer-2d.png',
       async (page) => {

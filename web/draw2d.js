@@ -3,7 +3,7 @@
 // and which agent stands at a point.
 
 import { agentCount, bbox, camera } from './camera.js';
-import { agentColour, selection, stateColours } from './state.js';
+import { agentColour, MARKS, selection, stateColours } from './state.js';
 
 // RGBA bytes of each state's colour in a little-endian word (0xAABBGGRR); 0 (transparent)
 // for a hidden state.
@@ -140,8 +140,9 @@ export function draw2d(ctx, f, r) {
     ctx.lineWidth = width;
     ctx.strokeRect(camera.ox + f.pos[2 * i] * s - 1, camera.oy - (f.pos[2 * i + 1] + 1) * s - 1, s + 2, s + 2);
   };
-  for (const i of selection.highlight) { ring(i, '#000', 4); ring(i, '#ffd400', 2); }
-  if (selection.selected !== null && selection.selected < n) { ring(selection.selected, '#fff', 4); ring(selection.selected, '#0050ff', 2); }
+  const [ho, hi] = MARKS.highlight, [so, si] = MARKS.selected;
+  for (const i of selection.highlight) { ring(i, ho, 4); ring(i, hi, 2); }
+  if (selection.selected !== null && selection.selected < n) { ring(selection.selected, so, 4); ring(selection.selected, si, 2); }
 }
 
 // The agent at canvas point (x, y) of frame `f`, or null.

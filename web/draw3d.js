@@ -3,7 +3,7 @@
 // agent's faces cover a point.
 
 import { agentCount, bbox, camera, CORNERS, project } from './camera.js';
-import { agentColour, selection, stateColours } from './state.js';
+import { agentColour, MARKS, selection, stateColours } from './state.js';
 
 function shade(hex, k) {
   const v = parseInt(hex.slice(1), 16);
@@ -133,15 +133,18 @@ export function draw3d(ctx, f, r) {
     };
     for (const fc of faces) face(fc.c, fc.k === 1 ? colour : shade(colour, fc.k));
     camera.faces.push([i, polys]);
-    const mark = selection.highlight.has(i) ? '#ffd400' : selection.selected === i ? '#0050ff' : null;
+    const mark = selection.highlight.has(i) ? MARKS.highlight : selection.selected === i ? MARKS.selected : null;
     if (mark) {
-      ctx.strokeStyle = mark;
-      ctx.lineWidth = 3;
-      for (const poly of polys) {
-        ctx.beginPath();
-        poly.forEach((p, j) => (j ? ctx.lineTo(p[0], p[1]) : ctx.moveTo(p[0], p[1])));
-        ctx.closePath();
-        ctx.stroke();
+      // The outer colour wide, the inner one over it.
+      for (const [colour, width] of [[mark[0], 5], [mark[1], 3]]) {
+        ctx.strokeStyle = colour;
+        ctx.lineWidth = width;
+        for (const poly of polys) {
+          ctx.beginPath();
+          poly.forEach((p, j) => (j ? ctx.lineTo(p[0], p[1]) : ctx.moveTo(p[0], p[1])));
+          ctx.closePath();
+          ctx.stroke();
+        }
       }
     }
     // Its bonds towards nearer neighbours, in the gaps: drawn over this cube, under them.

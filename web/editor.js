@@ -178,7 +178,7 @@ $('apply').onclick = async () => {
   checkSeq++;
   const r = await api('POST', '/api/apply', texts());
   if (r.v.check) showDiagnostics(r.v.check);
-  if (!r.ok) { $('check-summary').textContent = r.v.error; $('check-summary').className = 'bad'; return; }
+  if (!r.ok || !r.v.applied) { $('check-summary').textContent = r.v.error; $('check-summary').className = 'bad'; return; }
   stopRun();
   selection.selected = null;
   camera.fitted = false;

@@ -53,7 +53,14 @@ function typing(el) {
 }
 
 document.addEventListener('keydown', (e) => {
-  if ($('view').hidden || typing(e.target)) return;
+  if (typing(e.target)) return;
+  // `?` shows the keys (in either tab); Esc or `?` again hides them.
+  if (e.key === '?' || (e.key === 'Escape' && !$('help').hidden)) {
+    e.preventDefault();
+    $('help').hidden = e.key === 'Escape' ? true : !$('help').hidden;
+    return;
+  }
+  if ($('view').hidden) return;
   const keys = {
     ' ': toggleRun,
     ArrowRight: () => { stopRun(); gotoStep(currentStep() + 1); },
@@ -78,6 +85,7 @@ $('go').onclick = () => { stopRun(); gotoStep(Number($('jump').value) || 0); };
 $('jump').addEventListener('keydown', (e) => { if (e.key === 'Enter') $('go').onclick(); });
 $('speed').oninput = () => { $('speed-label').textContent = $('speed').value; };
 $('fit').onclick = fit;
+$('keys').onclick = () => { $('help').hidden = !$('help').hidden; };
 $('colour-by').onchange = () => {
   selection.colourBy = $('colour-by').value || null;
   selection.looksVersion += 1;

@@ -6,6 +6,9 @@ import { draw, fit } from './draw.js';
 import { inspect, showLegend, showRecords, showSlabs, showStats } from './panel.js';
 import { player, selection } from './state.js';
 
+// Two bars, drawn (the character U+23F8 is missing from common fonts, which show a box).
+const PAUSE = '<svg class="glyph" width="10" height="10" viewBox="0 0 10 10" aria-hidden="true"><rect x="1" width="3" height="10"/><rect x="6" width="3" height="10"/></svg>';
+
 // ---------------------------------------------------------------- stepping
 
 export function setNote(text) { $('note').textContent = text || ''; }
@@ -107,7 +110,7 @@ function showRate(done) {
 }
 
 function updateRunButton() {
-  $('run').innerHTML = player.running ? '&#x23F8; Pause' : '&#x25B6; Run';
+  $('run').innerHTML = player.running ? PAUSE + ' Pause' : '&#x25B6; Run';
 }
 
 // Stops the run, if any: its loop ends at its next check.

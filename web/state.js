@@ -12,6 +12,11 @@ export const player = {
   session: null,
 };
 
+// The marks of agents, drawn over their colours: a highlighted state's agents in white
+// ringed with black (the palette keeps away from white: no state is drawn so), the
+// inspected agent in blue ringed with white.
+export const MARKS = { highlight: ['#000000', '#ffffff'], selected: ['#ffffff', '#0050ff'] };
+
 export const selection = {
   selected: null,    // the inspected agent id
   highlight: new Set(),

@@ -319,12 +319,15 @@ impl Session {
                 let run = self.run.as_ref().expect("just started");
                 Ok(reply_json(
                     200,
-                    &json!({ "check": verdict, "frame": frame(run) }),
+                    &json!({ "applied": true, "check": verdict, "frame": frame(run) }),
                 ))
             }
+            // Files with errors are an answer, not a failure of the request (a 4xx status
+            // would be logged as an error in the page's console).
             (verdict, false) => Ok(reply_json(
-                422,
+                200,
                 &json!({
+                    "applied": false,
                     "error": format!("the files have {} error(s); the run goes on as it was until they are fixed", verdict["errors"]),
                     "check": verdict,
                 }),
