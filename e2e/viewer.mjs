@@ -444,8 +444,20 @@ async function testLargeFile(browser) {
   // Paused: Step goes on from the frame shown (the one asked for ahead was dropped).
   await page.click('#step');
   await waitStep(page, step + 1);
+  // At the fitted zoom a cell is under a pixel: a click a few pixels beside an agent picks
+  // the agent nearest to it, drawn within those pixels.
+  const near = await page.evaluate(() => {
+    const L = window.latticesim, r = document.getElementById('canvas').getBoundingClientRect();
+    const [x, y] = L.screenOf(7);
+    const id = L.pick(x - r.left + 3, y - r.top + 2);
+    if (id === null) return { scale: L.cell(), id };
+    const [u, v] = L.screenOf(id);
+    return { scale: L.cell(), id, d: Math.hypot(u - x - 3, v - y - 2) };
+  });
+  assert.ok(near.scale < 1, `fitted, a cell is ${near.scale} pixels`);
+  assert.ok(near.id !== null && near.d <= 6, `a click 3 pixels beside agent 7 picks an agent drawn there: ${JSON.stringify(near)}`);
   assert.deepEqual(errors, [], 'no script errors in the page');
-  console.log(`ok: a 220,000-agent file (${(text.length / 1e6).toFixed(1)} MB) is read from disk, not edited in the page; run to step ${step} equal to latticesim run, then a step`);
+  console.log(`ok: a 220,000-agent file (${(text.length / 1e6).toFixed(1)} MB) is read from disk, not edited in the page; run to step ${step} equal to latticesim run, then a step; a click beside an agent at ${near.scale.toFixed(2)} pixels a cell picks one`);
   await page.close();
 }
 

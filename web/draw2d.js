@@ -146,13 +146,24 @@ export function draw2d(ctx, f, r) {
 }
 
 // The agent at canvas point (x, y) of frame `f`, or null.
+// The agent on the cell under the point; else the nearest drawn within `PICK_PX` pixels
+// (at the fitted zoom of a large configuration a cell is smaller than a pixel, and a click
+// would hit nothing). Agents of hidden states are not picked.
+export const PICK_PX = 6;
+
 export function pick2d(f, x, y) {
   const cx = Math.floor((x - camera.ox) / camera.scale), cy = Math.floor((camera.oy - y) / camera.scale);
   const colours = stateColours(f);
+  let best = null, bestD = PICK_PX * PICK_PX;
   for (let i = 0; i < agentCount(f); i++) {
-    if (f.pos[2 * i] === cx && f.pos[2 * i + 1] === cy && colours[f.state[i]] !== null) return i;
+    if (colours[f.state[i]] === null) continue;
+    const px = f.pos[2 * i], py = f.pos[2 * i + 1];
+    if (px === cx && py === cy) return i;
+    const dx = camera.ox + (px + 0.5) * camera.scale - x, dy = camera.oy - (py + 0.5) * camera.scale - y;
+    const d = dx * dx + dy * dy;
+    if (d < bestD) { bestD = d; best = i; }
   }
-  return null;
+  return best;
 }
 
 // Where agent `id` of frame `f` is drawn, in canvas coordinates.
