@@ -344,6 +344,13 @@ async function testPalette(browser) {
   const marks = await page.evaluate(() => window.latticesim.marks);
   const far = Math.min(...states.map((s) => { const [a, b] = [oklab(s[1]), oklab(marks.highlight[1])]; return Math.hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]); }));
   assert.ok(far >= 0.15, `the highlight ${marks.highlight[1]} is ${far.toFixed(3)} from a state's colour`);
+  // The darkest side face of every colour in use, and of the palette's darkest (Tol's
+  // indigo), stays apart from black.
+  const sides = await page.evaluate((cs) => cs.map((c) => window.latticesim.shade(c, 0.62)), [...states.map((s) => s[1]), '#332288']);
+  const hex = (rgb) => '#' + rgb.match(/\d+/g).map((v) => Number(v).toString(16).padStart(2, '0')).join('');
+  const black = oklab('#000000');
+  const dark = Math.min(...sides.map((s) => { const a = oklab(hex(s)); return Math.hypot(a[0] - black[0], a[1] - black[1], a[2] - black[2]); }));
+  assert.ok(dark >= 0.35, `a side face is ${dark.toFixed(3)} from black`);
   // Highlight, then hide the state of agent 0; hidden, it is not picked where it was drawn.
   const f = await page.evaluate(() => { const f = window.latticesim.frame(); return { s: f.states[f.state[0]].name }; });
   const [x, y] = await page.evaluate(() => window.latticesim.screenOf(0));
@@ -361,7 +368,7 @@ async function testPalette(browser) {
   await page.click(name);
   await page.waitForSelector(`#legend li[data-state="${f.s}"]:not(.hidden):not(.highlight)`);
   assert.deepEqual(errors, [], 'no script errors in the page');
-  console.log(`ok: ${states.length} states at step 9, the closest (${pair}) ${min.toFixed(3)} apart in OKLab, the highlight ${far.toFixed(3)} from them all; a state highlighted, hidden (not picked) and shown again`);
+  console.log(`ok: ${states.length} states at step 9, the closest (${pair}) ${min.toFixed(3)} apart in OKLab, the highlight ${far.toFixed(3)} from them all, side faces at least ${dark.toFixed(3)} from black; a state highlighted, hidden (not picked) and shown again`);
   await page.close();
 }
 

@@ -6,6 +6,7 @@
 import { $, api, setTab, whenGone } from './api.js';
 import { camera } from './camera.js';
 import { draw, pick, project, resize, screenOf, usesWebGL, zoom } from './draw.js';
+import { shade } from './draw3d.js';
 import { editors, setText, showDiagnostics, showStatus, showTab } from './editor.js';
 import { gotoStep, setNote, showFrame, stopRun } from './player.js';
 import { MARKS, player } from './state.js';
@@ -48,6 +49,6 @@ async function start() {
 // For tests and measurements (e2e/): where an agent is drawn (page coordinates), the agent
 // drawn at a canvas point, the frame, showing a frame, going to a step as the controls do,
 // drawing and zooming.
-window.latticesim = { marks: MARKS, screenOf, pick, project, cell: () => camera.scale, patches: () => camera.patches || 0, webgl: usesWebGL, frame: () => player.frame, show: showFrame, goto: gotoStep, draw, zoom, ready: false };
+window.latticesim = { marks: MARKS, shade, screenOf, pick, project, cell: () => camera.scale, patches: () => camera.patches || 0, webgl: usesWebGL, frame: () => player.frame, show: showFrame, goto: gotoStep, draw, zoom, ready: false };
 window.addEventListener('resize', resize);
 start();

@@ -5,9 +5,16 @@
 import { agentCount, bbox, camera, CORNERS, project } from './camera.js';
 import { agentColour, MARKS, selection, stateColours } from './state.js';
 
-function shade(hex, k) {
+// A side face's colour: darkened by `k` (1 for the top), and for a dark colour lifted
+// toward white by what it lost, the more the darker it is: the sides of a dark colour
+// (Tol's indigo #332288) stay apart from black and from each other. The WebGL shader
+// (gl3d.js) does the same.
+export function shade(hex, k) {
   const v = parseInt(hex.slice(1), 16);
-  const c = [(v >> 16) & 255, (v >> 8) & 255, v & 255].map((x) => Math.round(x * k));
+  const rgb = [(v >> 16) & 255, (v >> 8) & 255, v & 255].map((x) => x / 255);
+  const lum = 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
+  const lift = (1 - k) * (1 - lum) * 0.6;
+  const c = rgb.map((x) => Math.round(255 * (x * k * (1 - lift) + lift)));
   return `rgb(${c[0]},${c[1]},${c[2]})`;
 }
 
@@ -18,7 +25,12 @@ const FACES = [
   { c: [0, 1, 5, 4], n: [0, -1, 0] }, { c: [3, 2, 6, 7], n: [0, 1, 0] },
   { c: [0, 1, 2, 3], n: [0, 0, -1] }, { c: [4, 5, 6, 7], n: [0, 0, 1] },
 ];
-export const MARGIN = 0.08;
+export const MARGIN = 0.1;
+// A bond: a bar across the gap, `BOND` of a cell from its axis to its side, in the grey the
+// palette keeps away from (no state is drawn in it), light against dark faces and dark
+// against light ones.
+export const BOND = 0.12;
+export const BOND_RGB = [150 / 255, 150 / 255, 150 / 255];
 // The six neighbours' offsets, and the bonds' bits with their directions (N W E S A B).
 export const DIRS = [[0, 1, 0], [-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]];
 
@@ -149,8 +161,8 @@ export function draw3d(ctx, f, r) {
     }
     // Its bonds towards nearer neighbours, in the gaps: drawn over this cube, under them.
     if (f.attach && f.attach[i]) {
-      ctx.strokeStyle = '#222';
-      ctx.lineWidth = Math.max(1, camera.scale * 0.12);
+      ctx.strokeStyle = '#969696';
+      ctx.lineWidth = Math.max(2, camera.scale * 2 * BOND);
       ctx.beginPath();
       const c0 = project(x + 0.5, y + 0.5, z + 0.5);
       DIRS.forEach((d, bit) => {

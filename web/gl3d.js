@@ -6,8 +6,8 @@
 // fallback where WebGL2 is missing.
 
 import { camera } from './camera.js';
-import { agentColour, selection, stateColours } from './state.js';
-import { DIRS, MARGIN, shown } from './draw3d.js';
+import { agentColour, MARKS, selection, stateColours } from './state.js';
+import { BOND, BOND_RGB, DIRS, MARGIN, shown } from './draw3d.js';
 
 const VS = `#version 300 es
 in vec3 centre; in vec3 halves; in float face; in vec3 colour; in float id;
@@ -34,7 +34,8 @@ void main() {
   gl_Position = vec4(sx / size.x * 2.0 - 1.0, 1.0 - sy / size.y * 2.0, -depth / screen.w, 1.0);
   float nr = n.x * rot.x - n.y * rot.y;
   float k = n.z != 0.0 ? 1.0 : (nr > 0.0 ? 0.78 : 0.62);
-  c = colour * k;
+  float lum = dot(colour, vec3(0.2126, 0.7152, 0.0722));
+  c = mix(colour * k, vec3(1.0), (1.0 - k) * (1.0 - lum) * 0.6); // as draw3d.js shade()
   pid = id;
 }`;
 
@@ -113,7 +114,7 @@ function instances(f) {
   const push = (c, hs, fc, col, i) => { centre.push(...c); half.push(...hs); face.push(fc); colour.push(...col); id.push(i + 1); };
   for (const i of out) {
     const x = f.pos[3 * i], y = f.pos[3 * i + 1], z = f.pos[3 * i + 2];
-    const col = selection.selected === i ? [0, 0.31, 1] : selection.highlight.has(i) ? [1, 0.83, 0] : rgb(agentColour(f, colours, i));
+    const col = rgb(selection.selected === i ? MARKS.selected[1] : selection.highlight.has(i) ? MARKS.highlight[1] : agentColour(f, colours, i));
     const c = [x + 0.5, y + 0.5, z + 0.5];
     // Faces: -x +x -y +y -z +z; the neighbours in those directions.
     const around = [[-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 1, 0], [0, 0, -1], [0, 0, 1]];
@@ -123,8 +124,8 @@ function instances(f) {
         if (!(f.attach[i] & (1 << bit)) || d.some((v) => v < 0)) return; // each bond once
         if (cells.at(x + d[0], y + d[1], z + d[2]) < 0) return;
         const bc = [c[0] + d[0] * 0.5, c[1] + d[1] * 0.5, c[2] + d[2] * 0.5];
-        const bh = d.map((v) => (v ? MARGIN : 0.08));
-        for (let fc = 0; fc < 6; fc++) push(bc, bh, fc, [0.13, 0.13, 0.13], -1);
+        const bh = d.map((v) => (v ? MARGIN : BOND));
+        for (let fc = 0; fc < 6; fc++) push(bc, bh, fc, BOND_RGB, -1);
       });
     }
   }
