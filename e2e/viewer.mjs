@@ -575,6 +575,39 @@ async function testWayfinding(browser) {
   await page.close();
 }
 
+// Follow: two agents walking east leave the view fitted at step 0, unless Follow is on,
+// when the view is fitted again as they go (in 2D and in 3D).
+async function testFollow(browser) {
+  const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'latticesim-follow-'));
+  for (const d3 of [false, true]) {
+    const rules = path.join(dir, `walk-${d3}.txt`), agents = path.join(dir, `agents-${d3}.txt`);
+    fs.writeFileSync(rules, `walk\n1\nSWALK0\nP1,0${d3 ? ',0' : ''}\n`);
+    fs.writeFileSync(agents, d3 ? '0,0,0 SWALK0\n0,2,0 SWALK0\n' : '0,0 SWALK0\n0,2 SWALK0\n');
+    const url = await serve(rules, agents);
+    const { page, errors } = await open(browser, url);
+    // Where agent 0 is, drawn or not (in 3D its projected centre).
+    const inside = () => page.evaluate(() => {
+      const L = window.latticesim, r = document.getElementById('canvas').getBoundingClientRect();
+      const [x, y] = L.frame().dim === 3 ? L.project(0) : L.screenOf(0);
+      return x >= r.left && x <= r.right && y >= r.top && y <= r.bottom;
+    });
+    await page.fill('#jump', '40');
+    await page.click('#go');
+    await waitStep(page, 40);
+    assert.ok(!await inside(), `${d3 ? '3D' : '2D'}: without Follow, the walker leaves the view`);
+    await page.check('#follow');
+    for (const step of [41, 60, 90]) {
+      await page.fill('#jump', String(step));
+      await page.click('#go');
+      await waitStep(page, step);
+      assert.ok(await inside(), `${d3 ? '3D' : '2D'}: following, the walker is in view at step ${step}`);
+    }
+    assert.deepEqual(errors, [], 'no errors in the page');
+    await page.close();
+  }
+  console.log('ok: walkers leave the view fitted at step 0; with Follow they stay in it (2D and 3D)');
+}
+
 const guard = setTimeout(() => { console.error('e2e: timed out'); process.exit(1); }, 180_000);
 try {
   await test(browser);
@@ -586,6 +619,7 @@ try {
   await testSlabs(browser);
   await testLargeFile(browser);
   await testWayfinding(browser);
+  await testFollow(browser);
   if (process.env.SCREENSHOTS) {
     await screenshot(browser, 'examples/reconfigure-line/rules.txt', 'examples/reconfigure-line/agents-30.txt', 450, 'viewer-2d.png',
       async (page) => {

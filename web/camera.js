@@ -48,6 +48,19 @@ export function tilt(d) {
   camera.phi = Math.max(-1.5, Math.min(1.5, camera.phi + d));
 }
 
+// Whether every agent of frame `f` is drawn inside a canvas of size `r` as the camera is.
+export function inView(f, r) {
+  const b = bbox(f);
+  let pts;
+  if (f.dim === 2) {
+    pts = [[camera.ox + b.lo[0] * camera.scale, camera.oy - (b.hi[1] + 1) * camera.scale],
+      [camera.ox + (b.hi[0] + 1) * camera.scale, camera.oy - b.lo[1] * camera.scale]];
+  } else {
+    pts = CORNERS.map((c) => project(c[0] ? b.hi[0] + 1 : b.lo[0], c[1] ? b.hi[1] + 1 : b.lo[1], c[2] ? b.hi[2] + 1 : b.lo[2]));
+  }
+  return pts.every(([x, y]) => x >= 0 && y >= 0 && x <= r.width && y <= r.height);
+}
+
 // Sets the camera to show every agent of frame `f` in a canvas of size `r`, and the
 // universe's bounds when they are not much larger.
 export function fitTo(f, r) {

@@ -1,8 +1,8 @@
 // Stepping: the frame shown, going to a step, running and pausing.
 
 import { $, decoded, frameAt, requestFrame } from './api.js';
-import { camera } from './camera.js';
-import { draw, fit } from './draw.js';
+import { camera, inView } from './camera.js';
+import { canvas, draw, fit } from './draw.js';
 import { inspect, showLegend, showRecords, showSlabs, showStats } from './panel.js';
 import { player, selection } from './state.js';
 
@@ -59,7 +59,11 @@ export function showFrame(f) {
   $('jump').value = f.step;
   setNote(f.note || (f.quiescent ? 'quiescent: no agent has a rule to execute' : ''));
   $('rotate').hidden = f.dim !== 3;
-  if (!camera.fitted) { fit(); camera.fitted = true; }
+  // Fitted at first, and again when following agents that would leave the view.
+  if (!camera.fitted || ($('follow').checked && !inView(f, canvas.getBoundingClientRect()))) {
+    fit();
+    camera.fitted = true;
+  }
   selection.activeRecord = -1;
   selection.highlight = new Set();
   showLegend(f);
