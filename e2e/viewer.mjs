@@ -602,10 +602,17 @@ async function testFollow(browser) {
       await waitStep(page, step);
       assert.ok(await inside(), `${d3 ? '3D' : '2D'}: following, the walker is in view at step ${step}`);
     }
+    // PNG: the view as shown, the canvas's size, named after the step.
+    const [download] = await Promise.all([page.waitForEvent('download'), page.click('#png')]);
+    assert.equal(download.suggestedFilename(), 'latticesim-step-90.png');
+    const png = fs.readFileSync(await download.path());
+    assert.equal(png.subarray(1, 4).toString(), 'PNG');
+    const size = await page.evaluate(() => { const c = document.getElementById('canvas'); return [c.width, c.height]; });
+    assert.deepEqual([png.readUInt32BE(16), png.readUInt32BE(20)], size, 'the image is the canvas');
     assert.deepEqual(errors, [], 'no errors in the page');
     await page.close();
   }
-  console.log('ok: walkers leave the view fitted at step 0; with Follow they stay in it (2D and 3D)');
+  console.log('ok: walkers leave the view fitted at step 0; with Follow they stay in it (2D and 3D); PNG saves the view');
 }
 
 const guard = setTimeout(() => { console.error('e2e: timed out'); process.exit(1); }, 180_000);

@@ -46,6 +46,21 @@ export function draw() {
   else draw3d(ctx, f, r);
 }
 
+// The view as shown, as a PNG image (a Blob): the WebGL layer under the canvas when it
+// draws, the canvas over it, on white.
+export function viewImage() {
+  draw();
+  const out = document.createElement('canvas');
+  out.width = canvas.width;
+  out.height = canvas.height;
+  const c = out.getContext('2d');
+  c.fillStyle = '#fff';
+  c.fillRect(0, 0, out.width, out.height);
+  if (!glCanvas.hidden) c.drawImage(glCanvas, 0, 0);
+  c.drawImage(canvas, 0, 0);
+  return new Promise((done) => out.toBlob(done, 'image/png'));
+}
+
 // Shows every agent, and the universe's bounds when they are not much larger.
 export function fit() {
   if (!player.frame) return;

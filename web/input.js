@@ -2,7 +2,7 @@
 
 import { $ } from './api.js';
 import { camera, tilt } from './camera.js';
-import { canvas, draw, fit, pick, zoom } from './draw.js';
+import { canvas, draw, fit, pick, viewImage, zoom } from './draw.js';
 import { inspect } from './panel.js';
 import { currentStep, gotoStep, refreshFrame, stopRun, toggleRun } from './player.js';
 import { player, selection } from './state.js';
@@ -86,6 +86,15 @@ $('jump').addEventListener('keydown', (e) => { if (e.key === 'Enter') $('go').on
 $('speed').oninput = () => { $('speed-label').textContent = $('speed').value; };
 $('fit').onclick = fit;
 $('keys').onclick = () => { $('help').hidden = !$('help').hidden; };
+// The view saved as `latticesim-step-N.png` (the browser's download).
+$('png').onclick = async () => {
+  const blob = await viewImage();
+  const a = document.createElement('a');
+  a.href = URL.createObjectURL(blob);
+  a.download = `latticesim-step-${currentStep()}.png`;
+  a.click();
+  setTimeout(() => URL.revokeObjectURL(a.href), 10_000);
+};
 $('colour-by').onchange = () => {
   selection.colourBy = $('colour-by').value || null;
   selection.looksVersion += 1;
