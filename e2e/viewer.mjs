@@ -615,6 +615,43 @@ async function testFollow(browser) {
   console.log('ok: walkers leave the view fitted at step 0; with Follow they stay in it (2D and 3D); PNG saves the view');
 }
 
+// The run's log: two rules of one priority set the state differently, so that each of
+// three agents has a state conflict every step; at step 6 the log holds 18 records, 6
+// about agent 1; an entry of step 3 goes there with its agent inspected and centred.
+async function testLog(browser) {
+  const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'latticesim-log-'));
+  const rules = path.join(dir, 'rules.txt'), agents = path.join(dir, 'agents.txt');
+  fs.writeFileSync(rules, '// latticesim: allow W505\na\n1\nSAAAA0\nSB****\n\nb\n1\nSAAAA0\nSC****\n');
+  fs.writeFileSync(agents, '0,0 SAAAA0\n5,0 SAAAA0\n10,0 SAAAA0\n');
+  const url = await serve(rules, agents);
+  const { page, errors } = await open(browser, url);
+  await page.fill('#jump', '6');
+  await page.click('#go');
+  await waitStep(page, 6);
+  await page.waitForFunction(() => /^18 of 18 records, steps 1\.\.6/.test(document.getElementById('log-summary').textContent));
+  assert.equal(await page.locator('#log li').count(), 18);
+  await page.fill('#log-agent', '1');
+  await page.waitForFunction(() => /^6 of 18/.test(document.getElementById('log-summary').textContent));
+  await page.selectOption('#log-kind', 'move-conflict');
+  await page.waitForFunction(() => /^0 of 18/.test(document.getElementById('log-summary').textContent));
+  await page.selectOption('#log-kind', 'state-conflict');
+  await page.waitForFunction(() => /^6 of 18/.test(document.getElementById('log-summary').textContent));
+  const entry = page.locator('#log li', { hasText: /^3 / });
+  assert.match(await entry.textContent(), /state-conflict/);
+  await entry.click();
+  await waitStep(page, 3);
+  await page.waitForFunction(() => document.getElementById('insp-id') && document.getElementById('insp-id').textContent === '1');
+  const centred = await page.evaluate(() => {
+    const L = window.latticesim, r = document.getElementById('canvas').getBoundingClientRect();
+    const [x, y] = L.screenOf(1);
+    return Math.hypot(x - (r.left + r.width / 2), y - (r.top + r.height / 2));
+  });
+  assert.ok(centred < 2, `agent 1 is centred (${centred.toFixed(1)} pixels off)`);
+  assert.deepEqual(errors, [], 'no errors in the page');
+  console.log('ok: the run\'s log holds every record so far (18 at step 6), filtered by agent and kind; an entry goes to its step, its agent inspected and centred');
+  await page.close();
+}
+
 const guard = setTimeout(() => { console.error('e2e: timed out'); process.exit(1); }, 180_000);
 try {
   await test(browser);
@@ -627,6 +664,7 @@ try {
   await testLargeFile(browser);
   await testWayfinding(browser);
   await testFollow(browser);
+  await testLog(browser);
   if (process.env.SCREENSHOTS) {
     await screenshot(browser, 'examples/reconfigure-line/rules.txt', 'examples/reconfigure-line/agents-30.txt', 450, 'viewer-2d.png',
       async (page) => {

@@ -758,6 +758,18 @@ fn files_outside_the_folder_or_with_errors_are_refused_and_the_run_goes_on() {
     let rules = std::fs::read_to_string(srv.dir.join("rules.txt")).unwrap();
     let agents = std::fs::read_to_string(srv.dir.join("agents-30.txt")).unwrap();
     assert_eq!(srv.get("/api/frame?step=4").1["step"], 4);
+    // The run's log: how far it reached, and a kind it does not know refused.
+    let (s, v) = srv.get("/api/log?agent=0&limit=5");
+    assert_eq!(
+        (s, &v["reached"], v["records"].is_array()),
+        (200, &json!(4), true)
+    );
+    assert!(v["kinds"]
+        .as_array()
+        .unwrap()
+        .contains(&json!("state-conflict")));
+    let (s, v) = srv.get("/api/log?kind=bogus");
+    assert_eq!(s, 400, "{v}");
     let (s, v) = srv.post("/api/apply", json!({ "rules": "x", "agents": agents }));
     assert_eq!((s, &v["applied"]), (200, &json!(false)));
     assert_eq!(v["check"]["errors"], 1);

@@ -11,6 +11,7 @@ import { editors, setText, showDiagnostics, showStatus, showTab } from './editor
 import { gotoStep, setNote, showFrame, stopRun } from './player.js';
 import { MARKS, player } from './state.js';
 import './input.js';
+import './log.js';
 
 // ---------------------------------------------------------------- start
 

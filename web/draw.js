@@ -61,6 +61,21 @@ export function viewImage() {
   return new Promise((done) => out.toBlob(done, 'image/png'));
 }
 
+// Puts agent `id` of the frame shown in the middle of the view, at the same zoom.
+export function centreOn(id) {
+  const f = player.frame, r = canvas.getBoundingClientRect();
+  if (!f || id >= f.pos.length / f.dim) return;
+  const p = [0, 1, 2].map((k) => (k < f.dim ? f.pos[f.dim * id + k] + 0.5 : 0.5));
+  if (f.dim === 2) {
+    camera.ox = r.width / 2 - p[0] * camera.scale;
+    camera.oy = r.height / 2 + p[1] * camera.scale;
+  } else {
+    camera.centre = p;
+    camera.ox = r.width / 2;
+    camera.oy = r.height / 2;
+  }
+}
+
 // Shows every agent, and the universe's bounds when they are not much larger.
 export function fit() {
   if (!player.frame) return;

@@ -72,6 +72,7 @@ export function showFrame(f) {
   showSlabs(f);
   draw();
   if (selection.selected !== null) inspect(selection.selected);
+  document.dispatchEvent(new CustomEvent('latticesim:frame'));
 }
 
 // Running: one loop at a time. Each start takes a new generation; a loop goes on only

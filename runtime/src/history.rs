@@ -4,7 +4,7 @@
 //! rebuilt from it). Memory stays bounded: when there are too many keyframes, every other
 //! one is dropped and the interval doubles.
 
-use crate::{Engine, Lattice, Options, Stats, StepReport};
+use crate::{Engine, Lattice, Options, Record, Stats, StepReport};
 use latticesim_vm::Verified;
 
 /// A run that can go back.
@@ -18,7 +18,17 @@ pub struct History {
     max_keyframes: usize,
     /// The report of the last step done (none at step 0).
     last: Option<StepReport>,
+    /// The run's log: every record of the steps reached so far, in step order (a step
+    /// done again after going back gives the same records: kept once), at most
+    /// [`LOG_MAX`] of them; and how many more there were.
+    log: Vec<Record>,
+    log_more: u64,
+    /// The furthest step reached.
+    reached: u64,
 }
+
+/// The most records the run's log keeps (about 100 bytes each, with their messages).
+pub const LOG_MAX: usize = 100_000;
 
 impl History {
     /// A run of `prog` on `lat` keeping a keyframe every `every` steps (at least 1) and at
@@ -37,6 +47,9 @@ impl History {
             every: every.max(1),
             max_keyframes: max_keyframes.max(2),
             last: None,
+            log: Vec::new(),
+            log_more: 0,
+            reached: 0,
         }
     }
 
@@ -55,9 +68,18 @@ impl History {
         self.last.as_ref()
     }
 
-    /// Bytes held, about: the engine and every keyframe's lattice.
+    /// Bytes held, about: the engine, every keyframe's lattice and the log.
     pub fn bytes(&self) -> usize {
-        self.engine.bytes() + self.keyframes.iter().map(|k| k.1.bytes()).sum::<usize>()
+        let log: usize = (self.log.iter())
+            .map(|r| std::mem::size_of::<Record>() + r.message.len() + r.agents.len() * 16)
+            .sum();
+        self.engine.bytes() + self.keyframes.iter().map(|k| k.1.bytes()).sum::<usize>() + log
+    }
+
+    /// The run's log: the records of every step reached so far, in step order (at most
+    /// [`LOG_MAX`]), how many more there were, and the furthest step reached.
+    pub fn log(&self) -> (&[Record], u64, u64) {
+        (&self.log, self.log_more, self.reached)
     }
 
     /// Keyframes held now, and the steps between them.
@@ -69,6 +91,12 @@ impl History {
     pub fn step(&mut self) -> &StepReport {
         let rep = self.engine.step();
         let s = self.engine.stats.steps;
+        if s > self.reached {
+            self.reached = s;
+            let room = LOG_MAX.saturating_sub(self.log.len());
+            self.log.extend(rep.records.iter().take(room).cloned());
+            self.log_more += rep.records.len().saturating_sub(room) as u64;
+        }
         if s.is_multiple_of(self.every) && self.keyframes.last().is_some_and(|k| k.0 < s) {
             self.keyframes
                 .push((s, self.engine.lat.clone(), self.engine.stats.clone()));

@@ -96,3 +96,28 @@ fn keyframes_stay_bounded() {
     // The interval grew instead: 500 steps in at most 5 keyframes.
     assert!(h.keyframes().1 >= 128, "{:?}", h.keyframes());
 }
+
+/// The run's log holds every record of the steps reached, once, in step order: going back
+/// and forth adds nothing, and it equals the records of a straight run.
+#[test]
+fn the_log_holds_each_step_once() {
+    let rules = "a\n1\nSAAAA0\nSB****\n\nb\n1\nSAAAA0\nSC****\n";
+    let agents = "0,0 SAAAA0\n5,0 SAAAA0\n10,0 SAAAA0\n";
+    let (prog, lat) = compile(rules, agents);
+    let mut straight = Engine::new(prog.clone(), lat.clone(), Options::default());
+    let mut want = Vec::new();
+    for _ in 0..12 {
+        want.extend(straight.step().records);
+    }
+    let mut h = History::new(prog, lat, Options::default(), 4, 8);
+    h.goto(7);
+    h.goto(2);
+    h.goto(12);
+    h.back(5);
+    h.goto(9);
+    let (log, more, reached) = h.log();
+    assert_eq!((more, reached), (0, 12));
+    assert_eq!(log, &want[..]);
+    assert_eq!(log.len(), 36, "three state conflicts a step");
+    assert!(log.windows(2).all(|w| w[0].step <= w[1].step));
+}

@@ -3,6 +3,7 @@
 
 use super::*;
 use latticesim_compiler::lints::Lints;
+use latticesim_runtime::{Record, RecordKind};
 
 /// The run shown: its history and the names of its rules.
 pub(super) struct Run {
@@ -342,6 +343,47 @@ impl Session {
                 "nothing is running: the files have errors, or none were applied",
             )
         })
+    }
+
+    /// `GET /api/log?kind=K&agent=A&limit=N`: the run's log (every record of the steps
+    /// reached so far), those of kind `K` (its name, `move-conflict`) about agent `A`, the
+    /// first `N` (500 unless said, at most 10,000), with how many match.
+    pub(super) fn api_log(&mut self, req: &Req) -> Result<Reply, Reply> {
+        let kind = req.query.get("kind").copied().filter(|k| !k.is_empty());
+        if let Some(k) = kind.filter(|k| !RecordKind::ALL.iter().any(|r| r.name() == *k)) {
+            return Err(error(400, format!("`{k}` is not a kind of record")));
+        }
+        let agent = req.number("agent")?;
+        let limit = req.number("limit")?.unwrap_or(500).min(10_000) as usize;
+        let run = self.run_mut()?;
+        let (log, more, reached) = run.hist.log();
+        let about = |r: &&Record| {
+            kind.is_none_or(|k| r.kind.name() == k)
+                && agent.is_none_or(|a| r.agents.iter().any(|&(id, _)| id as u64 == a))
+        };
+        let matching = log.iter().filter(about).count();
+        let records: Vec<Value> = (log.iter().filter(about).take(limit))
+            .map(|r| {
+                json!({
+                    "step": r.step,
+                    "kind": r.kind.name(),
+                    "severity": if r.is_error() { "error" } else { "warning" },
+                    "message": r.message,
+                    "agents": r.agents.iter().map(|(id, _)| id).collect::<Vec<_>>(),
+                })
+            })
+            .collect();
+        Ok(reply_json(
+            200,
+            &json!({
+                "reached": reached,
+                "logged": log.len(),
+                "more": more,
+                "matching": matching,
+                "records": records,
+                "kinds": RecordKind::ALL.iter().map(|k| k.name()).collect::<Vec<_>>(),
+            }),
+        ))
     }
 
     pub(super) fn api_frame(&mut self, req: &Req) -> Result<Reply, Reply> {
