@@ -652,6 +652,45 @@ async function testLog(browser) {
   await page.close();
 }
 
+// Breakpoints: two walkers count down (C00 20 and 10) and stop (STOP0) at zero. Run
+// pauses at a chosen step, when `<C00 0008` comes to hold (agent 1 at step 3), when an
+// agent enters STOP0 (agent 1 at step 11); a condition written wrongly is refused in the
+// page. The note says why it paused.
+async function testBreaks(browser) {
+  const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'latticesim-breaks-'));
+  const rules = path.join(dir, 'rules.txt'), agents = path.join(dir, 'agents.txt');
+  fs.writeFileSync(rules, 'walk\n1\nSWALK0 >C00 0000\nP1,0 C00 - C00 0001\n\nstop\n1\nSWALK0 =C00 0000\nSSTOP0\n');
+  fs.writeFileSync(agents, '0,0 SWALK0 C00 20\n0,2 SWALK0 C00 10\n');
+  const url = await serve(rules, agents);
+  const { page, errors } = await open(browser, url);
+  await page.waitForFunction(() => document.getElementById('bp-kind').options.length > 1);
+  const runTo = async (n, why) => {
+    await page.click('#run');
+    await waitStep(page, n);
+    await page.waitForFunction(() => /Run/.test(document.getElementById('run').textContent));
+    assert.equal(await stepNumber(page), n);
+    assert.match(await page.textContent('#note'), why);
+  };
+  await page.fill('#bp-counter', 'C00 > 5');
+  await page.click('#bp-set');
+  await page.waitForFunction(() => /not a counter condition/.test(document.getElementById('bp-summary').textContent));
+  await page.fill('#bp-counter', '<C00 0008');
+  await page.click('#bp-set');
+  await page.waitForFunction(() => /<C00 0008 for some agent/.test(document.getElementById('bp-summary').textContent));
+  await page.$eval('#speed', (s) => { s.value = s.max; });
+  await runTo(3, /breakpoint: `<C00 0008` holds/);
+  await page.fill('#bp-counter', '');
+  await page.fill('#bp-state', 'STOP0');
+  await page.fill('#bp-step', '14');
+  await page.click('#bp-set');
+  await page.waitForFunction(() => /STOP0/.test(document.getElementById('bp-summary').textContent));
+  await runTo(11, /breakpoint: agent 1 entered `STOP0`/);
+  await runTo(14, /breakpoint: step 14/);
+  assert.deepEqual(errors, [], 'no errors in the page');
+  console.log('ok: breakpoints pause a run when a counter condition comes to hold (step 3), an agent enters a state (step 11), at a step (14); a condition written wrongly is refused');
+  await page.close();
+}
+
 const guard = setTimeout(() => { console.error('e2e: timed out'); process.exit(1); }, 180_000);
 try {
   await test(browser);
@@ -665,6 +704,7 @@ try {
   await testWayfinding(browser);
   await testFollow(browser);
   await testLog(browser);
+  await testBreaks(browser);
   if (process.env.SCREENSHOTS) {
     await screenshot(browser, 'examples/reconfigure-line/rules.txt', 'examples/reconfigure-line/agents-30.txt', 450, 'viewer-2d.png',
       async (page) => {

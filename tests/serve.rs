@@ -770,6 +770,30 @@ fn files_outside_the_folder_or_with_errors_are_refused_and_the_run_goes_on() {
         .contains(&json!("state-conflict")));
     let (s, v) = srv.get("/api/log?kind=bogus");
     assert_eq!(s, 400, "{v}");
+    // Breakpoints: stepping forwards pauses at the step asked for, and the note says so;
+    // one written wrongly leaves them as they were.
+    let (s, v) = srv.post("/api/breaks", json!({ "step": 6 }));
+    assert_eq!(
+        (s, &v["set"], &v["breaks"]["step"]),
+        (200, &json!(true), &json!(6))
+    );
+    let (s, v) = srv.post("/api/breaks", json!({ "counter": "C00 > 5" }));
+    assert_eq!(
+        (s, &v["set"], &v["breaks"]["step"]),
+        (200, &json!(false), &json!(6))
+    );
+    assert!(
+        v["error"]
+            .as_str()
+            .unwrap()
+            .contains("not a counter condition"),
+        "{v}"
+    );
+    let (_, v) = srv.get("/api/frame?step=9");
+    assert_eq!(v["step"], 6);
+    assert_eq!(v["note"], "paused at a breakpoint: step 6");
+    srv.post("/api/breaks", json!({}));
+    srv.get("/api/frame?step=4");
     let (s, v) = srv.post("/api/apply", json!({ "rules": "x", "agents": agents }));
     assert_eq!((s, &v["applied"]), (200, &json!(false)));
     assert_eq!(v["check"]["errors"], 1);

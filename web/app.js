@@ -12,6 +12,7 @@ import { gotoStep, setNote, showFrame, stopRun } from './player.js';
 import { MARKS, player } from './state.js';
 import './input.js';
 import './log.js';
+import './breaks.js';
 
 // ---------------------------------------------------------------- start
 

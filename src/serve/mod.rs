@@ -12,6 +12,7 @@
 //! server keeps serving.
 
 mod binary;
+mod breaks;
 mod gate;
 mod http;
 mod routes;
@@ -230,6 +231,7 @@ pub fn serve(args: ServeArgs) -> ExitCode {
         run: None,
         palette,
         lints,
+        breaks: Default::default(),
     };
     if let (Some(r), Some(a)) = (&args.rules, &args.agents) {
         let (rules, agents) = match (read_text(r), read_text(a)) {

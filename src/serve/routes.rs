@@ -5,7 +5,7 @@
 use super::*;
 
 /// The app's files: path, content type, content (the script is ES modules, `web/*.js`).
-const ASSETS: [(&str, &str, &str); 16] = [
+const ASSETS: [(&str, &str, &str); 17] = [
     ("/", HTML, include_str!("../../web/index.html")),
     ("/index.html", HTML, include_str!("../../web/index.html")),
     (
@@ -26,6 +26,7 @@ const ASSETS: [(&str, &str, &str); 16] = [
     ("/input.js", JS, include_str!("../../web/input.js")),
     ("/editor.js", JS, include_str!("../../web/editor.js")),
     ("/log.js", JS, include_str!("../../web/log.js")),
+    ("/breaks.js", JS, include_str!("../../web/breaks.js")),
 ];
 const HTML: &str = "text/html; charset=utf-8";
 const JS: &str = "text/javascript; charset=utf-8";
@@ -34,13 +35,14 @@ const JS: &str = "text/javascript; charset=utf-8";
 type Handler = fn(&mut Session, &Req) -> Result<Reply, Reply>;
 
 /// The API: method, path, handler (documented in docs/viewer.md).
-const API: [(&str, &str, Handler); 7] = [
+const API: [(&str, &str, Handler); 8] = [
     ("GET", "/api/session", |s, _| Ok(reply_json(200, &s.info()))),
     ("POST", "/api/check", Session::api_check),
     ("POST", "/api/apply", Session::api_apply),
     ("GET", "/api/frame", Session::api_frame),
     ("GET", "/api/agent", Session::api_agent),
     ("GET", "/api/log", Session::api_log),
+    ("POST", "/api/breaks", Session::api_breaks),
     ("POST", "/api/file", Session::api_file),
 ];
 

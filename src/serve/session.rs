@@ -33,6 +33,8 @@ pub(super) struct Session {
     pub(super) palette: Palette,
     /// Lint levels (`--allow`, `--warn`, `--deny`; after the rules file's own).
     pub(super) lints: Lints,
+    /// The tab's breakpoints.
+    pub(super) breaks: super::breaks::Breaks,
 }
 
 /// A request: method, path, query parameters and body.
@@ -150,6 +152,7 @@ impl Session {
             run: None,
             palette: self.palette.clone(),
             lints: self.lints.clone(),
+            breaks: Default::default(),
         }
     }
 
@@ -386,8 +389,26 @@ impl Session {
         ))
     }
 
+    /// `POST /api/breaks {kinds, states, counter, step}`: the tab's breakpoints, as read;
+    /// one written wrongly is an answer (`set: false` and why, the breakpoints as they
+    /// were), not a failed request, which the page's console would log as an error.
+    pub(super) fn api_breaks(&mut self, req: &Req) -> Result<Reply, Reply> {
+        let v = req.json()?;
+        let kinds: Vec<&str> = RecordKind::ALL.iter().map(|k| k.name()).collect();
+        let read = super::breaks::Breaks::from_json(&v);
+        let error = read.as_ref().err().cloned();
+        if let Ok(b) = read {
+            self.breaks = b;
+        }
+        Ok(reply_json(
+            200,
+            &json!({ "set": error.is_none(), "error": error, "breaks": self.breaks.to_json(), "kinds": kinds }),
+        ))
+    }
+
     pub(super) fn api_frame(&mut self, req: &Req) -> Result<Reply, Reply> {
         let target = req.number("step")?;
+        let breaks = self.breaks.clone();
         let run = self.run_mut()?;
         run.note = None;
         if let Some(t) = target {
@@ -411,8 +432,13 @@ impl Session {
                     ));
                     break;
                 }
+                let before = breaks.before(&run.hist.engine().lat);
                 run.hist.step();
                 run.palette.observe(&run.hist.engine().lat.state);
+                if let Some(why) = breaks.hit(&run.hist, &before) {
+                    run.note = Some(format!("paused at a breakpoint: {why}"));
+                    break;
+                }
             }
         }
         match req.query.get("format") {
