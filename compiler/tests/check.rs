@@ -4,22 +4,11 @@
 use latticesim_compiler::checked::{
     Action, AttachLetter, BitPat, Cond, Coord, Dir, Operand, Target, Val,
 };
-use latticesim_compiler::{check, Checked, Dim, Input};
-use latticesim_grammar::Code;
+mod common;
 
-fn run(rules: &str, agents: Option<&str>, dim: Option<Dim>) -> Checked {
-    check(
-        Input {
-            name: "rules.txt",
-            bytes: rules.as_bytes(),
-        },
-        agents.map(|a| Input {
-            name: "agents.txt",
-            bytes: a.as_bytes(),
-        }),
-        dim,
-    )
-}
+use common::run;
+use latticesim_compiler::{Checked, Dim};
+use latticesim_grammar::Code;
 
 fn codes(c: &Checked) -> Vec<Code> {
     c.diags.iter().map(|d| d.code).collect()

@@ -4,8 +4,10 @@
 //!
 //! Regenerate with `UPDATE_GOLDEN=1 cargo test -p latticesim-compiler --test golden`.
 
+mod common;
+
+use common::{dim_of, run, run_bytes};
 use latticesim_compiler::diagnostics::render_plain;
-use latticesim_compiler::{check, Dim, Input};
 use latticesim_grammar::Code;
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -27,23 +29,7 @@ fn cases() -> Vec<PathBuf> {
 fn render(case: &Path) -> (String, Vec<Code>) {
     let rules = fs::read(case.join("rules.txt")).expect("every case has rules.txt");
     let agents = fs::read(case.join("agents.txt")).ok();
-    let args = fs::read_to_string(case.join("args")).unwrap_or_default();
-    let dim = match args.trim() {
-        "dim=2" => Some(Dim::Two),
-        "dim=3" => Some(Dim::Three),
-        _ => None,
-    };
-    let c = check(
-        Input {
-            name: "rules.txt",
-            bytes: &rules,
-        },
-        agents.as_deref().map(|bytes| Input {
-            name: "agents.txt",
-            bytes,
-        }),
-        dim,
-    );
+    let c = run_bytes(&rules, agents.as_deref(), dim_of(case));
     for d in &c.diags {
         assert!(
             d.help.is_some(),
@@ -145,27 +131,8 @@ fn every_fix_of_every_case_applies() {
             continue; // not UTF-8: no fix edits it
         };
         let agents = fs::read_to_string(case.join("agents.txt")).ok();
-        let dim = match fs::read_to_string(case.join("args"))
-            .unwrap_or_default()
-            .trim()
-        {
-            "dim=2" => Some(Dim::Two),
-            "dim=3" => Some(Dim::Three),
-            _ => None,
-        };
-        let run = |rules: &str, agents: Option<&str>| {
-            check(
-                Input {
-                    name: "rules.txt",
-                    bytes: rules.as_bytes(),
-                },
-                agents.map(|a| Input {
-                    name: "agents.txt",
-                    bytes: a.as_bytes(),
-                }),
-                dim,
-            )
-        };
+        let dim = dim_of(&case);
+        let run = |rules: &str, agents: Option<&str>| run(rules, agents, dim);
         let before = run(&rules, agents.as_deref());
         let count = |c: &latticesim_compiler::Checked, code: Code| {
             let shown = c.diags.iter().filter(|d| d.code == code).count();

@@ -1,21 +1,13 @@
 //! No input makes the parsers or the checker panic, and every reported span lies inside its
 //! file: random bytes, random token sequences, and mutated valid files.
 
-use latticesim_compiler::{check, Checked, Dim, Input};
+mod common;
+
+use latticesim_compiler::{Checked, Dim};
 use proptest::prelude::*;
 
 fn run(rules: &[u8], agents: Option<&[u8]>, dim: Option<Dim>) -> Checked {
-    let c = check(
-        Input {
-            name: "rules.txt",
-            bytes: rules,
-        },
-        agents.map(|bytes| Input {
-            name: "agents.txt",
-            bytes,
-        }),
-        dim,
-    );
+    let c = common::run_bytes(rules, agents, dim);
     for d in &c.diags {
         for l in std::iter::once(&d.primary).chain(&d.secondary) {
             let text = c.sources.text(l.file);

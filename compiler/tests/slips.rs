@@ -5,8 +5,10 @@
 //! example as it was); where none is, none is offered. `expected.txt` holds the rendered output
 //! (`UPDATE_GOLDEN=1 cargo test -p latticesim-compiler --test slips` rewrites it).
 
+mod common;
+
+use common::{dim_of, run_bytes};
 use latticesim_compiler::diagnostics::{render_plain, to_json};
-use latticesim_compiler::{check, Checked, Dim, Input};
 use std::fs;
 use std::path::{Path, PathBuf};
 
@@ -23,20 +25,6 @@ fn cases() -> Vec<PathBuf> {
         .collect();
     v.sort();
     v
-}
-
-fn run(rules: &[u8], agents: &[u8], dim: Option<Dim>) -> Checked {
-    check(
-        Input {
-            name: "rules.txt",
-            bytes: rules,
-        },
-        Some(Input {
-            name: "agents.txt",
-            bytes: agents,
-        }),
-        dim,
-    )
 }
 
 struct Slip {
@@ -74,15 +62,8 @@ fn every_slip_gives_one_diagnostic_on_its_line_with_its_fix() {
         let s = slip(case);
         let rules = fs::read(case.join("rules.txt")).unwrap();
         let agents = fs::read(case.join("agents.txt")).unwrap();
-        let dim = match fs::read_to_string(case.join("args"))
-            .unwrap_or_default()
-            .trim()
-        {
-            "dim=3" => Some(Dim::Three),
-            "dim=2" => Some(Dim::Two),
-            _ => None,
-        };
-        let c = run(&rules, &agents, dim);
+        let dim = dim_of(case);
+        let c = run_bytes(&rules, Some(&agents), dim);
         let rendered = render_plain(&c.diags, &c.sources);
         if c.diags.len() != 1 || c.errors() + c.warnings() != 1 {
             failures.push(format!(
@@ -123,7 +104,7 @@ fn every_slip_gives_one_diagnostic_on_its_line_with_its_fix() {
                 } else {
                     (rules.clone(), fixed.into_bytes())
                 };
-                let again = run(&r, &a, dim);
+                let again = run_bytes(&r, Some(&a), dim);
                 if !again.diags.is_empty() {
                     failures.push(format!("{name}: the fixed files do not check clean"));
                     continue;
