@@ -1,0 +1,182 @@
+// End-to-end test of the viewer as a workbench (issue 34) in headless Chromium: finding
+// one's way (the keys, the Pause glyph, no errors in the console), Follow and PNG, the
+// run's log, breakpoints. Run from the repository's root after `cargo build`:
+//
+//   node e2e/workbench.mjs
+//
+// LATTICESIM names the binary (default target/debug/latticesim), CHROMIUM the browser.
+import { launch } from './common.mjs';
+import { open, serve, servers, stepNumber, waitStep } from './page.mjs';
+import assert from 'node:assert/strict';
+import path from 'node:path';
+import fs from 'node:fs';
+import os from 'node:os';
+
+const RULES = 'examples/leader-election/rules.txt';
+const AGENTS = 'examples/leader-election/agents-30.txt';
+// Finding one's way (issue 34): `?` shows the keys and Esc hides them, the Pause button
+// draws its glyph (not a character fonts lack), applying files with errors says so in the
+// page and logs nothing in the console, the favicon costs no request that fails.
+async function testWayfinding(browser) {
+  const url = await serve(RULES, AGENTS);
+  const { page, errors } = await open(browser, url);
+  const failed = [];
+  page.on('response', (r) => { if (r.status() >= 400) failed.push(`${r.status()} ${r.url()}`); });
+  await page.keyboard.press('?');
+  await page.waitForSelector('#help', { state: 'visible' });
+  assert.match(await page.textContent('#help'), /Space/);
+  await page.keyboard.press('Escape');
+  await page.waitForSelector('#help', { state: 'hidden' });
+  await page.click('#keys');
+  await page.waitForSelector('#help', { state: 'visible' });
+  await page.click('#keys');
+  await page.waitForSelector('#help', { state: 'hidden' });
+  await page.click('#run');
+  assert.match(await page.innerHTML('#run'), /<svg[^>]*class="glyph"/, 'the Pause glyph is drawn');
+  await page.click('#run');
+  assert.match(await page.textContent('#run'), /Run/);
+  await page.click('#tab-edit');
+  await page.fill('#ed-rules textarea', 'x');
+  await page.click('#apply');
+  await page.waitForFunction(() => /error/.test(document.getElementById('check-summary').textContent));
+  assert.ok(await page.isVisible('#edit'), 'files with errors are not applied: the editor stays');
+  const favicon = await page.evaluate(() => document.querySelector('link[rel="icon"]').href.startsWith('data:'));
+  assert.ok(favicon, 'the favicon is in the page');
+  assert.deepEqual(failed, [], 'no request failed');
+  assert.deepEqual(errors, [], 'no errors in the console');
+  console.log('ok: `?` shows the keys and Esc hides them; the Pause glyph is drawn; files with errors applied: said in the page, nothing in the console; no request failed');
+  await page.close();
+}
+
+// Follow: two agents walking east leave the view fitted at step 0, unless Follow is on,
+// when the view is fitted again as they go (in 2D and in 3D).
+async function testFollow(browser) {
+  const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'latticesim-follow-'));
+  for (const d3 of [false, true]) {
+    const rules = path.join(dir, `walk-${d3}.txt`), agents = path.join(dir, `agents-${d3}.txt`);
+    fs.writeFileSync(rules, `walk\n1\nSWALK0\nP1,0${d3 ? ',0' : ''}\n`);
+    fs.writeFileSync(agents, d3 ? '0,0,0 SWALK0\n0,2,0 SWALK0\n' : '0,0 SWALK0\n0,2 SWALK0\n');
+    const url = await serve(rules, agents);
+    const { page, errors } = await open(browser, url);
+    // Where agent 0 is, drawn or not (in 3D its projected centre).
+    const inside = () => page.evaluate(() => {
+      const L = window.latticesim, r = document.getElementById('canvas').getBoundingClientRect();
+      const [x, y] = L.frame().dim === 3 ? L.project(0) : L.screenOf(0);
+      return x >= r.left && x <= r.right && y >= r.top && y <= r.bottom;
+    });
+    await page.fill('#jump', '40');
+    await page.click('#go');
+    await waitStep(page, 40);
+    assert.ok(!await inside(), `${d3 ? '3D' : '2D'}: without Follow, the walker leaves the view`);
+    await page.check('#follow');
+    for (const step of [41, 60, 90]) {
+      await page.fill('#jump', String(step));
+      await page.click('#go');
+      await waitStep(page, step);
+      assert.ok(await inside(), `${d3 ? '3D' : '2D'}: following, the walker is in view at step ${step}`);
+    }
+    // PNG: the view as shown, the canvas's size, named after the step.
+    const [download] = await Promise.all([page.waitForEvent('download'), page.click('#png')]);
+    assert.equal(download.suggestedFilename(), 'latticesim-step-90.png');
+    const png = fs.readFileSync(await download.path());
+    assert.equal(png.subarray(1, 4).toString(), 'PNG');
+    const size = await page.evaluate(() => { const c = document.getElementById('canvas'); return [c.width, c.height]; });
+    assert.deepEqual([png.readUInt32BE(16), png.readUInt32BE(20)], size, 'the image is the canvas');
+    assert.deepEqual(errors, [], 'no errors in the page');
+    await page.close();
+  }
+  console.log('ok: walkers leave the view fitted at step 0; with Follow they stay in it (2D and 3D); PNG saves the view');
+}
+
+// The run's log: two rules of one priority set the state differently, so that each of
+// three agents has a state conflict every step; at step 6 the log holds 18 records, 6
+// about agent 1; an entry of step 3 goes there with its agent inspected and centred.
+async function testLog(browser) {
+  const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'latticesim-log-'));
+  const rules = path.join(dir, 'rules.txt'), agents = path.join(dir, 'agents.txt');
+  fs.writeFileSync(rules, '// latticesim: allow W505\na\n1\nSAAAA0\nSB****\n\nb\n1\nSAAAA0\nSC****\n');
+  fs.writeFileSync(agents, '0,0 SAAAA0\n5,0 SAAAA0\n10,0 SAAAA0\n');
+  const url = await serve(rules, agents);
+  const { page, errors } = await open(browser, url);
+  await page.fill('#jump', '6');
+  await page.click('#go');
+  await waitStep(page, 6);
+  await page.waitForFunction(() => /^18 of 18 records, steps 1\.\.6/.test(document.getElementById('log-summary').textContent));
+  assert.equal(await page.locator('#log li').count(), 18);
+  await page.fill('#log-agent', '1');
+  await page.waitForFunction(() => /^6 of 18/.test(document.getElementById('log-summary').textContent));
+  await page.selectOption('#log-kind', 'move-conflict');
+  await page.waitForFunction(() => /^0 of 18/.test(document.getElementById('log-summary').textContent));
+  await page.selectOption('#log-kind', 'state-conflict');
+  await page.waitForFunction(() => /^6 of 18/.test(document.getElementById('log-summary').textContent));
+  const entry = page.locator('#log li', { hasText: /^3 / });
+  assert.match(await entry.textContent(), /state-conflict/);
+  await entry.click();
+  await waitStep(page, 3);
+  await page.waitForFunction(() => document.getElementById('insp-id') && document.getElementById('insp-id').textContent === '1');
+  const centred = await page.evaluate(() => {
+    const L = window.latticesim, r = document.getElementById('canvas').getBoundingClientRect();
+    const [x, y] = L.screenOf(1);
+    return Math.hypot(x - (r.left + r.width / 2), y - (r.top + r.height / 2));
+  });
+  assert.ok(centred < 2, `agent 1 is centred (${centred.toFixed(1)} pixels off)`);
+  assert.deepEqual(errors, [], 'no errors in the page');
+  console.log('ok: the run\'s log holds every record so far (18 at step 6), filtered by agent and kind; an entry goes to its step, its agent inspected and centred');
+  await page.close();
+}
+
+// Breakpoints: two walkers count down (C00 20 and 10) and stop (STOP0) at zero. Run
+// pauses at a chosen step, when `<C00 0008` comes to hold (agent 1 at step 3), when an
+// agent enters STOP0 (agent 1 at step 11); a condition written wrongly is refused in the
+// page. The note says why it paused.
+async function testBreaks(browser) {
+  const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'latticesim-breaks-'));
+  const rules = path.join(dir, 'rules.txt'), agents = path.join(dir, 'agents.txt');
+  fs.writeFileSync(rules, 'walk\n1\nSWALK0 >C00 0000\nP1,0 C00 - C00 0001\n\nstop\n1\nSWALK0 =C00 0000\nSSTOP0\n');
+  fs.writeFileSync(agents, '0,0 SWALK0 C00 20\n0,2 SWALK0 C00 10\n');
+  const url = await serve(rules, agents);
+  const { page, errors } = await open(browser, url);
+  await page.waitForFunction(() => document.getElementById('bp-kind').options.length > 1);
+  const runTo = async (n, why) => {
+    await page.click('#run');
+    await waitStep(page, n);
+    await page.waitForFunction(() => /Run/.test(document.getElementById('run').textContent));
+    assert.equal(await stepNumber(page), n);
+    assert.match(await page.textContent('#note'), why);
+  };
+  await page.fill('#bp-counter', 'C00 > 5');
+  await page.click('#bp-set');
+  await page.waitForFunction(() => /not a counter condition/.test(document.getElementById('bp-summary').textContent));
+  await page.fill('#bp-counter', '<C00 0008');
+  await page.click('#bp-set');
+  await page.waitForFunction(() => /<C00 0008 for some agent/.test(document.getElementById('bp-summary').textContent));
+  await page.$eval('#speed', (s) => { s.value = s.max; });
+  await runTo(3, /breakpoint: `<C00 0008` holds/);
+  await page.fill('#bp-counter', '');
+  await page.fill('#bp-state', 'STOP0');
+  await page.fill('#bp-step', '14');
+  await page.click('#bp-set');
+  await page.waitForFunction(() => /STOP0/.test(document.getElementById('bp-summary').textContent));
+  await runTo(11, /breakpoint: agent 1 entered `STOP0`/);
+  await runTo(14, /breakpoint: step 14/);
+  assert.deepEqual(errors, [], 'no errors in the page');
+  console.log('ok: breakpoints pause a run when a counter condition comes to hold (step 3), an agent enters a state (step 11), at a step (14); a condition written wrongly is refused');
+  await page.close();
+}
+
+const browser = await launch();
+const guard = setTimeout(() => { console.error('workbench: timed out'); process.exit(1); }, 180_000);
+try {
+  await testWayfinding(browser);
+  await testFollow(browser);
+  await testLog(browser);
+  await testBreaks(browser);
+  console.log('workbench: all passed');
+} catch (e) {
+  console.error('workbench: FAILED:', e);
+  process.exitCode = 1;
+} finally {
+  clearTimeout(guard);
+  await browser.close();
+  for (const s of servers) s.kill();
+}
