@@ -14,6 +14,16 @@ import os from 'node:os';
 
 const RULES = 'examples/leader-election/rules.txt';
 const AGENTS = 'examples/leader-election/agents-30.txt';
+
+// A page of the viewer on these texts of a rules and an agents file (written into a new
+// temporary folder), and the errors it logs.
+async function opened(browser, rules, agents) {
+  const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'latticesim-workbench-'));
+  const [r, a] = [path.join(dir, 'rules.txt'), path.join(dir, 'agents.txt')];
+  fs.writeFileSync(r, rules);
+  fs.writeFileSync(a, agents);
+  return open(browser, await serve(r, a));
+}
 // Finding one's way (issue 34): `?` shows the keys and Esc hides them, the Pause button
 // draws its glyph (not a character fonts lack), applying files with errors says so in the
 // page and logs nothing in the console, the favicon costs no request that fails.
@@ -51,13 +61,10 @@ async function testWayfinding(browser) {
 // Follow: two agents walking east leave the view fitted at step 0, unless Follow is on,
 // when the view is fitted again as they go (in 2D and in 3D).
 async function testFollow(browser) {
-  const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'latticesim-follow-'));
   for (const d3 of [false, true]) {
-    const rules = path.join(dir, `walk-${d3}.txt`), agents = path.join(dir, `agents-${d3}.txt`);
-    fs.writeFileSync(rules, `walk\n1\nSWALK0\nP1,0${d3 ? ',0' : ''}\n`);
-    fs.writeFileSync(agents, d3 ? '0,0,0 SWALK0\n0,2,0 SWALK0\n' : '0,0 SWALK0\n0,2 SWALK0\n');
-    const url = await serve(rules, agents);
-    const { page, errors } = await open(browser, url);
+    const { page, errors } = await opened(browser,
+      `walk\n1\nSWALK0\nP1,0${d3 ? ',0' : ''}\n`,
+      d3 ? '0,0,0 SWALK0\n0,2,0 SWALK0\n' : '0,0 SWALK0\n0,2 SWALK0\n');
     // Where agent 0 is, drawn or not (in 3D its projected centre).
     const inside = () => page.evaluate(() => {
       const L = window.latticesim, r = document.getElementById('canvas').getBoundingClientRect();
@@ -92,12 +99,9 @@ async function testFollow(browser) {
 // three agents has a state conflict every step; at step 6 the log holds 18 records, 6
 // about agent 1; an entry of step 3 goes there with its agent inspected and centred.
 async function testLog(browser) {
-  const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'latticesim-log-'));
-  const rules = path.join(dir, 'rules.txt'), agents = path.join(dir, 'agents.txt');
-  fs.writeFileSync(rules, '// latticesim: allow W505\na\n1\nSAAAA0\nSB****\n\nb\n1\nSAAAA0\nSC****\n');
-  fs.writeFileSync(agents, '0,0 SAAAA0\n5,0 SAAAA0\n10,0 SAAAA0\n');
-  const url = await serve(rules, agents);
-  const { page, errors } = await open(browser, url);
+  const { page, errors } = await opened(browser,
+    '// latticesim: allow W505\na\n1\nSAAAA0\nSB****\n\nb\n1\nSAAAA0\nSC****\n',
+    '0,0 SAAAA0\n5,0 SAAAA0\n10,0 SAAAA0\n');
   await page.fill('#jump', '6');
   await page.click('#go');
   await waitStep(page, 6);
@@ -130,12 +134,9 @@ async function testLog(browser) {
 // agent enters STOP0 (agent 1 at step 11); a condition written wrongly is refused in the
 // page. The note says why it paused.
 async function testBreaks(browser) {
-  const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'latticesim-breaks-'));
-  const rules = path.join(dir, 'rules.txt'), agents = path.join(dir, 'agents.txt');
-  fs.writeFileSync(rules, 'walk\n1\nSWALK0 >C00 0000\nP1,0 C00 - C00 0001\n\nstop\n1\nSWALK0 =C00 0000\nSSTOP0\n');
-  fs.writeFileSync(agents, '0,0 SWALK0 C00 20\n0,2 SWALK0 C00 10\n');
-  const url = await serve(rules, agents);
-  const { page, errors } = await open(browser, url);
+  const { page, errors } = await opened(browser,
+    'walk\n1\nSWALK0 >C00 0000\nP1,0 C00 - C00 0001\n\nstop\n1\nSWALK0 =C00 0000\nSSTOP0\n',
+    '0,0 SWALK0 C00 20\n0,2 SWALK0 C00 10\n');
   await page.waitForFunction(() => document.getElementById('bp-kind').options.length > 1);
   const runTo = async (n, why) => {
     await page.click('#run');
