@@ -542,6 +542,26 @@ proptest! {
         }
     }
 
+    /// What the viewer's inspector asks, the rules an agent executes next
+    /// (`Engine::next_rules`, the selection alone), is what a traced step fires for it.
+    #[test]
+    fn next_rules_are_the_traced_firings(
+        (_, r, a) in proptest::bool::ANY.prop_flat_map(|d3| (Just(d3), rules(d3), agents(d3)))
+    ) {
+        let (prog, lat) = common::compile(&r, &a);
+        let traced = Options { trace: true, ..Options::default() };
+        let mut e = Engine::new(prog.clone(), lat.clone(), traced);
+        let rep = e.step();
+        for agent in 0..lat.len() as u32 {
+            let fired = rep.trace.iter().find_map(|ev| match ev {
+                TraceEvent::Fire { agent: x, rules, priority } if *x == agent => Some((rules.clone(), *priority)),
+                _ => None,
+            });
+            let next = Engine::new(prog.clone(), lat.clone(), Options::default()).next_rules(agent);
+            prop_assert_eq!(next, fired, "agent {}\n{}\n{}", agent, r, a);
+        }
+    }
+
     /// `latticesim fmt` on generated rules: the formatted file runs exactly as the original
     /// (same configuration, records and statistics after every step) and formatting it
     /// again changes nothing.

@@ -24,7 +24,7 @@ use crate::output::say;
 use crate::palette::Palette;
 use http::{error, Response as Reply};
 use latticesim_compiler::{compile, Checked};
-use latticesim_runtime::{Engine, History, Lattice, Options, Order, TraceEvent};
+use latticesim_runtime::{Engine, History, Lattice, Options, Order};
 use serde::Serialize;
 use serde_json::{json, Value};
 use std::collections::HashMap;

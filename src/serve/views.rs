@@ -183,19 +183,9 @@ pub(super) fn inspect(run: &Run, a: u32) -> Value {
             messages.push(json!({ "name": format!("#{letter}"), "value": state_name(&t) }));
         }
     }
-    let mut opts = e.opts;
-    opts.trace = true;
-    opts.threads = 1;
-    let mut next = Engine::new(e.prog.clone(), lat.clone(), opts);
-    let rep = next.step();
-    let fires = rep.trace.iter().find_map(|ev| match ev {
-        TraceEvent::Fire {
-            agent,
-            rules,
-            priority,
-        } if *agent == a => Some(json!({ "rules": rules, "priority": priority })),
-        _ => None,
-    });
+    // The next step's selection alone, on a copy.
+    let next = Engine::new(e.prog.clone(), lat.clone(), e.opts).next_rules(a);
+    let fires = next.map(|(rules, priority)| json!({ "rules": rules, "priority": priority }));
     let p = lat.pos[i];
     json!({
         "id": a,
