@@ -48,6 +48,11 @@ export function tilt(d) {
   camera.phi = Math.max(-1.5, Math.min(1.5, camera.phi + d));
 }
 
+// The eight corners of the box of cells `lo..hi` (3D), projected as the camera is.
+function boxCorners(lo, hi) {
+  return CORNERS.map((c) => project(c[0] ? hi[0] + 1 : lo[0], c[1] ? hi[1] + 1 : lo[1], c[2] ? hi[2] + 1 : lo[2]));
+}
+
 // Whether every agent of frame `f` is drawn inside a canvas of size `r` as the camera is.
 export function inView(f, r) {
   const b = bbox(f);
@@ -56,7 +61,7 @@ export function inView(f, r) {
     pts = [[camera.ox + b.lo[0] * camera.scale, camera.oy - (b.hi[1] + 1) * camera.scale],
       [camera.ox + (b.hi[0] + 1) * camera.scale, camera.oy - b.lo[1] * camera.scale]];
   } else {
-    pts = CORNERS.map((c) => project(c[0] ? b.hi[0] + 1 : b.lo[0], c[1] ? b.hi[1] + 1 : b.lo[1], c[2] ? b.hi[2] + 1 : b.lo[2]));
+    pts = boxCorners(b.lo, b.hi);
   }
   return pts.every(([x, y]) => x >= 0 && y >= 0 && x <= r.width && y <= r.height);
 }
@@ -82,7 +87,7 @@ export function fitTo(f, r) {
     camera.scale = 1;
     camera.ox = 0;
     camera.oy = 0;
-    const pts = CORNERS.map((c) => project(c[0] ? hi[0] + 1 : lo[0], c[1] ? hi[1] + 1 : lo[1], c[2] ? hi[2] + 1 : lo[2]));
+    const pts = boxCorners(lo, hi);
     const us = pts.map((p) => p[0]), vs = pts.map((p) => p[1]);
     const [u0, u1, v0, v1] = [Math.min(...us), Math.max(...us), Math.min(...vs), Math.max(...vs)];
     camera.scale = Math.max(0.05, Math.min(60, 0.9 * Math.min(r.width / (u1 - u0), r.height / (v1 - v0))));

@@ -360,30 +360,30 @@ impl Checker<'_> {
                 })
                 .collect();
             let m: usize = as_digits.parse().unwrap_or(0);
-            let d = if digits.len() != 2
+            let digits_only = |s: &str| s.bytes().all(|b| b.is_ascii_digit());
+            let fix = if digits.len() != 2
                 && !digits.is_empty()
-                && digits.bytes().all(|b| b.is_ascii_digit())
+                && digits_only(digits)
                 && (1..=slots).contains(&n)
             {
-                d.with_fix(Fix::replace(
-                    format!("write the slot with two digits: `#{c}{n:02}`"),
-                    self.file,
-                    span,
-                    format!("#{c}{n:02}"),
-                ))
+                Some(("write the slot with two digits", format!("#{c}{n:02}")))
             } else if as_digits != digits
                 && as_digits.len() == 2
-                && as_digits.bytes().all(|b| b.is_ascii_digit())
+                && digits_only(&as_digits)
                 && (1..=slots).contains(&m)
             {
-                d.with_fix(Fix::replace(
-                    format!("write the slot with digits: `#{c}{as_digits}`"),
+                Some(("write the slot with digits", format!("#{c}{as_digits}")))
+            } else {
+                None
+            };
+            let d = match fix {
+                Some((how, slot)) => d.with_fix(Fix::replace(
+                    format!("{how}: `{slot}`"),
                     self.file,
                     span,
-                    format!("#{c}{as_digits}"),
-                ))
-            } else {
-                d
+                    slot,
+                )),
+                None => d,
             };
             if n > slots && n <= self.d().other().slots() && digits.len() == 2 {
                 self.push_dim(d);
@@ -1031,29 +1031,28 @@ impl Checker<'_> {
     }
 }
 
+/// Terms that are only actions: a precondition holding one is E313 (`Checker::cond`'s arm).
+fn action_only(t: &Term<'_>) -> bool {
+    matches!(t, Term::Move(_) | Term::Swap(_) | Term::Calc(_))
+}
+
+/// Terms that are tests in a precondition and actions in a postcondition (`S`, `A`, `M`);
+/// every other term but [`action_only`] ones (and what the parser could not read) is only a
+/// test: a postcondition holding one is E312 (E320 for `!` and `(`).
+fn both_sides(t: &Term<'_>) -> bool {
+    matches!(
+        t,
+        Term::State(_) | Term::Attach(_) | Term::Message { .. } | Term::Error
+    )
+}
+
 /// E322: a rule whose precondition line holds actions and no test, and whose postcondition
 /// line holds tests and no action (`S`, `A` and `M` are both): the two lines were
 /// written in each other's place. One error, with the swap as its fix, instead of one for
 /// every term.
 fn swapped(r: &latticesim_grammar::ast::Rule<'_>, file: FileId, src: &str) -> Option<Diagnostic> {
-    let action =
-        |t: &Spanned<Term<'_>>| matches!(t.node, Term::Move(_) | Term::Swap(_) | Term::Calc(_));
-    let test = |t: &Spanned<Term<'_>>| {
-        matches!(
-            t.node,
-            Term::Neighbors(_)
-                | Term::Priorities(_)
-                | Term::Empty(_)
-                | Term::Filled(_)
-                | Term::Less(_)
-                | Term::LessEq(_)
-                | Term::RemoteState { .. }
-                | Term::Compare(_)
-                | Term::RemoteCompare(_)
-                | Term::Not(_)
-                | Term::Group(_)
-        )
-    };
+    let action = |t: &Spanned<Term<'_>>| action_only(&t.node);
+    let test = |t: &Spanned<Term<'_>>| !action_only(&t.node) && !both_sides(&t.node);
     let broken = |ts: &[Spanned<Term<'_>>]| ts.iter().any(|t| matches!(t.node, Term::Error));
     let (pre, post) = (r.pre.node, r.post.node);
     let swapped = pre.iter().any(action)

@@ -59,6 +59,18 @@ pub(crate) fn prefetch<T>(p: *const T) {
     let _ = p;
 }
 
+/// The box of positions `pos`: its low and high corner (empty: `i32::MAX`, `i32::MIN`).
+fn bounds(pos: &[[i32; 3]]) -> ([i32; 3], [i32; 3]) {
+    let (mut lo, mut hi) = ([i32::MAX; 3], [i32::MIN; 3]);
+    for p in pos {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    (lo, hi)
+}
+
 /// Which agent stands on which cell.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CellIndex {
@@ -412,23 +424,17 @@ impl CellIndex {
     /// The grid over the agents' bounding box with `margin` cells below and above it per
     /// axis (or over a bounded universe small enough, or the box clipped to the universe),
     /// when it has few enough cells per agent.
+    /// (The agents' box as [`bounds`] gives it, and their number.)
     fn grid_for(
-        pos: &[[i32; 3]],
+        ((lo, hi), n): (([i32; 3], [i32; 3]), usize),
         (three_d, universe): Shape,
         margin: [[i32; 2]; 3],
     ) -> Option<Grid> {
         let coords = if three_d { 3 } else { 2 };
-        let (mut lo, mut hi) = ([i32::MAX; 3], [i32::MIN; 3]);
-        for p in pos {
-            for ((l, h), &c) in lo.iter_mut().zip(hi.iter_mut()).zip(p) {
-                *l = (*l).min(c);
-                *h = (*h).max(c);
-            }
-        }
-        if pos.is_empty() {
+        if n == 0 {
             return None;
         }
-        let budget = CELLS_PER_AGENT * pos.len() as i64 + 4096;
+        let budget = CELLS_PER_AGENT * n as i64 + 4096;
         let volume = |lo: [i32; 3], hi: [i32; 3]| {
             (0..3).fold(1i64, |v, k| {
                 v.saturating_mul(hi[k] as i64 - lo[k] as i64 + 1)
@@ -466,7 +472,8 @@ impl CellIndex {
     /// [`CellIndex::code`], in one pass.
     pub fn new_coded(pos: &[[i32; 3]], shape: Shape) -> (CellIndex, bool, Vec<u32>) {
         let margin = [[MARGIN; 2]; 3];
-        CellIndex::made(CellIndex::grid_for(pos, shape, margin), pos, shape)
+        let grid = CellIndex::grid_for((bounds(pos), pos.len()), shape, margin);
+        CellIndex::made(grid, pos, shape)
     }
 
     /// The index with this grid (or none) of agents at `pos`, whether every agent has a
@@ -519,13 +526,7 @@ impl CellIndex {
         toward: [[bool; 2]; 3],
     ) -> Option<(CellIndex, Vec<u32>)> {
         let shape = (self.coords == 3, self.walls);
-        let (mut lo, mut hi) = ([i32::MAX; 3], [i32::MIN; 3]);
-        for p in pos {
-            for k in 0..3 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
+        let (lo, hi) = bounds(pos);
         let crossed = [0, 1, 2].map(|k| match &self.grid {
             Some(g) => [
                 toward[k][0] || lo[k] < g.lo[k],
@@ -537,7 +538,7 @@ impl CellIndex {
             .map(|k| ((hi[k] as i64 - lo[k] as i64) / 4).clamp(MARGIN as i64, 1 << 20) as i32);
         let grid = loop {
             let margin = [0, 1, 2].map(|k| crossed[k].map(|c| if c { room[k] } else { MARGIN }));
-            if let Some(g) = CellIndex::grid_for(pos, shape, margin) {
+            if let Some(g) = CellIndex::grid_for(((lo, hi), pos.len()), shape, margin) {
                 break g;
             }
             if room.iter().all(|&r| r <= MARGIN) {

@@ -366,15 +366,7 @@ impl Session {
         };
         let matching = log.iter().filter(about).count();
         let records: Vec<Value> = (log.iter().filter(about).take(limit))
-            .map(|r| {
-                json!({
-                    "step": r.step,
-                    "kind": r.kind.name(),
-                    "severity": if r.is_error() { "error" } else { "warning" },
-                    "message": r.message,
-                    "agents": r.agents.iter().map(|(id, _)| id).collect::<Vec<_>>(),
-                })
-            })
+            .map(super::views::record_view)
             .collect();
         Ok(reply_json(
             200,

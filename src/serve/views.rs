@@ -121,22 +121,20 @@ pub(super) fn frame(run: &Run) -> Frame {
 
 /// The records of the step that led to the configuration shown, as the viewer lists them.
 pub(super) fn records_view(run: &Run) -> Vec<Value> {
-    run.hist
-        .last_report()
-        .map(|rep| {
-            rep.records
-                .iter()
-                .map(|r| {
-                    json!({
-                        "kind": r.kind.name(),
-                        "severity": if r.is_error() { "error" } else { "warning" },
-                        "message": r.message,
-                        "agents": r.agents.iter().map(|(id, _)| id).collect::<Vec<_>>(),
-                    })
-                })
-                .collect()
-        })
+    (run.hist.last_report())
+        .map(|rep| rep.records.iter().map(record_view).collect())
         .unwrap_or_default()
+}
+
+/// One record as the viewer lists it (its step too, for the run's log).
+pub(super) fn record_view(r: &latticesim_runtime::Record) -> Value {
+    json!({
+        "step": r.step,
+        "kind": r.kind.name(),
+        "severity": if r.is_error() { "error" } else { "warning" },
+        "message": r.message,
+        "agents": r.agents.iter().map(|(id, _)| id).collect::<Vec<_>>(),
+    })
 }
 
 /// The run's totals, as the viewer shows them.
