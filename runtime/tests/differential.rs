@@ -178,14 +178,19 @@ fn rules(d3: bool) -> impl Strategy<Value = String> {
 }
 
 fn agents(d3: bool) -> impl Strategy<Value = String> {
+    agents_in(d3, if d3 { 3 } else { 4 }, 9)
+}
+
+/// Fewer than `most` agents in a box of `side` cells a side.
+fn agents_in(d3: bool, side: i32, most: usize) -> impl Strategy<Value = String> {
     let cell = if d3 {
-        (0i32..3, 0i32..3, 0i32..3).boxed()
+        (0i32..side, 0i32..side, 0i32..side).boxed()
     } else {
-        (0i32..4, 0i32..4, Just(0)).boxed()
+        (0i32..side, 0i32..side, Just(0)).boxed()
     };
     (
-        proptest::collection::btree_set(cell, 1..9),
-        proptest::collection::vec((pick(STATES.to_vec()), -3i16..4, -3i16..4, 0u8..64), 9),
+        proptest::collection::btree_set(cell, 1..most),
+        proptest::collection::vec((pick(STATES.to_vec()), -3i16..4, -3i16..4, 0u8..64), most),
         proptest::bool::ANY,
     )
         .prop_map(move |(cells, attrs, bounded)| {
@@ -194,7 +199,12 @@ fn agents(d3: bool) -> impl Strategy<Value = String> {
             let at = |p: (i32, i32, i32)| cells.iter().position(|&c| c == p);
             let mut text = String::new();
             if bounded {
-                text += if d3 { "U0,2,0,2,0,2\n" } else { "U0,3,0,3\n" };
+                let m = side - 1;
+                text += &if d3 {
+                    format!("U0,{m},0,{m},0,{m}\n")
+                } else {
+                    format!("U0,{m},0,{m}\n")
+                };
             }
             for (i, &(x, y, z)) in cells.iter().enumerate() {
                 let (st, c0, c1, bits) = attrs[i];
@@ -413,6 +423,49 @@ fn differential_on(
     Ok(())
 }
 
+/// Goes to each target in a history of `rules` on `agents`, and past the furthest step,
+/// checking each step against a straight run.
+fn history_matches(
+    rules: &str,
+    agents: &str,
+    targets: &[u64],
+    budget: usize,
+) -> Result<(), TestCaseError> {
+    let c = common::checked(rules, agents);
+    if c.errors() > 0 {
+        return Ok(());
+    }
+    let prog = compile(c.rules.as_ref().unwrap()).unwrap();
+    let lat = Lattice::new(c.config.as_ref().unwrap());
+    let mut straight = Engine::new(prog.clone(), lat.clone(), Options::default());
+    let mut seen = vec![(common::picture(&straight), straight.stats.clone(), None)];
+    for _ in 0..40 {
+        let rep = straight.step();
+        seen.push((
+            common::picture(&straight),
+            straight.stats.clone(),
+            Some(rep),
+        ));
+    }
+    let mut h = latticesim_runtime::History::new(prog, lat, Options::default(), 4, 4);
+    h.set_delta_budget(budget);
+    for &t in targets.iter().chain(&[40, 17, 3]) {
+        h.goto(t);
+        let (pic, stats, rep) = &seen[t as usize];
+        prop_assert_eq!(h.steps(), t);
+        prop_assert_eq!(
+            &common::picture(h.engine()),
+            pic,
+            "step {} ({:?})",
+            t,
+            h.jump()
+        );
+        prop_assert_eq!(&h.engine().stats, stats, "statistics at step {}", t);
+        prop_assert_eq!(h.last_report(), rep.as_ref(), "report of step {}", t);
+    }
+    Ok(())
+}
+
 /// The same files with 32-bit counters (the extension): the directive added, the
 /// literals 1 and 2 (and -1, -2) made large (2 and -2 the bounds, less one for 2), and
 /// every counter of the agents multiplied by `scale`, so that sums, products and messages
@@ -471,6 +524,18 @@ proptest! {
     #[test]
     fn engine_agrees_with_reference_2d(r in rules(false), a in agents(false)) {
         every_option(&r, &a, 1)?;
+    }
+
+    /// A history reaches any step, by its deltas, its keyframes or stepping, exactly as a
+    /// straight run has it (agents, inboxes, statistics, the step's report), 2D and 3D,
+    /// with deltas kept for every step, for a few, or none.
+    #[test]
+    fn history_reaches_each_step_as_a_straight_run(
+        (r, a) in proptest::bool::ANY.prop_flat_map(|d3| (rules(d3), agents_in(d3, if d3 { 5 } else { 9 }, 60))),
+        targets in proptest::collection::vec(0u64..30, 1..12),
+        budget in pick(vec![0usize, 3_000, usize::MAX]),
+    ) {
+        history_matches(&r, &a, &targets, budget)?;
     }
 
     /// With 32-bit counters: values past 16 bits, saturation at both bounds, division and

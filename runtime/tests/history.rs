@@ -4,22 +4,8 @@
 
 mod common;
 
-use common::compile;
-use latticesim_runtime::{Engine, History, Options};
-
-/// Everything a viewer shows of a configuration: agents (with counters and bonds) and
-/// every inbox slot.
-fn picture(e: &Engine) -> String {
-    let mut s = e.lat.to_agents_text();
-    for a in 0..e.lat.len() as u32 {
-        for d in 0..e.lat.dim.dirs() as u8 {
-            for k in 0..e.lat.dim.slots() as u8 {
-                s += &format!("{} ", e.lat.inbox(a, d, k));
-            }
-        }
-    }
-    s
-}
+use common::{compile, picture};
+use latticesim_runtime::{Engine, History, Jump, Options};
 
 fn cases() -> Vec<(String, String)> {
     let mut flood_agents = String::new();
@@ -54,6 +40,10 @@ fn cases() -> Vec<(String, String)> {
     ]
 }
 
+/// Budgets for the steps kept backwards: none (every step back is made again from a
+/// keyframe), a few steps' worth (both ways, by where the step is), all of them.
+const BUDGETS: [usize; 3] = [0, 6_000, usize::MAX];
+
 #[test]
 fn going_back_gives_exactly_the_earlier_step() {
     for (rules, agents) in cases() {
@@ -65,23 +55,89 @@ fn going_back_gives_exactly_the_earlier_step() {
             let rep = fresh.step();
             seen.push((picture(&fresh), fresh.stats.clone(), Some(rep)));
         }
-        let mut h = History::new(prog, lat, Options::default(), 4, 4);
-        h.goto(40);
-        // Keyframes end up at 0, 16 and 32: targets on them, between them, both ways.
-        for target in [37u64, 40, 32, 16, 12, 0, 1, 16, 15, 33, 2, 40, 8] {
-            h.goto(target);
-            let (pic, stats, rep) = &seen[target as usize];
-            assert_eq!(h.steps(), target);
-            assert_eq!(&picture(h.engine()), pic, "step {target}");
-            assert_eq!(&h.engine().stats, stats, "statistics at step {target}");
-            assert_eq!(h.last_report(), rep.as_ref(), "report of step {target}");
+        for budget in BUDGETS {
+            let mut h = History::new(prog.clone(), lat.clone(), Options::default(), 4, 4);
+            h.set_delta_budget(budget);
+            h.goto(40);
+            let (mut rewound, mut replayed) = (0, 0);
+            // Keyframes end up at 0, 16 and 32: targets on them, between them, both ways.
+            for target in [37u64, 40, 32, 16, 12, 0, 1, 16, 15, 33, 2, 40, 8, 39, 38, 3] {
+                h.goto(target);
+                match h.jump() {
+                    Jump::Rewound { from, deltas } => {
+                        assert_eq!(from - deltas, target);
+                        rewound += (deltas > 0) as usize;
+                    }
+                    Jump::Replayed { .. } => replayed += 1,
+                    Jump::Stepped(_) => {}
+                }
+                let (pic, stats, rep) = &seen[target as usize];
+                assert_eq!(h.steps(), target);
+                assert_eq!(&picture(h.engine()), pic, "step {target}, budget {budget}");
+                assert_eq!(&h.engine().stats, stats, "statistics at step {target}");
+                assert_eq!(h.last_report(), rep.as_ref(), "report of step {target}");
+            }
+            // Which way each step was reached: the deltas when kept, else the keyframes.
+            match budget {
+                0 => assert_eq!(rewound, 0, "no deltas kept"),
+                usize::MAX => assert_eq!(replayed, 0, "every step reached was kept"),
+                _ => assert!(
+                    rewound > 0 && replayed > 0,
+                    "{rewound} {replayed} ({rules})"
+                ),
+            }
+            h.back(3);
+            assert_eq!(h.steps(), 0);
+            h.goto(5);
+            h.back(3);
+            assert_eq!(h.steps(), 2);
+            assert_eq!(picture(h.engine()), seen[2].0);
+            h.back(100);
+            assert_eq!(h.steps(), 0);
+            // On past the furthest step reached, after going back: the deltas found then
+            // take the run back as well.
+            h.goto(30);
+            h.goto(44);
+            h.goto(41);
+            let mut more = Engine::new(prog.clone(), lat.clone(), Options::default());
+            for _ in 0..41 {
+                more.step();
+            }
+            assert_eq!(picture(h.engine()), picture(&more), "budget {budget}");
+            assert_eq!(h.engine().stats, more.stats);
         }
-        h.back(3);
-        assert_eq!(h.steps(), 5);
-        assert_eq!(picture(h.engine()), seen[5].0);
-        h.back(100);
-        assert_eq!(h.steps(), 0);
     }
+}
+
+/// The steps kept backwards stay within their budget, the oldest dropped first; the
+/// history says what it holds.
+#[test]
+fn deltas_stay_within_their_budget() {
+    let (rules, agents) = cases().swap_remove(2);
+    let (prog, lat) = compile(&rules, &agents);
+    let mut h = History::new(prog, lat, Options::default(), 8, 8);
+    h.set_delta_budget(20_000);
+    for _ in 0..300 {
+        h.step();
+        let k = h.kept();
+        assert!(k.delta_bytes <= 20_000, "{k:?}");
+    }
+    let k = h.kept();
+    assert!(k.deltas_from > 1 && k.deltas_from <= 300, "{k:?}");
+    h.goto(299);
+    assert!(
+        matches!(
+            h.jump(),
+            Jump::Rewound {
+                from: 300,
+                deltas: 1
+            }
+        ),
+        "{:?}",
+        h.jump()
+    );
+    h.goto(k.deltas_from - 1);
+    assert!(matches!(h.jump(), Jump::Replayed { .. }), "{:?}", h.jump());
 }
 
 #[test]

@@ -204,6 +204,7 @@ pub(super) fn frame_bin(run: &mut Run, since: Option<u64>, counter: Option<u8>) 
         "records": records_view(run),
         "stats": stats_view(e),
         "keyframes": [k as u64, every],
+        "history": super::views::history_view(run),
         "note": run.note,
         "attach": attach,
         "delta": is_delta,

@@ -24,7 +24,7 @@ use crate::output::say;
 use crate::palette::Palette;
 use http::{error, Response as Reply};
 use latticesim_compiler::{compile, Checked};
-use latticesim_runtime::{Engine, History, Lattice, Options, Order};
+use latticesim_runtime::{Engine, History, Jump, Lattice, Options, Order};
 use serde::Serialize;
 use serde_json::{json, Value};
 use std::collections::HashMap;
@@ -89,6 +89,12 @@ pub struct ServeArgs {
     /// keyframes, so memory stays bounded).
     #[arg(long, default_value_t = 64)]
     keyframe_every: u64,
+    /// Memory for each step reached kept backwards (what it changed), so that going back
+    /// or to any step reached costs what the steps changed, not steps of the engine; past
+    /// it the oldest are dropped and going there steps again from a keyframe (0: keep
+    /// none). Keyframes hold at most 1 GiB besides.
+    #[arg(long, value_name = "MB", default_value_t = (latticesim_runtime::DELTA_BUDGET >> 20) as u64)]
+    history_mb: u64,
     /// The colours of the states: a file of `#rrggbb` lines (the colours handed out in
     /// order of first appearance) and `STATE #rrggbb` lines (a state's own colour).
     #[arg(long, value_name = "FILE")]
@@ -224,6 +230,8 @@ pub fn serve(args: ServeArgs) -> ExitCode {
             skip: Default::default(),
         },
         keyframe_every: args.keyframe_every.max(1),
+        history_bytes: usize::try_from(args.history_mb.saturating_mul(1 << 20))
+            .unwrap_or(usize::MAX),
         rules_path: "rules.txt".into(),
         agents_path: "agents.txt".into(),
         rules: String::new(),

@@ -14,6 +14,8 @@ pub(super) struct Run {
     pub(super) sent: Option<super::binary::Sent>,
     /// Why the last forward stepping stopped early, if it did.
     pub(super) note: Option<String>,
+    /// How long the last request took to reach its step (a jump and the steps after).
+    pub(super) took: Duration,
 }
 
 /// Everything the server holds.
@@ -24,6 +26,8 @@ pub(super) struct Session {
     pub(super) allowed: Vec<PathBuf>,
     pub(super) opts: Options,
     pub(super) keyframe_every: u64,
+    /// The most bytes the steps kept backwards hold (`--history-mb`).
+    pub(super) history_bytes: usize,
     pub(super) rules_path: String,
     pub(super) agents_path: String,
     pub(super) rules: String,
@@ -145,6 +149,7 @@ impl Session {
             allowed: self.allowed.clone(),
             opts: self.opts,
             keyframe_every: self.keyframe_every,
+            history_bytes: self.history_bytes,
             rules_path: self.rules_path.clone(),
             agents_path: self.agents_path.clone(),
             rules: fresh(&self.rules_path, &self.rules),
@@ -195,7 +200,8 @@ impl Session {
         let verdict = check_json(&c, &self.rules_path);
         if let (Some(p), Some(lat)) = (c.rules.as_ref(), lat) {
             if let Ok(prog) = compile(p) {
-                let hist = History::new(prog, lat, self.opts, self.keyframe_every, 256);
+                let mut hist = History::new(prog, lat, self.opts, self.keyframe_every, 256);
+                hist.set_delta_budget(self.history_bytes);
                 let mut palette = self.palette.clone();
                 palette.observe(&hist.engine().lat.state);
                 self.run = Some(Run {
@@ -203,6 +209,7 @@ impl Session {
                     palette,
                     sent: None,
                     note: None,
+                    took: Duration::ZERO,
                 });
                 return (verdict, true);
             }
@@ -404,10 +411,14 @@ impl Session {
         let run = self.run_mut()?;
         run.note = None;
         if let Some(t) = target {
-            if t < run.hist.steps() {
-                run.hist.goto(t);
-            }
             let started = Instant::now();
+            // A step reached, or a jump of more than a step or two: through the history
+            // (its deltas and keyframes, no breakpoints: those steps were run through
+            // before); then on past the furthest step reached, one step at a time.
+            let s = run.hist.steps();
+            if t < s || t > s + 2 {
+                run.hist.goto(t.min(run.hist.reached()));
+            }
             while run.hist.steps() < t {
                 if run.hist.engine().stats.quiescent {
                     run.note = Some(format!(
@@ -431,6 +442,9 @@ impl Session {
                     run.note = Some(format!("paused at a breakpoint: {why}"));
                     break;
                 }
+            }
+            if run.hist.steps() != s {
+                run.took = started.elapsed();
             }
         }
         match req.query.get("format") {

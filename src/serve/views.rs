@@ -48,6 +48,7 @@ pub(super) struct Frame {
     pub(super) records: Vec<Value>,
     pub(super) stats: Value,
     pub(super) keyframes: [u64; 2],
+    pub(super) history: Value,
     pub(super) note: Option<String>,
 }
 
@@ -115,8 +116,32 @@ pub(super) fn frame(run: &Run) -> Frame {
         records,
         stats,
         keyframes: [k as u64, every],
+        history: history_view(run),
         note: run.note.clone(),
     }
+}
+
+/// What the run's history holds and how the step shown was reached, for the timeline.
+pub(super) fn history_view(run: &Run) -> Value {
+    let h = &run.hist;
+    let k = h.kept();
+    let steps = |n: u64| if n == 1 { "1 step".to_string() } else { format!("{n} steps") };
+    let how = match h.jump() {
+        Jump::Stepped(0) => String::new(),
+        Jump::Stepped(n) => format!("{} forward", steps(n)),
+        Jump::Rewound { from, deltas: 0 } => format!("the keyframe of step {from}"),
+        Jump::Rewound { from, deltas } => format!("{} back from step {from}", steps(deltas)),
+        Jump::Replayed { from, steps: n } => format!("{} again from step {from}", steps(n)),
+    };
+    json!({
+        "reached": h.reached(),
+        "keyframes": k.keyframes,
+        "every": k.every,
+        "deltas_from": k.deltas_from,
+        "bytes": { "keyframes": k.keyframe_bytes, "deltas": k.delta_bytes, "log": k.log_bytes },
+        "how": how,
+        "ms": run.took.as_secs_f64() * 1e3,
+    })
 }
 
 /// The records of the step that led to the configuration shown, as the viewer lists them.

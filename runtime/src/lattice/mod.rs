@@ -19,10 +19,14 @@ use latticesim_vm::eval::Cell;
 use latticesim_vm::model::{AgentInit, Bounds, Column, Columns, Config, Dim, Dir, Width};
 use std::collections::HashMap;
 
-// Its parts: messages left with their senders, the agents file text, the undo point.
+// Its parts: messages left with their senders, the agents file text, the undo point,
+// steps kept backwards.
+mod delta;
 mod pending;
 mod text;
 mod undo;
+#[allow(unused_imports)]
+pub(crate) use delta::{Delta, Mismatch, Shadow};
 pub(crate) use pending::Pending;
 pub use undo::{Undo, Writes};
 
