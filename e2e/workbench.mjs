@@ -4,9 +4,12 @@
 //
 //   node e2e/workbench.mjs
 //
-// LATTICESIM names the binary (default target/debug/latticesim), CHROMIUM the browser.
-import { launch } from './common.mjs';
-import { open, serve, servers, stepNumber, waitStep } from './page.mjs';
+// LATTICESIM names the binary (default target/debug/latticesim), CHROMIUM the browser;
+// the timeline's timings use LATTICESIM_TIMED (default target/release/latticesim when it
+// is there: a debug build's timings say little).
+import { launch, serve as startServer } from './common.mjs';
+import { BIN, open, serve, servers, stepNumber, waitStep } from './page.mjs';
+import { execFileSync } from 'node:child_process';
 import assert from 'node:assert/strict';
 import path from 'node:path';
 import fs from 'node:fs';
@@ -22,7 +25,8 @@ async function opened(browser, rules, agents) {
   const [r, a] = [path.join(dir, 'rules.txt'), path.join(dir, 'agents.txt')];
   fs.writeFileSync(r, rules);
   fs.writeFileSync(a, agents);
-  return open(browser, await serve(r, a));
+  const url = await serve(r, a);
+  return { ...await open(browser, url), url };
 }
 // Finding one's way (issue 34): `?` shows the keys and Esc hides them, the Pause button
 // draws its glyph (not a character fonts lack), applying files with errors says so in the
@@ -165,13 +169,83 @@ async function testBreaks(browser) {
   await page.close();
 }
 
+// The timeline: a slider over the steps reached (a line reconfiguring: moves, bonds and
+// messages) goes to any of them, equal to the same
+// step reached by stepping (another tab's run); it says how far the run got, what its
+// history holds and how the step shown was reached. Then the timings of item 1 (printed,
+// not asserted): Back and jumps at 10^5 and 10^6 agents, a cloud falling.
+async function testTimeline(browser) {
+  const { page, errors, url } = await opened(browser,
+    fs.readFileSync('examples/reconfigure-line/rules.txt', 'utf8'), fs.readFileSync('examples/reconfigure-line/agents-30.txt', 'utf8'));
+  const other = await open(browser, url);
+  const frameAt = (p, n) => p.evaluate(async (n) => {
+    await window.latticesim.goto(n);
+    const f = window.latticesim.frame();
+    return { step: f.step, pos: Array.from(f.pos), state: Array.from(f.state).map((i) => f.states[i].name) };
+  }, n);
+  await frameAt(page, 40);
+  assert.equal(await page.getAttribute('#tl-slider', 'max'), '40');
+  for (const target of [7, 33, 0, 39, 12]) {
+    await page.evaluate((t) => {
+      const s = document.getElementById('tl-slider');
+      s.value = String(t);
+      s.dispatchEvent(new Event('input'));
+    }, target);
+    await waitStep(page, target);
+    const got = await page.evaluate(() => { const f = window.latticesim.frame(); return { step: f.step, pos: Array.from(f.pos), state: Array.from(f.state).map((i) => f.states[i].name) }; });
+    assert.deepEqual(got, await frameAt(other.page, target), `step ${target} by the slider equals step ${target} reached by stepping`);
+    assert.equal(await page.inputValue('#tl-slider'), String(target));
+    assert.equal(await page.textContent('#tl-label'), `step ${target} of 40 reached`);
+  }
+  assert.match(await page.textContent('#tl-how'), /back from step \d+ in [\d.]+ ms|keyframe of step/);
+  assert.match(await page.textContent('#tl-memory'), /^history [\d.]+ MB \([\d.]+ MB of deltas: steps 0 to 40 kept backwards; \d+ keyframes, every 64 steps\)$/);
+  assert.deepEqual(errors.concat(other.errors), [], 'no errors in the pages');
+  await other.page.close();
+  await page.close();
+  console.log('ok: the timeline goes to steps 7, 33, 0, 39 and 12 of 40, each equal to the step reached by stepping; it says what the history holds and how the step was reached');
+
+  // Timings, with an optimised build when there is one.
+  const bin = process.env.LATTICESIM_TIMED || (fs.existsSync('target/release/latticesim') ? 'target/release/latticesim' : BIN);
+  const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'latticesim-timeline-'));
+  const rules = path.join(dir, 'fall.txt');
+  fs.writeFileSync(rules, 'fall\n1\nE0,-1\nP0,-1\n');
+  for (const [n, side] of [[100_000, 450], [1_000_000, 1400]]) {
+    const agents = path.join(dir, `cloud-${n}.txt`);
+    fs.writeFileSync(agents, execFileSync(bin, ['gen', 'cloud', '--n', String(n), '--width', String(side), '--height', String(side)], { maxBuffer: 1 << 30 }));
+    const s = startServer(bin, rules, agents);
+    servers.push(s.process);
+    const { page, errors } = await open(browser, await s.url);
+    const timed = (t) => page.evaluate(async (t) => {
+      const t0 = performance.now();
+      await window.latticesim.goto(t);
+      const f = window.latticesim.frame();
+      return { step: f.step, page: performance.now() - t0, server: f.history.ms, how: f.history.how };
+    }, t);
+    const reach = await timed(100);
+    assert.equal(reach.step, 100);
+    const rows = [`first 100 steps ${Math.round(reach.page)} ms`];
+    for (const [what, t] of [['Back', 99], ['Back', 98], ['to 10', 10], ['to 65', 65], ['to 40', 40], ['to 100', 100], ['to 0', 0], ['to 90', 90]]) {
+      const r = await timed(t);
+      assert.equal(r.step, t);
+      rows.push(`${what}: ${Math.round(r.page)} ms (server ${Math.round(r.server)} ms, ${r.how})`);
+    }
+    const memory = await page.textContent('#tl-memory');
+    assert.deepEqual(errors, [], 'no errors in the page');
+    await page.close();
+    s.process.kill();
+    console.log(`timeline, ${n.toLocaleString('en')} agents falling (${path.basename(bin)} ${bin.includes('release') ? 'optimised' : ''}): ${rows.join('; ')}; ${memory}`);
+  }
+  fs.rmSync(dir, { recursive: true, force: true });
+}
+
 const browser = await launch();
-const guard = setTimeout(() => { console.error('workbench: timed out'); process.exit(1); }, 180_000);
+const guard = setTimeout(() => { console.error('workbench: timed out'); process.exit(1); }, 300_000);
 try {
   await testWayfinding(browser);
   await testFollow(browser);
   await testLog(browser);
   await testBreaks(browser);
+  await testTimeline(browser);
   console.log('workbench: all passed');
 } catch (e) {
   console.error('workbench: FAILED:', e);

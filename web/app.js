@@ -1,7 +1,8 @@
 // latticesim viewer and editor: the entry point. Modules (each imports only those
 // listed before it): api (the JSON API, DOM helpers), state (the run shown, the
 // selection), camera, draw2d, draw3d, gl3d (3D in WebGL2), draw (the canvas), panel (legend, records,
-// inspector), player (stepping, running), editor, input.
+// inspector), player (stepping, running), editor, input; log, breaks and timeline (the
+// workbench's panels).
 
 import { $, api, setTab, whenGone } from './api.js';
 import { camera } from './camera.js';
@@ -13,6 +14,7 @@ import { MARKS, player } from './state.js';
 import './input.js';
 import './log.js';
 import './breaks.js';
+import './timeline.js';
 
 // ---------------------------------------------------------------- start
 

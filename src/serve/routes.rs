@@ -5,7 +5,7 @@
 use super::*;
 
 /// The app's files: path, content type, content (the script is ES modules, `web/*.js`).
-const ASSETS: [(&str, &str, &str); 17] = [
+const ASSETS: [(&str, &str, &str); 18] = [
     ("/", HTML, include_str!("../../web/index.html")),
     ("/index.html", HTML, include_str!("../../web/index.html")),
     (
@@ -27,6 +27,7 @@ const ASSETS: [(&str, &str, &str); 17] = [
     ("/editor.js", JS, include_str!("../../web/editor.js")),
     ("/log.js", JS, include_str!("../../web/log.js")),
     ("/breaks.js", JS, include_str!("../../web/breaks.js")),
+    ("/timeline.js", JS, include_str!("../../web/timeline.js")),
 ];
 const HTML: &str = "text/html; charset=utf-8";
 const JS: &str = "text/javascript; charset=utf-8";

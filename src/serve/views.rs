@@ -125,7 +125,13 @@ pub(super) fn frame(run: &Run) -> Frame {
 pub(super) fn history_view(run: &Run) -> Value {
     let h = &run.hist;
     let k = h.kept();
-    let steps = |n: u64| if n == 1 { "1 step".to_string() } else { format!("{n} steps") };
+    let steps = |n: u64| {
+        if n == 1 {
+            "1 step".to_string()
+        } else {
+            format!("{n} steps")
+        }
+    };
     let how = match h.jump() {
         Jump::Stepped(0) => String::new(),
         Jump::Stepped(n) => format!("{} forward", steps(n)),
