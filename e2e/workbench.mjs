@@ -238,6 +238,93 @@ async function testTimeline(browser) {
   fs.rmSync(dir, { recursive: true, force: true });
 }
 
+// Editing by mouse: E turns it on; a click on an empty cell places an agent, on an agent
+// selects it; its counters and bonds are set, undone and done again (buttons and keys); a
+// taken cell, a state mistyped and a counter the checker refuses change nothing and say
+// why; Delete removes
+// an agent with its bonds; Save writes the canonical agents file, which checks; the run
+// goes on from the edited agents.
+async function testEditing(browser) {
+  const rules = 'fall\n1\nSFALL0 E0,-1\nP0,-1\n';
+  const { page, errors } = await opened(browser, rules, '0,5 SFALL0\n2,0 SREST0\n');
+  const frame = () => page.evaluate(() => {
+    const f = window.latticesim.frame();
+    const n = f.pos.length / f.dim;
+    return Array.from({ length: n }, (_, i) => ({ pos: [f.pos[2 * i], f.pos[2 * i + 1]], state: f.states[f.state[i]].name, attach: f.attach ? f.attach[i] : 0 }));
+  });
+  const summary = () => page.textContent('#ed-summary');
+  const edited = async (action, check) => {
+    const before = await page.getAttribute('#ed-summary', 'data-n');
+    await action();
+    await page.waitForFunction((b) => document.getElementById('ed-summary').dataset.n !== b, before);
+    const s = await summary();
+    if (check) assert.match(s, check);
+    return s;
+  };
+  // The screen point of cell (x, y), from agent 0's cell.
+  const cell = (x, y) => page.evaluate(([x, y]) => {
+    const L = window.latticesim, f = L.frame(), [ax, ay] = L.screenOf(0), k = L.cell();
+    return [ax + (x - f.pos[0]) * k, ay - (y - f.pos[1]) * k];
+  }, [x, y]);
+  const click = async (x, y) => { const [px, py] = await cell(x, y); await page.mouse.click(px, py); };
+  await page.keyboard.press('e');
+  await page.waitForSelector('#edit-panel', { state: 'visible' });
+  await page.fill('#ed-state', 'FALL0');
+  await edited(() => click(1, 5), /^edited: 3 agents, 0 errors, \d+ warnings/);
+  assert.deepEqual((await frame())[2], { pos: [1, 5], state: 'FALL0', attach: 0 });
+  assert.match(await page.inputValue('#ed-agents textarea'), /1,5 SFALL0/);
+  // Select it by a click on its cell; set a counter.
+  await click(1, 5);
+  await page.waitForSelector('#ed-agent', { state: 'visible' });
+  assert.equal(await page.textContent('#ed-which'), 'agent 2 on 1,5');
+  await page.fill('#ed-agent-counters', 'C00 7');
+  await edited(() => page.click('#ed-set'), /^edited/);
+  await page.waitForFunction(() => /C00=7/.test(document.getElementById('insp-counters')?.textContent || ''));
+  // A neighbour placed by typing its cell; a bond between them, undone and done again.
+  await page.fill('#ed-pos', '2,5');
+  await edited(() => page.click('#ed-place'), /^edited: 4 agents/);
+  await click(1, 5);
+  await page.waitForFunction(() => document.getElementById('ed-which').textContent === 'agent 2 on 1,5');
+  await edited(() => page.check('#ed-bonds input[data-dir="E"]'), /^edited/);
+  let f = await frame();
+  assert.deepEqual([f[2].attach, f[3].attach], [4, 2], 'bonded both ways (E on agent 2, W on agent 3)');
+  await edited(() => page.keyboard.press('Control+z'), /^edited/);
+  f = await frame();
+  assert.deepEqual([f[2].attach, f[3].attach], [0, 0], 'undone');
+  await edited(() => page.click('#ed-redo'), /^edited/);
+  f = await frame();
+  assert.deepEqual([f[2].attach, f[3].attach], [4, 2], 'done again');
+  // What cannot be: a taken cell, a state the checker refuses.
+  await page.fill('#ed-pos', '0,5');
+  await edited(() => page.click('#ed-place'), /^not done: agent 0 stands on 0,5/);
+  await page.fill('#ed-agent-state', 'FA LL');
+  await edited(() => page.click('#ed-set'), /^not done: `FA LL` is not a state/);
+  await page.fill('#ed-agent-state', 'FALL0');
+  await page.fill('#ed-agent-counters', 'C00 99999');
+  await edited(() => page.click('#ed-set'), /^not done: the value 99999 of C00 is outside -32767..32767/);
+  assert.equal((await frame()).length, 4, 'nothing changed');
+  // Delete removes agent 3 and its bond.
+  await click(2, 5);
+  await page.waitForFunction(() => document.getElementById('ed-which').textContent === 'agent 3 on 2,5');
+  await edited(() => page.keyboard.press('Delete'), /^edited: 3 agents/);
+  f = await frame();
+  assert.deepEqual(f[2], { pos: [1, 5], state: 'FALL0', attach: 0 }, 'its bond went with it');
+  // Save: the canonical agents file, which checks.
+  await edited(() => page.click('#ed-save'), /^saved /);
+  const saved = (await summary()).match(/^saved (\S+)/)[1];
+  const text = fs.readFileSync(saved, 'utf8');
+  assert.equal(text, '0,5 SFALL0\n2,0 SREST0\n1,5 SFALL0 C00 7\n');
+  execFileSync(BIN, ['check', path.join(path.dirname(saved), 'rules.txt'), '--agents', saved], { stdio: 'pipe' });
+  // The run goes on from the edited agents.
+  await page.keyboard.press('e');
+  await page.click('#step');
+  await waitStep(page, 1);
+  assert.deepEqual((await frame())[2].pos, [1, 4], 'the placed agent falls');
+  assert.deepEqual(errors, [], 'no errors in the page');
+  await page.close();
+  console.log('ok: editing by mouse: placed (click and typed), selected, a counter set, a bond made, undone (Ctrl+Z) and done again, a taken cell, a mistyped state and a counter the checker refuses change nothing, Delete removes with bonds, Save writes the canonical file (it checks), the run goes on from it');
+}
+
 const browser = await launch();
 const guard = setTimeout(() => { console.error('workbench: timed out'); process.exit(1); }, 300_000);
 try {
@@ -245,6 +332,7 @@ try {
   await testFollow(browser);
   await testLog(browser);
   await testBreaks(browser);
+  await testEditing(browser);
   await testTimeline(browser);
   console.log('workbench: all passed');
 } catch (e) {

@@ -1220,3 +1220,111 @@ fn deep_and_huge_checks_are_answered_and_the_server_goes_on() {
     assert_eq!(v["not_shown"][0]["errors"], 99_990);
     srv.alive();
 }
+
+/// Editing (`POST /api/edit`): each edit starts the run from the edited agents (at step 0,
+/// checked), undo and redo go back and forth, what cannot be changes nothing and says why,
+/// an edit after stepping on takes the step shown, and save writes the canonical text.
+#[test]
+fn edits_start_the_run_from_the_edited_agents() {
+    let srv = start(
+        "edit",
+        "examples/gravity/rules.txt",
+        "examples/gravity/agents.txt",
+    );
+    let (_, f0) = srv.get("/api/frame?step=0");
+    let n = frame_agents(&f0).len();
+    let edit = |v: Value| {
+        let (s, r) = srv.post("/api/edit", v);
+        assert_eq!(s, 200, "{r}");
+        r
+    };
+    let r = edit(json!({ "op": "place", "pos": [-7, 40], "state": "GRAV0" }));
+    assert_eq!(r["applied"], true, "{r}");
+    assert_eq!(r["frame"]["step"], 0);
+    let agents = frame_agents(&r["frame"]);
+    assert_eq!(agents.len(), n + 1);
+    assert_eq!(agents[n], (vec![-7, 40], "GRAV0".to_string()));
+    assert!(
+        r["agents"].as_str().unwrap().ends_with("-7,40 SGRAV0\n"),
+        "{r}"
+    );
+    assert_eq!((&r["undo"], &r["redo"]), (&json!(1), &json!(0)));
+    // A neighbour, a bond, counters; undone and done again.
+    edit(json!({ "op": "place", "pos": [-6, 40], "state": "GRAV0" }));
+    let r = edit(json!({ "op": "bond", "id": n, "dir": "E", "on": true }));
+    assert_eq!(r["frame"]["attach"][n], 4, "{r}");
+    assert_eq!(r["frame"]["attach"][n + 1], 2);
+    let r = edit(json!({ "op": "set", "id": n, "counters": "C00 3" }));
+    assert!(
+        r["agents"]
+            .as_str()
+            .unwrap()
+            .contains("-7,40 SGRAV0 A0010 C00 3\n"),
+        "{r}"
+    );
+    let r = edit(json!({ "op": "undo" }));
+    assert!(
+        r["agents"]
+            .as_str()
+            .unwrap()
+            .contains("-7,40 SGRAV0 A0010\n"),
+        "{r}"
+    );
+    let r = edit(json!({ "op": "redo" }));
+    assert!(r["agents"]
+        .as_str()
+        .unwrap()
+        .contains("-7,40 SGRAV0 A0010 C00 3\n"));
+    // What cannot be: nothing changes, and why.
+    for (v, why) in [
+        (json!({ "op": "place", "pos": [-6, 40] }), "agent"),
+        (json!({ "op": "place", "pos": [1, 2, 3] }), "2D"),
+        (
+            json!({ "op": "bond", "id": n, "dir": "N" }),
+            "no agent stands N",
+        ),
+        (
+            json!({ "op": "set", "id": n, "counters": "C00 99999" }),
+            "outside",
+        ),
+        (json!({ "op": "set", "id": 10_000 }), "there is no agent"),
+        (json!({ "op": "fly" }), "is not an edit"),
+    ] {
+        let r = edit(v);
+        assert_eq!(r["applied"], false, "{r}");
+        assert!(r["error"].as_str().unwrap().contains(why), "{r}");
+        assert_eq!(frame_agents(&r["frame"]).len(), n + 2);
+    }
+    // Removing an agent removes its bonds.
+    let r = edit(json!({ "op": "remove", "id": n + 1 }));
+    assert!(
+        r["frame"]["attach"].is_null(),
+        "no agent is attached any more: {r}"
+    );
+    // The run goes on from the edited agents; an edit then takes the step shown.
+    let (_, f) = srv.get("/api/frame?step=3");
+    assert_eq!(
+        frame_agents(&f)[n].0,
+        vec![-7, 37],
+        "the placed agent fell 3 cells"
+    );
+    let r = edit(json!({ "op": "place", "pos": [-20, 0] }));
+    assert_eq!(frame_agents(&r["frame"])[n].0, vec![-7, 37], "{r}");
+    assert_eq!((&r["undo"], &r["redo"]), (&json!(1), &json!(0)));
+    // Save: the canonical text, which checks.
+    let r = edit(json!({ "op": "save", "path": "edited.txt" }));
+    assert_eq!(r["saved"], "edited.txt");
+    let saved = std::fs::read_to_string(srv.dir.join("edited.txt")).unwrap();
+    let (_, s) = srv.get("/api/session");
+    assert_eq!(saved, s["agents"].as_str().unwrap());
+    let out = Command::new(env!("CARGO_BIN_EXE_latticesim"))
+        .current_dir(&srv.dir)
+        .args(["check", "rules.txt", "--agents", "edited.txt"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

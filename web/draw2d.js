@@ -151,8 +151,13 @@ export function draw2d(ctx, f, r) {
 // would hit nothing). Agents of hidden states are not picked.
 export const PICK_PX = 6;
 
+// The cell under canvas point (x, y).
+export function cellAt2d(x, y) {
+  return [Math.floor((x - camera.ox) / camera.scale), Math.floor((camera.oy - y) / camera.scale)];
+}
+
 export function pick2d(f, x, y) {
-  const cx = Math.floor((x - camera.ox) / camera.scale), cy = Math.floor((camera.oy - y) / camera.scale);
+  const [cx, cy] = cellAt2d(x, y);
   const colours = stateColours(f);
   let best = null, bestD = PICK_PX * PICK_PX;
   for (let i = 0; i < agentCount(f); i++) {

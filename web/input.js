@@ -35,7 +35,13 @@ window.addEventListener('mouseup', (e) => {
   canvas.style.cursor = 'grab';
   if (!clicked) return;
   const r = canvas.getBoundingClientRect();
-  const id = pick(e.clientX - r.left, e.clientY - r.top);
+  const [x, y] = [e.clientX - r.left, e.clientY - r.top];
+  // While editing, the editor (edit.js) decides what a click does.
+  if (player.editing) {
+    document.dispatchEvent(new CustomEvent('latticesim:edit-click', { detail: { x, y } }));
+    return;
+  }
+  const id = pick(x, y);
   if (id !== null) inspect(id);
 });
 canvas.addEventListener('contextmenu', (e) => e.preventDefault());

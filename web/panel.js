@@ -108,6 +108,7 @@ export async function inspect(id) {
     row('rules in step ' + a.next_step, next, 'insp-rules')));
   box.classList.remove('muted');
   draw();
+  document.dispatchEvent(new CustomEvent('latticesim:agent', { detail: a }));
 }
 
 // 3D slabs: per axis, the cells from `lo` to `hi` are drawn (and picked), so that agents

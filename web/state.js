@@ -10,6 +10,7 @@ export const player = {
   busy: false,       // a jump (gotoStep) is under way
   idle: null,        // resolved when that jump is done
   session: null,
+  editing: false,    // clicks edit the agents (edit.js)
 };
 
 // The marks of agents, drawn over their colours: a highlighted state's agents in white

@@ -13,6 +13,7 @@
 
 mod binary;
 mod breaks;
+mod edit;
 mod gate;
 mod http;
 mod routes;
@@ -240,6 +241,8 @@ pub fn serve(args: ServeArgs) -> ExitCode {
         palette,
         lints,
         breaks: Default::default(),
+        edit: None,
+        runs: 0,
     };
     if let (Some(r), Some(a)) = (&args.rules, &args.agents) {
         let (rules, agents) = match (read_text(r), read_text(a)) {

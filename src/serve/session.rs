@@ -39,6 +39,11 @@ pub(super) struct Session {
     pub(super) lints: Lints,
     /// The tab's breakpoints.
     pub(super) breaks: super::breaks::Breaks,
+    /// The configuration being edited by mouse, while the run is the one its last edit
+    /// started and at its step 0.
+    pub(super) edit: Option<super::edit::Edit>,
+    /// Runs started so far (an edit belongs to the run it started).
+    pub(super) runs: u64,
 }
 
 /// A request: method, path, query parameters and body.
@@ -158,6 +163,8 @@ impl Session {
             palette: self.palette.clone(),
             lints: self.lints.clone(),
             breaks: Default::default(),
+            edit: None,
+            runs: 0,
         }
     }
 
@@ -204,6 +211,7 @@ impl Session {
                 hist.set_delta_budget(self.history_bytes);
                 let mut palette = self.palette.clone();
                 palette.observe(&hist.engine().lat.state);
+                self.runs += 1;
                 self.run = Some(Run {
                     hist,
                     palette,
