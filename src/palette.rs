@@ -232,6 +232,35 @@ impl Palette {
         Palette::parse(&text, &path.display().to_string())
     }
 
+    /// Gives each state of `states` not seen before its colour, in order, and counts the
+    /// agents in each state, by index ([`Palette::index`]).
+    pub fn observe_counting(&mut self, states: &[[u8; 5]]) -> Vec<u64> {
+        let mut counts = vec![0u64; self.order().len()];
+        // States not seen before, in order of appearance, with how many agents each.
+        let mut new: Vec<([u8; 5], u64)> = Vec::new();
+        let mut at: HashMap<[u8; 5], usize> = HashMap::new();
+        let mut lookup = Lookup::new(self);
+        for s in states {
+            match lookup.get(s) {
+                Some(i) => counts[i as usize] += 1,
+                None => {
+                    let k = *at.entry(*s).or_insert_with(|| {
+                        new.push((*s, 0));
+                        new.len() - 1
+                    });
+                    new[k].1 += 1;
+                }
+            }
+        }
+        for (s, n) in new {
+            self.colour(&s);
+            let i = self.index(&s).expect("just coloured") as usize;
+            counts.resize(counts.len().max(i + 1), 0);
+            counts[i] += n;
+        }
+        counts
+    }
+
     /// Gives each state of `states` not seen before its colour, in order.
     pub fn observe(&mut self, states: &[[u8; 5]]) {
         // The states not seen before, in order (a million agents are looked at every

@@ -629,17 +629,130 @@ fn asked(args: &RenderArgs, ext: Option<&str>) -> Result<(u64, u64), ExitCode> {
     Ok((first, last))
 }
 
+/// Pictures of a run, frame by frame (configurations of consecutive steps), to encode as
+/// one picture (SVG, PNG: the first frame) or an animation (GIF): for `latticesim render`
+/// and the viewer's exports.
+pub(crate) struct Film {
+    frames: Vec<Frame>,
+    states: BTreeSet<[u8; 5]>,
+    dim: Dim,
+    universe: Option<[(i64, i64); 3]>,
+    counter: Option<u8>,
+}
+
+/// The formats a [`Film`] is encoded in.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(crate) enum Format {
+    Svg,
+    Png,
+    Gif,
+}
+
+impl Format {
+    /// From a file's extension or a name (`svg`, `png`, `gif`).
+    pub(crate) fn of(name: &str) -> Option<Format> {
+        match name.to_ascii_lowercase().as_str() {
+            "svg" => Some(Format::Svg),
+            "png" => Some(Format::Png),
+            "gif" => Some(Format::Gif),
+            _ => None,
+        }
+    }
+}
+
+impl Film {
+    /// No frames yet, of lattices of `dim` in `universe`, coloured by `counter` or state.
+    pub(crate) fn new(
+        dim: Dim,
+        universe: Option<latticesim_vm::model::Bounds>,
+        counter: Option<u8>,
+    ) -> Film {
+        Film {
+            frames: Vec::new(),
+            states: BTreeSet::new(),
+            dim,
+            universe: universe.map(|b| [0, 1, 2].map(|k| (b[k].0 as i64, b[k].1 as i64))),
+            counter,
+        }
+    }
+
+    /// The next frame.
+    pub(crate) fn add(&mut self, lat: &Lattice) {
+        let f = Frame::of(lat, self.counter);
+        self.states.extend(f.state.iter().copied());
+        self.frames.push(f);
+    }
+
+    pub(crate) fn len(&self) -> usize {
+        self.frames.len()
+    }
+
+    /// The frames encoded, the first labelled step `first`, with `cell` pixels a cell
+    /// (fewer when the picture would be too large) and `fps` frames a second: the bytes
+    /// and the picture's size; or why they cannot be.
+    pub(crate) fn encode(
+        &self,
+        format: Format,
+        palette: &Palette,
+        first: u64,
+        (cell, fps): (u32, u32),
+    ) -> Result<(Vec<u8>, (u32, u32)), String> {
+        let key = match self.counter {
+            None => {
+                let order = (palette.order().iter())
+                    .filter(|s| self.states.contains(*s))
+                    .copied()
+                    .collect();
+                Key::States(order, palette.clone())
+            }
+            Some(c) => {
+                let values = self.frames.iter().flat_map(|f| f.value.iter().copied());
+                let (lo, hi) = values.fold((i32::MAX, i32::MIN), |a, v| (a.0.min(v), a.1.max(v)));
+                let (lo, hi) = if lo > hi { (0, 0) } else { (lo, hi) };
+                Key::Counter {
+                    name: format!("C{c:02}"),
+                    lo,
+                    hi,
+                }
+            }
+        };
+        let view = View::new(&self.frames, self.dim, self.universe, cell);
+        if view.size.0 as u64 > MAX_SIDE + 64 || view.size.1 as u64 > MAX_SIDE + 64 {
+            return Err(format!(
+                "the agents spread over {} x {} cells, more than a picture of at most {MAX_SIDE} pixels a side can show at one pixel a cell",
+                view.hi[0] - view.lo[0] + 1,
+                view.hi[1] - view.lo[1] + 1
+            ));
+        }
+        let size = (view.size.0 + LEGEND_W, view.size.1.max(key.height()));
+        let bytes = match format {
+            Format::Svg => {
+                Ok(svg(&view, &view.shapes(&self.frames[0], &key), &key, first).into_bytes())
+            }
+            Format::Png => Legended::new(&view, &key).and_then(|lg| {
+                let rgb = lg.image(
+                    &view,
+                    &raster(&view, &view.shapes(&self.frames[0], &key)),
+                    first,
+                )?;
+                png(lg.size, &rgb)
+            }),
+            Format::Gif => Legended::new(&view, &key)
+                .and_then(|lg| gif(&view, &self.frames, &lg, (first, fps))),
+        }?;
+        Ok((bytes, size))
+    }
+}
+
 /// The frames of steps `first..=last` of the engine's run, or up to where it became
 /// quiescent (nothing changes after that), whichever comes first, with a note when the
-/// run stopped early; the states in them; the step reached.
+/// run stopped early; the step reached.
 fn frames(
     engine: &mut Engine,
     (first, last): (u64, u64),
-    counter: Option<u8>,
+    film: &mut Film,
     palette: &mut Palette,
-) -> (Vec<Frame>, BTreeSet<[u8; 5]>, u64) {
-    let mut frames = Vec::new();
-    let mut states = BTreeSet::new();
+) -> u64 {
     // The run is drawn up to `last`, or up to where it became quiescent (nothing changes
     // after that), whichever comes first.
     while engine.stats.steps <= last {
@@ -647,9 +760,7 @@ fn frames(
         // not, as in the viewer.
         palette.observe(&engine.lat.state);
         if engine.stats.steps >= first {
-            let f = Frame::of(&engine.lat, counter);
-            states.extend(f.state.iter().copied());
-            frames.push(f);
+            film.add(&engine.lat);
         }
         if engine.stats.steps == last || engine.stats.quiescent {
             break;
@@ -657,11 +768,9 @@ fn frames(
         engine.step();
     }
     let reached = engine.stats.steps;
-    if frames.is_empty() {
+    if film.len() == 0 {
         // Quiescent before `first`: the configuration it stopped in is the one asked for.
-        let f = Frame::of(&engine.lat, counter);
-        states.extend(f.state.iter().copied());
-        frames.push(f);
+        film.add(&engine.lat);
     }
     if reached < last {
         let shown = if first == last {
@@ -669,13 +778,13 @@ fn frames(
         } else {
             format!(
                 "the animation ends there, at frame {} (steps {}..{reached})",
-                frames.len(),
+                film.len(),
                 first.min(reached)
             )
         };
         say!("note: the run is quiescent after step {reached} (no agent has a rule left to execute); {shown}");
     }
-    (frames, states, reached)
+    reached
 }
 
 pub fn render(args: RenderArgs) -> ExitCode {
@@ -709,11 +818,7 @@ pub fn render(args: RenderArgs) -> ExitCode {
         Ok(l) => l,
         Err(c) => return c,
     };
-    let dim = ready.lat.dim;
-    let universe = ready
-        .lat
-        .universe
-        .map(|b| [0, 1, 2].map(|k| (b[k].0 as i64, b[k].1 as i64)));
+    let (dim, universe) = (ready.lat.dim, ready.lat.universe);
     let opts = Options {
         threads: crate::engine_threads(None, ready.lat.len()),
         order: args.order.into(),
@@ -743,26 +848,8 @@ pub fn render(args: RenderArgs) -> ExitCode {
         Some(Ok(c)) => Some(c),
         None => None,
     };
-    let (frames, states, reached) = frames(&mut engine, (first, last), counter, &mut palette);
-    let key = match counter {
-        None => {
-            let order = (palette.order().iter())
-                .filter(|s| states.contains(*s))
-                .copied()
-                .collect();
-            Key::States(order, palette)
-        }
-        Some(c) => {
-            let values = frames.iter().flat_map(|f| f.value.iter().copied());
-            let (lo, hi) = values.fold((i32::MAX, i32::MIN), |a, v| (a.0.min(v), a.1.max(v)));
-            let (lo, hi) = if lo > hi { (0, 0) } else { (lo, hi) };
-            Key::Counter {
-                name: format!("C{c:02}"),
-                lo,
-                hi,
-            }
-        }
-    };
+    let mut film = Film::new(dim, universe, counter);
+    let reached = frames(&mut engine, (first, last), &mut film, &mut palette);
     // A single picture is labelled with the step asked for; an animation covers the steps
     // that were run.
     let (first, last) = if first == last {
@@ -770,26 +857,16 @@ pub fn render(args: RenderArgs) -> ExitCode {
     } else {
         (first.min(reached), last.min(reached))
     };
-    let view = View::new(&frames, dim, universe, args.cell);
-    if view.size.0 as u64 > MAX_SIDE + 64 || view.size.1 as u64 > MAX_SIDE + 64 {
-        say!(
-            "error: `{}`: the agents spread over {} x {} cells, more than a picture of at most {MAX_SIDE} pixels a side can show at one pixel a cell",
-            args.agents.display(),
-            view.hi[0] - view.lo[0] + 1,
-            view.hi[1] - view.lo[1] + 1
-        );
-        return ExitCode::from(2);
-    }
-    let bytes = match ext.as_deref() {
-        Some("svg") => Ok(svg(&view, &view.shapes(&frames[0], &key), &key, first).into_bytes()),
-        Some("png") => Legended::new(&view, &key).and_then(|lg| {
-            let rgb = lg.image(&view, &raster(&view, &view.shapes(&frames[0], &key)), first)?;
-            png(lg.size, &rgb)
-        }),
-        _ => Legended::new(&view, &key).and_then(|lg| gif(&view, &frames, &lg, (first, args.fps))),
+    let format = match ext.as_deref().and_then(Format::of) {
+        Some(f) => f,
+        None => Format::Gif,
     };
-    let bytes = match bytes {
+    let (bytes, size) = match film.encode(format, &palette, first, (args.cell, args.fps)) {
         Ok(b) => b,
+        Err(e) if e.starts_with("the agents spread") => {
+            say!("error: `{}`: {e}", args.agents.display());
+            return ExitCode::from(2);
+        }
         Err(e) => {
             say!("error: cannot encode `{}`: {e}", args.out.display());
             return ExitCode::from(2);
@@ -806,10 +883,10 @@ pub fn render(args: RenderArgs) -> ExitCode {
     say!(
         "{}: {} frame{} ({} x {} pixels, {steps}), {} agents",
         args.out.display(),
-        frames.len(),
-        if frames.len() == 1 { "" } else { "s" },
-        view.size.0 + LEGEND_W,
-        view.size.1.max(key.height()),
+        film.len(),
+        if film.len() == 1 { "" } else { "s" },
+        size.0,
+        size.1,
         engine.lat.len()
     );
     ExitCode::SUCCESS

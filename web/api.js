@@ -42,6 +42,26 @@ export function api(method, path, body) {
   return send(method, path, body, (r) => r.json());
 }
 
+// Saves what a GET answers as a file (the browser's download), named as the server says
+// (Content-Disposition) or `name`: `{ok, status, v}` like `api`, `v` the file's name and size.
+export async function download(path, name) {
+  const r = await send('GET', path, undefined, async (res) => {
+    const m = (res.headers.get('Content-Disposition') || '').match(/filename="([^"]+)"/);
+    return { name: m ? m[1] : name, blob: await res.blob() };
+  });
+  if (r.ok) saveBlob(r.v.blob, r.v.name);
+  return r.ok ? { ...r, v: { name: r.v.name, bytes: r.v.blob.size } } : r;
+}
+
+// The browser's download of `blob` as `name`.
+export function saveBlob(blob, name) {
+  const a = document.createElement('a');
+  a.href = URL.createObjectURL(blob);
+  a.download = name;
+  a.click();
+  setTimeout(() => URL.revokeObjectURL(a.href), 10_000);
+}
+
 export function el(tag, attrs, ...children) {
   const e = document.createElement(tag);
   for (const [k, v] of Object.entries(attrs || {})) {

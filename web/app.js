@@ -1,8 +1,8 @@
 // latticesim viewer and editor: the entry point. Modules (each imports only those
 // listed before it): api (the JSON API, DOM helpers), state (the run shown, the
 // selection), camera, draw2d, draw3d, gl3d (3D in WebGL2), draw (the canvas), panel (legend, records,
-// inspector), player (stepping, running), editor, input; log, breaks, timeline and edit
-// (the workbench's panels).
+// inspector), player (stepping, running), editor, input; log, breaks, timeline, edit and
+// plots (the workbench's panels).
 
 import { $, api, setTab, whenGone } from './api.js';
 import { camera } from './camera.js';
@@ -16,6 +16,7 @@ import './log.js';
 import './breaks.js';
 import './timeline.js';
 import './edit.js';
+import { heldSeries } from './plots.js';
 
 // ---------------------------------------------------------------- start
 
@@ -54,6 +55,6 @@ async function start() {
 // For tests and measurements (e2e/): where an agent is drawn (page coordinates), the agent
 // drawn at a canvas point, the frame, showing a frame, going to a step as the controls do,
 // drawing and zooming.
-window.latticesim = { marks: MARKS, shade, screenOf, pick, project, cell: () => camera.scale, patches: () => camera.patches || 0, webgl: usesWebGL, frame: () => player.frame, show: showFrame, goto: gotoStep, draw, zoom, ready: false };
+window.latticesim = { marks: MARKS, shade, screenOf, pick, project, cell: () => camera.scale, patches: () => camera.patches || 0, webgl: usesWebGL, frame: () => player.frame, show: showFrame, goto: gotoStep, draw, zoom, series: heldSeries, ready: false };
 window.addEventListener('resize', resize);
 start();

@@ -49,16 +49,24 @@ export function draw() {
 // The view as shown, as a PNG image (a Blob): the WebGL layer under the canvas when it
 // draws, the canvas over it, on white.
 export function viewImage() {
+  const out = composeView(document.createElement('canvas'));
+  return new Promise((done) => out.toBlob(done, 'image/png'));
+}
+
+// The view as shown (the WebGL layer under the 2D one, on white), drawn into canvas `out`
+// (made the view's size): for PNG and the WebM recording.
+export function composeView(out) {
   draw();
-  const out = document.createElement('canvas');
-  out.width = canvas.width;
-  out.height = canvas.height;
+  if (out.width !== canvas.width || out.height !== canvas.height) {
+    out.width = canvas.width;
+    out.height = canvas.height;
+  }
   const c = out.getContext('2d');
   c.fillStyle = '#fff';
   c.fillRect(0, 0, out.width, out.height);
   if (!glCanvas.hidden) c.drawImage(glCanvas, 0, 0);
   c.drawImage(canvas, 0, 0);
-  return new Promise((done) => out.toBlob(done, 'image/png'));
+  return out;
 }
 
 // Puts agent `id` of the frame shown in the middle of the view, at the same zoom.

@@ -1,6 +1,6 @@
 // Mouse and keys on the view, and the toolbar buttons.
 
-import { $ } from './api.js';
+import { $, saveBlob } from './api.js';
 import { camera, tilt } from './camera.js';
 import { canvas, draw, fit, pick, viewImage, zoom } from './draw.js';
 import { inspect } from './panel.js';
@@ -93,14 +93,7 @@ $('speed').oninput = () => { $('speed-label').textContent = $('speed').value; };
 $('fit').onclick = fit;
 $('keys').onclick = () => { $('help').hidden = !$('help').hidden; };
 // The view saved as `latticesim-step-N.png` (the browser's download).
-$('png').onclick = async () => {
-  const blob = await viewImage();
-  const a = document.createElement('a');
-  a.href = URL.createObjectURL(blob);
-  a.download = `latticesim-step-${currentStep()}.png`;
-  a.click();
-  setTimeout(() => URL.revokeObjectURL(a.href), 10_000);
-};
+$('png').onclick = async () => saveBlob(await viewImage(), `latticesim-step-${currentStep()}.png`);
 $('colour-by').onchange = () => {
   selection.colourBy = $('colour-by').value || null;
   selection.looksVersion += 1;

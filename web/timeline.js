@@ -27,7 +27,7 @@ function show() {
     : 'no steps kept backwards';
   $('tl-memory').textContent =
     `history ${mb(b.keyframes + b.deltas + b.log)} MB (${mb(b.deltas)} MB of deltas: ${kept}; ` +
-    `${h.keyframes} keyframes, every ${h.every} steps)`;
+    `${h.keyframes} keyframe${h.keyframes === 1 ? '' : 's'}, every ${h.every} steps)`;
   $('tl-memory').title = `keyframes ${mb(b.keyframes)} MB, deltas ${mb(b.deltas)} MB, log ${mb(b.log)} MB`;
   $('tl-how').textContent = h.how ? `${h.how} in ${h.ms < 10 ? h.ms.toFixed(1) : Math.round(h.ms)} ms` : '';
 }

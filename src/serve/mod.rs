@@ -16,6 +16,7 @@ mod breaks;
 mod edit;
 mod gate;
 mod http;
+mod plots;
 mod routes;
 mod session;
 mod tabs;

@@ -5,7 +5,7 @@
 use super::*;
 
 /// The app's files: path, content type, content (the script is ES modules, `web/*.js`).
-const ASSETS: [(&str, &str, &str); 19] = [
+const ASSETS: [(&str, &str, &str); 20] = [
     ("/", HTML, include_str!("../../web/index.html")),
     ("/index.html", HTML, include_str!("../../web/index.html")),
     (
@@ -29,6 +29,7 @@ const ASSETS: [(&str, &str, &str); 19] = [
     ("/breaks.js", JS, include_str!("../../web/breaks.js")),
     ("/timeline.js", JS, include_str!("../../web/timeline.js")),
     ("/edit.js", JS, include_str!("../../web/edit.js")),
+    ("/plots.js", JS, include_str!("../../web/plots.js")),
 ];
 const HTML: &str = "text/html; charset=utf-8";
 const JS: &str = "text/javascript; charset=utf-8";
@@ -37,7 +38,7 @@ const JS: &str = "text/javascript; charset=utf-8";
 type Handler = fn(&mut Session, &Req) -> Result<Reply, Reply>;
 
 /// The API: method, path, handler (documented in docs/viewer.md).
-const API: [(&str, &str, Handler); 9] = [
+const API: [(&str, &str, Handler); 11] = [
     ("GET", "/api/session", |s, _| Ok(reply_json(200, &s.info()))),
     ("POST", "/api/check", Session::api_check),
     ("POST", "/api/apply", Session::api_apply),
@@ -46,6 +47,8 @@ const API: [(&str, &str, Handler); 9] = [
     ("GET", "/api/log", Session::api_log),
     ("POST", "/api/breaks", Session::api_breaks),
     ("POST", "/api/edit", Session::api_edit),
+    ("GET", "/api/series", Session::api_series),
+    ("GET", "/api/export", Session::api_export),
     ("POST", "/api/file", Session::api_file),
 ];
 

@@ -16,6 +16,23 @@ pub(super) struct Run {
     pub(super) note: Option<String>,
     /// How long the last request took to reach its step (a jump and the steps after).
     pub(super) took: Duration,
+    /// The series of the steps reached, for the live charts.
+    pub(super) series: super::plots::Series,
+}
+
+impl Run {
+    /// One step forward: its states coloured and counted, and the series told of it when
+    /// it is a step not reached before.
+    pub(super) fn step(&mut self) {
+        let before = super::plots::Before::of(self.hist.engine());
+        let new = self.hist.steps() == self.hist.reached();
+        let rep = self.hist.step();
+        let done = (rep.executing, rep.records.len() as u64);
+        let counts = self.palette.observe_counting(&self.hist.engine().lat.state);
+        if new {
+            self.series.push(self.hist.engine(), &before, done, counts);
+        }
+    }
 }
 
 /// Everything the server holds.
@@ -210,9 +227,10 @@ impl Session {
                 let mut hist = History::new(prog, lat, self.opts, self.keyframe_every, 256);
                 hist.set_delta_budget(self.history_bytes);
                 let mut palette = self.palette.clone();
-                palette.observe(&hist.engine().lat.state);
+                let counts = palette.observe_counting(&hist.engine().lat.state);
                 self.runs += 1;
                 self.run = Some(Run {
+                    series: super::plots::Series::new(hist.engine(), counts),
                     hist,
                     palette,
                     sent: None,
@@ -444,8 +462,7 @@ impl Session {
                     break;
                 }
                 let before = breaks.before(&run.hist.engine().lat);
-                run.hist.step();
-                run.palette.observe(&run.hist.engine().lat.state);
+                run.step();
                 if let Some(why) = breaks.hit(&run.hist, &before) {
                     run.note = Some(format!("paused at a breakpoint: {why}"));
                     break;
@@ -551,7 +568,7 @@ pub(super) fn save(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 
 /// The counter a binary frame is asked to carry (`counter=Cnn`), checked against the run's
 /// dimension.
-fn counter_asked(req: &Req, run: &Run) -> Result<Option<u8>, Reply> {
+pub(super) fn counter_asked(req: &Req, run: &Run) -> Result<Option<u8>, Reply> {
     let Some(name) = req.query.get("counter") else {
         return Ok(None);
     };
