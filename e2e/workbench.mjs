@@ -379,6 +379,30 @@ async function testPlots(browser) {
   console.log(`ok: plots: the series equal latticesim run --series and the frame's counts; a click on a chart goes to its step; SVG (${svg.bytes.length} B), GIF of steps 2-6 (5 frames, ${gif.bytes.length} B) and WebM (${webm.bytes.length} B) downloaded`);
 }
 
+// The minimap: hidden while every agent is in view; zoomed in on a large block it shows
+// all of them with the view outlined, and a click on its corner takes the view there.
+async function testMinimap(browser) {
+  const block = execFileSync(BIN, ['gen', 'block', '--width', '300', '--height', '200']).toString();
+  const { page, errors } = await opened(browser, 'idle\n1\nSIDLE0\nSIDLE1\n', block);
+  const hidden = () => page.evaluate(() => document.getElementById('minimap').hidden);
+  assert.ok(await hidden(), 'all in view: no minimap');
+  for (let i = 0; i < 12; i++) await page.keyboard.press('+');
+  await page.waitForFunction(() => !document.getElementById('minimap').hidden);
+  const view = () => page.evaluate(() => document.getElementById('minimap').dataset.view.split(',').map(Number));
+  const before = await view();
+  const box = await page.locator('#minimap').boundingBox();
+  await page.mouse.click(box.x + 4, box.y + 4);
+  const after = await view();
+  // The top left corner of the block (0, 199) is now in the middle of the view.
+  const [x0, y0, x1, y1] = after;
+  assert.ok(x0 < 2 && x1 > 0 && y0 < 199 && y1 > 197, `the view went to the corner: ${before} -> ${after}`);
+  await page.click('#fit');
+  assert.ok(await hidden(), 'fitted: no minimap');
+  assert.deepEqual(errors, [], 'no errors in the page');
+  await page.close();
+  console.log(`ok: minimap: hidden when all is in view, shown zoomed in on 60,000 agents, a click on its corner takes the view there (${before.map(Math.round)} -> ${after.map(Math.round)})`);
+}
+
 const browser = await launch();
 const guard = setTimeout(() => { console.error('workbench: timed out'); process.exit(1); }, 300_000);
 try {
@@ -388,6 +412,7 @@ try {
   await testBreaks(browser);
   await testEditing(browser);
   await testPlots(browser);
+  await testMinimap(browser);
   await testTimeline(browser);
   console.log('workbench: all passed');
 } catch (e) {

@@ -1,8 +1,8 @@
 // latticesim viewer and editor: the entry point. Modules (each imports only those
 // listed before it): api (the JSON API, DOM helpers), state (the run shown, the
 // selection), camera, draw2d, draw3d, gl3d (3D in WebGL2), draw (the canvas), panel (legend, records,
-// inspector), player (stepping, running), editor, input; log, breaks, timeline, edit and
-// plots (the workbench's panels).
+// inspector), player (stepping, running), editor, input; log, breaks, timeline, edit,
+// plots and minimap (the workbench's panels).
 
 import { $, api, setTab, whenGone } from './api.js';
 import { camera } from './camera.js';
@@ -17,6 +17,7 @@ import './breaks.js';
 import './timeline.js';
 import './edit.js';
 import { heldSeries } from './plots.js';
+import './minimap.js';
 
 // ---------------------------------------------------------------- start
 

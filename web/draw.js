@@ -44,6 +44,7 @@ export function draw() {
   if (f.dim === 2) draw2d(ctx, f, r);
   else if (gl3) { drawGL(glCanvas, f, r.width, r.height); universeBox(ctx, f); }
   else draw3d(ctx, f, r);
+  document.dispatchEvent(new CustomEvent('latticesim:drawn'));
 }
 
 // The view as shown, as a PNG image (a Blob): the WebGL layer under the canvas when it

@@ -5,7 +5,7 @@
 use super::*;
 
 /// The app's files: path, content type, content (the script is ES modules, `web/*.js`).
-const ASSETS: [(&str, &str, &str); 20] = [
+const ASSETS: [(&str, &str, &str); 21] = [
     ("/", HTML, include_str!("../../web/index.html")),
     ("/index.html", HTML, include_str!("../../web/index.html")),
     (
@@ -30,6 +30,7 @@ const ASSETS: [(&str, &str, &str); 20] = [
     ("/timeline.js", JS, include_str!("../../web/timeline.js")),
     ("/edit.js", JS, include_str!("../../web/edit.js")),
     ("/plots.js", JS, include_str!("../../web/plots.js")),
+    ("/minimap.js", JS, include_str!("../../web/minimap.js")),
 ];
 const HTML: &str = "text/html; charset=utf-8";
 const JS: &str = "text/javascript; charset=utf-8";
