@@ -100,23 +100,29 @@ async function testFollow(browser) {
 }
 
 // The run's log: two rules of one priority set the state differently, so that each of
-// three agents has a state conflict every step; at step 6 the log holds 18 records, 6
-// about agent 1; an entry of step 3 goes there with its agent inspected and centred.
+// three agents has a state conflict every step, and two others a fourth agent; at step 6
+// the log holds 24 records, 6 about agent 1, 18 of rule `a`, 6 of rule `c`; an entry of
+// step 3 goes there with its agent inspected and centred.
 async function testLog(browser) {
   const { page, errors } = await opened(browser,
-    '// latticesim: allow W505\na\n1\nSAAAA0\nSB****\n\nb\n1\nSAAAA0\nSC****\n',
-    '0,0 SAAAA0\n5,0 SAAAA0\n10,0 SAAAA0\n');
+    '// latticesim: allow W505\na\n1\nSAAAA0\nSB****\n\nb\n1\nSAAAA0\nSC****\n\nc\n1\nSDDDD0\nSE****\n\nd\n1\nSDDDD0\nSF****\n',
+    '0,0 SAAAA0\n5,0 SAAAA0\n10,0 SAAAA0\n15,0 SDDDD0\n');
   await page.fill('#jump', '6');
   await page.click('#go');
   await waitStep(page, 6);
-  await page.waitForFunction(() => /^18 of 18 records, steps 1\.\.6/.test(document.getElementById('log-summary').textContent));
-  assert.equal(await page.locator('#log li').count(), 18);
+  await page.waitForFunction(() => /^24 of 24 records, steps 1\.\.6/.test(document.getElementById('log-summary').textContent));
+  assert.equal(await page.locator('#log li').count(), 24);
+  await page.selectOption('#log-rule', 'c');
+  await page.waitForFunction(() => /^6 of 24/.test(document.getElementById('log-summary').textContent));
+  assert.match(await page.locator('#log li').first().textContent(), /\(rules c, d\)$/);
+  await page.selectOption('#log-rule', 'a');
+  await page.waitForFunction(() => /^18 of 24/.test(document.getElementById('log-summary').textContent));
   await page.fill('#log-agent', '1');
-  await page.waitForFunction(() => /^6 of 18/.test(document.getElementById('log-summary').textContent));
+  await page.waitForFunction(() => /^6 of 24/.test(document.getElementById('log-summary').textContent));
   await page.selectOption('#log-kind', 'move-conflict');
-  await page.waitForFunction(() => /^0 of 18/.test(document.getElementById('log-summary').textContent));
+  await page.waitForFunction(() => /^0 of 24/.test(document.getElementById('log-summary').textContent));
   await page.selectOption('#log-kind', 'state-conflict');
-  await page.waitForFunction(() => /^6 of 18/.test(document.getElementById('log-summary').textContent));
+  await page.waitForFunction(() => /^6 of 24/.test(document.getElementById('log-summary').textContent));
   const entry = page.locator('#log li', { hasText: /^3 / });
   assert.match(await entry.textContent(), /state-conflict/);
   await entry.click();
@@ -129,7 +135,7 @@ async function testLog(browser) {
   });
   assert.ok(centred < 2, `agent 1 is centred (${centred.toFixed(1)} pixels off)`);
   assert.deepEqual(errors, [], 'no errors in the page');
-  console.log('ok: the run\'s log holds every record so far (18 at step 6), filtered by agent and kind; an entry goes to its step, its agent inspected and centred');
+  console.log('ok: the run\'s log holds every record so far (24 at step 6), filtered by rule, agent and kind; an entry goes to its step, its agent inspected and centred');
   await page.close();
 }
 

@@ -1,5 +1,6 @@
 // The run's log: every record of the steps reached so far (`GET /api/log`), filtered by
-// kind and agent; each entry goes to its step with its agents selected and centred.
+// kind, agent and rule (the rules its agents executed in that step); each entry goes to
+// its step with its agents selected and centred.
 
 import { $, api, el } from './api.js';
 import { centreOn, draw } from './draw.js';
@@ -21,6 +22,7 @@ async function showLog() {
   const q = new URLSearchParams();
   if ($('log-kind').value) q.set('kind', $('log-kind').value);
   if ($('log-agent').value !== '') q.set('agent', $('log-agent').value);
+  if ($('log-rule').value) q.set('rule', $('log-rule').value);
   const r = await api('GET', '/api/log?' + q);
   if (seq !== asked) return; // a newer answer is on its way
   const ol = $('log');
@@ -30,11 +32,19 @@ async function showLog() {
   if ($('log-kind').options.length === 1) {
     for (const k of v.kinds) $('log-kind').append(el('option', { value: k }, k));
   }
+  // The rules of this run (a new run may have others).
+  const names = [...$('log-rule').options].slice(1).map((o) => o.value);
+  if (names.join('\n') !== v.rules.join('\n')) {
+    const keep = $('log-rule').value;
+    $('log-rule').replaceChildren(el('option', { value: '' }, 'every rule'), ...v.rules.map((r) => el('option', { value: r }, r)));
+    $('log-rule').value = v.rules.includes(keep) ? keep : '';
+  }
   const more = v.more ? ` (and ${v.more} past the log's size)` : '';
   $('log-summary').textContent = `${v.matching} of ${v.logged} records, steps 1..${v.reached}${more}`;
   for (const rec of v.records) {
     const li = el('li', { class: rec.severity, title: 'Go to this step, its agents selected' },
-      el('span', { class: 'mono' }, `${rec.step} `), el('b', {}, rec.kind), ': ' + rec.message);
+      el('span', { class: 'mono' }, `${rec.step} `), el('b', {}, rec.kind), ': ' + rec.message,
+      rec.rules.length ? el('span', { class: 'muted' }, ` (rules ${rec.rules.join(', ')})`) : '');
     li.onclick = () => goTo(rec);
     ol.append(li);
   }
@@ -54,4 +64,5 @@ async function goTo(rec) {
 
 $('log-kind').onchange = showLog;
 $('log-agent').oninput = showLog;
+$('log-rule').onchange = showLog;
 document.addEventListener('latticesim:frame', refreshLog);

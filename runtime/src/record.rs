@@ -55,6 +55,11 @@ pub struct Record {
     pub agents: Vec<(u32, [i32; 3])>,
     /// What happened, in one sentence.
     pub message: String,
+    /// The rules its agents executed in that step (file order, each once): what the
+    /// viewer's log filters by. Not written to records files (the message names them
+    /// where it matters).
+    #[serde(skip_serializing)]
+    pub rules: Vec<u32>,
 }
 
 impl Record {

@@ -804,3 +804,40 @@ fn a_bond_of_letters_star_survives_when_the_agents_stay_beside() {
     assert_eq!((xy(&e, 0), xy(&e, 1)), ((0, 1), (1, 1)));
     assert_eq!((e.lat.attach[0], e.lat.attach[1]), (0b0100, 0b0010));
 }
+
+// ---- Records name the rules their agents executed ------------------------------------------
+
+/// A state conflict names the two rules that set the state; a move collision the rules of
+/// both movers; a mover meeting an agent at rest (which executed nothing) only the mover's
+/// rule.
+#[test]
+fn records_name_the_rules_their_agents_executed() {
+    let rules = "\
+a\n1\nSAAAA0\nSB****\n\nb\n1\nSAAAA0\nSC****\n\n\
+east\n1\nSEAST0\nP1,0\n\nwest\n1\nSWEST0\nP-1,0\n";
+    let agents = "0,0 SAAAA0\n10,0 SEAST0\n12,0 SWEST0\n20,0 SEAST0\n21,0 SREST0\n";
+    let mut e = engine(rules, agents);
+    let rep = e.step();
+    let named: Vec<(&str, Vec<&str>)> = (rep.records.iter())
+        .map(|r| {
+            let names = r
+                .rules
+                .iter()
+                .map(|&i| e.prog.rules[i as usize].name.as_str())
+                .collect();
+            (r.kind.name(), names)
+        })
+        .collect();
+    assert!(
+        named.contains(&("state-conflict", vec!["a", "b"])),
+        "{named:?}"
+    );
+    assert!(
+        named.contains(&("move-collision", vec!["east", "west"])),
+        "{named:?}"
+    );
+    assert!(
+        named.contains(&("move-collision", vec!["east"])),
+        "{named:?}"
+    );
+}

@@ -381,9 +381,10 @@ impl Session {
         })
     }
 
-    /// `GET /api/log?kind=K&agent=A&limit=N`: the run's log (every record of the steps
-    /// reached so far), those of kind `K` (its name, `move-conflict`) about agent `A`, the
-    /// first `N` (500 unless said, at most 10,000), with how many match.
+    /// `GET /api/log?kind=K&agent=A&rule=R&limit=N`: the run's log (every record of the
+    /// steps reached so far), those of kind `K` (its name, `move-conflict`) about agent `A`
+    /// whose agents executed rule `R` (its name) in that step, the first `N` (500 unless
+    /// said, at most 10,000), with how many match, and the kinds and rules to choose from.
     pub(super) fn api_log(&mut self, req: &Req) -> Result<Reply, Reply> {
         let kind = req.query.get("kind").copied().filter(|k| !k.is_empty());
         if let Some(k) = kind.filter(|k| !RecordKind::ALL.iter().any(|r| r.name() == *k)) {
@@ -391,15 +392,26 @@ impl Session {
         }
         let agent = req.number("agent")?;
         let limit = req.number("limit")?.unwrap_or(500).min(10_000) as usize;
+        let rule_name = req.query.get("rule").copied().filter(|r| !r.is_empty());
         let run = self.run_mut()?;
+        let prog = &run.hist.engine().prog;
+        let rule = match rule_name {
+            None => None,
+            Some(name) => Some(
+                (prog.rules.iter().position(|r| r.name == name))
+                    .ok_or_else(|| error(400, format!("there is no rule `{name}`")))?
+                    as u32,
+            ),
+        };
         let (log, more, reached) = run.hist.log();
         let about = |r: &&Record| {
             kind.is_none_or(|k| r.kind.name() == k)
                 && agent.is_none_or(|a| r.agents.iter().any(|&(id, _)| id as u64 == a))
+                && rule.is_none_or(|x| r.rules.contains(&x))
         };
         let matching = log.iter().filter(about).count();
         let records: Vec<Value> = (log.iter().filter(about).take(limit))
-            .map(super::views::record_view)
+            .map(|r| super::views::record_view(r, prog))
             .collect();
         Ok(reply_json(
             200,
@@ -410,6 +422,7 @@ impl Session {
                 "matching": matching,
                 "records": records,
                 "kinds": RecordKind::ALL.iter().map(|k| k.name()).collect::<Vec<_>>(),
+                "rules": prog.rules.iter().map(|r| r.name.as_str()).collect::<Vec<_>>(),
             }),
         ))
     }

@@ -153,18 +153,22 @@ pub(super) fn history_view(run: &Run) -> Value {
 /// The records of the step that led to the configuration shown, as the viewer lists them.
 pub(super) fn records_view(run: &Run) -> Vec<Value> {
     (run.hist.last_report())
-        .map(|rep| rep.records.iter().map(record_view).collect())
+        .map(|rep| {
+            let prog = &run.hist.engine().prog;
+            rep.records.iter().map(|r| record_view(r, prog)).collect()
+        })
         .unwrap_or_default()
 }
 
 /// One record as the viewer lists it (its step too, for the run's log).
-pub(super) fn record_view(r: &latticesim_runtime::Record) -> Value {
+pub(super) fn record_view(r: &latticesim_runtime::Record, prog: &latticesim_vm::Verified) -> Value {
     json!({
         "step": r.step,
         "kind": r.kind.name(),
         "severity": if r.is_error() { "error" } else { "warning" },
         "message": r.message,
         "agents": r.agents.iter().map(|(id, _)| id).collect::<Vec<_>>(),
+        "rules": r.rules.iter().map(|&i| prog.rules[i as usize].name.as_str()).collect::<Vec<_>>(),
     })
 }
 

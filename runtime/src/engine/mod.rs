@@ -184,6 +184,7 @@ fn record(
         kind,
         agents: ids.iter().map(|&a| (a, lat.pos[a as usize])).collect(),
         message,
+        rules: Vec::new(),
     });
 }
 
@@ -308,6 +309,15 @@ impl Engine {
                 self.deliver(&sel, &mut rep);
                 self.act(&mut sel, &mut rep);
             }
+        }
+        // Each record names the rules its agents executed.
+        for r in &mut rep.records {
+            let mut rules: Vec<u32> = (r.agents.iter())
+                .flat_map(|&(a, _)| sel.of_any(a as usize).iter().copied())
+                .collect();
+            rules.sort_unstable();
+            rules.dedup();
+            r.rules = rules;
         }
         let view = (&self.plan, &self.lat, &self.threads);
         let how = (&sel, self.selection.active, self.selection.reused());

@@ -32,6 +32,15 @@ impl Selection {
         }
     }
 
+    /// The rules agent `a` executes, none for an agent the selection does not hold.
+    pub(super) fn of_any(&self, a: usize) -> &[u32] {
+        if a < self.one.len() {
+            self.of(a)
+        } else {
+            &[]
+        }
+    }
+
     /// Sets agent `a`'s rules (agents must be set in increasing order for several rules).
     pub(super) fn set(&mut self, a: usize, rules: &[u32]) {
         self.one[a] = match rules {
