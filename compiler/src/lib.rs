@@ -577,8 +577,11 @@ pub(crate) fn check_uncapped(
         let own = agents_dim.clone().unwrap_or_else(|| dim_src.clone());
         check_agents(a, id, sources.text(id), &own, width, &mut diags)
     });
+    // (Not made at all when both are allowed: the fast reader of agents files judges them
+    // with the whole file's start states, `states_warnings_of`.)
+    let states_said = !(levels.allows(Code::W503) && levels.allows(Code::W603));
     if let (Some(a), Some(id), Some(_)) = (&agents_ast, agents_id, &config) {
-        if !diags.iter().any(|d| d.is_error()) {
+        if states_said && !diags.iter().any(|d| d.is_error()) {
             diags.extend(states_warnings(
                 &ast,
                 &rules,

@@ -142,6 +142,23 @@ fn refuse(out: &Mutex<io::Stdout>, code: i32, message: &str) -> io::Result<()> {
     w.flush()
 }
 
+/// The method of a notification that carries a whole response already written as JSON
+/// (its `params` is the text): the writer sends the text as it is. Large answers
+/// (document symbols, semantic tokens) go so, written straight from their data rather
+/// than through a `serde_json::Value` of their every element.
+pub(super) const RAW: &str = "$/latticesim/raw";
+
+/// The response to request `id` whose `result` is the JSON text `result`, to send as it is.
+pub(super) fn raw(id: &lsp_server::RequestId, result: &str) -> Message {
+    let id = serde_json::to_string(id).expect("an id is plain data");
+    Message::Notification(lsp_server::Notification {
+        method: RAW.to_string(),
+        params: serde_json::Value::String(format!(
+            "{{\"jsonrpc\":\"2.0\",\"id\":{id},\"result\":{result}}}"
+        )),
+    })
+}
+
 /// A thread of the connection: what ended it.
 pub(super) type Io = std::thread::JoinHandle<io::Result<()>>;
 
@@ -171,7 +188,14 @@ pub(super) fn stdio() -> (Connection, Io, Io) {
     let writer = std::thread::spawn(move || -> io::Result<()> {
         for m in from_server {
             let mut w = out.lock().unwrap_or_else(|p| p.into_inner());
-            m.write(&mut *w)?;
+            match &m {
+                Message::Notification(n) if n.method == RAW => {
+                    let body = n.params.as_str().unwrap_or("null");
+                    write!(w, "Content-Length: {}\r\n\r\n{body}", body.len())?;
+                    w.flush()?;
+                }
+                _ => m.write(&mut *w)?,
+            }
         }
         Ok(())
     });
