@@ -253,12 +253,19 @@ pub const MAX_NESTING: usize = 100;
 fn clean_tokens<'a>(
     line: Line<'a>,
     file: FileId,
-    dim_hint: Option<u8>,
+    (dim_hint, arena): (Option<u8>, &'a Bump),
     diags: &mut Vec<Diagnostic>,
     toks: &mut Vec<Spanned3<'a>>,
     removed: &mut Vec<Span>,
 ) {
     toks.clear();
+    // Terms split by a blank after their letter (`S STOP0`) are read joined, with one
+    // E204 each (the fix removes the blank).
+    let split = split_terms(line);
+    for &(a, b) in &split {
+        diags.push(blank_inside(file, Span::new(a, b)));
+    }
+    let joined = Joined::of(line, &split, arena);
     let mut open = Vec::new();
     let mut drop = Vec::new();
     let mut bad: Vec<(usize, usize)> = Vec::new();
@@ -266,7 +273,8 @@ fn clean_tokens<'a>(
     // before it count one), plus the `!`s just read.
     let mut levels: Vec<usize> = Vec::new();
     let mut bangs = 0;
-    for r in Lexer::new(line.text, line.start, dim_hint) {
+    for r in Lexer::new(joined.text, line.start, dim_hint) {
+        let r = joined.map(r);
         match r {
             Ok(t) => {
                 let depth = levels.last().copied().unwrap_or(0) + bangs;
@@ -393,6 +401,129 @@ fn clean_tokens<'a>(
     });
 }
 
+/// Terms whose letter stands alone, a blank before the rest: `S STOP0`, `N ***0`,
+/// `A **+*`, `X N`, `# N01`, `#N 01`. Each is the blank's byte range (absolute), in line
+/// order. Only shapes that are one term when joined and nothing when apart are taken (a
+/// letter alone is never a term; `A` and `M` are also operators, so `A` is joined only to
+/// a pattern with `*` or `+`, and `M` never).
+fn split_terms(line: Line<'_>) -> Vec<(usize, usize)> {
+    let t = line.text;
+    let mut words: Vec<(usize, usize)> = Vec::new();
+    let mut i = 0;
+    while i < t.len() {
+        if t[i..].starts_with(crate::lines::is_blank) {
+            i += t[i..].chars().next().map_or(1, char::len_utf8);
+            continue;
+        }
+        let end = t[i..]
+            .find(crate::lines::is_blank)
+            .map_or(t.len(), |k| i + k);
+        words.push((i, end));
+        i = end;
+    }
+    let dir = |c: char| "NEWSAB".contains(c);
+    let mut out = Vec::new();
+    for pair in words.windows(2) {
+        let ((a, b), (c, d)) = (pair[0], pair[1]);
+        let first = t[a..b].trim_start_matches(['!', '(']);
+        let rest = t[c..d].trim_end_matches(')');
+        if rest.is_empty() || rest.starts_with(['!', '(', ')']) {
+            continue;
+        }
+        let only = |set: &str| rest.chars().all(|ch| set.contains(ch));
+        let n = rest.chars().count();
+        // A message slot may follow a comparison sign (`=#N01`).
+        let slot = first.trim_start_matches(['<', '>', '=']);
+        let join = match first {
+            _ if slot != first && slot.starts_with('#') && slot.len() <= 2 => {
+                slot_split(slot, rest)
+            }
+            "S" => n == 5 && !rest.contains(['(', ')']),
+            "N" => (n == 4 || n == 6) && only("01*"),
+            "A" => (n == 4 || n == 6) && only("01*+") && rest.contains(['*', '+']),
+            "X" => n == 1 && rest.chars().all(dir),
+            f if f.starts_with('#') && f.len() <= 2 => slot_split(f, rest),
+            _ => false,
+        };
+        if join {
+            out.push((line.start + b, line.start + c));
+        }
+    }
+    out
+}
+
+/// `#` then `N01`, or `#N` then `01`: a message slot with a blank inside.
+fn slot_split(first: &str, rest: &str) -> bool {
+    let dir = |ch: char| "NEWSAB*".contains(ch);
+    let digits2 = |w: &str| w.len() == 2 && w.bytes().all(|b| b.is_ascii_digit());
+    match first {
+        "#" => {
+            let mut cs = rest.chars();
+            cs.next().is_some_and(dir) && digits2(cs.as_str())
+        }
+        f => f[1..].chars().all(dir) && digits2(rest),
+    }
+}
+
+/// A line's text with some blanks taken out (see [`split_terms`]), and the way back from
+/// its positions to the line's.
+struct Joined<'a> {
+    text: &'a str,
+    /// Per blank taken out: where it was in the joined text (relative), and its length.
+    cuts: Vec<(usize, usize)>,
+    start: usize,
+}
+
+impl<'a> Joined<'a> {
+    fn of(line: Line<'a>, split: &[(usize, usize)], arena: &'a Bump) -> Joined<'a> {
+        if split.is_empty() {
+            return Joined {
+                text: line.text,
+                cuts: Vec::new(),
+                start: line.start,
+            };
+        }
+        let mut text = String::with_capacity(line.text.len());
+        let (mut from, mut cuts) = (0, Vec::new());
+        for &(a, b) in split {
+            let (a, b) = (a - line.start, b - line.start);
+            text.push_str(&line.text[from..a]);
+            cuts.push((text.len(), b - a));
+            from = b;
+        }
+        text.push_str(&line.text[from..]);
+        Joined {
+            text: arena.alloc_str(&text),
+            cuts,
+            start: line.start,
+        }
+    }
+
+    /// A position of the joined text as the line's: after a cut, later by its length (a
+    /// start at the cut is after it, an end at the cut before it).
+    fn at(&self, abs: usize, is_end: bool) -> usize {
+        let o = abs - self.start;
+        let moved: usize = (self.cuts.iter())
+            .filter(|&&(p, _)| if is_end { p < o } else { p <= o })
+            .map(|&(_, len)| len)
+            .sum();
+        abs + moved
+    }
+
+    fn map(&self, r: Result<Spanned3<'a>, BadChar>) -> Result<Spanned3<'a>, BadChar> {
+        if self.cuts.is_empty() {
+            return r;
+        }
+        match r {
+            Ok((l, t, e)) => Ok((self.at(l, false), t, self.at(e, true))),
+            Err(BadChar { start, end }) => Err(BadChar {
+                start: self.at(start, false),
+                end: self.at(end, true),
+            }),
+        }
+    }
+}
+
 fn line_src(line: Line<'_>, start: usize, end: usize) -> &str {
     &line.text[start - line.start..end - line.start]
 }
@@ -452,7 +583,7 @@ fn parse_line<'a>(
     // Byte ranges of the line not read: words spoilt by a bad character, terms broken by
     // a syntax error. An error in a term that touches one is a consequence: not reported.
     let mut removed: Vec<Span> = Vec::new();
-    clean_tokens(line, file, dim_hint, diags, toks, &mut removed);
+    clean_tokens(line, file, (dim_hint, arena), diags, toks, &mut removed);
     let end = span.end as usize;
     // Recovery: on a syntax error, the broken term (from the last place a term could
     // start, up to the next) is taken out and the line read again, so one slip is one
