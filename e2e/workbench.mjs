@@ -179,7 +179,8 @@ async function testBreaks(browser) {
 // messages) goes to any of them, equal to the same
 // step reached by stepping (another tab's run); it says how far the run got, what its
 // history holds and how the step shown was reached. Then the timings of item 1 (printed,
-// not asserted): Back and jumps at 10^5 and 10^6 agents, a cloud falling.
+// not asserted): Back and jumps at 10^5 and 10^6 agents, a cloud falling (the gravity
+// example's rules: moves and a counter changing for most agents every step).
 async function testTimeline(browser) {
   const { page, errors, url } = await opened(browser,
     fs.readFileSync('examples/reconfigure-line/rules.txt', 'utf8'), fs.readFileSync('examples/reconfigure-line/agents-30.txt', 'utf8'));
@@ -213,11 +214,13 @@ async function testTimeline(browser) {
   // Timings, with an optimised build when there is one.
   const bin = process.env.LATTICESIM_TIMED || (fs.existsSync('target/release/latticesim') ? 'target/release/latticesim' : BIN);
   const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'latticesim-timeline-'));
-  const rules = path.join(dir, 'fall.txt');
-  fs.writeFileSync(rules, 'fall\n1\nE0,-1\nP0,-1\n');
+  // The gravity example's rules (`N***0 >C00 0000` / `P0,-1 C00 - C00 0001`) on a cloud
+  // whose agents count their height down as they fall (C00 = y).
+  const rules = 'examples/gravity/rules.txt';
   for (const [n, side] of [[100_000, 450], [1_000_000, 1400]]) {
     const agents = path.join(dir, `cloud-${n}.txt`);
-    fs.writeFileSync(agents, execFileSync(bin, ['gen', 'cloud', '--n', String(n), '--width', String(side), '--height', String(side)], { maxBuffer: 1 << 30 }));
+    const cloud = execFileSync(bin, ['gen', 'cloud', '--n', String(n), '--width', String(side), '--height', String(side)], { maxBuffer: 1 << 30 }).toString();
+    fs.writeFileSync(agents, cloud.split('\n').filter((l) => l).map((l) => `${l} C00 ${l.split(',')[1]}`).join('\n') + '\n');
     const s = startServer(bin, rules, agents);
     servers.push(s.process);
     const { page, errors } = await open(browser, await s.url);
