@@ -59,7 +59,7 @@ impl Edit {
                     .collect(),
             })
             .collect();
-        let cells = agents.iter().enumerate().map(|(i, a)| (a.pos, i)).collect();
+        let cells = cells_of(&agents);
         Edit {
             run,
             dim: lat.dim,
@@ -96,12 +96,7 @@ impl Edit {
             });
         }
         back.reverse();
-        self.cells = self
-            .agents
-            .iter()
-            .enumerate()
-            .map(|(i, a)| (a.pos, i))
-            .collect();
+        self.cells = cells_of(&self.agents);
         back
     }
 
@@ -233,6 +228,11 @@ impl Edit {
             Dim::Two => format!("{},{}", p[0], p[1]),
         }
     }
+}
+
+/// Which agent stands on each cell.
+fn cells_of(agents: &[Agent]) -> HashMap<[i32; 3], usize> {
+    agents.iter().enumerate().map(|(i, a)| (a.pos, i)).collect()
 }
 
 /// A state as typed: five characters.
