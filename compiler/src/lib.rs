@@ -14,6 +14,7 @@ mod idle;
 mod never;
 mod slips;
 pub use idle::{idle_states, state_field, Idle, StartState, FIXABLE};
+pub use never::StateFacts;
 pub mod describe;
 pub mod diagnostics;
 pub mod dim;
@@ -64,6 +65,9 @@ pub struct Checked {
     pub agent_count: usize,
     /// Diagnostics found but not kept in `diags` (see [`SHOWN_PER_LINE`]), per file.
     pub not_shown: Vec<NotShown>,
+    /// What the warnings about states read of the rules, when they checked clean (for
+    /// [`states_warnings_of`]).
+    pub state_facts: Option<StateFacts>,
 }
 
 /// At most this many diagnostics of one line are kept for showing; the rest are counted.
@@ -396,7 +400,7 @@ fn t_arity_mismatch(f: &RulesFile<'_>, dim: Dim) -> bool {
 /// the agents started in the wrong state and the patterns that match nothing follow from
 /// it: only the W603s are given.
 fn states_warnings(
-    ast: &RulesFile<'_>,
+    facts: &StateFacts,
     rules: &CheckedRules,
     rid: FileId,
     seen: &[StartState],
@@ -405,7 +409,7 @@ fn states_warnings(
     let mut idle = idle::diagnostics(rules, seen, aid);
     let mut out = Vec::new();
     let states: Vec<[u8; 5]> = seen.iter().map(|s| s.state).collect();
-    let never = never::never(ast, &states);
+    let never = never::never(facts, &states);
     let pats: Vec<_> = never
         .iter()
         .map(|n| never::pat(n.pattern.node).expect("a pattern of five characters"))
@@ -421,15 +425,12 @@ fn states_warnings(
         out.extend(idle.into_iter().map(|d| d.diag));
         return out;
     }
-    let spelled = never::spelled(ast);
+    let spelled = &facts.spelled;
     // W507 where the state tested is set by no rule: where agents start in it, a W507; where
     // not, the tested pattern matches nothing (a W503) and one of the two spellings is the
     // slip: the one the rules write less often (a tie: the pattern, as W503 says).
     let mut said = Vec::new();
-    for m in slips::misspelt_states(ast)
-        .iter()
-        .filter(|m| !m.tested_is_set)
-    {
+    for m in facts.misspelt().iter().filter(|m| !m.tested_is_set) {
         let written = |s: &[u8]| spelled.get(std::str::from_utf8(s).unwrap_or("")).copied();
         if states.contains(&m.tested)
             || written(&m.tested).unwrap_or(0) > written(m.set.node.as_bytes()).unwrap_or(0)
@@ -457,7 +458,7 @@ fn states_warnings(
                 },
             }
         });
-        out.push(never::diagnostic(&n, rid, seen_idle, &spelled));
+        out.push(never::diagnostic(&n, rid, seen_idle, spelled));
     }
     out.extend(idle.into_iter().map(|d| d.diag));
     out
@@ -471,15 +472,17 @@ pub fn states_warnings_of(checked: &Checked, aid: FileId, seen: &[StartState]) -
     let Some(rules) = checked.rules.as_ref() else {
         return Vec::new();
     };
-    let arena = Bump::new();
-    let text = checked.sources.text(FileId(0));
-    let (ast, _) = parse_rules(
-        text,
-        FileId(0),
-        &arena,
-        Some(checked.dim.dim.coords() as u8),
-    );
-    states_warnings(&ast, rules, FileId(0), seen, aid)
+    let facts = match &checked.state_facts {
+        Some(f) => std::borrow::Cow::Borrowed(f),
+        None => {
+            let arena = Bump::new();
+            let text = checked.sources.text(FileId(0));
+            let hint = Some(checked.dim.dim.coords() as u8);
+            let (ast, _) = parse_rules(text, FileId(0), &arena, hint);
+            std::borrow::Cow::Owned(StateFacts::of(&ast))
+        }
+    };
+    states_warnings(&facts, rules, FileId(0), seen, aid)
 }
 
 /// Checks a rules file and, if given, an agents file. `dim` is `--dim`.
@@ -580,10 +583,14 @@ pub(crate) fn check_uncapped(
     // (Not made at all when both are allowed: the fast reader of agents files judges them
     // with the whole file's start states, `states_warnings_of`.)
     let states_said = !(levels.allows(Code::W503) && levels.allows(Code::W603));
-    if let (Some(a), Some(id), Some(_)) = (&agents_ast, agents_id, &config) {
-        if states_said && !diags.iter().any(|d| d.is_error()) {
+    let clean = !diags.iter().any(|d| d.is_error());
+    let state_facts = (clean && agents_id.is_some()).then(|| StateFacts::of(&ast));
+    if let (Some(a), Some(id), Some(_), Some(facts)) =
+        (&agents_ast, agents_id, &config, &state_facts)
+    {
+        if states_said {
             diags.extend(states_warnings(
-                &ast,
+                facts,
                 &rules,
                 rid,
                 &idle::start_states(a),
@@ -621,5 +628,6 @@ pub(crate) fn check_uncapped(
         dim: dim_src,
         rules: ok.then_some(rules),
         config: if ok { config } else { None },
+        state_facts: state_facts.filter(|_| ok),
     }
 }

@@ -23,8 +23,82 @@ fn compatible(a: &Pat, b: &Pat) -> bool {
         .all(|(x, y)| x.is_none() || y.is_none() || x == y)
 }
 
+/// A tested pattern: where, its text, whether a `T` term's.
+type Tested = (latticesim_grammar::Span, String, bool);
+
+/// What the warnings about states read of a rules file, owned: per rule its name and the
+/// `S` and `T` patterns its precondition tests (outside any `!`), the patterns its `S`
+/// actions set, how often each state is written, and the states set one letter from a
+/// tested one (W507). Made with the check, so that the fast reader of agents files, which
+/// learns the start states only once the rules are checked, does not parse the rules
+/// again (half the time of a language server's check of 5,005 rules was parsing them).
+#[derive(Debug, Clone, Default)]
+pub struct StateFacts {
+    /// Per rule: its name, and its tested patterns.
+    tests: Vec<(String, Vec<Tested>)>,
+    /// The patterns of `S` actions.
+    actions: Vec<Pat>,
+    /// How often each state is written (tests and actions).
+    pub(crate) spelled: std::collections::HashMap<String, usize>,
+    /// States set one letter from a tested one: where, as written, the tested state, and
+    /// whether an action sets the tested state.
+    misspelt: Vec<(latticesim_grammar::Span, String, [u8; 5], bool)>,
+}
+
+impl StateFacts {
+    pub(crate) fn of(rules: &RulesFile<'_>) -> StateFacts {
+        let tests = (rules.rules.iter())
+            .map(|r| {
+                let mut pats = Vec::new();
+                tested(r.pre.node, &mut pats);
+                let pats = (pats.into_iter())
+                    .map(|(s, remote)| (s.span, s.node.to_string(), remote))
+                    .collect();
+                (r.name.node.to_string(), pats)
+            })
+            .collect();
+        let actions = (rules.rules.iter())
+            .flat_map(|r| r.post.node)
+            .filter_map(|t| match t.node {
+                Term::State(s) => pat(s.node),
+                _ => None,
+            })
+            .collect();
+        let spelled = (spelled(rules).into_iter())
+            .map(|(k, v)| (k.to_string(), v))
+            .collect();
+        let misspelt = (crate::slips::misspelt_states(rules).into_iter())
+            .map(|m| {
+                (
+                    m.set.span,
+                    m.set.node.to_string(),
+                    m.tested,
+                    m.tested_is_set,
+                )
+            })
+            .collect();
+        StateFacts {
+            tests,
+            actions,
+            spelled,
+            misspelt,
+        }
+    }
+
+    /// The states set one letter from a tested one (see [`crate::slips::misspelt_states`]).
+    pub(crate) fn misspelt(&self) -> Vec<crate::slips::Misspelt<'_>> {
+        (self.misspelt.iter())
+            .map(|(span, set, tested, is_set)| crate::slips::Misspelt {
+                set: Spanned::new(set.as_str(), *span),
+                tested: *tested,
+                tested_is_set: *is_set,
+            })
+            .collect()
+    }
+}
+
 /// The states that occur: start states and `S` actions (with their `*`s).
-fn occurring(rules: &RulesFile<'_>, start: &[[u8; 5]]) -> Vec<Pat> {
+fn occurring(facts: &StateFacts, start: &[[u8; 5]]) -> Vec<Pat> {
     let mut out: Vec<Pat> = Vec::new();
     let mut seen = std::collections::HashSet::new();
     let mut add = |p: Pat| {
@@ -35,13 +109,7 @@ fn occurring(rules: &RulesFile<'_>, start: &[[u8; 5]]) -> Vec<Pat> {
     for s in start {
         add(s.map(Some));
     }
-    for r in &rules.rules {
-        for t in r.post.node {
-            if let Term::State(s) = t.node {
-                pat(s.node).into_iter().for_each(&mut add);
-            }
-        }
-    }
+    facts.actions.iter().copied().for_each(add);
     out
 }
 
@@ -67,9 +135,9 @@ pub(crate) struct Never<'a> {
     pub nearest: Option<[u8; 5]>,
 }
 
-/// Every precondition pattern of `rules` that no occurring state matches.
-pub(crate) fn never<'a>(rules: &RulesFile<'a>, start: &[[u8; 5]]) -> Vec<Never<'a>> {
-    let occ = occurring(rules, start);
+/// Every precondition pattern of the rules that no occurring state matches.
+pub(crate) fn never<'a>(facts: &'a StateFacts, start: &[[u8; 5]]) -> Vec<Never<'a>> {
+    let occ = occurring(facts, start);
     let full: Vec<[u8; 5]> = occ
         .iter()
         .filter_map(|p| {
@@ -83,10 +151,9 @@ pub(crate) fn never<'a>(rules: &RulesFile<'a>, start: &[[u8; 5]]) -> Vec<Never<'
     let whole: std::collections::HashSet<[u8; 5]> = full.iter().copied().collect();
     let mut index = Index::of(&full);
     let by_place = Places::of(&occ);
-    for r in &rules.rules {
-        let mut pats = Vec::new();
-        tested(r.pre.node, &mut pats);
-        for (s, is_remote) in pats {
+    for (rule, pats) in &facts.tests {
+        for (span, text, is_remote) in pats {
+            let (s, is_remote) = (Spanned::new(text.as_str(), *span), *is_remote);
             let Some(p) = pat(s.node) else { continue };
             let matched = match exact(&p) {
                 Some(e) => whole.contains(&e) || by_place.any_compatible(&p, &occ),
@@ -98,7 +165,7 @@ pub(crate) fn never<'a>(rules: &RulesFile<'a>, start: &[[u8; 5]]) -> Vec<Never<'
             out.push(Never {
                 pattern: s,
                 is_remote,
-                rule: r.name.node,
+                rule: rule.as_str(),
                 nearest: nearest(&p, index.near(&p, &full)),
             });
         }
@@ -332,7 +399,7 @@ pub(crate) fn diagnostic(
     n: &Never<'_>,
     file: FileId,
     idle: Option<Idle>,
-    spelled: &std::collections::HashMap<&str, usize>,
+    spelled: &std::collections::HashMap<String, usize>,
 ) -> Diagnostic {
     let what = if n.is_remote {
         "no neighbour can ever be in a state it matches"
