@@ -9,7 +9,7 @@
 //! background and the grey of walls, up to [`GENERATED`] colours; beyond that they repeat.
 //! A user palette (`--palette FILE`) replaces the sequence, or pins states to colours.
 
-use std::collections::{HashMap, HashSet};
+use std::collections::HashMap;
 use std::sync::OnceLock;
 
 /// [`Palette::index`] with a small table in front: a run has few states, so nearly every
@@ -236,7 +236,9 @@ impl Palette {
     /// agents in each state, by index ([`Palette::index`]).
     pub fn observe_counting(&mut self, states: &[[u8; 5]]) -> Vec<u64> {
         let mut counts = vec![0u64; self.order().len()];
-        // States not seen before, in order of appearance, with how many agents each.
+        // States not seen before, in order of appearance, with how many agents each (a
+        // million agents are looked at every step the viewer takes: through the table,
+        // not the map).
         let mut new: Vec<([u8; 5], u64)> = Vec::new();
         let mut at: HashMap<[u8; 5], usize> = HashMap::new();
         let mut lookup = Lookup::new(self);
@@ -263,18 +265,7 @@ impl Palette {
 
     /// Gives each state of `states` not seen before its colour, in order.
     pub fn observe(&mut self, states: &[[u8; 5]]) {
-        // The states not seen before, in order (a million agents are looked at every
-        // step the viewer takes: through the table, not the map), then coloured.
-        let mut lookup = Lookup::new(self);
-        let (mut new, mut listed) = (Vec::new(), HashSet::new());
-        for s in states {
-            if lookup.get(s).is_none() && listed.insert(*s) {
-                new.push(*s);
-            }
-        }
-        for s in &new {
-            self.colour(s);
-        }
+        self.observe_counting(states);
     }
 
     /// The indices of `states` (see [`Palette::index`]; 0 for a state never seen).

@@ -11,6 +11,7 @@ import { $, api, el } from './api.js';
 import { cellAt2d } from './draw2d.js';
 import { pick } from './draw.js';
 import { editors, setText, showDiagnostics } from './editor.js';
+import { typing } from './input.js';
 import { inspect } from './panel.js';
 import { showFrame, stopRun } from './player.js';
 import { player, selection } from './state.js';
@@ -115,10 +116,6 @@ async function remove() {
   $('ed-agent').hidden = true;
   $('inspector').textContent = 'Click an agent.';
   await edit({ op: 'remove', id });
-}
-
-function typing(t) {
-  return t.tagName === 'TEXTAREA' || (t.tagName === 'INPUT' && !['range', 'checkbox', 'color'].includes(t.type));
 }
 
 document.addEventListener('keydown', (e) => {

@@ -54,7 +54,7 @@ canvas.addEventListener('wheel', (e) => {
 
 // Keys go to the universe unless a field that takes typing has focus (the step number,
 // the editors); a slider or a button keeps no keys: the arrows step, never the speed.
-function typing(el) {
+export function typing(el) {
   return el.tagName === 'TEXTAREA' || (el.tagName === 'INPUT' && !['range', 'checkbox', 'color'].includes(el.type));
 }
 

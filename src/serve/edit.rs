@@ -253,11 +253,7 @@ fn counters(s: &str) -> Result<Vec<(u8, i32)>, String> {
     }
     let mut out: Vec<(u8, i32)> = Vec::new();
     for pair in words.chunks(2) {
-        let c = (pair[0].strip_prefix('C'))
-            .filter(|d| d.len() == 2)
-            .and_then(|d| d.parse::<u8>().ok())
-            .filter(|&c| c < 45)
-            .ok_or_else(|| format!("`{}` is not a counter: C00 to C44", pair[0]))?;
+        let c = crate::gen::parse_counter(pair[0])?;
         let v: i32 = (pair[1].parse())
             .map_err(|_| format!("`{}` is not a value of {}", pair[1], pair[0]))?;
         out.retain(|&(k, _)| k != c);

@@ -29,24 +29,6 @@ pub(super) struct Series {
 /// The most points kept: past it every other one is dropped and the stride doubles.
 const SERIES_MAX: usize = 20_000;
 
-/// What was counted before a step, to tell what the step did.
-pub(super) struct Before {
-    moves: u64,
-    swaps: u64,
-    sent: u64,
-}
-
-impl Before {
-    pub(super) fn of(e: &Engine) -> Before {
-        let s = &e.stats;
-        Before {
-            moves: s.moves,
-            swaps: s.swaps,
-            sent: s.sent,
-        }
-    }
-}
-
 impl Series {
     /// A series starting with step 0 of `e`, its states counted by the palette's index.
     pub(super) fn new(e: &Engine, states: Vec<u64>) -> Series {
@@ -66,28 +48,20 @@ impl Series {
         s
     }
 
-    /// The step the engine just made (first reached), which reported `executing` agents
-    /// and `records` records.
-    pub(super) fn push(
-        &mut self,
-        e: &Engine,
-        before: &Before,
-        (executing, records): (u64, u64),
-        states: Vec<u64>,
-    ) {
-        let s = &e.stats;
-        if !s.steps.is_multiple_of(self.stride)
-            || self.points.last().is_some_and(|p| p.step >= s.steps)
+    /// A step first reached: what it did, and then the agents in each state.
+    pub(super) fn push(&mut self, cost: &latticesim_runtime::StepCost, states: Vec<u64>) {
+        if !cost.step.is_multiple_of(self.stride)
+            || self.points.last().is_some_and(|p| p.step >= cost.step)
         {
             return;
         }
         self.points.push(Point {
-            step: s.steps,
-            executing,
-            moves: s.moves - before.moves,
-            swaps: s.swaps - before.swaps,
-            sent: s.sent - before.sent,
-            records,
+            step: cost.step,
+            executing: cost.executing,
+            moves: cost.moves,
+            swaps: cost.swaps,
+            sent: cost.sent,
+            records: cost.all_records(),
             states,
         });
         if self.points.len() > SERIES_MAX {

@@ -24,13 +24,13 @@ impl Run {
     /// One step forward: its states coloured and counted, and the series told of it when
     /// it is a step not reached before.
     pub(super) fn step(&mut self) {
-        let before = super::plots::Before::of(self.hist.engine());
         let new = self.hist.steps() == self.hist.reached();
-        let rep = self.hist.step();
-        let done = (rep.executing, rep.records.len() as u64);
+        let before = new.then(|| self.hist.engine().stats.clone());
+        self.hist.step();
         let counts = self.palette.observe_counting(&self.hist.engine().lat.state);
-        if new {
-            self.series.push(self.hist.engine(), &before, done, counts);
+        if let (Some(before), Some(rep)) = (before, self.hist.last_report()) {
+            let cost = latticesim_runtime::StepCost::of(&before, &self.hist.engine().stats, rep);
+            self.series.push(&cost, counts);
         }
     }
 }

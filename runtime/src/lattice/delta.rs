@@ -613,76 +613,51 @@ impl Shadow {
 
     /// What changed from the copy to `lat` (the copy's values), and the copy made `lat`'s.
     pub fn advance(&mut self, lat: &Lattice) -> Delta {
-        let layout = std::mem::replace(&mut self.layout, Layout::of(lat));
         // The positions on a second thread while this one does the rest, when there are
         // many agents (a million agents' columns are compared in about 10 ms, read and
         // written at the memory's pace).
-        let (pos, rest) = if lat.len() >= 1 << 16 {
-            let Shadow { pos, .. } = self;
-            let shadow_pos = std::mem::take(pos);
-            std::thread::scope(|sc| {
-                let h = sc.spawn(move || {
-                    let mut p = shadow_pos;
-                    let back = PosBack::of(&mut p, &lat.pos);
-                    (back, p)
-                });
-                let rest = self.advance_rest(lat);
-                let (back, p) = h.join().expect("comparing positions does not panic");
-                self.pos = p;
-                (back, rest)
-            })
+        let mut pos = std::mem::take(&mut self.pos);
+        let (back, delta) = if lat.len() < 1 << 16 {
+            (
+                PosBack::of(&mut pos, &lat.pos),
+                self.advance_but_positions(lat),
+            )
         } else {
-            (PosBack::of(&mut self.pos, &lat.pos), self.advance_rest(lat))
+            std::thread::scope(|sc| {
+                let h = sc.spawn(|| PosBack::of(&mut pos, &lat.pos));
+                let delta = self.advance_but_positions(lat);
+                (h.join().expect("comparing positions does not panic"), delta)
+            })
         };
-        let (state, attach, counters, inbox_num, inbox_text, inbox_text_has, pending) = rest;
-        Delta {
-            layout,
-            pos,
-            state,
-            attach,
-            counters,
-            inbox_num,
-            inbox_text,
-            inbox_text_has,
-            pending,
-        }
+        self.pos = pos;
+        Delta { pos: back, ..delta }
     }
 
-    /// [`Shadow::advance`] but for the positions.
-    #[allow(clippy::type_complexity)]
-    fn advance_rest(
-        &mut self,
-        lat: &Lattice,
-    ) -> (
-        Back<[u8; 5]>,
-        Back<u8>,
-        ColsBack,
-        ColsBack,
-        Back<[u8; 5]>,
-        Back<u8>,
-        PendingBack,
-    ) {
-        (
-            Back::of(
+    /// [`Shadow::advance`] of all but the positions (left unchanged in the delta).
+    fn advance_but_positions(&mut self, lat: &Lattice) -> Delta {
+        Delta {
+            layout: std::mem::replace(&mut self.layout, Layout::of(lat)),
+            pos: PosBack::Far(Back::Same),
+            state: Back::of(
                 &mut self.state,
                 &lat.state,
                 Back::<[u8; 5]>::limit(lat.len()),
             ),
-            Back::of(&mut self.attach, &lat.attach, Back::<u8>::limit(lat.len())),
-            ColsBack::of(&mut self.counters, &lat.counters),
-            ColsBack::of(&mut self.inbox_num, &lat.inbox_num),
-            Back::of(
+            attach: Back::of(&mut self.attach, &lat.attach, Back::<u8>::limit(lat.len())),
+            counters: ColsBack::of(&mut self.counters, &lat.counters),
+            inbox_num: ColsBack::of(&mut self.inbox_num, &lat.inbox_num),
+            inbox_text: Back::of(
                 &mut self.inbox_text,
                 &lat.inbox_text,
                 Back::<[u8; 5]>::limit(lat.inbox_text.len()),
             ),
-            Back::of(
+            inbox_text_has: Back::of(
                 &mut self.inbox_text_has,
                 &lat.inbox_text_has,
                 Back::<u8>::limit(lat.inbox_text_has.len()),
             ),
-            PendingBack::of(&mut self.pending, &lat.pending),
-        )
+            pending: PendingBack::of(&mut self.pending, &lat.pending),
+        }
     }
 
     /// Bytes held, about.

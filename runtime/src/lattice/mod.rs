@@ -25,8 +25,7 @@ mod delta;
 mod pending;
 mod text;
 mod undo;
-#[allow(unused_imports)]
-pub(crate) use delta::{Delta, Mismatch, Shadow};
+pub(crate) use delta::{Delta, Shadow};
 pub(crate) use pending::Pending;
 pub use undo::{Undo, Writes};
 
