@@ -236,8 +236,42 @@ pub fn load(
     threads: usize,
     levels: &Lints,
 ) -> io::Result<Loaded> {
+    load_keeping(rules, agents_name, open, (threads, levels), None)
+}
+
+/// What reading an agents file's lines gave, kept for checking the same file again with
+/// rules that changed (the language server, at each edit of the rules beside a large
+/// agents file): the lines depend on the rules only through the lint levels and the
+/// counters' width, which are compared; the caller keeps it only while the file's text is
+/// the same. A check that reuses it makes no lattice.
+#[derive(Default)]
+pub struct KeptReading(Option<Reading>);
+
+#[derive(Clone)]
+struct Reading {
+    /// The rules' levels and the head the lines were read with.
+    key: (Lints, Head),
+    said: Said,
+    mends: Mends,
+    /// The start states, as [`distinct`] gives them.
+    states: Vec<StartState>,
+    agents_read: usize,
+    /// The file's size.
+    size: u64,
+}
+
+/// [`load`], reusing the reading of the agents file `kept` holds when it was made with
+/// the same levels and width, and keeping it otherwise (a reading reused makes no
+/// lattice: `Loaded::lattice` is `None`).
+pub fn load_keeping(
+    rules: (&str, &[u8]),
+    agents_name: &str,
+    open: Source<'_>,
+    (threads, levels): (usize, &Lints),
+    kept: Option<&mut KeptReading>,
+) -> io::Result<Loaded> {
     let started = Instant::now();
-    let declined = match fast(rules, agents_name, open, threads, levels)? {
+    let declined = match fast(rules, agents_name, open, (threads, levels), kept)? {
         Ok(l) => return Ok(l),
         Err(d) => d,
     };
@@ -564,6 +598,7 @@ impl Window {
 }
 
 /// What the lines the fast reader left said, read as the checker reads them.
+#[derive(Clone)]
 struct Said {
     /// Their diagnostics that can still be shown, lint levels applied; the others counted.
     shown: latticesim_compiler::Shown,
@@ -1075,8 +1110,8 @@ fn fast(
     rules: (&str, &[u8]),
     agents_name: &str,
     open: Source<'_>,
-    threads: usize,
-    levels: &Lints,
+    (threads, levels): (usize, &Lints),
+    kept: Option<&mut KeptReading>,
 ) -> io::Result<Result<Loaded, Declined>> {
     let started = Instant::now();
     let mut r = open.open()?;
@@ -1153,55 +1188,34 @@ fn fast(
     if agentless.is_some() {
         head = check.head(head.end);
     }
-    let mut cols = Columns::new(head.width);
-    // Room for the agents the file's size suggests (from the lines of its first bytes), so
-    // that the columns do not move as they grow.
-    if let Some(size) = open.size() {
-        let first = &w.bytes()[head.agents_at..w.whole()];
-        let lines = memchr::memchr_iter(b'\n', first).count().max(1);
-        let guess = (size as f64 * lines as f64 / first.len().max(1) as f64 * 1.05) as usize + 64;
-        cols.pos.reserve(guess);
-        cols.state.reserve(guess);
-        cols.attach.reserve(guess);
-    }
-    // What the lines the fast reader leaves say: the diagnostics that can still be shown,
-    // and counts.
-    let lints = &checked.lints;
-    let mut said = Said::new(lints);
-    let mut from = head.agents_at;
-    // The offset in the file of the window's first byte.
-    let mut base = 0u64;
-    loop {
-        let upto = w.whole();
-        if upto > from {
-            let part = read_parallel(
-                &w.bytes()[from..upto],
-                base + from as u64,
-                (&head, &check, lints),
-                &mut cols,
-                threads,
-            );
-            match part {
-                Ok(p) => said.append(p),
-                Err(at) => return Ok(Err(Declined::Line(at))),
+    let key = (checked.lints.clone(), head);
+    let reused = (kept.as_deref())
+        .and_then(|k| k.0.as_ref())
+        .filter(|r| r.key == key)
+        .cloned();
+    let (reading, lat) = match reused {
+        Some(r) => (r, None),
+        None => {
+            let lines = (&head, &check, &checked.lints);
+            let (read, lat) = match read_agents(&mut w, &mut *r, lines, open, threads)? {
+                Ok(read) => read,
+                Err(d) => return Ok(Err(d)),
+            };
+            if let Some(k) = kept {
+                k.0 = Some(read.clone());
             }
+            (read, Some(lat))
         }
-        if w.eof {
-            base += upto as u64;
-            break;
-        }
-        w.consume(upto);
-        base += upto as u64;
-        from = 0;
-        // A line longer than a chunk makes the buffer grow until its end is in it.
-        let want = w.len + CHUNK;
-        w.fill(&mut *r, want)?;
-    }
-    drop(w);
-    cols.fill();
-    let agents_read = cols.len();
-    let keep = checked.lints.shown() + 1;
-    let (lat, mends) = Lattice::from_columns_mended(head.dim, head.universe, cols, keep);
+    };
+    let lints = &checked.lints;
+    let Reading {
+        said,
+        mends,
+        states,
+        agents_read,
+        size: base,
+        ..
+    } = reading;
     // As the checker: the warnings that follow from the start states where there is no
     // error (agents on one cell are one), then the mends in their place.
     let Said {
@@ -1216,7 +1230,7 @@ fn fast(
     let agents_read = agents_read + refused;
     let mut quoted: Vec<AgentLine> = Vec::new();
     if errors == 0 {
-        let mut seen = distinct(&lat.state);
+        let mut seen = states;
         quoted.extend(quote_idle(&checked, open, &mut seen)?);
         let more =
             latticesim_compiler::states_warnings_of(&checked, latticesim_grammar::FileId(1), &seen);
@@ -1263,10 +1277,79 @@ fn fast(
     }
     Ok(Ok(Loaded {
         checked,
-        lattice: (!failed).then_some(lat),
+        lattice: lat.filter(|_| !failed),
         note: None,
         read: started.elapsed() - check_time,
         check: check_time,
         streamed: true,
     }))
+}
+
+/// Reads the agent lines after the head (the window holds the file's first bytes, the
+/// reader the rest) into a lattice: what they said, what the lattice mended, the start
+/// states. `Ok(Err(..))` when a line is left to the checker.
+fn read_agents(
+    w: &mut Window,
+    r: &mut dyn Read,
+    (head, check, lints): (&Head, &LineCheck, &Lints),
+    open: Source<'_>,
+    threads: usize,
+) -> io::Result<Result<(Reading, Lattice), Declined>> {
+    let mut cols = Columns::new(head.width);
+    // Room for the agents the file's size suggests (from the lines of its first bytes), so
+    // that the columns do not move as they grow.
+    if let Some(size) = open.size() {
+        let first = &w.bytes()[head.agents_at..w.whole()];
+        let lines = memchr::memchr_iter(b'\n', first).count().max(1);
+        let guess = (size as f64 * lines as f64 / first.len().max(1) as f64 * 1.05) as usize + 64;
+        cols.pos.reserve(guess);
+        cols.state.reserve(guess);
+        cols.attach.reserve(guess);
+    }
+    // What the lines the fast reader leaves say: the diagnostics that can still be shown,
+    // and counts.
+    let mut said = Said::new(lints);
+    let mut from = head.agents_at;
+    // The offset in the file of the window's first byte.
+    let mut base = 0u64;
+    loop {
+        let upto = w.whole();
+        if upto > from {
+            let part = read_parallel(
+                &w.bytes()[from..upto],
+                base + from as u64,
+                (head, check, lints),
+                &mut cols,
+                threads,
+            );
+            match part {
+                Ok(p) => said.append(p),
+                Err(at) => return Ok(Err(Declined::Line(at))),
+            }
+        }
+        if w.eof {
+            base += upto as u64;
+            break;
+        }
+        w.consume(upto);
+        base += upto as u64;
+        from = 0;
+        // A line longer than a chunk makes the buffer grow until its end is in it.
+        let want = w.len + CHUNK;
+        w.fill(&mut *r, want)?;
+    }
+    cols.fill();
+    let agents_read = cols.len();
+    let keep = lints.shown() + 1;
+    let (lat, mends) = Lattice::from_columns_mended(head.dim, head.universe, cols, keep);
+    let states = distinct(&lat.state);
+    let reading = Reading {
+        key: (lints.clone(), *head),
+        said,
+        mends,
+        states,
+        agents_read,
+        size: base,
+    };
+    Ok(Ok((reading, lat)))
 }

@@ -223,6 +223,7 @@ impl NotShown {
 /// files), of which only those that can still be shown are held: the same ones, and the
 /// same counts of the others, as the checker keeps of the whole file ([`check`]), in
 /// memory that does not grow with the file.
+#[derive(Debug, Clone)]
 pub struct Shown {
     per_file: usize,
     /// The diagnostics that may be shown, and the starts of their lines (sorted).

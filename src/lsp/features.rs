@@ -25,7 +25,7 @@ use std::str::FromStr;
 pub(super) struct Pair {
     uris: [Option<String>; 2],
     /// The two files' texts as checked (empty for a missing one).
-    texts: [String; 2],
+    texts: [Rc<String>; 2],
     checked: Checked,
     /// Each file's line starts, found once (a range per diagnostic indexed the whole file
     /// each time).
@@ -34,10 +34,12 @@ pub(super) struct Pair {
     states: std::cell::OnceCell<Vec<String>>,
 }
 
-/// What the pair last checked was made from: the two URIs, and for a file that is not open
-/// its size and time of change on disk (an open document's text changes only through the
-/// notifications, which forget the pair).
-pub(super) type PairKey = [Option<(String, Option<(u64, Option<std::time::SystemTime>)>)>; 2];
+/// A file as checked: its URI, how many times it opened, changed or closed (`Server::changes`),
+/// and when it is not open its size and time of change on disk.
+pub(super) type FileKey = (String, u64, Option<(u64, Option<std::time::SystemTime>)>);
+
+/// What the pair last checked was made from (see [`FileKey`]).
+pub(super) type PairKey = [Option<FileKey>; 2];
 
 /// The pair last checked, with what it was made from.
 pub(super) type Kept = Option<(PairKey, Rc<Pair>)>;
@@ -107,15 +109,17 @@ impl Server {
     /// What a pair of files is made from: the URIs, and for a file that is not open its
     /// size and time of change on disk.
     pub(super) fn pair_key(&self, uris: &[Option<String>; 2]) -> PairKey {
-        uris.clone().map(|u| {
-            u.map(|u| {
-                let disk = (!self.docs.contains_key(&u))
-                    .then(|| super::path_of(&u)?.metadata().ok())
-                    .flatten()
-                    .map(|m| (m.len(), m.modified().ok()));
-                (u, disk)
-            })
-        })
+        uris.clone().map(|u| u.map(|u| self.file_key(u)))
+    }
+
+    /// What file `uri` is now (see [`FileKey`]).
+    pub(super) fn file_key(&self, uri: String) -> FileKey {
+        let disk = (!self.docs.contains_key(&uri))
+            .then(|| super::path_of(&uri)?.metadata().ok())
+            .flatten()
+            .map(|m| (m.len(), m.modified().ok()));
+        let changes = self.changes.get(&uri).copied().unwrap_or(0);
+        (uri, changes, disk)
     }
 
     /// Checks the files of `uris` (rules, agents) as a pair.
@@ -130,12 +134,21 @@ impl Server {
         // An agents file is read as the commands read it (the streaming reader, which
         // gives the checker's diagnostics in the time and memory of reading the file: a
         // 10^6-line agents file beside the rules no longer takes the checker a second).
+        // Its reading is kept while its text is the same, for the next edit of the rules.
         let checked = match agents.as_deref() {
             Some(a) => {
                 let source = crate::agents_file::Source::Bytes(a.as_bytes());
                 let rules = (rules_name.as_str(), rules.as_bytes());
                 let levels = Default::default();
-                (crate::agents_file::load(rules, &agents_name, source, 1, &levels).ok()?).checked
+                let [_, file] = self.pair_key(&uris);
+                let mut reading = self.reading.borrow_mut();
+                if reading.0 != file {
+                    *reading = (file, Default::default());
+                }
+                let kept = Some(&mut reading.1);
+                let how = (1, &levels);
+                (crate::agents_file::load_keeping(rules, &agents_name, source, how, kept).ok()?)
+                    .checked
             }
             None => crate::check_pair(
                 (&rules_name, rules.as_bytes()),
@@ -229,20 +242,20 @@ impl Server {
         let doc = self.docs.get(uri)?;
         // The document's line starts and agents, found once per version of it (a
         // 10^6-line agents file was parsed whole at each hover).
+        let key = self.file_key(uri.to_string());
         let known = self.hover_cache.borrow().clone();
         let kept = match known {
-            Some((u, v, k)) if u == uri && v == doc.version => k,
+            Some((k, kept)) if k == key => kept,
             _ => {
                 let k = Rc::new(Outline::of(&doc.text, doc.kind));
-                *self.hover_cache.borrow_mut() =
-                    Some((uri.to_string(), doc.version, Rc::clone(&k)));
+                *self.hover_cache.borrow_mut() = Some((key, Rc::clone(&k)));
                 k
             }
         };
         let ix = LineIndex::with_starts(&doc.text, &kept.starts);
         let at = ix.offset(p.text_document_position_params.position);
         let (text, span) = match doc.kind {
-            Kind::Rules => rules_hover(&doc.text, at)?,
+            Kind::Rules => rules_hover(&doc.text, at, &kept.rules)?,
             Kind::Agents => agents_hover(&doc.text, at, &kept.agents)?,
         };
         Some(Hover {
@@ -323,7 +336,7 @@ impl Server {
             return None;
         }
         let formatted = latticesim_compiler::format_rules(&doc.text, None).ok()?;
-        if formatted == doc.text {
+        if formatted == *doc.text {
             return Some(Vec::new());
         }
         let ix = LineIndex::new(&doc.text);
@@ -519,7 +532,20 @@ fn term_at<'t, 'a>(terms: &'t [Spanned<Term<'a>>], at: usize) -> Option<&'t Span
     }
 }
 
-fn rules_hover(text: &str, at: usize) -> Option<(String, Span)> {
+/// The hover of a rules file at `at`: found in the rule there alone (`rules`: each rule's
+/// extent, from its name to its postcondition's end), parsed again on its own.
+fn rules_hover(text: &str, at: usize, rules: &[(u32, u32)]) -> Option<(String, Span)> {
+    let k = rules
+        .partition_point(|&(s, _)| s as usize <= at)
+        .checked_sub(1)?;
+    let (start, end) = (rules[k].0 as usize, rules[k].1 as usize);
+    let (hover, span) = rule_hover(text.get(start..end.max(at))?, at - start)?;
+    let shift = |p: u32| p as usize + start;
+    Some((hover, Span::new(shift(span.start), shift(span.end))))
+}
+
+/// [`rules_hover`] in a text of rules.
+fn rule_hover(text: &str, at: usize) -> Option<(String, Span)> {
     let arena = Bump::new();
     let (f, _) = latticesim_grammar::parse_rules(text, FileId(0), &arena, None);
     let within = |s: Span| (s.start as usize) <= at && at <= s.end as usize;
@@ -549,26 +575,43 @@ fn rules_hover(text: &str, at: usize) -> Option<(String, Span)> {
 }
 
 /// What hover needs of a document, found once per version: its line starts and, for an
-/// agents file, where each agent's line stands (the agents that parse, in order).
+/// agents file, where each agent's line stands (the agents that parse, in order); for a
+/// rules file, each rule's extent (a hover parses that rule alone: the whole file took 10
+/// ms at 5,005 rules).
 pub(super) struct Outline {
     starts: Vec<usize>,
     agents: Vec<(u32, u32)>,
+    rules: Vec<(u32, u32)>,
 }
 
 impl Outline {
     fn of(text: &str, kind: Kind) -> Outline {
-        let agents = match kind {
-            Kind::Rules => Vec::new(),
-            Kind::Agents => (latticesim_grammar::parse_agents(text, FileId(1))
-                .0
-                .agents
-                .iter())
-            .map(|a| (a.span.start, a.span.end))
-            .collect(),
-        };
+        let (mut agents, mut rules) = (Vec::new(), Vec::new());
+        match kind {
+            Kind::Rules => {
+                let arena = Bump::new();
+                let (f, _) = latticesim_grammar::parse_rules(text, FileId(0), &arena, None);
+                // From the name (its first line) to the end of the last of its parts.
+                rules.extend(f.rules.iter().map(|r| {
+                    let parts = [r.name.span, r.priority.span, r.pre.span, r.post.span];
+                    (
+                        r.name.span.start,
+                        parts.iter().map(|s| s.end).max().unwrap_or(0),
+                    )
+                }));
+            }
+            Kind::Agents => agents.extend(
+                (latticesim_grammar::parse_agents(text, FileId(1))
+                    .0
+                    .agents
+                    .iter())
+                .map(|a| (a.span.start, a.span.end)),
+            ),
+        }
         Outline {
             starts: super::text::line_starts(text),
             agents,
+            rules,
         }
     }
 }
@@ -616,4 +659,36 @@ fn agent_text(i: usize, a: &latticesim_grammar::ast::AgentLine<'_>) -> String {
         s += &format!(", C{} = {}", c.node, v.node);
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A hover found in the rule at the cursor alone, parsed on its own, says what the
+    /// whole file parsed says, at every place of every example's rules (and of a file with
+    /// comments, blank lines and a rule without its priority).
+    #[test]
+    fn a_hover_in_one_rule_is_the_hover_in_the_whole_file() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let mut texts = vec![
+            "// head\n\nfirst\n1\nSAAAA0 N***0\nSBBBB0\n\n// between\nsecond\nS*0\nSCCC0\n\nthird\n2\n>C00 0001 !E0,1\nP0,1 C00 - C00 0001\n".to_string(),
+        ];
+        for e in std::fs::read_dir(root.join("examples")).unwrap() {
+            if let Ok(t) = std::fs::read_to_string(e.unwrap().path().join("rules.txt")) {
+                texts.push(t);
+            }
+        }
+        assert!(texts.len() > 10, "the examples' rules");
+        for text in &texts {
+            let rules = Outline::of(text, Kind::Rules).rules;
+            let mut shown = 0;
+            for at in (0..=text.len()).filter(|&at| text.is_char_boundary(at)) {
+                let one = rules_hover(text, at, &rules);
+                assert_eq!(one, rule_hover(text, at), "at {at} of\n{text}");
+                shown += usize::from(one.is_some());
+            }
+            assert!(shown > 0, "hovers in\n{text}");
+        }
+    }
 }

@@ -46,8 +46,9 @@ pub enum Kind {
 
 /// An open document.
 pub struct Doc {
-    /// The text as the editor has it.
-    pub text: String,
+    /// The text as the editor has it (shared with what is kept of the checks: a 10^6-line
+    /// agents file is not copied at each).
+    pub text: std::rc::Rc<String>,
     /// The editor's version.
     pub version: i32,
     /// Rules or agents.
@@ -62,8 +63,17 @@ pub struct Server {
     pair_cache: std::cell::RefCell<features::Kept>,
     /// The files last navigated (see `navigate.rs`), forgotten as the pair is.
     nav_cache: std::cell::RefCell<navigate::KeptFiles>,
-    /// The document last hovered, its version and its outline (see `features.rs`).
-    hover_cache: std::cell::RefCell<Option<(String, i32, std::rc::Rc<features::Outline>)>>,
+    /// The reading of the agents file last checked with rules (`agents_file::KeptReading`),
+    /// kept while its text is the same (an edit of the rules beside a 10^6-line agents file
+    /// read the whole file again).
+    reading: std::cell::RefCell<(Option<features::FileKey>, crate::agents_file::KeptReading)>,
+    /// The document last hovered and its outline (see `features.rs`).
+    hover_cache: std::cell::RefCell<Option<(features::FileKey, std::rc::Rc<features::Outline>)>>,
+    /// Per document, how many times it opened, changed or closed: what is kept of a file is
+    /// kept with its count (a document's version need not change with its text: an editor
+    /// may reopen it, or send a change without a new version), so that an edit of one file
+    /// leaves what is kept of the other.
+    changes: HashMap<String, u64>,
 }
 
 /// The capabilities the server announces.
@@ -126,6 +136,11 @@ fn refused(id: RequestId, why: String) -> Response {
     Response::new_err(id, lsp_server::ErrorCode::RequestFailed as i32, why)
 }
 
+/// An answer's JSON text, written from its data (not through a `serde_json::Value`).
+fn json_text(v: &impl serde::Serialize) -> String {
+    serde_json::to_string(v).expect("answers are plain data")
+}
+
 fn params<P: serde::de::DeserializeOwned>(v: serde_json::Value) -> Option<P> {
     serde_json::from_value(v).ok()
 }
@@ -142,12 +157,12 @@ impl Server {
     }
 
     /// The text of a document: the editor's when it is open, else the file's on disk.
-    fn text_of(&self, uri: &str) -> Option<String> {
+    fn text_of(&self, uri: &str) -> Option<std::rc::Rc<String>> {
         if let Some(d) = self.docs.get(uri) {
-            return Some(d.text.clone());
+            return Some(std::rc::Rc::clone(&d.text));
         }
         let bytes = std::fs::read(path_of(uri)?).ok()?;
-        Some(String::from_utf8_lossy(&bytes).into_owned())
+        Some(String::from_utf8_lossy(&bytes).into_owned().into())
     }
 
     /// The file a document is checked with: for `rules-X.txt` the `agents-X.txt` beside it
@@ -213,6 +228,13 @@ impl Server {
             "textDocument/semanticTokens/full" => {
                 Some(params(r.params.clone()).map(|p| self.semantic_tokens_json(p)))
             }
+            // (Up to 10,000 places in a large agents file.)
+            "textDocument/definition" => {
+                Some(params(r.params.clone()).map(|p| json_text(&self.definition(p))))
+            }
+            "textDocument/references" => {
+                Some(params(r.params.clone()).map(|p| json_text(&self.references(p))))
+            }
             _ => None,
         };
         match raw {
@@ -241,12 +263,6 @@ impl Server {
             }
             "textDocument/codeAction" => {
                 params(r.params).map(|p| serde_json::to_value(self.code_actions(p)))
-            }
-            "textDocument/definition" => {
-                params(r.params).map(|p| serde_json::to_value(self.definition(p)))
-            }
-            "textDocument/references" => {
-                params(r.params).map(|p| serde_json::to_value(self.references(p)))
             }
             "textDocument/foldingRange" => {
                 params(r.params).map(|p| serde_json::to_value(self.folding_ranges(p)))
@@ -283,10 +299,13 @@ impl Server {
     fn notification(&mut self, n: Notification) -> Vec<Message> {
         if n.method.starts_with("textDocument/did") {
             *self.pair_cache.get_mut() = None;
-            *self.nav_cache.get_mut() = None;
-            // A document's version need not change with its text (an editor may reopen it,
-            // or send a change without a new version).
-            *self.hover_cache.get_mut() = None;
+            let uri = n
+                .params
+                .pointer("/textDocument/uri")
+                .and_then(|u| u.as_str());
+            if let Some(uri) = uri {
+                *self.changes.entry(uri.to_string()).or_default() += 1;
+            }
         }
         match n.method.as_str() {
             "textDocument/didOpen" => {
@@ -298,7 +317,7 @@ impl Server {
                 self.docs.insert(
                     uri.clone(),
                     Doc {
-                        text: p.text_document.text,
+                        text: p.text_document.text.into(),
                         version: p.text_document.version,
                         kind,
                     },
@@ -314,7 +333,7 @@ impl Server {
                     return Vec::new();
                 };
                 d.version = p.text_document.version;
-                text::apply_changes(&mut d.text, p.content_changes);
+                text::apply_changes(std::rc::Rc::make_mut(&mut d.text), p.content_changes);
                 self.publish(&uri)
             }
             "textDocument/didClose" => {

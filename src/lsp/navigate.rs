@@ -30,10 +30,7 @@ pub const AGENT_PLACES: usize = 10_000;
 
 /// The places to list: every one in the rules file, the first [`AGENT_PLACES`] in the
 /// agents file.
-fn listed<'o, 't>(places: impl Iterator<Item = &'o Occurrence<'t>>) -> Vec<&'o Occurrence<'t>>
-where
-    't: 'o,
-{
+fn listed<'t>(places: impl Iterator<Item = Occurrence<'t>>) -> Vec<Occurrence<'t>> {
     let mut agents = 0;
     places
         .filter(|o| {
@@ -48,41 +45,58 @@ where
 /// in a large agents file: its line starts and its names.
 pub(super) struct Files {
     uris: [Option<String>; 2],
-    texts: [String; 2],
+    texts: [std::rc::Rc<String>; 2],
+    /// What each file is (see `features::FileKey`).
+    keys: super::features::PairKey,
     /// Each text's line starts, found once for all the locations given.
-    starts: [std::cell::OnceCell<Vec<usize>>; 2],
-    /// The agents file's names: (what, where, role).
-    agent_names: std::cell::OnceCell<Vec<(What, latticesim_grammar::Span, names::Role)>>,
+    starts: [std::cell::OnceCell<std::rc::Rc<Vec<usize>>>; 2],
+    /// The rules file's and the agents file's names: (what, where, role).
+    names: [std::cell::OnceCell<std::rc::Rc<Vec<Name>>>; 2],
 }
+
+/// A name kept without its text: what, where, and the role of its place.
+type Name = (What, latticesim_grammar::Span, names::Role);
 
 /// The files last navigated, with what they were made from (as the pair checked).
 pub(super) type KeptFiles = Option<(super::features::PairKey, std::rc::Rc<Files>)>;
 
 impl Files {
-    fn occurrences(&self) -> Vec<Occurrence<'_>> {
-        let mut v = names::in_rules(&self.texts[0]);
-        if self.uris[1].is_some() {
-            let text = &self.texts[1];
-            let kept = self.agent_names.get_or_init(|| {
-                (names::in_agents(text).into_iter())
-                    .map(|o| (o.what, o.span, o.role))
-                    .collect()
-            });
-            v.extend(kept.iter().map(|&(what, span, role)| Occurrence {
+    /// Every name of the two files, rules first, in file order: made as they are gone
+    /// through (the names of 10^6 agents are millions of places; a list of them made at
+    /// each request cost more than the search).
+    fn occurrences(&self) -> impl Iterator<Item = Occurrence<'_>> {
+        let kept = |i: usize| -> &[Name] {
+            let text = &self.texts[i];
+            self.names[i].get_or_init(|| {
+                let found = match i {
+                    0 => names::in_rules(text),
+                    _ if self.uris[1].is_some() => names::in_agents(text),
+                    _ => Vec::new(),
+                };
+                std::rc::Rc::new(
+                    found
+                        .into_iter()
+                        .map(|o| (o.what, o.span, o.role))
+                        .collect(),
+                )
+            })
+        };
+        (0..2).flat_map(move |i| {
+            let text = &self.texts[i][..];
+            kept(i).iter().map(move |&(what, span, role)| Occurrence {
                 what,
                 text: &text[span.start as usize..span.end as usize],
                 span,
                 role,
-                file: FileId(1),
-            }));
-        }
-        v
+                file: FileId(i as u32),
+            })
+        })
     }
 
     /// The line index of file `i`, its line starts found once.
     fn index(&self, i: usize) -> LineIndex<'_> {
         let text = &self.texts[i];
-        let starts = self.starts[i].get_or_init(|| super::text::line_starts(text));
+        let starts = self.starts[i].get_or_init(|| super::text::line_starts(text).into());
         LineIndex::with_starts(text, starts)
     }
 
@@ -113,8 +127,8 @@ struct Target {
 impl Target {
     /// The name under the cursor among the files' names (collected once per request: an
     /// agents file of 10^6 lines takes a while to read).
-    fn name<'o, 't>(&self, all: &'o [Occurrence<'t>]) -> Option<&'o Occurrence<'t>> {
-        all.iter().find(|o| o.file == self.file && o.under(self.at))
+    fn name<'t>(&self, mut all: impl Iterator<Item = Occurrence<'t>>) -> Option<Occurrence<'t>> {
+        all.find(|o| o.file == self.file && o.under(self.at))
     }
 
     /// Where a place is, as `file:line`.
@@ -132,7 +146,10 @@ impl Target {
 }
 
 /// The name under the cursor when it can be renamed, or why not.
-fn renamable<'o, 't>(t: &Target, all: &'o [Occurrence<'t>]) -> Result<&'o Occurrence<'t>, String> {
+fn renamable<'t>(
+    t: &Target,
+    all: impl Iterator<Item = Occurrence<'t>>,
+) -> Result<Occurrence<'t>, String> {
     let o = t
         .name(all)
         .ok_or("nothing to rename here: put the cursor on a state, a counter or a rule's name")?;
@@ -151,9 +168,11 @@ impl Server {
     fn files(&self, uri: &str) -> Option<std::rc::Rc<Files>> {
         let uris = self.pair_uris(uri)?;
         let key = self.pair_key(&uris);
-        if let Some((k, f)) = &*self.nav_cache.borrow() {
+        let before = self.nav_cache.borrow_mut().take();
+        if let Some((k, _)) = &before {
             if *k == key {
-                return Some(std::rc::Rc::clone(f));
+                *self.nav_cache.borrow_mut() = before.clone();
+                return before.map(|(_, f)| f);
             }
         }
         let texts = [0, 1].map(|i| {
@@ -162,12 +181,26 @@ impl Server {
                 .and_then(|u| self.text_of(u))
                 .unwrap_or_default()
         });
-        let files = std::rc::Rc::new(Files {
+        let files = Files {
             uris,
             texts,
+            keys: key.clone(),
             starts: Default::default(),
-            agent_names: Default::default(),
-        });
+            names: Default::default(),
+        };
+        // What was found in a file that has not changed is kept (the names of a 10^6-line
+        // agents file, at each edit of the rules).
+        if let Some((_, old)) = before {
+            for i in (0..2).filter(|&i| old.keys[i] == files.keys[i]) {
+                if let Some(n) = old.names[i].get() {
+                    let _ = files.names[i].set(std::rc::Rc::clone(n));
+                }
+                if let Some(s) = old.starts[i].get() {
+                    let _ = files.starts[i].set(std::rc::Rc::clone(s));
+                }
+            }
+        }
+        let files = std::rc::Rc::new(files);
         *self.nav_cache.borrow_mut() = Some((key, std::rc::Rc::clone(&files)));
         Some(files)
     }
@@ -182,13 +215,11 @@ impl Server {
 
     pub(super) fn definition(&self, p: GotoDefinitionParams) -> Option<GotoDefinitionResponse> {
         let t = self.target(&p.text_document_position_params)?;
-        let all = t.files.occurrences();
-        let n = t.name(&all)?;
-        let places = all
-            .iter()
-            .filter(|o| o.role.defines() && o.names(n.what, n.text));
+        let n = t.name(t.files.occurrences())?;
+        let places =
+            (t.files.occurrences()).filter(|o| o.role.defines() && o.names(n.what, n.text));
         let found = listed(places)
-            .into_iter()
+            .iter()
             .filter_map(|o| t.files.location(o))
             .collect();
         Some(GotoDefinitionResponse::Array(found))
@@ -196,15 +227,13 @@ impl Server {
 
     pub(super) fn references(&self, p: ReferenceParams) -> Option<Vec<Location>> {
         let t = self.target(&p.text_document_position)?;
-        let all = t.files.occurrences();
-        let n = t.name(&all)?;
+        let n = t.name(t.files.occurrences())?;
         let with_definitions = p.context.include_declaration;
-        let places = all
-            .iter()
+        let places = (t.files.occurrences())
             .filter(|o| o.names(n.what, n.text) && (with_definitions || !o.role.defines()));
         Some(
             listed(places)
-                .into_iter()
+                .iter()
                 .filter_map(|o| t.files.location(o))
                 .collect(),
         )
@@ -217,8 +246,7 @@ impl Server {
         let Some(t) = self.target(&p) else {
             return Ok(None);
         };
-        let all = t.files.occurrences();
-        let o = renamable(&t, &all)?;
+        let o = renamable(&t, t.files.occurrences())?;
         let ix = LineIndex::new(&t.files.texts[t.file.0 as usize]);
         // A counter is renamed with its `C`.
         let start = o.span.start as usize - usize::from(o.what == What::Counter);
@@ -232,20 +260,18 @@ impl Server {
         let Some(t) = self.target(&p.text_document_position) else {
             return Ok(None);
         };
-        let all = t.files.occurrences();
-        let o = renamable(&t, &all)?;
+        let all = || t.files.occurrences();
+        let o = renamable(&t, all())?;
         let (what, old) = (o.what, o.text);
         let new = new_name(what, &p.new_name, &t.files)?;
-        if let Some(clash) = all.iter().find(|o| !o.is_pattern() && o.names(what, &new)) {
+        if let Some(clash) = all().find(|o| !o.is_pattern() && o.names(what, &new)) {
             return Err(format!(
                 "`{}` is already used ({}): renaming would merge the two",
                 shown(what, &new),
-                t.line_of(clash)
+                t.line_of(&clash)
             ));
         }
-        if let Some(p) = all
-            .iter()
-            .find(|o| o.is_pattern() && o.names(what, old) != o.names(what, &new))
+        if let Some(p) = all().find(|o| o.is_pattern() && o.names(what, old) != o.names(what, &new))
         {
             let (does, not) = if p.names(what, old) {
                 ("matches", "would not match")
@@ -255,13 +281,13 @@ impl Server {
             return Err(format!(
                 "the pattern `{}` ({}) {does} `{old}` but {not} `{new}`: change it first",
                 p.text,
-                t.line_of(p)
+                t.line_of(&p)
             ));
         }
         #[allow(clippy::mutable_key_type)] // lsp-types' map type for workspace edits
         let mut changes: HashMap<Uri, Vec<TextEdit>> = HashMap::new();
-        for o in all.iter().filter(|o| !o.is_pattern() && o.names(what, old)) {
-            let Some(loc) = t.files.location(o) else {
+        for o in all().filter(|o| !o.is_pattern() && o.names(what, old)) {
+            let Some(loc) = t.files.location(&o) else {
                 continue;
             };
             changes.entry(loc.uri).or_default().push(TextEdit {
@@ -355,7 +381,7 @@ mod tests {
             .map(|_| o(1))
             .chain((0..7).map(|_| o(0)))
             .collect();
-        let l = listed(v.iter());
+        let l = listed(v.iter().copied());
         assert_eq!(l.len(), AGENT_PLACES + 7);
         assert_eq!(l.iter().filter(|o| o.file == FileId(0)).count(), 7);
     }

@@ -14,7 +14,6 @@ use lsp_types::{
     FoldingRangeParams, SemanticToken, SemanticTokenType, SemanticTokensLegend,
     SemanticTokensParams, SymbolKind,
 };
-use std::fmt::Write as _;
 
 /// The token types, in the legend's order (a token's type is its index here).
 const TYPES: [SemanticTokenType; 8] = [
@@ -80,7 +79,8 @@ fn comments(text: &str) -> Vec<(usize, usize, Type)> {
     let mut v = Vec::new();
     let mut start = 0;
     for raw in text.split_inclusive('\n') {
-        if let Some(c) = raw.find("//") {
+        let mut slashes = memchr::memchr_iter(b'/', raw.as_bytes());
+        if let Some(c) = slashes.find(|&i| raw.as_bytes().get(i + 1) == Some(&b'/')) {
             let body = raw.trim_end_matches(['\n', '\r']);
             v.push((start + c, start + body.len(), Type::Comment));
         }
@@ -221,12 +221,14 @@ fn agents_tokens(text: &str, v: &mut Vec<(usize, usize, Type)>) {
 /// The tokens as the protocol sends them: each relative to the one before, in UTF-16.
 fn encode(text: &str, tokens: &[(usize, usize, Type)]) -> Vec<SemanticToken> {
     let ix = LineIndex::new(text);
+    // Tokens are sorted and none overlaps: their starts and ends come in order.
+    let mut at = ix.positions_in_order();
     let (mut line, mut col) = (0, 0);
     tokens
         .iter()
         .map(|&(s, e, ty)| {
-            let a = ix.position(s);
-            let b = ix.position(e);
+            let a = at(s);
+            let b = at(e);
             let delta_line = a.line - line;
             let delta_start = if delta_line == 0 {
                 a.character - col
@@ -314,15 +316,21 @@ impl Server {
         let data = encode(&doc.text, &tokens(&doc.text, doc.kind));
         let mut out = String::with_capacity(12 + data.len() * 20);
         out.push_str("{\"data\":[");
-        for (i, t) in data.iter().enumerate() {
-            if i > 0 {
+        let mut digits = itoa::Buffer::new();
+        for t in &data {
+            for n in [
+                t.delta_line,
+                t.delta_start,
+                t.length,
+                t.token_type,
+                t.token_modifiers_bitset,
+            ] {
+                out.push_str(digits.format(n));
                 out.push(',');
             }
-            let _ = write!(
-                out,
-                "{},{},{},{},{}",
-                t.delta_line, t.delta_start, t.length, t.token_type, t.token_modifiers_bitset
-            );
+        }
+        if out.ends_with(',') {
+            out.pop();
         }
         out.push_str("]}");
         out

@@ -62,8 +62,36 @@ impl<'t> LineIndex<'t> {
             offset -= 1;
         }
         let line = self.starts.partition_point(|&s| s <= offset) - 1;
-        let col = self.text[self.starts[line]..offset].encode_utf16().count();
-        Position::new(line as u32, col as u32)
+        Position::new(line as u32, self.column(line, offset))
+    }
+
+    /// The UTF-16 column of `offset` (a character boundary) on line `line`.
+    fn column(&self, line: usize, offset: usize) -> u32 {
+        let before = &self.text[self.starts[line]..offset];
+        // (Bytes are UTF-16 units in ASCII, which most files are.)
+        match before.is_ascii() {
+            true => before.len() as u32,
+            false => before.encode_utf16().count() as u32,
+        }
+    }
+
+    /// The positions of byte offsets given in increasing order (as [`LineIndex::position`]),
+    /// found walking forward: no search per offset.
+    pub fn positions_in_order(&self) -> impl FnMut(usize) -> Position + '_ {
+        let mut line = 0;
+        move |offset| {
+            let mut offset = offset.min(self.text.len());
+            while !self.text.is_char_boundary(offset) {
+                offset -= 1;
+            }
+            if self.starts[line] > offset {
+                line = 0;
+            }
+            while self.starts.get(line + 1).is_some_and(|&s| s <= offset) {
+                line += 1;
+            }
+            Position::new(line as u32, self.column(line, offset))
+        }
     }
 
     /// The range of a byte span.
@@ -109,6 +137,10 @@ mod tests {
             }
         }
         assert_eq!(ix.position(6), ix.position(5)); // inside 😀: its start
+        let mut walk = ix.positions_in_order();
+        for o in 0..=text.len() + 2 {
+            assert_eq!(walk(o), ix.position(o), "{o}");
+        }
     }
 
     #[test]
