@@ -1353,3 +1353,45 @@ fn read_agents(
     };
     Ok(Ok((reading, lat)))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A reading of the agents file kept and used again with other rules (the language
+    /// server, at each edit of the rules) gives the diagnostics a fresh reading gives; it
+    /// is used again only when the rules' levels and width are the same.
+    #[test]
+    fn a_kept_reading_checks_as_a_fresh_one() {
+        let clean = "0,0 SFALL0 C00 3\n1,0 SFALL0 C00 3 C01 7\n1,1 SREST0\n2,5 SIDLE0\n";
+        let faulty = "0,0 SFALL0 C00 3\n1,0 SFALL0 C00 3 C01 70000\n1,0 SREST0\n2,5 SIDLE0 N1\n3,3 SFALL0 xx\n4,4 SFAL0\n";
+        let fall = "fall\n1\nSFALL0 N***0 >C00 0000\nP0,-1 C00 - C00 0001\n";
+        let rules = [
+            fall.to_string(),
+            format!("{fall}\nrest\n1\nSREST0\nSIDLE0\n"),
+            format!("// latticesim: counters 32\n{fall}"),
+            format!("// latticesim: allow W603\n{fall}"),
+            "fall\n1\nSFAL00 N***0\nP0,-1\n".to_string(),
+        ];
+        for agents in [clean, faulty] {
+            let mut kept = KeptReading::default();
+            let mut reused = 0;
+            for r in rules.iter().chain(&rules) {
+                let load = |kept: Option<&mut KeptReading>| {
+                    let rules = ("rules.txt", r.as_bytes());
+                    let source = Source::Bytes(agents.as_bytes());
+                    load_keeping(rules, "agents.txt", source, (1, &Lints::new()), kept).unwrap()
+                };
+                let fresh = load(None);
+                let again = load(Some(&mut kept));
+                let (a, b) = (&fresh.checked, &again.checked);
+                assert_eq!(a.diags, b.diags, "{r}\n{agents}");
+                assert_eq!((a.errors(), a.agent_count), (b.errors(), b.agent_count));
+                reused += usize::from(fresh.lattice.is_some() && again.lattice.is_none());
+            }
+            if agents == clean {
+                assert!(reused >= 2, "a reading used again");
+            }
+        }
+    }
+}

@@ -665,6 +665,66 @@ fn agent_text(i: usize, a: &latticesim_grammar::ast::AgentLine<'_>) -> String {
 mod tests {
     use super::*;
 
+    /// The diagnostics of an agents file follow its every change, and the rules' edits
+    /// between (what is kept of the agents file is kept only while it is the same).
+    #[test]
+    fn kept_readings_follow_the_agents_file() {
+        use lsp_server::{Message, Notification};
+        use serde_json::json;
+        let (rules, agents) = ("file:///k/rules.txt", "file:///k/agents.txt");
+        let mut s = Server::new();
+        let note =
+            |m: &str, p: serde_json::Value| Message::Notification(Notification::new(m.into(), p));
+        let codes = |out: Vec<Message>, uri: &str| -> Vec<String> {
+            let mut v = Vec::new();
+            for m in out {
+                if let Message::Notification(n) = m {
+                    if n.params["uri"] == uri {
+                        for d in n.params["diagnostics"].as_array().unwrap() {
+                            v.push(d["code"].as_str().unwrap_or("").to_string());
+                        }
+                    }
+                }
+            }
+            v
+        };
+        let fall = "fall\n1\nSFALL0 N***0 >C00 0000\nP0,-1 C00 - C00 0001\n";
+        let open = |uri: &str, lang: &str, text: &str| {
+            note(
+                "textDocument/didOpen",
+                json!({"textDocument": {"uri": uri, "languageId": lang, "version": 1, "text": text}}),
+            )
+        };
+        s.handle(open(rules, "latticesim-rules", fall));
+        let out = s.handle(open(agents, "latticesim-agents", "0,0 SFALL0 C00 3\n"));
+        assert_eq!(codes(out, agents), Vec::<String>::new());
+        let change = |uri: &str, v: i32, text: &str| {
+            note(
+                "textDocument/didChange",
+                json!({"textDocument": {"uri": uri, "version": v}, "contentChanges": [{"text": text}]}),
+            )
+        };
+        // The same version, another text: an idle state.
+        let out = s.handle(change(agents, 1, "0,0 SFALL0 C00 3\n0,1 SIDLE0\n"));
+        assert_eq!(codes(out, agents), vec!["W603"]);
+        // The rules change (the reading is used again), then test the state.
+        let out = s.handle(change(
+            rules,
+            2,
+            &format!("{fall}\nidle\n1\nSIDLE0\nSFALL0\n"),
+        ));
+        assert_eq!(codes(out, agents), Vec::<String>::new());
+        let out = s.handle(change(rules, 3, fall));
+        assert_eq!(codes(out, agents), vec!["W603"]);
+        // Closed and opened again with the same version and another text.
+        s.handle(note(
+            "textDocument/didClose",
+            json!({"textDocument": {"uri": agents}}),
+        ));
+        let out = s.handle(open(agents, "latticesim-agents", "0,0 SFALL0 C00 3\n"));
+        assert_eq!(codes(out, agents), Vec::<String>::new());
+    }
+
     /// A hover found in the rule at the cursor alone, parsed on its own, says what the
     /// whole file parsed says, at every place of every example's rules (and of a file with
     /// comments, blank lines and a rule without its priority).
