@@ -290,11 +290,15 @@ impl SharedCells<'_> {
         i as u32 | ((word >> (i % 64) & 1) as u32) << 31
     }
 
-    /// Asks for cell `i` and its occupancy bit ahead of writing them (any `i`).
+    /// Asks for cell `i`, its occupancy bit and its rim bit ahead of writing them (any
+    /// `i`). (The rim bit makes the code of a mover's new cell: read after the occupancy
+    /// word's locked instruction, it could not be asked for early by the processor, and a
+    /// move waited for it.)
     #[inline]
     pub(crate) fn prefetch_cell(&self, i: usize) {
         prefetch(self.cells.wrapping_add(i));
         prefetch(self.occ.wrapping_add(i / 64));
+        prefetch(self.rim.wrapping_add(i / 64));
     }
 }
 

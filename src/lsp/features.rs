@@ -146,7 +146,8 @@ impl Server {
                     *reading = (file, Default::default());
                 }
                 let kept = Some(&mut reading.1);
-                let how = (1, &levels);
+                // A large file is read on every core, as `check` reads it.
+                let how = (crate::run::io_threads(None), &levels);
                 (crate::agents_file::load_keeping(rules, &agents_name, source, how, kept).ok()?)
                     .checked
             }
@@ -243,12 +244,13 @@ impl Server {
         // The document's line starts and agents, found once per version of it (a
         // 10^6-line agents file was parsed whole at each hover).
         let key = self.file_key(uri.to_string());
-        let known = self.hover_cache.borrow().clone();
+        let known = self.hover_cache.borrow().get(uri).cloned();
         let kept = match known {
             Some((k, kept)) if k == key => kept,
             _ => {
                 let k = Rc::new(Outline::of(&doc.text, doc.kind));
-                *self.hover_cache.borrow_mut() = Some((key, Rc::clone(&k)));
+                let kept = (key, Rc::clone(&k));
+                self.hover_cache.borrow_mut().insert(uri.to_string(), kept);
                 k
             }
         };
@@ -716,11 +718,20 @@ mod tests {
         assert_eq!(codes(out, agents), Vec::<String>::new());
         let out = s.handle(change(rules, 3, fall));
         assert_eq!(codes(out, agents), vec!["W603"]);
+        // Each document keeps its hover outline beside the other's (the agents file's was
+        // made again at each hover after one in the rules), until it closes.
+        for uri in [rules, agents, rules] {
+            let at = json!({"textDocument": {"uri": uri}, "position": {"line": 0, "character": 1}});
+            let hover = lsp_server::Request::new(1.into(), "textDocument/hover".into(), at);
+            s.handle(Message::Request(hover));
+        }
+        assert_eq!(s.hover_cache.borrow().len(), 2);
         // Closed and opened again with the same version and another text.
         s.handle(note(
             "textDocument/didClose",
             json!({"textDocument": {"uri": agents}}),
         ));
+        assert_eq!(s.hover_cache.borrow().len(), 1);
         let out = s.handle(open(agents, "latticesim-agents", "0,0 SFALL0 C00 3\n"));
         assert_eq!(codes(out, agents), Vec::<String>::new());
     }

@@ -98,10 +98,12 @@ fn lone_surrogates_replaced(body: &[u8]) -> std::borrow::Cow<'_, [u8]> {
     let mut i = 0;
     while i < body.len() {
         if body[i] != b'\\' {
+            // On to the next escape at once (a 20 MB document has a million `\n`).
+            let next = memchr::memchr(b'\\', &body[i..]).map_or(body.len(), |k| i + k);
             if let Some(o) = &mut out {
-                o.push(body[i]);
+                o.extend_from_slice(&body[i..next]);
             }
-            i += 1;
+            i = next;
             continue;
         }
         // An escape: `\\` and the others are two bytes, `\uXXXX` six.
@@ -272,6 +274,11 @@ mod tests {
             "an escaped backslash"
         );
         assert_eq!(fixed(r#""\ud800\u0041""#), r#""\uFFFD\u0041""#);
+        assert_eq!(
+            fixed(r#""x\ud800yz\n\ud800w\n""#),
+            r#""x\uFFFDyz\n\uFFFDw\n""#,
+            "the text between escapes kept"
+        );
         let body = r#"{"jsonrpc":"2.0","method":"x","params":{"text":"\ud800"}}"#;
         assert!(frames(frame(body).as_bytes())[0].contains("Notification"));
     }

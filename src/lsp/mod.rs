@@ -67,8 +67,10 @@ pub struct Server {
     /// kept while its text is the same (an edit of the rules beside a 10^6-line agents file
     /// read the whole file again).
     reading: std::cell::RefCell<(Option<features::FileKey>, crate::agents_file::KeptReading)>,
-    /// The document last hovered and its outline (see `features.rs`).
-    hover_cache: std::cell::RefCell<Option<(features::FileKey, std::rc::Rc<features::Outline>)>>,
+    /// Per document hovered, its outline (see `features.rs`) and the file it was made of (a
+    /// hover in the rules between two in a 10^6-line agents file found the agents again).
+    hover_cache:
+        std::cell::RefCell<HashMap<String, (features::FileKey, std::rc::Rc<features::Outline>)>>,
     /// Per document, how many times it opened, changed or closed: what is kept of a file is
     /// kept with its count (a document's version need not change with its text: an editor
     /// may reopen it, or send a change without a new version), so that an edit of one file
@@ -162,7 +164,10 @@ impl Server {
             return Some(std::rc::Rc::clone(&d.text));
         }
         let bytes = std::fs::read(path_of(uri)?).ok()?;
-        Some(String::from_utf8_lossy(&bytes).into_owned().into())
+        // (Valid UTF-8, as files are, is taken as it is: not copied.)
+        let text = String::from_utf8(bytes)
+            .unwrap_or_else(|e| String::from_utf8_lossy(e.as_bytes()).into_owned());
+        Some(text.into())
     }
 
     /// The file a document is checked with: for `rules-X.txt` the `agents-X.txt` beside it
@@ -342,6 +347,7 @@ impl Server {
                 };
                 let uri = p.text_document.uri.as_str().to_string();
                 self.docs.remove(&uri);
+                self.hover_cache.get_mut().remove(&uri);
                 // Its diagnostics go with it.
                 features::clear(&uri).into_iter().collect()
             }
