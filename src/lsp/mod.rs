@@ -55,13 +55,15 @@ pub struct Doc {
     pub kind: Kind,
 }
 
-/// The server's state: the open documents, and the last pair of files checked (see
-/// `features.rs`), forgotten when a document opens, changes or closes.
+/// The server's state: the open documents, and what is kept between requests of the files
+/// (the last pair checked, forgotten when a document opens, changes or closes; the rest
+/// kept per file while it is the same, see `Server::changes`).
 #[derive(Default)]
 pub struct Server {
     docs: HashMap<String, Doc>,
     pair_cache: std::cell::RefCell<features::Kept>,
-    /// The files last navigated (see `navigate.rs`), forgotten as the pair is.
+    /// The files last navigated (see `navigate.rs`), with what each file was
+    /// (`features::FileKey`): what was found in a file that has not changed is kept.
     nav_cache: std::cell::RefCell<navigate::KeptFiles>,
     /// The reading of the agents file last checked with rules (`agents_file::KeptReading`),
     /// kept while its text is the same (an edit of the rules beside a 10^6-line agents file
