@@ -106,8 +106,7 @@ impl Server {
         Some(pair)
     }
 
-    /// What a pair of files is made from: the URIs, and for a file that is not open its
-    /// size and time of change on disk.
+    /// What a pair of files is made from (see [`FileKey`]).
     pub(super) fn pair_key(&self, uris: &[Option<String>; 2]) -> PairKey {
         uris.clone().map(|u| u.map(|u| self.file_key(u)))
     }
@@ -140,7 +139,7 @@ impl Server {
                 let source = crate::agents_file::Source::Bytes(a.as_bytes());
                 let rules = (rules_name.as_str(), rules.as_bytes());
                 let levels = Default::default();
-                let [_, file] = self.pair_key(&uris);
+                let file = uris[1].clone().map(|u| self.file_key(u));
                 let mut reading = self.reading.borrow_mut();
                 if reading.0 != file {
                     *reading = (file, Default::default());
@@ -241,7 +240,7 @@ impl Server {
     pub(super) fn hover(&self, p: HoverParams) -> Option<Hover> {
         let uri = p.text_document_position_params.text_document.uri.as_str();
         let doc = self.docs.get(uri)?;
-        // The document's line starts and agents, found once per version of it (a
+        // The document's line starts, agents and rules, found once per change of it (a
         // 10^6-line agents file was parsed whole at each hover).
         let key = self.file_key(uri.to_string());
         let known = self.hover_cache.borrow().get(uri).cloned();

@@ -46,8 +46,6 @@ fn listed<'t>(places: impl Iterator<Item = Occurrence<'t>>) -> Vec<Occurrence<'t
 pub(super) struct Files {
     uris: [Option<String>; 2],
     texts: [std::rc::Rc<String>; 2],
-    /// What each file is (see `features::FileKey`).
-    keys: super::features::PairKey,
     /// Each text's line starts, found once for all the locations given.
     starts: [std::cell::OnceCell<std::rc::Rc<Vec<usize>>>; 2],
     /// The rules file's and the agents file's names: (what, where, role).
@@ -125,8 +123,7 @@ struct Target {
 }
 
 impl Target {
-    /// The name under the cursor among the files' names (collected once per request: an
-    /// agents file of 10^6 lines takes a while to read).
+    /// The name under the cursor among the files' names.
     fn name<'t>(&self, mut all: impl Iterator<Item = Occurrence<'t>>) -> Option<Occurrence<'t>> {
         all.find(|o| o.file == self.file && o.under(self.at))
     }
@@ -184,14 +181,13 @@ impl Server {
         let files = Files {
             uris,
             texts,
-            keys: key.clone(),
             starts: Default::default(),
             names: Default::default(),
         };
         // What was found in a file that has not changed is kept (the names of a 10^6-line
         // agents file, at each edit of the rules).
-        if let Some((_, old)) = before {
-            for i in (0..2).filter(|&i| old.keys[i] == files.keys[i]) {
+        if let Some((old_key, old)) = before {
+            for i in (0..2).filter(|&i| old_key[i] == key[i]) {
                 if let Some(n) = old.names[i].get() {
                     let _ = files.names[i].set(std::rc::Rc::clone(n));
                 }
