@@ -825,6 +825,7 @@ pub fn render(args: RenderArgs) -> ExitCode {
         static_first: args.static_first,
         trace: false,
         skip: Default::default(),
+        space_order: Default::default(),
     };
     let mut engine = Engine::new(ready.prog, ready.lat, opts);
     let agent_frames = engine.lat.len() as u64 * (last - first + 1);

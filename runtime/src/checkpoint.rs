@@ -276,7 +276,10 @@ impl Engine {
         let head_crc = w.crc.clone().finalize();
         w.w.write_all(&head_crc.to_le_bytes())?;
         let c = d.coords();
-        put_column(&mut w, n, |a, b| {
+        // Agents in the agents file's order, whatever order the engine keeps them in.
+        let at = |id: usize| lat.agent_of(id as u32) as usize;
+        put_column(&mut w, n, |id, b| {
+            let a = at(id);
             for k in 0..c {
                 b.extend_from_slice(&lat.pos[a][k].to_le_bytes());
             }
@@ -295,20 +298,25 @@ impl Engine {
         w.write_all(&[counters.len() as u8])?;
         for &i in &counters {
             w.write_all(&[i])?;
-            put_column(&mut w, n, |a, b| put_value(lat.counter(a as u32, i), b))?;
+            put_column(&mut w, n, |id, b| {
+                put_value(lat.counter(at(id) as u32, i), b)
+            })?;
         }
         let slots = lat.slot_numbers();
         w.write_all(&[slots.len() as u8])?;
         for &s in &slots {
             w.write_all(&[s])?;
             for dir in 0..d.dirs() as u8 {
-                put_column(&mut w, n, |a, b| put_value(lat.inbox(a as u32, dir, s), b))?;
+                put_column(&mut w, n, |id, b| {
+                    put_value(lat.inbox(at(id) as u32, dir, s), b)
+                })?;
             }
         }
         let texts = lat.inbox_text_has.len() == n && n > 0;
         w.write_all(&[texts as u8])?;
         if texts {
-            put_column(&mut w, n, |a, b| {
+            put_column(&mut w, n, |id, b| {
+                let a = at(id);
                 b.push(lat.inbox_text_has[a]);
                 for dir in 0..d.dirs() as u8 {
                     b.extend_from_slice(&lat.inbox_text(a as u32, dir).unwrap_or([0; 5]));

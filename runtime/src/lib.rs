@@ -18,7 +18,7 @@ mod series;
 pub mod shapes;
 mod trace;
 
-pub use engine::{Engine, Options, Order, Skip, Stats, StepReport, AGENTS_PER_THREAD};
+pub use engine::{Engine, Options, Order, Skip, SpaceOrder, Stats, StepReport, AGENTS_PER_THREAD};
 pub use history::{History, Jump, Kept, DELTA_BUDGET, KEYFRAME_BUDGET};
 pub use lattice::{Lattice, LatticeBuilder, Mends, Undo, Writes};
 pub use record::{Record, RecordKind};

@@ -230,6 +230,7 @@ pub fn serve(args: ServeArgs) -> ExitCode {
             static_first: false,
             trace: false,
             skip: Default::default(),
+            space_order: Default::default(),
         },
         keyframe_every: args.keyframe_every.max(1),
         history_bytes: usize::try_from(args.history_mb.saturating_mul(1 << 20))

@@ -748,6 +748,8 @@ pub fn sweep(a: SweepArgs) -> ExitCode {
         opts: Options {
             order: a.order.into(),
             static_first: a.static_first,
+            // Counts alone are kept of a run: the same in any order of the agents.
+            space_order: latticesim_runtime::SpaceOrder::Auto,
             ..Options::default()
         },
         cancel: Some(stop.clone()),

@@ -253,6 +253,15 @@ impl Column {
         each_width!(self, v => v.resize(n, 0))
     }
 
+    /// The values of rows `order` (each in range), in that order: row `i` of the result is
+    /// row `order[i]` of this column.
+    pub fn gather(&self, order: &[u32]) -> Column {
+        match self {
+            Column::W16(v) => Column::W16(gather(v, order)),
+            Column::W32(v) => Column::W32(gather(v, order)),
+        }
+    }
+
     /// Takes out the values of the rows in `gone` (ascending), keeping the others' order.
     pub fn drop_rows(&mut self, gone: &[u32]) {
         each_width!(self, v => drop_rows(v, gone))
@@ -443,6 +452,11 @@ impl<'a> CutMut<'a> {
             (d, s) => (0..s.len()).for_each(|i| d.set(i, s.get(i))),
         }
     }
+}
+
+/// The items at the indices `order` (each in range), in that order.
+pub fn gather<T: Copy>(v: &[T], order: &[u32]) -> Vec<T> {
+    order.iter().map(|&i| v[i as usize]).collect()
 }
 
 /// Takes out the items at the indices `gone` (ascending), keeping the others' order.

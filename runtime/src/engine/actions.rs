@@ -415,13 +415,15 @@ impl Act<'_> {
             }
         }
         let a32 = a as u32;
+        // Records name agents by their ids in the agents file.
+        let id = self.lat.label(a32);
         match moves.len() {
             0 => {}
             1 => it.mv = Some(moves[0].1),
             _ => {
                 it.mv_bad = true;
                 let msg = format!(
-                    "agent {a} is asked for different moves by rules {}; its group does not move",
+                    "agent {id} is asked for different moves by rules {}; its group does not move",
                     moves
                         .iter()
                         .map(|(r, o)| format!("`{}` ({},{})", self.rule_name(*r), o[0], o[1]))
@@ -437,7 +439,7 @@ impl Act<'_> {
             _ => {
                 it.swap_bad = true;
                 let msg = format!(
-                    "agent {a} is asked to swap in different directions by rules {}; it takes part in no swap",
+                    "agent {id} is asked to swap in different directions by rules {}; it takes part in no swap",
                     swaps.iter().map(|(r, d)| format!("`{}` (X{})", self.rule_name(*r), d.letter())).collect::<Vec<_>>().join(" and ")
                 );
                 self.record(rep, RecordKind::SwapConflict, &[a32], msg);
@@ -446,7 +448,7 @@ impl Act<'_> {
         for d in 0..nd {
             if conflict_dirs & (1 << d) != 0 {
                 let msg = format!(
-                    "agent {a}'s rules give different attachment letters towards {}; that direction counts as `*`",
+                    "agent {id}'s rules give different attachment letters towards {}; that direction counts as `*`",
                     Dir::ALL[d].letter()
                 );
                 self.record(rep, RecordKind::AttachConflict, &[a32], msg);
@@ -457,7 +459,7 @@ impl Act<'_> {
         for i in 0..5 {
             if conflict_chars & (1 << i) != 0 {
                 let msg = format!(
-                    "agent {a}'s rules set character {} of the state differently; it is left unchanged",
+                    "agent {id}'s rules set character {} of the state differently; it is left unchanged",
                     i + 1
                 );
                 self.record(rep, RecordKind::StateConflict, &[a32], msg);

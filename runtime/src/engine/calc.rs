@@ -194,22 +194,23 @@ fn calc_records(
 ) {
     for (a, r, issue) in issues {
         let name = &prog.rules[r as usize].name;
+        let id = lat.label(a);
         let (kind, msg) = match issue {
                 CalcIssue::Saturated { exact } => (
                     RecordKind::Saturation,
                     format!(
-                        "agent {a}, rule `{name}`: the result {exact} is saturated to the {}-bit range",
+                        "agent {id}, rule `{name}`: the result {exact} is saturated to the {}-bit range",
                         prog.width.bits()
                     ),
                 ),
                 CalcIssue::DivisionByZero => (
                     RecordKind::DivisionByZero,
-                    format!("agent {a}, rule `{name}`: division by zero; the target is unchanged"),
+                    format!("agent {id}, rule `{name}`: division by zero; the target is unchanged"),
                 ),
                 CalcIssue::NoExternalAgent { off } => (
                     RecordKind::NoExternalAgent,
                     format!(
-                        "agent {a}, rule `{name}`: no agent at ({},{}) to read an external counter from; the calculation is skipped",
+                        "agent {id}, rule `{name}`: no agent at ({},{}) to read an external counter from; the calculation is skipped",
                         off[0], off[1]
                     ),
                 ),

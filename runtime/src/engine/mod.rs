@@ -74,6 +74,25 @@ pub struct Options {
     /// Whether agents that had no valid rule, and whose inputs did not change since, are
     /// skipped; the results do not depend on it.
     pub skip: Skip,
+    /// Whether the engine keeps its agents in space order; the results do not depend on
+    /// it, but for the order of one step's records.
+    pub space_order: SpaceOrder,
+}
+
+/// Whether an engine keeps its agents in space order (`Lattice::keep_in_space_order`):
+/// then `Engine::lat` lists them so, and [`Lattice::label`] gives each one's id in the
+/// agents file, by which records name them and the agents file is written
+/// ([`Lattice::write_agents_text`]) and checkpoints are. Never with a trace (its events
+/// name agents by their place).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SpaceOrder {
+    /// Agents as the lattice lists them (the default: `Engine::lat` is read by id).
+    #[default]
+    Off,
+    /// In space order when that pays ([`Lattice::listed_scattered`]; `latticesim run`).
+    Auto,
+    /// In space order whatever the lattice (for tests).
+    Always,
 }
 
 /// Counts over a run.
@@ -141,7 +160,9 @@ pub struct Engine {
     /// The compiled rules.
     pub prog: Verified,
     /// The agents. Their states may be read at any time; change them only through the
-    /// engine's steps (the rule dispatch remembers each agent's state).
+    /// engine's steps (the rule dispatch remembers each agent's state). Listed in space
+    /// order when [`Options::space_order`] chose it: [`Lattice::label`] gives an agent's id
+    /// in the agents file.
     pub lat: Lattice,
     /// How it steps.
     pub opts: Options,
@@ -182,7 +203,9 @@ fn record(
     rep.records.push(Record {
         step: stats.steps + 1,
         kind,
-        agents: ids.iter().map(|&a| (a, lat.pos[a as usize])).collect(),
+        agents: (ids.iter())
+            .map(|&a| (lat.label(a), lat.pos[a as usize]))
+            .collect(),
         message,
         rules: Vec::new(),
     });
@@ -195,6 +218,14 @@ impl Engine {
     pub fn new(prog: Verified, mut lat: Lattice, opts: Options) -> Engine {
         let uses = prog.uses();
         lat.settle_inbox();
+        let keep = match opts.space_order {
+            SpaceOrder::Off => false,
+            SpaceOrder::Auto => lat.listed_scattered(),
+            SpaceOrder::Always => !lat.in_space_order(),
+        };
+        if keep && !opts.trace {
+            lat.keep_in_space_order();
+        }
         // Columns of the program's width (a configuration checked with its rules holds
         // only values of it).
         lat.set_width(prog.width);
@@ -312,8 +343,9 @@ impl Engine {
         }
         // Each record names the rules its agents executed.
         for r in &mut rep.records {
+            let lat = &self.lat;
             let mut rules: Vec<u32> = (r.agents.iter())
-                .flat_map(|&(a, _)| sel.of_any(a as usize).iter().copied())
+                .flat_map(|&(id, _)| sel.of_any(lat.agent_of(id) as usize).iter().copied())
                 .collect();
             rules.sort_unstable();
             rules.dedup();

@@ -239,12 +239,12 @@ pub(super) struct Entries {
     queued: Vec<bool>,
 }
 
-/// The message of a circle of priorities: its agents, its level and its rules.
-fn circle_message(circle: &[u32], names: &[String], p: u16) -> String {
-    let ids: Vec<String> = circle.iter().map(|a| a.to_string()).collect();
+/// The message of a circle of priorities: its agents (by their ids in the agents file,
+/// ascending), its level and its rules.
+fn circle_message(lat: &Lattice, circle: &[u32], names: &[String], p: u16) -> String {
     format!(
         "the priorities of agents {} depend on each other in a circle at priority {p}; their rules {} are not executed",
-        ids.join(", "),
+        lat.ids_text(circle),
         names.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ")
     )
 }
@@ -797,7 +797,7 @@ impl Prio<'_> {
                 }
             }
             if !circle.is_empty() {
-                let msg = circle_message(&circle, &names, p);
+                let msg = circle_message(self.lat, &circle, &names, p);
                 circles.push((circle, msg));
             }
         }

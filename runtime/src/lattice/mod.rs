@@ -22,6 +22,7 @@ use std::collections::HashMap;
 // Its parts: messages left with their senders, the agents file text, the undo point,
 // steps kept backwards.
 mod delta;
+mod order;
 mod pending;
 mod text;
 mod undo;
@@ -78,6 +79,9 @@ pub struct Lattice {
     /// How many agents may be outside the grid before it is made again over where the
     /// agents are ([`CellIndex::regrow`]).
     regrow_at: usize,
+    /// The agents' ids in the agents file, when the lattice keeps them in space order
+    /// ([`Lattice::keep_in_space_order`]); else an agent's id is its place.
+    labels: Option<order::Labels>,
 }
 
 /// What [`Lattice::from_columns_mended`] mended, as the checker does and says.
@@ -153,6 +157,7 @@ impl LatticeBuilder {
                 nbr: Vec::new(),
                 nbr_valid: false,
                 regrow_at: 0,
+                labels: None,
             },
         }
     }

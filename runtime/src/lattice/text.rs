@@ -26,7 +26,7 @@ pub(super) fn put_int(buf: &mut [u8], mut at: usize, v: i64) -> usize {
 
 impl Lattice {
     /// The configuration in agents.txt syntax: the universe line if there is one, then the
-    /// agents in id order with state (unless it is the default, `00000`), attachments (when
+    /// agents in id order (the agents file's, [`Lattice::label`]) with state (unless it is the default, `00000`), attachments (when
     /// any) and non-zero counters. It loads again to the same lattice.
     pub fn to_agents_text(&self) -> String {
         let mut out = Vec::with_capacity(self.len() * 24);
@@ -120,7 +120,10 @@ impl Lattice {
     ) -> usize {
         let (three, dirs) = (self.dim == Dim::Three, self.dim.dirs());
         let mut at = 0;
-        for a in range {
+        // In the agents file's order (agents kept in space order are found by their ids).
+        let of_id = self.labels.as_ref().map(|l| l.agents());
+        for id in range {
+            let a = of_id.map_or(id, |m| m[id] as usize);
             let p = self.pos[a];
             at = put_int(line, at, p[0] as i64);
             line[at] = b',';

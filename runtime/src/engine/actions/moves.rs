@@ -502,7 +502,8 @@ impl Act<'_> {
         sc.codes.extend(live.iter().map(|&(_, t)| cells.code(t)));
         for (a, o) in blocked {
             let msg = format!(
-                "agent {a} cannot move by {}: the target cell is blocked; its group does not move",
+                "agent {} cannot move by {}: the target cell is blocked; its group does not move",
+                self.lat.label(a),
                 self.lat.cell_text(o)
             );
             self.record(rep, RecordKind::MoveBlocked, &[a], msg);
@@ -681,7 +682,7 @@ impl Act<'_> {
             if differ && !bad {
                 let msg = format!(
                     "the rigid group of agents {} is asked for different moves by its members; it does not move",
-                    ms.iter().map(|m| m.to_string()).collect::<Vec<_>>().join(", ")
+                    self.lat.ids_text(ms)
                 );
                 self.record(rep, RecordKind::GroupConflict, ms, msg);
             }
@@ -743,7 +744,7 @@ impl Act<'_> {
             if let Some(&m) = blocked {
                 let ms = ms.clone();
                 group_off.remove(&root);
-                let msg = format!("agent {m} cannot move by {}: the target cell is blocked; its group does not move", self.lat.cell_text(o));
+                let msg = format!("agent {} cannot move by {}: the target cell is blocked; its group does not move", self.lat.label(m), self.lat.cell_text(o));
                 self.record(rep, RecordKind::MoveBlocked, &ms, msg);
             }
         }
@@ -846,8 +847,10 @@ impl Act<'_> {
                 if lb == AttachLetter::Detach {
                     if la == AttachLetter::Attach {
                         let msg = format!(
-                            "agent {a} wants to attach towards {} to agent {b}, which says 0; no bond",
-                            Dir::ALL[d].letter()
+                            "agent {} wants to attach towards {} to agent {}, which says 0; no bond",
+                            self.lat.label(a),
+                            Dir::ALL[d].letter(),
+                            self.lat.label(b)
                         );
                         self.record(rep, RecordKind::AttachRefused, &[a, b], msg);
                     }
@@ -917,8 +920,10 @@ impl Act<'_> {
                     let dead = no_swap.binary_search(&b).is_ok();
                     if dead {
                         let msg = format!(
-                            "agent {a} cannot swap towards {}: agent {b} there is asked for different swaps and takes part in none",
-                            d.letter()
+                            "agent {} cannot swap towards {}: agent {} there is asked for different swaps and takes part in none",
+                            self.lat.label(a),
+                            d.letter(),
+                            self.lat.label(b)
                         );
                         self.record(rep, RecordKind::SwapTarget, &[a, b], msg);
                     }
@@ -928,7 +933,8 @@ impl Act<'_> {
                 }
                 _ => {
                     let msg = format!(
-                        "agent {a} cannot swap towards {}: no agent stands there",
+                        "agent {} cannot swap towards {}: no agent stands there",
+                        self.lat.label(a),
                         d.letter()
                     );
                     self.record(rep, RecordKind::SwapTarget, &[a], msg);
@@ -945,7 +951,10 @@ impl Act<'_> {
                 continue;
             }
             if count[&x] > 1 || count[&y] > 1 {
-                let msg = format!("the swap of agents {x} and {y} shares an agent with another swap; it is cancelled");
+                let msg = format!(
+                    "the swap of agents {} shares an agent with another swap; it is cancelled",
+                    self.lat.ids_text(&[x, y]).replace(", ", " and ")
+                );
                 self.record(rep, RecordKind::SwapShared, &[x, y], msg);
                 continue;
             }
@@ -988,12 +997,7 @@ impl Act<'_> {
 /// The sentence of a collision at `cell`: the agents that would meet there and the moves
 /// cancelled (`movers`: the agents moving into it).
 fn collision_text(lat: &Lattice, cell: [i32; 3], movers: &[u32], involved: &[u32]) -> String {
-    let list = |v: &[u32]| {
-        v.iter()
-            .map(|m| m.to_string())
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
+    let list = |v: &[u32]| lat.ids_text(v);
     let (s, are) = if movers.len() == 1 {
         ("", "is")
     } else {
