@@ -823,6 +823,20 @@ fn generators_reach_every_record_kind() {
     );
 }
 
+/// The agents of a generated shape with the generators' states and some counters.
+fn with_states(base: &str) -> String {
+    (base.lines().enumerate())
+        .map(|(k, l)| {
+            format!(
+                "{l} S{} C00 {} C01 {}\n",
+                STATES[k % 3],
+                (k % 7) as i32 - 3,
+                (k % 5) as i32 - 2
+            )
+        })
+        .collect()
+}
+
 /// Threads and skipping change nothing: random rule sets on configurations large enough
 /// to be split into chunks, run on 1 thread evaluating every agent and on 2, 3 and 8
 /// threads skipping quiet agents (by default, whenever possible, or not at all), agree on
@@ -845,20 +859,7 @@ fn threads_give_the_same_results() {
             ..Default::default()
         };
         let base = agents_text(&Shape::Connected { n: 2500 }, &o).unwrap();
-        // Give the agents the generators' states and some counters.
-        let a: String = base
-            .lines()
-            .enumerate()
-            .map(|(k, l)| {
-                format!(
-                    "{l} S{} C00 {} C01 {}\n",
-                    STATES[k % 3],
-                    (k % 7) as i32 - 3,
-                    (k % 5) as i32 - 2
-                )
-            })
-            .collect();
-        let (prog, lat) = common::compile(&r, &a);
+        let (prog, lat) = common::compile(&r, &with_states(&base));
         let order = if i % 2 == 0 {
             Order::ActionsFirst
         } else {
@@ -1965,17 +1966,7 @@ fn space_order_changes_nothing_but_the_order_of_records() {
         };
         let (w, h, d) = if d3 { (50, 50, 50) } else { (400, 400, 1) };
         let base = agents_text(&Shape::Cloud { n: 66_000, w, h, d }, &o).unwrap();
-        let a: String = (base.lines().enumerate())
-            .map(|(k, l)| {
-                format!(
-                    "{l} S{} C00 {} C01 {}\n",
-                    STATES[k % 3],
-                    (k % 7) as i32 - 3,
-                    (k % 5) as i32 - 2
-                )
-            })
-            .collect();
-        let (prog, lat) = common::compile(&r, &a);
+        let (prog, lat) = common::compile(&r, &with_states(&base));
         let opts = |threads, space_order| Options {
             threads,
             space_order,

@@ -79,6 +79,12 @@ pub struct Lattice {
     /// How many agents may be outside the grid before it is made again over where the
     /// agents are ([`CellIndex::regrow`]).
     regrow_at: usize,
+    /// The agents outside the grid summed over the steps with moves since the grid was
+    /// made (or last tried): a few agents that walk away cost a look-up in the hash map
+    /// each step, which adds up to the cost of a grid over them (see `after_moves`).
+    off_work: u64,
+    /// After grids over budget: the work before the next try is doubled this many times.
+    off_tries: u32,
     /// The agents' ids in the agents file, when the lattice keeps them in space order
     /// ([`Lattice::keep_in_space_order`]); else an agent's id is its place.
     labels: Option<order::Labels>,
@@ -157,6 +163,8 @@ impl LatticeBuilder {
                 nbr: Vec::new(),
                 nbr_valid: false,
                 regrow_at: 0,
+                off_work: 0,
+                off_tries: 0,
                 labels: None,
             },
         }
@@ -881,47 +889,69 @@ impl Lattice {
         }
     }
 
-    /// After moves: when many agents have left the grid, the cell index is made again over
-    /// where they are (within its budget of cells; tried again only when twice as many
-    /// are out after a box over budget), and the neighbour table is dropped with a grid.
+    /// After moves: when many agents have left the grid, or a few have been outside it for
+    /// long enough that their look-ups in the hash map cost what a grid over all agents
+    /// costs to make (each agent outside counted once per step with moves, 16 of them
+    /// weighed as one agent or cell of a new grid, as in [`Lattice::grow_toward`]), the
+    /// cell index is made again over where they are (within its budget of cells; after a
+    /// box over budget, tried again only when twice as many are out, or after as much
+    /// work again), and the neighbour table is dropped with a grid.
     fn after_moves(&mut self) {
         let out = self.cells.outside();
-        if out < self.regrow_at {
+        self.off_work = self.off_work.saturating_add(out as u64);
+        let cost = (self.len() + self.cells.slots()) as u64;
+        let worked = (self.off_work.saturating_mul(16) >> self.off_tries) >= cost;
+        if out == 0 || (out < self.regrow_at && !worked) {
             return;
         }
+        self.off_work = 0;
         match self.cells.regrow(&self.pos, [[false; 2]; 3]) {
             Some((cells, code)) => {
                 (self.cells, self.code) = (cells, code);
                 self.regrow_at = self.first_regrow().max(self.cells.outside() * 2);
+                self.off_tries = 0;
                 if self.cells.is_grid() {
                     self.nbr = Vec::new();
                     self.nbr_valid = false;
                 }
             }
-            None => self.regrow_at = out * 2,
+            None => {
+                self.regrow_at = out * 2;
+                self.off_tries = (self.off_tries + 1).min(40);
+            }
         }
     }
 
     /// Before `movers` agents move by `off` from the grid's rim: the grid made again with
-    /// room on the sides `off` points to, when that pays (the grid and its agents cost less
-    /// to make than 16 steps of such moves, which would otherwise go the general way) and
-    /// gives a grid other than this one (a universe's walls may keep it as it is). Says
-    /// whether it did.
+    /// room on the sides `off` points to, when that pays and gives a grid other than this
+    /// one (a universe's walls may keep it as it is). Says whether it did. Refused, the
+    /// moves go the general way for 16 steps, which is counted as work done the slow way
+    /// (`off_work`, as agents outside the grid are): it pays once that work, 16 of its
+    /// agent-steps weighed as one agent or cell of a new grid, reaches what the grid and
+    /// its agents cost to make. So many movers get room at once, and a few (1,000 walkers
+    /// beside 10^5 agents at rest) after a few refusals rather than never.
     pub(crate) fn grow_toward(&mut self, off: [i32; 3], movers: usize) -> bool {
         let Some(old) = self.cells.grid_box() else {
             return false;
         };
-        if (movers as u64 * 16) < (self.len() + self.cells.slots()) as u64 {
+        self.off_work = (self.off_work).saturating_add(movers as u64 * 16);
+        let cost = (self.len() + self.cells.slots()) as u64;
+        if (self.off_work.saturating_mul(16) >> self.off_tries) < cost {
             return false;
         }
+        self.off_work = 0;
         let toward = [0, 1, 2].map(|k| [off[k] < 0, off[k] > 0]);
         match self.cells.regrow(&self.pos, toward) {
             Some((cells, code)) if cells.grid_box() != Some(old) => {
                 (self.cells, self.code) = (cells, code);
                 self.regrow_at = self.first_regrow().max(self.cells.outside() * 2);
+                self.off_tries = 0;
                 true
             }
-            _ => false,
+            _ => {
+                self.off_tries = (self.off_tries + 1).min(40);
+                false
+            }
         }
     }
 
@@ -1201,6 +1231,65 @@ mod tests {
     /// over a long walk (the room to grow amortises it); agents that jump far away stay in
     /// the hash map (a box over both places is over budget), and every neighbour still
     /// answers as the cells do.
+    /// A few agents that walk off the grid beside many at rest (fewer than the count that
+    /// makes the grid again at once) get a grid over them once their look-ups in the hash
+    /// map add up to what the grid costs to make; a few that stay far away (a grid over
+    /// them and the others over budget) are tried again less and less often.
+    #[test]
+    fn a_few_walkers_beside_many_at_rest_get_the_grid_again() {
+        let mut b = LatticeBuilder::new(Dim::Two, None, 0);
+        for x in 0..100 {
+            for y in 0..100 {
+                b.push([x, y, 0], *b"AAAAA", 0, &[]);
+            }
+        }
+        // Ten walkers above the block, at its east end.
+        for i in 0..10 {
+            b.push([90 + i, 101, 0], *b"BBBBB", 0, &[]);
+        }
+        let mut lat = b.finish();
+        let walkers: Vec<u32> = (10_000..10_010).collect();
+        assert!(walkers.len() < lat.first_regrow());
+        let (mut remade, mut out, mut worst) = (0, 0, 0);
+        for _ in 0..300 {
+            let moves: Vec<(u32, [i32; 3])> = (walkers.iter())
+                .map(|&a| (a, [lat.pos[a as usize][0] + 1, 101, 0]))
+                .collect();
+            lat.relocate(&moves);
+            let now = lat.cells.outside();
+            remade += (out > 0 && now == 0) as u32;
+            (out, worst) = (now, worst.max(now));
+        }
+        assert!(remade >= 1, "the grid was never made again");
+        assert!(worst <= 10);
+        for a in 0..lat.len() as u32 {
+            assert_eq!(lat.agent_at(lat.pos[a as usize]), Some(a));
+        }
+        // Far away, over the budget: tries back off (each one at least twice as far apart).
+        let far: Vec<(u32, [i32; 3])> = (walkers.iter())
+            .map(|&a| (a, [lat.pos[a as usize][0] + 5_000_000, 101, 0]))
+            .collect();
+        lat.relocate(&far);
+        let mut tries = Vec::new();
+        for step in 0..3000 {
+            let moves: Vec<(u32, [i32; 3])> = (walkers.iter())
+                .map(|&a| (a, [lat.pos[a as usize][0] + 1, 101, 0]))
+                .collect();
+            let before = lat.off_tries;
+            lat.relocate(&moves);
+            if lat.off_tries > before {
+                tries.push(step);
+            }
+            assert_eq!(lat.cells.outside(), 10);
+        }
+        assert!(tries.len() >= 2, "tried {tries:?}");
+        let gaps: Vec<i32> = tries.windows(2).map(|w| w[1] - w[0]).collect();
+        assert!(
+            gaps.windows(2).all(|g| g[1] >= 2 * g[0] - 1),
+            "tries at {tries:?}"
+        );
+    }
+
     #[test]
     fn the_grid_follows_a_block_that_walks_away() {
         let mut b = LatticeBuilder::new(Dim::Two, None, 0);

@@ -112,6 +112,7 @@ impl Lattice {
         (self.cells, self.code) = (cells, code);
         (self.nbr, self.nbr_valid) = (Vec::new(), false);
         self.regrow_at = self.first_regrow();
+        (self.off_work, self.off_tries) = (0, 0);
         let mut agent = vec![0u32; n];
         for (k, &a) in id.iter().enumerate() {
             agent[a as usize] = k as u32;
