@@ -303,6 +303,11 @@ impl SharedCells<'_> {
 }
 
 impl Grid {
+    /// The agents on the grid in the order of their cells (x, then y, then z).
+    pub(crate) fn agents_in_order(&self) -> impl Iterator<Item = u32> + '_ {
+        self.cells.iter().copied().filter(|&a| a != EMPTY)
+    }
+
     /// The cells and bits for moves made from several threads ([`SharedCells`]), after
     /// [`Grid::ready_rim`].
     pub(crate) fn shared(&mut self) -> SharedCells<'_> {

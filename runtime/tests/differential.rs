@@ -1098,6 +1098,33 @@ fn skipping_agrees_with_reference() {
     }
 }
 
+/// A few walkers that leave the grid beside agents at rest that read the cells they leave:
+/// the grid is made again during a step's moves (the walkers' work outside it adds up), and
+/// the readers of the cells they left are found on the new grid (the cells' codes noted
+/// before the moves were the old grid's: an index out of bounds, found by the random cases,
+/// before `Changes::grid`).
+#[test]
+fn readers_are_woken_across_a_grid_made_again() {
+    // A row of readers, each under a walker; the walkers go west while the west cell is
+    // free (the first at once, the others one by one), and a reader changes state when
+    // the cell above it empties. The walkers leave the grid westwards as others still
+    // leave the cells above readers, and the grid made again is shifted (room to the west):
+    // a reader found through the old grid's code would be another cell's.
+    let mut agents = String::new();
+    for x in 0..60 {
+        agents.push_str(&format!("{x},0 SREST0\n{x},1 SWALK0 C01 100\n"));
+    }
+    let rules = "// steps 130\nwalk\n1\nSWALK0 N*0** >C01 0000\nP-1,0 C01 - C01 0001\n\n\
+                 done\n1\nSREST0 E0,1\nSDONE0\n";
+    for order in [Order::ActionsFirst, Order::MessagesFirst] {
+        for static_first in [false, true] {
+            if let Err(e) = differential(rules, &agents, order, static_first) {
+                panic!("{order:?}, static-first {static_first}: {e}");
+            }
+        }
+    }
+}
+
 /// The cell index as agents move (see `cells.rs`): clusters far apart (a hash map with a
 /// neighbour table, changed where agents move), a block walking out of its grid (made
 /// again over where the agents are), agents jumping far in every direction, and a

@@ -139,6 +139,9 @@ pub(super) type Moved = (u32, [i32; 3], u32);
 #[derive(Default)]
 pub(super) struct Changes {
     pub(super) on: bool,
+    /// The grid the cells' slot codes in `moved` refer to (the grid when the actions
+    /// began; moves may make it again, after which the codes are found again).
+    pub(super) grid: Option<([i32; 3], [i64; 3])>,
     pub(super) moved: Vec<Moved>,
     pub(super) moved_parts: Vec<Vec<Moved>>,
     pub(super) states: Vec<u32>,
@@ -328,7 +331,14 @@ impl Activity {
             let back = &reads.back;
             let mut moved: Vec<&[Moved]> = vec![&changes.moved];
             moved.extend(changes.moved_parts.iter().map(|l| &l[..]));
+            // A grid made again during the moves lays its cells out anew.
+            let same_grid = changes.grid == lat.cells.grid_box();
             self.wake_each(th, &moved, |&(a, from, code), next| {
+                let code = if same_grid {
+                    code
+                } else {
+                    lat.cells.code(from)
+                };
                 next.add(a);
                 let to = (lat.pos[a as usize], lat.code_of(a));
                 // (Every offset read for a state or counter is read for occupancy too.)

@@ -407,6 +407,7 @@ impl Engine {
                 threads: th,
             };
             act.bufs.changes.on = on;
+            act.bufs.changes.grid = act.lat.cells.grid_box();
             act.all_actions(sel, rep)
         });
         self.selection.states_changed(changed);

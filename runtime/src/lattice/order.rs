@@ -9,7 +9,7 @@
 //! listed in space order").
 
 use super::Lattice;
-use crate::cells::CellIndex;
+use crate::cells::{CellIndex, NO_SLOT};
 use latticesim_vm::column::gather;
 
 /// Agents a lattice must have before [`Lattice::listed_scattered`] says yes: below, the
@@ -83,10 +83,23 @@ impl Lattice {
     pub(crate) fn keep_in_space_order(&mut self) {
         assert!(self.pending.is_none() && self.labels.is_none());
         let n = self.len();
-        let mut id: Vec<u32> = (0..n as u32).collect();
         let pos = &self.pos;
-        // Positions are distinct: the order is total.
-        id.sort_unstable_by_key(|&a| pos[a as usize]);
+        // The grid's agents in the order of its cells (one pass over them), then the
+        // agents off the grid sorted by position (positions are distinct: the order is
+        // total); without a grid, all sorted.
+        let mut id: Vec<u32> = Vec::with_capacity(n);
+        let mut off: Vec<u32> = match self.cells.grid() {
+            Some(g) => {
+                id.extend(g.agents_in_order());
+                (0..n as u32)
+                    .filter(|&a| self.code[a as usize] == NO_SLOT)
+                    .collect()
+            }
+            None => (0..n as u32).collect(),
+        };
+        off.sort_unstable_by_key(|&a| pos[a as usize]);
+        id.append(&mut off);
+        assert_eq!(id.len(), n, "every agent once");
         self.pos = gather(&self.pos, &id);
         self.state = gather(&self.state, &id);
         self.attach = gather(&self.attach, &id);

@@ -1,6 +1,7 @@
 //! The configuration as agents.txt text, written from the columns as it is formatted.
 
 use super::*;
+use crate::cells::prefetch;
 
 /// Writes the decimal digits of `v` into `buf` at `at`: where they end. (Digit by digit
 /// from the end: a copy of a few bytes would be a call to `memcpy`.)
@@ -120,10 +121,20 @@ impl Lattice {
     ) -> usize {
         let (three, dirs) = (self.dim == Dim::Three, self.dim.dirs());
         let mut at = 0;
-        // In the agents file's order (agents kept in space order are found by their ids).
+        // In the agents file's order (agents kept in space order are found by their ids,
+        // scattered over the columns: each asked for a dozen agents ahead).
         let of_id = self.labels.as_ref().map(|l| l.agents());
         for id in range {
             let a = of_id.map_or(id, |m| m[id] as usize);
+            if let Some(&b) = of_id.and_then(|m| m.get(id + AHEAD)) {
+                let b = b as usize;
+                prefetch(self.pos.as_ptr().wrapping_add(b));
+                prefetch(self.state.as_ptr().wrapping_add(b));
+                prefetch(self.attach.as_ptr().wrapping_add(b));
+                for (_, col) in cols {
+                    latticesim_vm::each_width!(col, v => prefetch(v.as_ptr().wrapping_add(b)));
+                }
+            }
             let p = self.pos[a];
             at = put_int(line, at, p[0] as i64);
             line[at] = b',';
