@@ -89,7 +89,8 @@ pub enum SpaceOrder {
     /// Agents as the lattice lists them (the default: `Engine::lat` is read by id).
     #[default]
     Off,
-    /// In space order when that pays ([`Lattice::listed_scattered`]; `latticesim run`).
+    /// In space order when that pays ([`Lattice::listed_scattered`]; `latticesim run` and
+    /// `sweep`).
     Auto,
     /// In space order whatever the lattice (for tests).
     Always,
