@@ -898,28 +898,46 @@ impl Lattice {
     /// work again), and the neighbour table is dropped with a grid.
     fn after_moves(&mut self) {
         let out = self.cells.outside();
-        self.off_work = self.off_work.saturating_add(out as u64);
-        let cost = (self.len() + self.cells.slots()) as u64;
-        let worked = (self.off_work.saturating_mul(16) >> self.off_tries) >= cost;
-        if out == 0 || (out < self.regrow_at && !worked) {
+        let pays = self.slow_work_pays(out as u64);
+        if out == 0 || (out < self.regrow_at && !pays) {
             return;
         }
-        self.off_work = 0;
         match self.cells.regrow(&self.pos, [[false; 2]; 3]) {
-            Some((cells, code)) => {
-                (self.cells, self.code) = (cells, code);
-                self.regrow_at = self.first_regrow().max(self.cells.outside() * 2);
-                self.off_tries = 0;
-                if self.cells.is_grid() {
-                    self.nbr = Vec::new();
-                    self.nbr_valid = false;
-                }
-            }
+            Some(index) => self.take_index(index),
             None => {
                 self.regrow_at = out * 2;
-                self.off_tries = (self.off_tries + 1).min(40);
+                self.regrow_refused();
             }
         }
+    }
+
+    /// Adds `work` agent-steps done the slow way (agents outside the grid, moves refused
+    /// at its rim) and says whether all of it since the grid was made pays for making it
+    /// again: 16 agent-steps weigh as one agent or cell of the new grid, and each try over
+    /// budget doubles the work asked for before the next.
+    fn slow_work_pays(&mut self, work: u64) -> bool {
+        self.off_work = self.off_work.saturating_add(work);
+        let cost = (self.len() + self.cells.slots()) as u64;
+        (self.off_work.saturating_mul(16) >> self.off_tries) >= cost
+    }
+
+    /// A try at a new grid that gave none (over budget, or the same grid).
+    fn regrow_refused(&mut self) {
+        self.off_work = 0;
+        self.off_tries = (self.off_tries + 1).min(40);
+    }
+
+    /// Takes `cells` and every agent's slot code as the cell index, made again over where
+    /// the agents are: the neighbour table is made again when next asked for (none with a
+    /// grid), and the counts of agents outside the grid and of slow work start again.
+    fn take_index(&mut self, (cells, code): (CellIndex, Vec<u32>)) {
+        (self.cells, self.code) = (cells, code);
+        if self.cells.is_grid() {
+            self.nbr = Vec::new();
+        }
+        self.nbr_valid = false;
+        self.regrow_at = self.first_regrow().max(self.cells.outside() * 2);
+        (self.off_work, self.off_tries) = (0, 0);
     }
 
     /// Before `movers` agents move by `off` from the grid's rim: the grid made again with
@@ -934,22 +952,17 @@ impl Lattice {
         let Some(old) = self.cells.grid_box() else {
             return false;
         };
-        self.off_work = (self.off_work).saturating_add(movers as u64 * 16);
-        let cost = (self.len() + self.cells.slots()) as u64;
-        if (self.off_work.saturating_mul(16) >> self.off_tries) < cost {
+        if !self.slow_work_pays(movers as u64 * 16) {
             return false;
         }
-        self.off_work = 0;
         let toward = [0, 1, 2].map(|k| [off[k] < 0, off[k] > 0]);
         match self.cells.regrow(&self.pos, toward) {
-            Some((cells, code)) if cells.grid_box() != Some(old) => {
-                (self.cells, self.code) = (cells, code);
-                self.regrow_at = self.first_regrow().max(self.cells.outside() * 2);
-                self.off_tries = 0;
+            Some(index) if index.0.grid_box() != Some(old) => {
+                self.take_index(index);
                 true
             }
             _ => {
-                self.off_tries = (self.off_tries + 1).min(40);
+                self.regrow_refused();
                 false
             }
         }

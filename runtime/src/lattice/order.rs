@@ -14,7 +14,7 @@ use latticesim_vm::column::gather;
 
 /// Agents a lattice must have before [`Lattice::listed_scattered`] says yes: below, the
 /// cells of all agents stay in the processor's caches whatever their order.
-pub const SPACE_ORDER_FROM: usize = 1 << 16;
+const SPACE_ORDER_FROM: usize = 1 << 16;
 
 /// The file ids of a lattice kept in space order.
 #[derive(Debug, Clone, PartialEq)]
@@ -122,10 +122,7 @@ impl Lattice {
         }
         let (cells, one_each, code) = CellIndex::new_coded(&self.pos, self.shape());
         assert!(one_each, "one agent a cell");
-        (self.cells, self.code) = (cells, code);
-        (self.nbr, self.nbr_valid) = (Vec::new(), false);
-        self.regrow_at = self.first_regrow();
-        (self.off_work, self.off_tries) = (0, 0);
+        self.take_index((cells, code));
         let mut agent = vec![0u32; n];
         for (k, &a) in id.iter().enumerate() {
             agent[a as usize] = k as u32;

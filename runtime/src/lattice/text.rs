@@ -27,8 +27,8 @@ pub(super) fn put_int(buf: &mut [u8], mut at: usize, v: i64) -> usize {
 
 impl Lattice {
     /// The configuration in agents.txt syntax: the universe line if there is one, then the
-    /// agents in id order (the agents file's, [`Lattice::label`]) with state (unless it is the default, `00000`), attachments (when
-    /// any) and non-zero counters. It loads again to the same lattice.
+    /// agents in id order (the agents file's, [`Lattice::label`]) with state (unless it is
+    /// the default, `00000`), attachments (when any) and non-zero counters. It loads again to the same lattice.
     pub fn to_agents_text(&self) -> String {
         let mut out = Vec::with_capacity(self.len() * 24);
         self.write_agents_text(&mut out, 1)

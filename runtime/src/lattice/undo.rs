@@ -62,9 +62,7 @@ impl Lattice {
         if let Some(p) = u.pos {
             self.pos = p;
             let (cells, _, code) = CellIndex::new_coded(&self.pos, self.shape());
-            (self.cells, self.code) = (cells, code);
-            self.nbr_valid = false;
-            self.regrow_at = self.first_regrow();
+            self.take_index((cells, code));
         }
         if let Some(s) = u.state {
             self.state = s;

@@ -951,9 +951,11 @@ impl Act<'_> {
                 continue;
             }
             if count[&x] > 1 || count[&y] > 1 {
+                let mut pair = [self.lat.label(x), self.lat.label(y)];
+                pair.sort_unstable();
                 let msg = format!(
-                    "the swap of agents {} shares an agent with another swap; it is cancelled",
-                    self.lat.ids_text(&[x, y]).replace(", ", " and ")
+                    "the swap of agents {} and {} shares an agent with another swap; it is cancelled",
+                    pair[0], pair[1]
                 );
                 self.record(rep, RecordKind::SwapShared, &[x, y], msg);
                 continue;
