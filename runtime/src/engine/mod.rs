@@ -251,7 +251,7 @@ impl Engine {
                 ..Stats::default()
             },
             dispatch: Dispatch::new(&prog, n),
-            selection: Selector::new(prog.rules.len()),
+            selection: Selector::new(prog.rules.len(), n),
             actions: ActionBufs::default(),
             post: Post::new(&prog, &lat, plan.defer, uses.texts),
             threads: Threads::new(opts.threads, n),
@@ -317,6 +317,7 @@ impl Engine {
         if listing && !sel.listed && !self.selection.by_state {
             sel.make_list();
         }
+        sel.found = false;
         rep.executing = self.selection.active;
         rep.quiescent = rep.executing == 0;
         for (f, &k) in self

@@ -194,7 +194,7 @@ impl Plan {
             })
             .collect();
         let pre_columns = (prog.rules.iter())
-            .map(|r| column_pre(prog, pre(r)))
+            .map(|r| column_pre(prog, pre(r), r.state_filter))
             .collect();
         let post_columns: Vec<_> = (prog.rules.iter())
             .map(|r| column_post(prog, post(r)))

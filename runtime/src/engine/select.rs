@@ -26,10 +26,17 @@ pub(super) struct Selector {
 }
 
 impl Selector {
-    /// For a program of `rules` rules.
-    pub(super) fn new(rules: usize) -> Selector {
+    /// For a program of `rules` rules on `n` agents. The selection's entries are made
+    /// (and their memory touched) here, so that no step makes a column of all agents:
+    /// the first step costs what evaluating the agents costs, and a fresh column's pages
+    /// (on some machines several milliseconds per 2 MB the first time) are the engine's
+    /// making.
+    pub(super) fn new(rules: usize, n: usize) -> Selector {
+        let mut sel = Selection::default();
+        sel.reset(n);
         Selector {
             fire_counts: vec![0; rules],
+            sel,
             ..Selector::default()
         }
     }
@@ -138,6 +145,50 @@ fn tally(one: &[u32], counts: &mut [u64], many: bool) -> u64 {
         active += k;
     }
     active
+}
+
+/// [`tally`] of the part of the selection `one` that begins at agent `lo`, listing the
+/// agents that execute a rule into `chosen` (cleared first) while they are at most `cap`:
+/// returns how many execute any rule, and whether `chosen` lists them all. Blocks of 64
+/// entries where no agent executes a rule (all of them when a few agents act among
+/// many) are passed over with one vectorised test; past `cap`, the rest is tallied.
+fn tally_listing(
+    (one, lo): (&[u32], usize),
+    (counts, many): (&mut [u64], bool),
+    (cap, chosen): (usize, &mut Vec<u32>),
+) -> (u64, bool) {
+    chosen.clear();
+    const BLOCK: usize = 64;
+    for (b, block) in one.chunks(BLOCK).enumerate() {
+        // (`NO_RULE` has every bit set: the block holds nothing else when its AND does.)
+        if block.iter().fold(NO_RULE, |m, &v| m & v) == NO_RULE {
+            continue;
+        }
+        let first = b * BLOCK;
+        let k = block.iter().filter(|&&v| v != NO_RULE).count();
+        if chosen.len() + k > cap {
+            let listed = chosen.len() as u64;
+            for &a in chosen.iter() {
+                let v = one[a as usize - lo];
+                if v & MANY == 0 {
+                    counts[v as usize] += 1;
+                }
+            }
+            return (listed + tally(&one[first..], counts, many), false);
+        }
+        for (i, &v) in block.iter().enumerate() {
+            if v != NO_RULE {
+                chosen.push((lo + first + i) as u32);
+            }
+        }
+    }
+    for &a in chosen.iter() {
+        let v = one[a as usize - lo];
+        if v & MANY == 0 {
+            counts[v as usize] += 1;
+        }
+    }
+    (chosen.len() as u64, true)
 }
 
 /// Adds the chunks' counts per rule (with how many agents execute any rule) to `counts`,
@@ -293,6 +344,9 @@ impl Selector {
         let (par, chunk, _) = th.chunks(n);
         let pre_columns = &plan.pre_columns;
         let rules = self.fire_counts.len();
+        // Listed only when few executed a rule in the last selection too: a step of many
+        // would list the first eighth of each chunk in vain (2.5 % of B2's time).
+        let few = self.active as usize <= n / SPARSE_SHARE;
         let work = |(c, one): (usize, &mut [u32])| {
             let lo = c * chunk;
             let mut multi: Vec<(u32, Vec<u32>)> = Vec::new();
@@ -344,12 +398,18 @@ impl Selector {
                 one[k] = eval_one(prog, (trivial, &lists[idx]), lat, a, (&mut buf, &mut multi));
                 k += 1;
             }
-            // The chunk's firings, counted while its entries are in this core's cache.
+            // The chunk's firings, counted while its entries are in this core's cache, and
+            // its agents that execute a rule when they are few (the phases after visit only
+            // those: see `Selection::found`).
+            let mut chosen = Vec::new();
             let counted = (rules <= TALLIED).then(|| {
                 let mut c = vec![0; rules];
-                (tally(one, &mut c, !multi.is_empty()), c)
+                let cap = if few { one.len() / SPARSE_SHARE } else { 0 };
+                let many = !multi.is_empty();
+                let (k, all) = tally_listing((one, lo), (&mut c, many), (cap, &mut chosen));
+                ((k, c), all)
             });
-            (multi, evaluated, counted)
+            (multi, evaluated, counted, chosen)
         };
         let parts: Vec<_> = match par {
             Some((pool, _)) => pool.map(one.chunks_mut(chunk).enumerate().collect(), work),
@@ -361,13 +421,26 @@ impl Selector {
         self.sel.listed = false;
         self.by_state = true;
         let mut counted = Vec::with_capacity(parts.len());
-        for (multi, evaluated, count) in parts {
+        let mut found = Vec::with_capacity(parts.len());
+        let mut all_found = rules <= TALLIED;
+        for (multi, evaluated, count, chosen) in parts {
             self.by_state &= !evaluated;
             for (a, rules) in multi {
                 self.sel.set(a as usize, &rules);
             }
-            counted.extend(count);
+            if let Some((count, all)) = count {
+                counted.push(count);
+                all_found &= all;
+            }
+            found.push(chosen);
         }
+        self.sel.list.clear();
+        if all_found {
+            found
+                .iter()
+                .for_each(|c| self.sel.list.extend_from_slice(c));
+        }
+        self.sel.found = all_found;
         if rules <= TALLIED {
             self.fire_counts.fill(0);
             self.active = add_tallies(&mut self.fire_counts, &counted);
@@ -802,5 +875,51 @@ impl Prio<'_> {
             }
         }
         circles
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Listing while tallying gives the counts of [`tally`], and, when the agents that
+    /// execute a rule are at most the cap, exactly those agents: whatever the rules, the
+    /// agents executing several ([`MANY`]), the part's first agent and the cap.
+    #[test]
+    fn tally_listing_lists_and_counts_as_tally_does() {
+        let mut seed = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        for case in 0..400 {
+            let (len, rules) = (next() as usize % 700, 1 + case % 6);
+            let share = 1 + next() % 40;
+            let many = case % 3 == 0;
+            let one: Vec<u32> = (0..len)
+                .map(|_| match next() % 100 {
+                    k if k >= share => NO_RULE,
+                    _ if many && next() % 4 == 0 => MANY | (next() % 8) as u32,
+                    _ => (next() % rules as u64) as u32,
+                })
+                .collect();
+            let lo = next() as usize % 1000;
+            let cap = next() as usize % (len / 4 + 2);
+            let mut want = vec![0; rules];
+            let active = tally(&one, &mut want, many);
+            let (mut got, mut chosen) = (vec![0; rules], vec![7]);
+            let (k, all) = tally_listing((&one, lo), (&mut got, many), (cap, &mut chosen));
+            assert_eq!((k, &got), (active, &want), "case {case}");
+            let executing: Vec<u32> = (0..len)
+                .filter(|&i| one[i] != NO_RULE)
+                .map(|i| (lo + i) as u32)
+                .collect();
+            assert_eq!(all, executing.len() <= cap, "case {case}");
+            if all {
+                assert_eq!(chosen, executing, "case {case}");
+            }
+        }
     }
 }

@@ -12,6 +12,11 @@ pub(super) struct Selection {
     /// is [`NO_RULE`]), so that the phases after the selection visit only these.
     pub(super) list: Vec<u32>,
     pub(super) listed: bool,
+    /// Not `listed`, but `list` holds every agent that executes a rule all the same (the
+    /// selection over all agents found them while it counted, and they were few): the
+    /// step lists them without looking for them ([`Selection::make_list`]). Only until
+    /// the step asks; it is not kept.
+    pub(super) found: bool,
 }
 
 pub(super) const NO_RULE: u32 = u32::MAX;
@@ -63,15 +68,19 @@ impl Selection {
         self.starts.clear();
         self.many.clear();
         self.listed = false;
+        self.found = false;
     }
 
     /// Lists the agents that execute a rule (`listed`), from the entries.
     pub(super) fn make_list(&mut self) {
+        self.listed = true;
+        if std::mem::take(&mut self.found) {
+            return;
+        }
         self.list.clear();
         let one = &self.one;
         self.list
             .extend((0..one.len() as u32).filter(|&a| one[a as usize] != NO_RULE));
-        self.listed = true;
     }
 
     /// Adds to `counts` how many agents of `list` (a part of the list) execute each rule;
