@@ -565,13 +565,14 @@ impl Selector {
                                 o == of[a] || lists[o.index()][..] == [r]
                             })
                             .count();
-                        batch_pre(
-                            prog,
-                            (pre, Rows::Ids(&next[..m])),
-                            lat,
-                            &mut bufs,
-                            &mut truth[..m],
-                        );
+                        // (The list is in id order without repeats: agents of consecutive
+                        // ids, a row of walkers, are read as a run, without gathering.)
+                        let rows = if next[m - 1] as usize - a == m - 1 {
+                            Rows::Run(a)
+                        } else {
+                            Rows::Ids(&next[..m])
+                        };
+                        batch_pre(prog, (pre, rows), lat, &mut bufs, &mut truth[..m]);
                         for (&b, &t) in next[..m].iter().zip(&truth[..m]) {
                             unsafe { one.set(b as usize, if t { r } else { NO_RULE }) };
                             if t {
