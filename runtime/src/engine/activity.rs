@@ -105,6 +105,36 @@ impl WakeSet {
         }
     }
 
+    /// Adds agents `ids`, a word of bits at a time: consecutive ids (a run of agents
+    /// that executed a rule, in id order) cost a write per 64 of them, where adding them
+    /// one by one waits on each write of their word before the next.
+    pub(super) fn add_all(&mut self, ids: impl IntoIterator<Item = u32>) {
+        let (mut w, mut bits) = (usize::MAX, 0u64);
+        for a in ids {
+            if a as usize / 64 != w {
+                self.add_word(w, bits);
+                (w, bits) = (a as usize / 64, 0);
+            }
+            bits |= 1 << (a % 64);
+        }
+        self.add_word(w, bits);
+    }
+
+    /// Adds the agents of word `w` whose bits `bits` has (none when `w` is `usize::MAX`).
+    #[inline]
+    fn add_word(&mut self, w: usize, bits: u64) {
+        if self.all || w == usize::MAX {
+            return;
+        }
+        let new = bits & !self.words[w];
+        if new != 0 {
+            self.words[w] |= new;
+            self.top(w);
+            self.count += new.count_ones() as usize;
+            self.all = self.count > self.limit;
+        }
+    }
+
     /// Marks word `w` as holding agents.
     #[inline]
     fn top(&mut self, w: usize) {
@@ -363,13 +393,13 @@ impl Activity {
                 // The grid cells of readers, looked at after the loop: one after another,
                 // the processor waits for several at once (the movers' cells lie apart).
                 let mut cells = Vec::new();
+                next.add_all(run.iter().flat_map(|l| l.iter().map(|m| m.0)));
                 for &(a, from, code) in run.iter().flat_map(|l| l.iter()) {
                     let code = if same_grid {
                         code
                     } else {
                         lat.cells.code(from)
                     };
-                    next.add(a);
                     let to = (lat.pos[a as usize], lat.code_of(a));
                     // (Every offset read for a state or counter is read for occupancy too.)
                     readers_of_move(next, lat, ((from, code), to), &back.occupancy, &mut cells);
@@ -418,9 +448,9 @@ impl Activity {
             return;
         }
         let reads = &plan.reads;
+        let offs = &reads.back.counters;
         let each = |a: u32, next: &mut WakeSet| {
             next.add(a);
-            let offs = &reads.back.counters;
             if !offs.is_empty()
                 && sel
                     .of(a as usize)
@@ -437,9 +467,11 @@ impl Activity {
         };
         if sel.listed {
             self.wake_each(th, &[&sel.list[..]], |run, next| {
-                run.iter()
-                    .flat_map(|l| l.iter())
-                    .for_each(|&a| each(a, next))
+                let agents = run.iter().flat_map(|l| l.iter().copied());
+                match offs.is_empty() {
+                    true => next.add_all(agents),
+                    false => agents.for_each(|a| each(a, next)),
+                }
             });
         } else {
             for (a, &r) in sel.one.iter().enumerate() {
@@ -567,6 +599,50 @@ fn wake_readers(next: &mut WakeSet, lat: &Lattice, at: ([i32; 3], u32), offsets:
     for o in offsets {
         if let Some(b) = lat.agent_near(at, o.off, o.dir) {
             next.add(b);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Adding agents a word at a time ([`WakeSet::add_all`]) gives the set adding them one
+    /// by one gives: in order or not, with repeats, past the limit or not.
+    #[test]
+    fn adding_all_at_once_is_adding_each() {
+        let mut seed = 0x2545_F491_4F6C_DD1Du64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let n = 5000;
+        for case in 0..300 {
+            let len = next() as usize % 400;
+            let mut ids: Vec<u32> = (0..len).map(|_| (next() % n) as u32).collect();
+            if case % 2 == 0 {
+                ids.sort_unstable();
+            }
+            let limit = next() as usize % 500;
+            let (mut one, mut all) = (WakeSet::new(limit), WakeSet::new(limit));
+            for s in [&mut one, &mut all] {
+                s.all = false;
+                s.ready(n as usize);
+                s.add(7);
+            }
+            ids.iter().for_each(|&a| one.add(a));
+            all.add_all(ids.iter().copied());
+            assert_eq!(one.all, all.all, "case {case}");
+            // (Past the limit the set is everyone, whatever its bits.)
+            let everyone = one.all;
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            one.take(&mut a);
+            all.take(&mut b);
+            if !everyone {
+                assert_eq!(a, b, "case {case}");
+            }
         }
     }
 }
