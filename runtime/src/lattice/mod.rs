@@ -852,10 +852,18 @@ impl Lattice {
             let old = self.pos[a as usize];
             self.cells.remove(old, a);
         }
+        let nd = self.dim.dirs();
         if self.nbr_valid {
-            // What stood next to the cells left sees them empty (or a mover, below).
+            // What stood next to the cells left sees them empty (or a mover, below): the
+            // movers' own rows of the table, as they were, tell who without a look-up. (A
+            // neighbour that moved too gets a row of its own below.)
             for &(a, _) in moves {
-                self.see_cell(self.pos[a as usize], NO_AGENT);
+                for d in 0..nd {
+                    let b = self.nbr[d][a as usize];
+                    if b != NO_AGENT && b != BLOCKED {
+                        self.nbr[Dir::ALL[d].opposite().index()][b as usize] = NO_AGENT;
+                    }
+                }
             }
         }
         for &(a, p) in moves {
@@ -864,12 +872,15 @@ impl Lattice {
             self.code[a as usize] = self.cells.code(p);
         }
         if self.nbr_valid {
+            // Each mover's row, and its new neighbours seeing it: one look-up per direction.
             for &(a, p) in moves {
-                self.see_cell(p, a);
-                let nd = self.dim.dirs();
                 for d in 0..nd {
-                    self.nbr[d][a as usize] = match self.cell_at(p, Dir::ALL[d].offset()) {
-                        Cell::Agent(b) => b,
+                    let c = self.cell_at(p, Dir::ALL[d].offset());
+                    self.nbr[d][a as usize] = match c {
+                        Cell::Agent(b) => {
+                            self.nbr[Dir::ALL[d].opposite().index()][b as usize] = a;
+                            b
+                        }
                         Cell::Empty => NO_AGENT,
                         Cell::Blocked => BLOCKED,
                     };
@@ -877,16 +888,6 @@ impl Lattice {
             }
         }
         self.after_moves();
-    }
-
-    /// In the neighbour table: the agents next to cell `p` see `a` (an agent or
-    /// [`NO_AGENT`]) there.
-    fn see_cell(&mut self, p: [i32; 3], a: u32) {
-        for d in 0..self.dim.dirs() {
-            if let Cell::Agent(b) = self.cell_at(p, Dir::ALL[d].offset()) {
-                self.nbr[Dir::ALL[d].opposite().index()][b as usize] = a;
-            }
-        }
     }
 
     /// After moves: when many agents have left the grid, or a few have been outside it for
