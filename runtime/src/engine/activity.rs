@@ -390,8 +390,9 @@ impl Activity {
             // A grid made again during the moves lays its cells out anew.
             let same_grid = changes.grid == lat.cells.grid_box();
             self.wake_each(th, &moved, |run, next| {
-                // The grid cells of readers, looked at after the loop: one after another,
-                // the processor waits for several at once (the movers' cells lie apart).
+                // The grid cells of readers, looked at together after the loop: their
+                // loads overlap, where one at a time each waited on the last (the movers'
+                // cells lie apart).
                 let mut cells = Vec::new();
                 next.add_all(run.iter().flat_map(|l| l.iter().map(|m| m.0)));
                 for &(a, from, code) in run.iter().flat_map(|l| l.iter()) {
@@ -611,13 +612,8 @@ mod tests {
     /// by one gives: in order or not, with repeats, past the limit or not.
     #[test]
     fn adding_all_at_once_is_adding_each() {
-        let mut seed = 0x2545_F491_4F6C_DD1Du64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut rng = crate::shapes::Rng::new(0x2545_F491_4F6C_DD1Du64);
+        let mut next = move || rng.next_u64();
         let n = 5000;
         for case in 0..300 {
             let len = next() as usize % 400;

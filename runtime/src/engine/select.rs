@@ -158,6 +158,16 @@ fn tally_listing(
     (cap, chosen): (usize, &mut Vec<u32>),
 ) -> (u64, bool) {
     chosen.clear();
+    // The firings of the agents listed, per rule.
+    let count = |chosen: &[u32], counts: &mut [u64]| {
+        for &a in chosen {
+            let v = one[a as usize - lo];
+            if v & MANY == 0 {
+                counts[v as usize] += 1;
+            }
+        }
+        chosen.len() as u64
+    };
     const BLOCK: usize = 64;
     for (b, block) in one.chunks(BLOCK).enumerate() {
         // (`NO_RULE` has every bit set: the block holds nothing else when its AND does.)
@@ -167,13 +177,7 @@ fn tally_listing(
         let first = b * BLOCK;
         let k = block.iter().filter(|&&v| v != NO_RULE).count();
         if chosen.len() + k > cap {
-            let listed = chosen.len() as u64;
-            for &a in chosen.iter() {
-                let v = one[a as usize - lo];
-                if v & MANY == 0 {
-                    counts[v as usize] += 1;
-                }
-            }
+            let listed = count(chosen, counts);
             return (listed + tally(&one[first..], counts, many), false);
         }
         for (i, &v) in block.iter().enumerate() {
@@ -182,13 +186,7 @@ fn tally_listing(
             }
         }
     }
-    for &a in chosen.iter() {
-        let v = one[a as usize - lo];
-        if v & MANY == 0 {
-            counts[v as usize] += 1;
-        }
-    }
-    (chosen.len() as u64, true)
+    (count(chosen, counts), true)
 }
 
 /// Adds the chunks' counts per rule (with how many agents execute any rule) to `counts`,
@@ -888,13 +886,8 @@ mod tests {
     /// agents executing several ([`MANY`]), the part's first agent and the cap.
     #[test]
     fn tally_listing_lists_and_counts_as_tally_does() {
-        let mut seed = 0x9E37_79B9_7F4A_7C15u64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut rng = crate::shapes::Rng::new(0x9E37_79B9_7F4A_7C15u64);
+        let mut next = move || rng.next_u64();
         for case in 0..400 {
             let (len, rules) = (next() as usize % 700, 1 + case % 6);
             let share = 1 + next() % 40;
