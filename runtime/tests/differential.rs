@@ -788,11 +788,7 @@ fn large_agents(d3: bool) -> impl Strategy<Value = String> {
 #[test]
 fn generators_reach_every_record_kind() {
     use proptest::strategy::ValueTree;
-    use proptest::test_runner::{Config, TestRunner};
-    let mut runner = TestRunner::new(Config {
-        rng_seed: proptest::test_runner::RngSeed::Fixed(7),
-        ..Config::default()
-    });
+    let mut runner = fixed_runner(7);
     let mut kinds = std::collections::BTreeSet::new();
     let (mut moves, mut swaps, mut delivered) = (0, 0, 0);
     for i in 0..3000 {
@@ -823,6 +819,15 @@ fn generators_reach_every_record_kind() {
     );
 }
 
+/// A proptest runner drawing the same cases on every machine (`seed`).
+fn fixed_runner(seed: u64) -> proptest::test_runner::TestRunner {
+    use proptest::test_runner::{Config, RngSeed, TestRunner};
+    TestRunner::new(Config {
+        rng_seed: RngSeed::Fixed(seed),
+        ..Config::default()
+    })
+}
+
 /// The agents of a generated shape with the generators' states and some counters.
 fn with_states(base: &str) -> String {
     (base.lines().enumerate())
@@ -845,11 +850,7 @@ fn with_states(base: &str) -> String {
 fn threads_give_the_same_results() {
     use latticesim_runtime::shapes::{agents_text, GenOptions, Shape};
     use proptest::strategy::ValueTree;
-    use proptest::test_runner::{Config, TestRunner};
-    let mut runner = TestRunner::new(Config {
-        rng_seed: proptest::test_runner::RngSeed::Fixed(11),
-        ..Config::default()
-    });
+    let mut runner = fixed_runner(11);
     for i in 0..24u64 {
         let d3 = i % 3 == 2;
         let r = rules(d3).new_tree(&mut runner).unwrap().current();
@@ -1977,11 +1978,7 @@ fn traced_as_untraced(rules: &str, agents: &str) -> Result<(), TestCaseError> {
 fn space_order_changes_nothing_but_the_order_of_records() {
     use latticesim_runtime::shapes::{agents_text, GenOptions, Shape};
     use proptest::strategy::ValueTree;
-    use proptest::test_runner::{Config, TestRunner};
-    let mut runner = TestRunner::new(Config {
-        rng_seed: proptest::test_runner::RngSeed::Fixed(5),
-        ..Config::default()
-    });
+    let mut runner = fixed_runner(5);
     let mut records = 0;
     for i in 0..2u64 {
         let d3 = i % 2 == 1;
@@ -2024,7 +2021,7 @@ fn space_order_changes_nothing_but_the_order_of_records() {
                 y.len()
             );
         };
-        let mut resumed = None;
+        let mut resumed: Option<Engine> = None;
         for step in 1..=6 {
             let (a, b) = (file.step(), space.step());
             same(&sorted(&a), &sorted(&b), &format!("case {i}, step {step}"));
@@ -2033,7 +2030,6 @@ fn space_order_changes_nothing_but_the_order_of_records() {
             assert_eq!(file.lat.to_agents_text(), space.lat.to_agents_text());
             assert_eq!(format!("{:?}", file.stats), format!("{:?}", space.stats));
             if let Some(e) = &mut resumed {
-                let e: &mut Engine = e;
                 let c = e.step();
                 same(
                     &sorted(&a),

@@ -317,7 +317,6 @@ impl Engine {
         if listing && !sel.listed && !self.selection.by_state {
             sel.make_list();
         }
-        sel.found = false;
         rep.executing = self.selection.active;
         rep.quiescent = rep.executing == 0;
         for (f, &k) in self

@@ -59,6 +59,9 @@ impl Selector {
         threads: &mut Threads,
         listed: Option<&[u32]>,
     ) -> Vec<(Vec<u32>, String)> {
+        // (A list found by the last selection is not this one's: hops may have changed
+        // entries since.)
+        self.sel.found = false;
         let changed = dispatch.stale(lat.len()) || self.states_changed;
         self.states_changed = false;
         dispatch.update(prog, &plan.trivial, lat, threads);

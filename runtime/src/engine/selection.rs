@@ -14,8 +14,8 @@ pub(super) struct Selection {
     pub(super) listed: bool,
     /// Not `listed`, but `list` holds every agent that executes a rule all the same (the
     /// selection over all agents found them while it counted, and they were few): the
-    /// step lists them without looking for them ([`Selection::make_list`]). Only until
-    /// the step asks; it is not kept.
+    /// step lists them without looking for them ([`Selection::make_list`]). Cleared at
+    /// the start of every selection.
     pub(super) found: bool,
 }
 

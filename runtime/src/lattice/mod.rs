@@ -140,6 +140,19 @@ pub struct LatticeBuilder {
 }
 
 impl LatticeBuilder {
+    /// For tests: a 2D builder holding a `w` x `h` block of agents in state `AAAAA` from
+    /// the origin, in order of x, then y.
+    #[cfg(test)]
+    pub(crate) fn block(w: i32, h: i32) -> LatticeBuilder {
+        let mut b = LatticeBuilder::new(Dim::Two, None, 0);
+        for x in 0..w {
+            for y in 0..h {
+                b.push([x, y, 0], *b"AAAAA", 0, &[]);
+            }
+        }
+        b
+    }
+
     /// An empty lattice of this dimension and universe, with room for `capacity` agents.
     pub fn new(dim: Dim, universe: Option<Bounds>, capacity: usize) -> LatticeBuilder {
         LatticeBuilder {
@@ -1241,22 +1254,13 @@ mod tests {
         assert_eq!((m.id_of(4), m.id_of(6)), (3, 3));
     }
 
-    /// A block that walks out of its grid is given a grid again where it is, a few times
-    /// over a long walk (the room to grow amortises it); agents that jump far away stay in
-    /// the hash map (a box over both places is over budget), and every neighbour still
-    /// answers as the cells do.
     /// A few agents that walk off the grid beside many at rest (fewer than the count that
     /// makes the grid again at once) get a grid over them once their look-ups in the hash
     /// map add up to what the grid costs to make; a few that stay far away (a grid over
     /// them and the others over budget) are tried again less and less often.
     #[test]
     fn a_few_walkers_beside_many_at_rest_get_the_grid_again() {
-        let mut b = LatticeBuilder::new(Dim::Two, None, 0);
-        for x in 0..100 {
-            for y in 0..100 {
-                b.push([x, y, 0], *b"AAAAA", 0, &[]);
-            }
-        }
+        let mut b = LatticeBuilder::block(100, 100);
         // Ten walkers above the block, at its east end.
         for i in 0..10 {
             b.push([90 + i, 101, 0], *b"BBBBB", 0, &[]);
@@ -1304,14 +1308,13 @@ mod tests {
         );
     }
 
+    /// A block that walks out of its grid is given a grid again where it is, a few times
+    /// over a long walk (the room to grow amortises it); agents that jump far away stay in
+    /// the hash map (a box over both places is over budget), and every neighbour still
+    /// answers as the cells do.
     #[test]
     fn the_grid_follows_a_block_that_walks_away() {
-        let mut b = LatticeBuilder::new(Dim::Two, None, 0);
-        for x in 0..40 {
-            for y in 0..25 {
-                b.push([x, y, 0], *b"AAAAA", 0, &[]);
-            }
-        }
+        let mut b = LatticeBuilder::block(40, 25);
         let mut lat = b.finish();
         let n = lat.len() as u32;
         assert!(lat.cells.is_grid());

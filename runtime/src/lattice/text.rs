@@ -28,7 +28,8 @@ pub(super) fn put_int(buf: &mut [u8], mut at: usize, v: i64) -> usize {
 impl Lattice {
     /// The configuration in agents.txt syntax: the universe line if there is one, then the
     /// agents in id order (the agents file's, [`Lattice::label`]) with state (unless it is
-    /// the default, `00000`), attachments (when any) and non-zero counters. It loads again to the same lattice.
+    /// the default, `00000`), attachments (when any) and non-zero counters. It loads again
+    /// to the same lattice.
     pub fn to_agents_text(&self) -> String {
         let mut out = Vec::with_capacity(self.len() * 24);
         self.write_agents_text(&mut out, 1)
@@ -210,12 +211,7 @@ mod tests {
     /// block or a later one: never a wait on the formatting thread.
     #[test]
     fn a_full_disk_is_an_error_not_a_hang() {
-        let mut b = LatticeBuilder::new(Dim::Two, None, 0);
-        for x in 0..400 {
-            for y in 0..400 {
-                b.push([x, y, 0], *b"AAAAA", 0, &[]);
-            }
-        }
+        let mut b = LatticeBuilder::block(400, 400);
         let lat = b.finish();
         for threads in [1, 2] {
             for left in [0, 10, 1 << 20] {
