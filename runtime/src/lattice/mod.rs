@@ -1314,7 +1314,7 @@ mod tests {
     /// answers as the cells do.
     #[test]
     fn the_grid_follows_a_block_that_walks_away() {
-        let mut b = LatticeBuilder::block(40, 25);
+        let b = LatticeBuilder::block(40, 25);
         let mut lat = b.finish();
         let n = lat.len() as u32;
         assert!(lat.cells.is_grid());

@@ -211,7 +211,7 @@ mod tests {
     /// block or a later one: never a wait on the formatting thread.
     #[test]
     fn a_full_disk_is_an_error_not_a_hang() {
-        let mut b = LatticeBuilder::block(400, 400);
+        let b = LatticeBuilder::block(400, 400);
         let lat = b.finish();
         for threads in [1, 2] {
             for left in [0, 10, 1 << 20] {
