@@ -525,7 +525,8 @@ impl CellIndex {
     /// usual margin is over the budget. The sides of the box that agents crossed to leave
     /// the grid (all sides without one), and those `toward` names (per axis, below and
     /// above), get room to grow: a quarter of the axis's extent, halved until the grid is
-    /// within the budget. A cloud that falls, or a line that walks
+    /// within the budget (`None` too when that leaves less than a sixteenth of it on a
+    /// side named by `toward`). A cloud that falls, or a line that walks
     /// away, so gets a grid long in its direction of travel, which agents leave again only
     /// after as many steps as the room is long (room on every side would be over the budget
     /// for a cloud that fills its box, and leave it a grid no larger than before).
@@ -545,6 +546,9 @@ impl CellIndex {
         });
         let mut room = [0, 1, 2]
             .map(|k| ((hi[k] as i64 - lo[k] as i64) / 4).clamp(MARGIN as i64, 1 << 20) as i32);
+        // Room ahead of agents that move toward a side, if less than a sixteenth of what
+        // was first asked, would soon be crossed again: no grid then.
+        let least = room.map(|r| r / 16);
         let grid = loop {
             let margin = [0, 1, 2].map(|k| crossed[k].map(|c| if c { room[k] } else { MARGIN }));
             if let Some(g) = CellIndex::grid_for(((lo, hi), pos.len()), shape, margin) {
@@ -554,6 +558,9 @@ impl CellIndex {
                 return None;
             }
             room = room.map(|r| (r / 2).max(MARGIN));
+            if (0..3).any(|k| toward[k].contains(&true) && room[k] < least[k]) {
+                return None;
+            }
         };
         let (idx, _, code) = CellIndex::made(Some(grid), pos, shape);
         Some((idx, code))

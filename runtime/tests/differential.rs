@@ -1237,6 +1237,14 @@ fn moves_at_once_agree_with_reference() {
             row(&mut (0..40).map(|k| k * 2), 9, "E0000", 4),
         ]
         .concat(),
+        // A jam: most movers stand behind the holder (blocked, and left to the general
+        // way); the few free ones walk on, at once again after a pause.
+        [
+            row(&mut (0..12), 0, "E0000", 9),
+            "12,0 SH0000\n".into(),
+            spaced(2, 9),
+        ]
+        .concat(),
     ];
     // Every case also as copies one above the other, for the pool of threads: twice as
     // many agents as a thread takes alone, so that the pool splits them into chunks (300

@@ -202,7 +202,7 @@ impl Act<'_> {
         // in one tight loop (`hop_run`); the loop stops at each agent whose list has no hop
         // yet (or whose new state's rules need evaluating), which goes the general way.
         let hops = simple && keep && self.plan.acting == Acting::States;
-        if plain_moves && self.plain_moves_at_once(sel) {
+        if plain_moves && self.plain_moves_at_once(sel, rep) {
             // Plain moves change no state, bond or selection.
             self.bufs.todo = todo;
             return false;

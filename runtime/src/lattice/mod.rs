@@ -1009,7 +1009,7 @@ impl Lattice {
     /// Undoes the moves of one step `off` (of direction index `d`) made by
     /// [`Shift::in_place`] for the agents of `moved` (in any order): their targets are
     /// emptied, then their cells filled again.
-    pub(crate) fn unshift(&mut self, moved: &[&[u32]], (off, d): ([i32; 3], usize)) {
+    pub(crate) fn unshift(&mut self, moved: &[Vec<u32>], (off, d): ([i32; 3], usize)) {
         let Some(g) = self.cells.grid_mut() else {
             return;
         };
@@ -1029,25 +1029,29 @@ impl Lattice {
     }
 
     /// Moves agents `movers` (distinct, in any order) by one offset `off`, which is one
-    /// step of direction index `d`, each into an empty cell of the grid, and returns true;
-    /// or, when one of them is not on the grid away from its rim, is bonded, or finds its
-    /// target filled (at the start of the step, or by an agent that has not moved yet),
-    /// moves none and returns false. A target emptied by a mover before is taken: with one
-    /// offset for all, agents that follow each other do not collide.
+    /// step of direction index `d`, each that stands on the grid away from its rim into its
+    /// target when that is empty now (empty at the start of the step, or just left by an
+    /// agent moving the same way), and returns how many of them stood on the rim (or off
+    /// the grid). The others, those on the rim and those that found their target filled,
+    /// are pushed to `deferred` (in the order of `movers`), for the general way: each move
+    /// made is one the step makes whatever they do (with one offset, no other mover targets
+    /// the same cell, and none can enter a cell taken so). When one of them is bonded,
+    /// moves none and returns `None` (what it pushed to `deferred` stays there).
     /// `ahead`: ask for the cells of the movers a dozen ahead (when they are scattered).
     pub(crate) fn shift_alone(
         &mut self,
         movers: &[u32],
         (off, d): ([i32; 3], usize),
         ahead: bool,
-    ) -> bool {
-        let Some(g) = self.cells.grid_mut() else {
-            return false;
-        };
+        deferred: &mut Vec<u32>,
+    ) -> Option<usize> {
+        let g = self.cells.grid_mut()?;
+        g.ready_rim();
         let step = g.step(d);
         let mut cells = g.cells_mut();
         let mut held = crate::cells::Held::default();
         let (code, pos, attach) = (&mut self.code, &mut self.pos, &self.attach);
+        let (first, mut rim, mut bonded) = (deferred.len(), 0, None);
         for (k, &a) in movers.iter().enumerate() {
             // The cells a dozen moves ahead (see `cells::prefetch`).
             if let Some(&b) = movers.get(k + AHEAD).filter(|_| ahead) {
@@ -1055,28 +1059,46 @@ impl Lattice {
             }
             let a = a as usize;
             let c = code[a];
+            if attach[a] != 0 {
+                bonded = Some(k);
+                break;
+            }
+            if c >= RIM {
+                rim += 1;
+                deferred.push(a as u32);
+                continue;
+            }
             let to = Grid::along(c, step);
-            if c >= RIM || attach[a] != 0 || !cells.relocate(&mut held, a as u32, c as usize, to) {
-                cells.put_back(&mut held);
-                // Back, the last moved first: every cell is as it was.
-                for &b in movers[..k].iter().rev() {
-                    let b = b as usize;
-                    let from = (code[b] & !RIM) as usize;
-                    let back = (from as isize - step) as usize;
-                    cells.vacate(from);
-                    cells.occupy(back, b as u32);
-                    code[b] = cells.code_of(back);
-                    let p = pos[b];
-                    pos[b] = [p[0] - off[0], p[1] - off[1], p[2] - off[2]];
-                }
-                return false;
+            if !cells.relocate(&mut held, a as u32, c as usize, to) {
+                deferred.push(a as u32);
+                continue;
             }
             code[a] = cells.code_of(to);
             let p = pos[a];
             pos[a] = [p[0] + off[0], p[1] + off[1], p[2] + off[2]];
         }
         cells.put_back(&mut held);
-        true
+        let Some(k) = bonded else {
+            return Some(rim);
+        };
+        // Back, the last moved first (the deferred, in the same order, skipped): every
+        // cell is as it was.
+        let mut left = deferred.len();
+        for &b in movers[..k].iter().rev() {
+            if left > first && deferred[left - 1] == b {
+                left -= 1;
+                continue;
+            }
+            let b = b as usize;
+            let from = (code[b] & !RIM) as usize;
+            let back = (from as isize - step) as usize;
+            cells.vacate(from);
+            cells.occupy(back, b as u32);
+            code[b] = cells.code_of(back);
+            let p = pos[b];
+            pos[b] = [p[0] - off[0], p[1] - off[1], p[2] - off[2]];
+        }
+        None
     }
 
     /// Moves agents to their targets, given with their slot codes ([`CellIndex::code`];
@@ -1149,15 +1171,20 @@ unsafe impl Sync for Shift<'_> {}
 unsafe impl Send for Shift<'_> {}
 
 impl Shift<'_> {
-    /// Moves the agents of `movers`, in turn, one step each, as long as each stands on the
-    /// grid away from its rim, is not bonded, and finds its target empty now (empty at the
-    /// start of the step, or just left by an agent moving the same way); stops at the
-    /// first that does not. Returns how many moved, and whether all did.
+    /// Moves the agents of `movers`, in turn, one step each, as [`Lattice::shift_alone`]
+    /// does: those that stand on the grid's rim (or off it) or find their target filled now
+    /// are pushed to `deferred`; stops at the first that is bonded. Returns how many it
+    /// went through, and how many stood on the rim (`None` when it stopped at a bonded one).
     ///
     /// # Safety
     /// Across all parts made at once, the agents are distinct; no other thread reads or
     /// writes the lattice but through this `Shift`.
-    pub(crate) unsafe fn in_place(&self, movers: &[u32]) -> (usize, bool) {
+    pub(crate) unsafe fn in_place(
+        &self,
+        movers: &[u32],
+        deferred: &mut Vec<u32>,
+    ) -> (usize, Option<usize>) {
+        let mut rim = 0;
         for (k, &a) in movers.iter().enumerate() {
             let a = a as usize;
             assert!(a < self.n, "an agent of the lattice");
@@ -1171,12 +1198,18 @@ impl Shift<'_> {
                 }
                 let code = &mut *self.code.add(a);
                 let c = *code;
-                if c >= RIM || *self.attach.add(a) != 0 {
-                    return (k, false);
+                if *self.attach.add(a) != 0 {
+                    return (k, None);
+                }
+                if c >= RIM {
+                    rim += 1;
+                    deferred.push(a as u32);
+                    continue;
                 }
                 let (from, to) = (c as usize, Grid::along(c, self.step));
                 if !self.cells.take(a as u32, from, to) {
-                    return (k, false);
+                    deferred.push(a as u32);
+                    continue;
                 }
                 *code = self.cells.code_of_slot(to);
                 let pos = &mut *self.pos.add(a);
@@ -1187,7 +1220,7 @@ impl Shift<'_> {
                 ];
             }
         }
-        (movers.len(), true)
+        (movers.len(), Some(rim))
     }
 
     /// Where agent `a` stands: its position, and its slot code as [`Lattice::code_of`].
@@ -1252,6 +1285,55 @@ mod tests {
         assert_eq!(lat.one_sided_bond(), None);
         assert_eq!((m.column_of(2), m.id_of(3)), (3, 2));
         assert_eq!((m.id_of(4), m.id_of(6)), (3, 3));
+    }
+
+    /// Moves at once leave to the general way the movers at the grid's rim and those whose
+    /// target is filled when they are tried (by an agent that stays, or by a mover not
+    /// moved yet), and move the others; a bonded mover undoes every move made.
+    #[test]
+    fn moves_at_once_defer_the_rim_and_filled_targets() {
+        let mut lat = LatticeBuilder::block(10, 10).finish();
+        let (east, d) = ([1, 0, 0], Dir::E.index());
+        let id = |x: i32, y: i32| (x * 10 + y) as u32;
+        let mut deferred = Vec::new();
+        // The agent at 8,0 before the one ahead of it moved; 0,1 behind the one at 1,1,
+        // which stays.
+        let movers = [id(8, 0), id(9, 0), id(0, 1)];
+        assert_eq!(
+            lat.shift_alone(&movers, (east, d), false, &mut deferred),
+            Some(0)
+        );
+        assert_eq!(deferred, [id(8, 0), id(0, 1)]);
+        assert_eq!(lat.pos[id(9, 0) as usize], [10, 0, 0]);
+        assert_eq!(lat.cells.get([10, 0, 0]), Some(id(9, 0)));
+        assert_eq!(lat.cells.get([9, 0, 0]), None);
+        assert_eq!(lat.pos[id(8, 0) as usize], [8, 0, 0]);
+        assert_eq!(lat.cells.get([1, 1, 0]), Some(id(1, 1)));
+        // The grid has two cells of margin: the agent at 10,0 goes to its rim, and is
+        // left there.
+        deferred.clear();
+        assert_eq!(
+            lat.shift_alone(&[id(9, 0)], (east, d), false, &mut deferred),
+            Some(0)
+        );
+        assert_eq!(
+            lat.shift_alone(&[id(9, 0)], (east, d), false, &mut deferred),
+            Some(1)
+        );
+        assert_eq!(
+            (deferred, lat.pos[id(9, 0) as usize]),
+            (vec![id(9, 0)], [11, 0, 0])
+        );
+        // A bonded mover after one that moved, one deferred and one at the rim.
+        lat.attach[id(5, 5) as usize] = 1;
+        let before = lat.clone();
+        let (mut deferred, movers) = (vec![7], [id(9, 1), id(0, 2), id(9, 0), id(5, 5)]);
+        assert_eq!(
+            lat.shift_alone(&movers, (east, d), false, &mut deferred),
+            None
+        );
+        assert!(lat == before);
+        assert_eq!(deferred, [7, id(0, 2), id(9, 0)]);
     }
 
     /// A few agents that walk off the grid beside many at rest (fewer than the count that

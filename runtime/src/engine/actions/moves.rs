@@ -72,11 +72,12 @@ fn scattered(lat: &Lattice, movers: &[u32]) -> bool {
     crate::cells::scattered(movers.iter().map(|&a| lat.code_of(a)))
 }
 
-/// One chunk's part of [`Act::plain_moves_at_once`]: its movers and their targets' slot
-/// codes (kept between steps for their allocations).
+/// One chunk's part of [`Act::plain_moves_at_once`]: its movers, and those of them left
+/// to the general way (kept between steps for their allocations).
 #[derive(Default)]
 pub(super) struct FusedPart {
     movers: Vec<u32>,
+    deferred: Vec<u32>,
 }
 
 impl FusedPart {
@@ -98,40 +99,89 @@ impl FusedPart {
             m += mover[(one[a] as usize).min(last)] as usize;
         }
         movers.truncate(m);
+        self.deferred.clear();
     }
+}
+
+/// Drops from `notes` (the cells movers left, in the order of the movers) the entries of
+/// the agents of `deferred` (a subsequence of the same movers): they have not moved.
+fn unnote(notes: &mut Vec<Moved>, deferred: &[u32]) {
+    if deferred.is_empty() {
+        return;
+    }
+    let mut left = deferred.iter().peekable();
+    notes.retain(|m| match left.peek() {
+        Some(&&a) if a == m.0 => {
+            left.next();
+            false
+        }
+        _ => true,
+    });
 }
 
 impl Act<'_> {
     /// The plain moves of a step at once, on the pool when it pays (see `plan.rs`): when
-    /// every rule that acts only moves one step in one direction (`Plan::plain_step`),
-    /// every mover stands on the grid away from its rim, none is bonded, and every target
-    /// is empty at the start of the step. Then no move can be blocked or collide and no
-    /// bond changes: the movers of each chunk of agents are found with their targets in
-    /// one pass that reads, and moved in one that writes. Returns false, having changed
-    /// nothing, when that does not hold (the moves then go the general way), and then does
-    /// not try for the next 16 steps.
-    pub(super) fn plain_moves_at_once(&mut self, sel: &Selection) -> bool {
-        let Some((off, _)) = self.plan.plain_step else {
+    /// every rule that acts only moves one step in one direction (`Plan::plain_step`) and
+    /// no mover is bonded. Then no move can collide and no bond changes: the movers of
+    /// each chunk of agents are found in one pass that reads, and each that stands on the
+    /// grid away from its rim, with its target empty, is moved in one that writes (a
+    /// target seen empty was empty at the start of the step, or left by an agent moving
+    /// the same way, which nothing else may enter). The others go the general way after
+    /// (`move_alone`): those at the rim (a cloud that falls, a line that walks away; the
+    /// grid is first made again with room ahead of them when that pays, and they are tried
+    /// at once again), and those whose target was filled when they were tried. Returns
+    /// false, having changed nothing, when a mover is bonded (the moves then go the general
+    /// way), and then does not try for the next 16 steps; nor when more than half the
+    /// movers of a step were blocked.
+    pub(super) fn plain_moves_at_once(&mut self, sel: &Selection, rep: &mut StepReport) -> bool {
+        let Some((off, d)) = self.plan.plain_step else {
             return false;
         };
-        match self.plain_moves_on_grid(sel) {
-            AtOnce::Done => true,
-            AtOnce::NotTried => false,
-            // Movers at the grid's rim (a cloud that falls, a line that walks away) find
-            // room made ahead of them, and try again; other failures pause.
-            AtOnce::Failed { rim, movers } => {
-                let again = rim
-                    && self.lat.grow_toward(off, movers)
-                    && matches!(self.plain_moves_on_grid(sel), AtOnce::Done);
-                if !again {
-                    self.bufs.fused_pause = 16;
+        let (rim, movers) = match self.plain_moves_on_grid(sel) {
+            AtOnce::Done { rim, movers } => (rim, movers),
+            AtOnce::NotTried => return false,
+            AtOnce::Failed => {
+                self.bufs.fused_pause = 16;
+                return false;
+            }
+        };
+        let mut parts = std::mem::take(&mut self.bufs.fused);
+        let mut deferred: Vec<u32> = parts.iter().flat_map(|p| &p.deferred).copied().collect();
+        if rim > 0 && self.lat.grow_toward(off, movers) {
+            // On the new grid, those at the rim are away from it: tried again.
+            let part = &mut parts[0];
+            std::mem::swap(&mut part.movers, &mut deferred);
+            if self.bufs.changes.on {
+                for &a in &part.movers {
+                    self.bufs.changes.moved(self.lat, a);
                 }
-                again
+            }
+            part.deferred.clear();
+            let tried = self
+                .lat
+                .shift_alone(&part.movers, (off, d), false, &mut part.deferred);
+            // (No mover is bonded: all were tried.)
+            debug_assert!(tried.is_some());
+            unnote(&mut self.bufs.changes.moved, &part.deferred);
+            self.stats.moves += (part.movers.len() - part.deferred.len()) as u64;
+            deferred.clear();
+            deferred.extend_from_slice(&part.deferred);
+        }
+        self.bufs.fused = parts;
+        if !deferred.is_empty() {
+            let before = self.stats.moves;
+            let mut live: Vec<(u32, [i32; 3])> = deferred.iter().map(|&a| (a, off)).collect();
+            self.move_alone(&mut live, rep);
+            let blocked = deferred.len() as u64 - (self.stats.moves - before);
+            if blocked as usize * 2 > movers {
+                self.bufs.fused_pause = 16;
             }
         }
+        true
     }
 
-    /// [`Act::plain_moves_at_once`] on the grid as it is, without the pause it sets.
+    /// [`Act::plain_moves_at_once`] on the grid as it is, without the pause it sets and
+    /// the general way for the movers it leaves (in the parts' `deferred`).
     fn plain_moves_on_grid(&mut self, sel: &Selection) -> AtOnce {
         let Some((off, d)) = self.plan.plain_step else {
             return AtOnce::NotTried;
@@ -157,36 +207,41 @@ impl Act<'_> {
         let (par, size, chunks) = th.chunks(len);
         if par.is_none() {
             // One thread: the movers, then their moves checked as they are made.
-            let mut part = self.bufs.fused.pop().unwrap_or_default();
+            self.bufs.fused.truncate(1);
+            if self.bufs.fused.is_empty() {
+                self.bufs.fused.push(FusedPart::default());
+            }
+            let part = &mut self.bufs.fused[0];
             if sel.listed {
                 part.collect(sel.list.iter().map(|&a| a as usize), (one, mover));
             } else {
                 part.collect(0..one.len(), (one, mover));
             }
-            if self.bufs.changes.on {
+            let changes = &mut self.bufs.changes;
+            if changes.on {
                 for &a in &part.movers {
-                    self.bufs.changes.moved(self.lat, a);
+                    changes.moved(self.lat, a);
                 }
             }
             let ahead = scattered(self.lat, &part.movers);
-            let done = self.lat.shift_alone(&part.movers, (off, d), ahead);
-            let went = if done {
-                self.stats.moves += part.movers.len() as u64;
-                AtOnce::Done
-            } else {
-                self.bufs.changes.moved.clear();
-                AtOnce::failed(self.lat, [&part.movers[..]])
+            let movers = part.movers.len();
+            let Some(rim) = self
+                .lat
+                .shift_alone(&part.movers, (off, d), ahead, &mut part.deferred)
+            else {
+                changes.moved.clear();
+                return AtOnce::Failed;
             };
-            self.bufs.fused.push(part);
-            return went;
+            unnote(&mut changes.moved, &part.deferred);
+            self.stats.moves += (movers - part.deferred.len()) as u64;
+            return AtOnce::Done { rim, movers };
         }
         let Some((pool, _)) = par else {
             unreachable!("one thread went above")
         };
         // On the pool: each block of chunks finds its movers and moves them in place,
-        // each checked as it goes (as on one thread; a target seen empty was empty at the
-        // start or left by an agent moving the same way); when one of them cannot move,
-        // every move is undone.
+        // each checked as it goes (as on one thread); when one of them is bonded, every
+        // move is undone.
         let mut parts = std::mem::take(&mut self.bufs.fused);
         parts.resize_with(chunks, FusedPart::default);
         let list = &sel.list;
@@ -220,49 +275,53 @@ impl Act<'_> {
                     (a, p, code)
                 }));
             }
-            unsafe { shift.in_place(&part.movers) }
+            let made = unsafe { shift.in_place(&part.movers, &mut part.deferred) };
+            if noting {
+                unnote(notes, &part.deferred);
+            }
+            made
         };
         let items = parts.iter_mut().zip(&mut changes.moved_parts);
-        let made: Vec<(usize, bool)> = pool.map(items.enumerate().collect(), moves);
-        if made.iter().any(|m| !m.1) {
-            let undo: Vec<&[u32]> = (parts.iter().zip(&made))
-                .map(|(p, m)| &p.movers[..m.0])
+        let made: Vec<(usize, Option<usize>)> = pool.map(items.enumerate().collect(), moves);
+        let movers: usize = parts.iter().map(|p| p.movers.len()).sum();
+        if made.iter().any(|m| m.1.is_none()) {
+            // Those moved: each part's movers it went through, but those it left.
+            let undo: Vec<Vec<u32>> = (parts.iter().zip(&made))
+                .map(|(p, m)| {
+                    let mut moved = p.movers[..m.0].to_vec();
+                    let mut left = p.deferred.iter().peekable();
+                    moved.retain(|&a| match left.peek() {
+                        Some(&&b) if b == a => {
+                            left.next();
+                            false
+                        }
+                        _ => true,
+                    });
+                    moved
+                })
                 .collect();
             self.lat.unshift(&undo, (off, d));
             changes.moved_parts.iter_mut().for_each(Vec::clear);
-            let went = AtOnce::failed(self.lat, parts.iter().map(|p| &p.movers[..]));
             self.bufs.fused = parts;
-            return went;
+            return AtOnce::Failed;
         }
-        let moved: usize = parts.iter().map(|p| p.movers.len()).sum();
+        let rim = made.iter().map(|m| m.1.unwrap_or(0)).sum();
+        let left: usize = parts.iter().map(|p| p.deferred.len()).sum();
         self.bufs.fused = parts;
-        self.stats.moves += moved as u64;
-        AtOnce::Done
+        self.stats.moves += (movers - left) as u64;
+        AtOnce::Done { rim, movers }
     }
 }
 
 /// How the plain moves of a step at once went.
 enum AtOnce {
-    Done,
+    /// Made, but for the movers left to the general way: `rim` of the `movers` stood on
+    /// the grid's rim (or off it).
+    Done { rim: usize, movers: usize },
     /// Not tried: not a step of plain moves on a grid, or paused.
     NotTried,
-    /// Tried and undone: whether a mover stood on the grid's rim, and how many movers.
-    Failed {
-        rim: bool,
-        movers: usize,
-    },
-}
-
-impl AtOnce {
-    /// Failed, for these movers (back where they stood).
-    fn failed<'m>(lat: &Lattice, movers: impl IntoIterator<Item = &'m [u32]>) -> AtOnce {
-        let (mut rim, mut count) = (false, 0);
-        for part in movers {
-            rim |= part.iter().any(|&a| lat.code_of(a) >= RIM);
-            count += part.len();
-        }
-        AtOnce::Failed { rim, movers: count }
-    }
+    /// Tried and undone: a mover is bonded.
+    Failed,
 }
 
 /// Marks for deciding moves, all clear between rounds: per grid cell, a bit when a mover
