@@ -204,6 +204,9 @@ pub(super) struct Changes {
     pub(super) grid: Option<([i32; 3], [i64; 3])>,
     pub(super) moved: Vec<Moved>,
     pub(super) moved_parts: Vec<Vec<Moved>>,
+    /// Every agent in `moved` and `moved_parts` moved by this offset (a step of plain
+    /// moves), when known.
+    pub(super) one_offset: Option<[i32; 3]>,
     pub(super) states: Vec<u32>,
     pub(super) bonds: Vec<u32>,
 }
@@ -234,6 +237,7 @@ impl Changes {
     }
 
     fn clear(&mut self) {
+        self.one_offset = None;
         self.moved.clear();
         self.moved_parts.iter_mut().for_each(Vec::clear);
         self.states.clear();
@@ -389,12 +393,21 @@ impl Activity {
             moved.extend(changes.moved_parts.iter().map(|l| &l[..]));
             // A grid made again during the moves lays its cells out anew.
             let same_grid = changes.grid == lat.cells.grid_box();
+            // Every mover moved by one offset, its readers all one step away, on the
+            // grid the codes are for: the short way.
+            let one_step = back.occupancy.iter().all(|o| o.dir.is_some());
+            let one_offset = changes.one_offset.filter(|_| same_grid && one_step);
             self.wake_each(th, &moved, |run, next| {
                 // The grid cells of readers, looked at together after the loop: their
                 // loads overlap, where one at a time each waited on the last (the movers'
                 // cells lie apart).
                 let mut cells = Vec::new();
                 next.add_all(run.iter().flat_map(|l| l.iter().map(|m| m.0)));
+                if let Some(off) = one_offset {
+                    readers_of_shift(next, lat, (run, off), &back.occupancy, &mut cells);
+                    wake_cells(next, lat, &cells);
+                    return;
+                }
                 for &(a, from, code) in run.iter().flat_map(|l| l.iter()) {
                     let code = if same_grid {
                         code
@@ -405,12 +418,7 @@ impl Activity {
                     // (Every offset read for a state or counter is read for occupancy too.)
                     readers_of_move(next, lat, ((from, code), to), &back.occupancy, &mut cells);
                 }
-                for &c in &cells {
-                    let b = lat.cells.at_slot(c);
-                    if b != EMPTY {
-                        next.add(b);
-                    }
-                }
+                wake_cells(next, lat, &cells);
             });
             // (An agent whose state changed executed a rule: it is woken as such.)
             for &a in &changes.states {
@@ -589,6 +597,63 @@ fn readers_of_move(
                     }
                 }
             }
+        }
+    }
+}
+
+/// [`readers_of_move`] for agents `moved` that all moved by one offset `off`, with
+/// `offsets` all one step and the slot codes in `moved` those of the grid now: which
+/// readers are known without looking (the mover itself, what stands on the cell it left)
+/// is then the same for every mover, and only codes are read.
+fn readers_of_shift(
+    next: &mut WakeSet,
+    lat: &Lattice,
+    (moved, off): (&[&[Moved]], [i32; 3]),
+    offsets: &[Back],
+    cells: &mut Vec<usize>,
+) {
+    let Some(g) = lat.cells.grid() else {
+        return;
+    };
+    let back = [-off[0], -off[1], -off[2]];
+    for o in offsets {
+        let Some(d) = o.dir else {
+            continue;
+        };
+        let (from_known, to_known) = (o.off == off, o.off == back);
+        for &(a, from, code) in moved.iter().flat_map(|l| l.iter()) {
+            if !from_known {
+                match code < RIM {
+                    true => cells.push(g.next(code, d)),
+                    false => {
+                        if let Some(b) = lat.agent_near((from, code), o.off, o.dir) {
+                            next.add(b);
+                        }
+                    }
+                }
+            }
+            if !to_known {
+                let c = lat.code_of(a);
+                match c < RIM {
+                    true => cells.push(g.next(c, d)),
+                    false => {
+                        let at = (lat.pos[a as usize], c);
+                        if let Some(b) = lat.agent_near(at, o.off, o.dir) {
+                            next.add(b);
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Wakes the agents on grid cells `cells` (slots).
+fn wake_cells(next: &mut WakeSet, lat: &Lattice, cells: &[usize]) {
+    for &c in cells {
+        let b = lat.cells.at_slot(c);
+        if b != EMPTY {
+            next.add(b);
         }
     }
 }

@@ -145,6 +145,8 @@ impl Act<'_> {
                 return false;
             }
         };
+        // (Those left to the general way move by the same offset.)
+        self.bufs.changes.one_offset = Some(off);
         let mut parts = std::mem::take(&mut self.bufs.fused);
         let mut deferred: Vec<u32> = parts.iter().flat_map(|p| &p.deferred).copied().collect();
         if rim > 0 && self.lat.grow_toward(off, movers) {
