@@ -75,11 +75,46 @@ fn bounds(pos: &[[i32; 3]]) -> ([i32; 3], [i32; 3]) {
 #[derive(Debug, Clone, PartialEq)]
 pub struct CellIndex {
     grid: Option<Grid>,
+    /// Beside a grid: a box of cells over the agents outside it (a line that walks away
+    /// while the grid over it and the others would be over budget), made from the hash map
+    /// by [`CellIndex::gather_outside`]; agents outside both are in the hash map.
+    side: Option<Side>,
     map: FxHashMap<[i32; 3], u32>,
     /// The universe's bounds, when it is bounded (the grid stays inside them), and the
     /// axes of the dimension.
     walls: Option<Bounds>,
     coords: usize,
+}
+
+/// The side box of the index: cells, each an agent id or [`EMPTY`], from `lo`, with how
+/// many agents it holds.
+#[derive(Debug, Clone, PartialEq)]
+struct Side {
+    lo: [i32; 3],
+    size: [i64; 3],
+    cells: Vec<u32>,
+    count: usize,
+}
+
+impl Side {
+    #[inline]
+    fn slot(&self, p: [i32; 3]) -> Option<usize> {
+        let o = [0, 1, 2].map(|k| (p[k] as i64 - self.lo[k] as i64) as u64);
+        let inside = (0..3).all(|k| o[k] < self.size[k] as u64);
+        inside.then(|| ((o[0] * self.size[1] as u64 + o[1]) * self.size[2] as u64 + o[2]) as usize)
+    }
+
+    /// The agents it holds, with their cells.
+    fn agents(&self) -> impl Iterator<Item = ([i32; 3], u32)> + '_ {
+        let [_, h, d] = self.size;
+        (self.cells.iter().enumerate())
+            .filter(|c| *c.1 != EMPTY)
+            .map(move |(i, &a)| {
+                let i = i as i64;
+                let o = [i / (h * d), i / d % h, i % d];
+                ([0, 1, 2].map(|k| (self.lo[k] as i64 + o[k]) as i32), a)
+            })
+    }
 }
 
 /// The dense part of the index: a box of cells, each an agent id or [`EMPTY`], with an
@@ -494,6 +529,7 @@ impl CellIndex {
     ) -> (CellIndex, bool, Vec<u32>) {
         let mut idx = CellIndex {
             grid,
+            side: None,
             map: FxHashMap::default(),
             walls,
             coords: if three_d { 3 } else { 2 },
@@ -517,7 +553,72 @@ impl CellIndex {
 
     /// The agents outside the grid (all of them without one).
     pub fn outside(&self) -> usize {
-        self.map.len()
+        self.map.len() + self.side.as_ref().map_or(0, |s| s.count)
+    }
+
+    /// Beside a grid, when the hash map holds 8 agents or more (and more than an eighth
+    /// of those in the side box): the side box made again over every agent outside the
+    /// grid, with room around them (a quarter of their extent per axis, halved until
+    /// within a budget of cells per agent as the grid's); none when even their box is over
+    /// it. Costs what those agents are; look-ups in it cost what they cost in the grid,
+    /// about a tenth of the hash map's.
+    pub fn gather_outside(&mut self) {
+        let side = self.side.as_ref().map_or(0, |s| s.count);
+        if self.grid.is_none() || self.map.len() < 8.max(side / 8) {
+            return;
+        }
+        let mut all: Vec<([i32; 3], u32)> = self.map.drain().collect();
+        if let Some(s) = self.side.take() {
+            all.extend(s.agents());
+        }
+        let (lo, hi) = (all.iter()).fold(([i32::MAX; 3], [i32::MIN; 3]), |(lo, hi), (p, _)| {
+            (
+                [0, 1, 2].map(|k| lo[k].min(p[k])),
+                [0, 1, 2].map(|k| hi[k].max(p[k])),
+            )
+        });
+        let budget = CELLS_PER_AGENT * all.len() as i64 + 4096;
+        let flat = |k: usize| k >= self.coords;
+        let mut room = [0, 1, 2].map(|k| match flat(k) {
+            true => 0,
+            false => ((hi[k] as i64 - lo[k] as i64) / 4).clamp(MARGIN as i64, 1 << 20),
+        });
+        loop {
+            let (slo, size) = (
+                [0, 1, 2].map(|k| (lo[k] as i64 - room[k]).max(i32::MIN as i64) as i32),
+                [0, 1, 2].map(|k| {
+                    (hi[k] as i64 + room[k]).min(i32::MAX as i64)
+                        - (lo[k] as i64 - room[k]).max(i32::MIN as i64)
+                        + 1
+                }),
+            );
+            let volume = size.iter().fold(1i64, |v, &s| v.saturating_mul(s));
+            if volume <= budget {
+                let mut side = Side {
+                    lo: slo,
+                    size,
+                    cells: vec![EMPTY; volume as usize],
+                    count: all.len(),
+                };
+                for &(p, a) in &all {
+                    let i = side.slot(p).expect("inside the side box");
+                    side.cells[i] = a;
+                }
+                self.side = Some(side);
+                return;
+            }
+            if room.iter().all(|&r| r <= MARGIN as i64) {
+                self.map.extend(all);
+                return;
+            }
+            room = room.map(|r| {
+                if r == 0 {
+                    0
+                } else {
+                    (r / 2).max(MARGIN as i64)
+                }
+            });
+        }
     }
 
     /// The index made again for agents at `pos` (each on a cell of its own) over where
@@ -572,6 +673,12 @@ impl CellIndex {
         if let Some(g) = &self.grid {
             if let Some(i) = g.slot(p) {
                 let a = g.cells[i];
+                return (a != EMPTY).then_some(a);
+            }
+        }
+        if let Some(s) = &self.side {
+            if let Some(i) = s.slot(p) {
+                let a = s.cells[i];
                 return (a != EMPTY).then_some(a);
             }
         }
@@ -723,6 +830,14 @@ impl CellIndex {
                 return free;
             }
         }
+        if let Some(s) = &mut self.side {
+            if let Some(i) = s.slot(p) {
+                let free = s.cells[i] == EMPTY;
+                s.cells[i] = a;
+                s.count += free as usize;
+                return free;
+            }
+        }
         self.map.insert(p, a).is_none()
     }
 
@@ -732,6 +847,15 @@ impl CellIndex {
             if let Some(i) = g.slot(p) {
                 if g.cells[i] == a {
                     g.put(i, EMPTY);
+                }
+                return;
+            }
+        }
+        if let Some(s) = &mut self.side {
+            if let Some(i) = s.slot(p) {
+                if s.cells[i] == a {
+                    s.cells[i] = EMPTY;
+                    s.count -= 1;
                 }
                 return;
             }
@@ -757,13 +881,65 @@ impl CellIndex {
             .grid
             .as_ref()
             .map_or(0, |g| g.cells.capacity() * 4 + g.occ.capacity() * 8);
-        grid + self.map.capacity() * (std::mem::size_of::<([i32; 3], u32)>() + 1)
+        let side = self.side.as_ref().map_or(0, |s| s.cells.capacity() * 4);
+        grid + side + self.map.capacity() * (std::mem::size_of::<([i32; 3], u32)>() + 1)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Agents outside the grid are gathered into a side box when 8 or more are in the hash
+    /// map (not before), and answer alike there: found, moved within it, out of it into the
+    /// hash map and back, counted as outside.
+    #[test]
+    fn agents_outside_the_grid_are_gathered_beside_it() {
+        let block: Vec<[i32; 3]> = (0..100).map(|i| [i % 10, i / 10, 0]).collect();
+        let mut idx = CellIndex::new(&block, (false, None));
+        // A line walking away east, 1,000 cells out, one at a time.
+        let line = |i: i32| [1000 + 2 * i, 5, 0];
+        for i in 0..7 {
+            idx.insert(line(i), 100 + i as u32);
+        }
+        idx.gather_outside();
+        assert!(idx.side.is_none(), "seven are left in the hash map");
+        idx.insert(line(7), 107);
+        idx.gather_outside();
+        let side = idx.side.as_ref().expect("a side box");
+        assert!(idx.map.is_empty() && side.count == 8);
+        assert!(side.cells.len() as i64 <= CELLS_PER_AGENT * 8 + 4096);
+        assert_eq!(idx.outside(), 8);
+        for i in 0..8 {
+            assert_eq!(idx.get(line(i)), Some(100 + i as u32));
+        }
+        assert_eq!(idx.get([1001, 5, 0]), None);
+        // Within the box, out of it (far), and back.
+        idx.remove(line(0), 100);
+        assert!(idx.insert([1001, 5, 0], 100));
+        idx.remove(line(1), 101);
+        assert!(idx.insert([-50_000, 7, 0], 101));
+        assert_eq!((idx.map.len(), idx.outside()), (1, 8));
+        assert_eq!(idx.get([-50_000, 7, 0]), Some(101));
+        assert_eq!((idx.get(line(0)), idx.get([1001, 5, 0])), (None, Some(100)));
+        // Another agent's cell: nothing removed; an agent placed on it replaces it.
+        idx.remove([1001, 5, 0], 102);
+        assert_eq!(idx.get([1001, 5, 0]), Some(100));
+        assert!(!idx.insert(line(2), 100));
+        assert_eq!(idx.get(line(2)), Some(100));
+        // The grid still answers for its own cells, and the side box is no part of it.
+        assert_eq!(idx.get([3, 4, 0]), Some(43));
+        assert!(idx.bytes() > idx.grid.as_ref().unwrap().cells.len() * 4);
+        // Made again with one in the hash map and far ones: over budget, all stay found.
+        for i in 0..8 {
+            idx.insert([i * 1_000_000, -9, 0], 200 + i as u32);
+        }
+        idx.gather_outside();
+        assert!(idx.side.is_none());
+        assert_eq!(idx.get([7_000_000, -9, 0]), Some(207));
+        assert_eq!(idx.get([-50_000, 7, 0]), Some(101));
+        assert_eq!(idx.get([1001, 5, 0]), Some(100));
+    }
 
     #[test]
     fn dense_is_a_grid_sparse_is_a_map_and_both_answer_alike() {

@@ -914,6 +914,7 @@ impl Lattice {
         let out = self.cells.outside();
         let pays = self.slow_work_pays(out as u64);
         if out == 0 || (out < self.regrow_at && !pays) {
+            self.cells.gather_outside();
             return;
         }
         match self.cells.regrow(&self.pos, [[false; 2]; 3]) {
@@ -921,6 +922,7 @@ impl Lattice {
             None => {
                 self.regrow_at = out * 2;
                 self.regrow_refused();
+                self.cells.gather_outside();
             }
         }
     }
