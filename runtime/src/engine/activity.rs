@@ -220,6 +220,15 @@ impl Changes {
         }
     }
 
+    /// Notes that `agents` leave their cells in `lat` (before they move), at once.
+    #[inline]
+    pub(super) fn moved_all(&mut self, lat: &Lattice, agents: impl ExactSizeIterator<Item = u32>) {
+        if self.on {
+            let pos = &lat.pos;
+            (self.moved).extend(agents.map(|a| (a, pos[a as usize], lat.code_of(a))));
+        }
+    }
+
     /// Notes that agent `a`'s state changed.
     #[inline]
     pub(super) fn state(&mut self, a: u32) {

@@ -153,11 +153,7 @@ impl Act<'_> {
             // On the new grid, those at the rim are away from it: tried again.
             let part = &mut parts[0];
             std::mem::swap(&mut part.movers, &mut deferred);
-            if self.bufs.changes.on {
-                for &a in &part.movers {
-                    self.bufs.changes.moved(self.lat, a);
-                }
-            }
+            (self.bufs.changes).moved_all(self.lat, part.movers.iter().copied());
             part.deferred.clear();
             let tried = self
                 .lat
@@ -220,11 +216,7 @@ impl Act<'_> {
                 part.collect(0..one.len(), (one, mover));
             }
             let changes = &mut self.bufs.changes;
-            if changes.on {
-                for &a in &part.movers {
-                    changes.moved(self.lat, a);
-                }
-            }
+            changes.moved_all(self.lat, part.movers.iter().copied());
             let ahead = scattered(self.lat, &part.movers);
             let movers = part.movers.len();
             let Some(rim) = self
@@ -594,9 +586,7 @@ impl Act<'_> {
         };
         // The cells the movers leave, for the activity (kept only when the moves are made).
         let noted = self.bufs.changes.moved.len();
-        for &(a, _) in live.iter() {
-            self.bufs.changes.moved(self.lat, a);
-        }
+        (self.bufs.changes).moved_all(self.lat, live.iter().map(|m| m.0));
         if move_free(self.lat, live, &mut sc, one_offset) {
             self.bufs.scratch = sc;
             rep.trace.extend(traced);
