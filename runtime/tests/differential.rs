@@ -1214,7 +1214,7 @@ fn the_cell_index_follows_the_agents() {
 /// thread and on three.
 #[test]
 fn moves_at_once_agree_with_reference() {
-    let rules = "// steps 8\ngo\n1\nSE0000 >C01 0000\nP1,0 C01 - C01 0001\n\nhold\n1\nSH0000 N1***\nC02 + C02 0001\n";
+    let rules = "// steps 8\ngo\n1\nSE0000 >C01 0000\nP1,0 C01 - C01 0001\n\nhold\n1\nSH0000 N1***\nC02 + C02 0001\n\nfree\n1\nSF0000 N0***\nC02 + C02 0001\n";
     let row = |xs: &mut dyn Iterator<Item = i32>, y: i32, st: &str, c: i32| -> String {
         xs.map(|x| format!("{x},{y} S{st} C01 {c}\n")).collect()
     };
@@ -1245,33 +1245,47 @@ fn moves_at_once_agree_with_reference() {
             spaced(2, 9),
         ]
         .concat(),
+        // Movers onto the universe's wall (the grid's rim there) wake the holders below
+        // it; one leaving the rim frees the agent below its first cell.
+        [
+            "U0,19,-100000,100000\n".into(),
+            row(&mut (0..7).map(|k| 5 + k * 2), 3, "E0000", 9),
+            "0,3 SE0000 C01 9\n19,2 SH0000\n17,2 SH0000\n0,2 SF0000\n".into(),
+        ]
+        .concat(),
     ];
     // Every case also as copies one above the other, for the pool of threads: twice as
     // many agents as a thread takes alone, so that the pool splits them into chunks (300
     // copies, up to 24,000 agents, took minutes against the reference evaluator).
-    for (i, agents) in cases.iter().enumerate() {
+    for (i, case) in cases.iter().enumerate() {
         let copies =
-            (2 * latticesim_runtime::AGENTS_PER_THREAD).div_ceil(agents.lines().count()) as i32;
+            (2 * latticesim_runtime::AGENTS_PER_THREAD).div_ceil(case.lines().count()) as i32;
+        // (A universe line stays first, once.)
+        let (universe, agents) = match case.split_once('\n') {
+            Some((u, rest)) if u.starts_with('U') => (format!("{u}\n"), rest),
+            _ => (String::new(), &case[..]),
+        };
         let ys = || {
             agents
                 .lines()
                 .map(|l| l.split([',', ' ']).nth(1).unwrap().parse::<i32>().unwrap())
         };
         let stride = ys().max().unwrap() + 2;
-        let many: String = (0..copies)
-            .map(|k| {
-                agents
-                    .lines()
-                    .map(|l| {
-                        let (xy, rest) = l.split_once(' ').unwrap();
-                        let (x, y) = xy.split_once(',').unwrap();
-                        let y: i32 = y.parse().unwrap();
-                        format!("{x},{} {rest}\n", y + stride * k)
-                    })
-                    .collect::<String>()
-            })
-            .collect();
-        for (text, threads) in [(agents, 1), (&many, 3)] {
+        let many: String = universe
+            + &(0..copies)
+                .map(|k| {
+                    agents
+                        .lines()
+                        .map(|l| {
+                            let (xy, rest) = l.split_once(' ').unwrap();
+                            let (x, y) = xy.split_once(',').unwrap();
+                            let y: i32 = y.parse().unwrap();
+                            format!("{x},{} {rest}\n", y + stride * k)
+                        })
+                        .collect::<String>()
+                })
+                .collect::<String>();
+        for (text, threads) in [(case, 1), (&many, 3)] {
             for skip in [Skip::Eager, Skip::Off] {
                 for order in [Order::ActionsFirst, Order::MessagesFirst] {
                     if let Err(e) = differential_on(rules, text, (order, false, skip), threads) {

@@ -630,11 +630,11 @@ fn readers_of_shift(
             continue;
         };
         let (from_known, to_known) = (o.off == off, o.off == back);
-        for &(a, from, code) in moved.iter().flat_map(|l| l.iter()) {
+        for &l in moved {
             if !from_known {
-                match code < RIM {
-                    true => cells.push(g.next(code, d)),
-                    false => {
+                let codes = l.iter().map(|m| m.2);
+                if !interior_next(cells, g, d, codes) {
+                    for &(_, from, code) in l.iter().filter(|m| m.2 >= RIM) {
                         if let Some(b) = lat.agent_near((from, code), o.off, o.dir) {
                             next.add(b);
                         }
@@ -642,11 +642,10 @@ fn readers_of_shift(
                 }
             }
             if !to_known {
-                let c = lat.code_of(a);
-                match c < RIM {
-                    true => cells.push(g.next(c, d)),
-                    false => {
-                        let at = (lat.pos[a as usize], c);
+                let codes = l.iter().map(|m| lat.code_of(m.0));
+                if !interior_next(cells, g, d, codes) {
+                    for &(a, ..) in l.iter().filter(|m| lat.code_of(m.0) >= RIM) {
+                        let at = (lat.pos[a as usize], lat.code_of(a));
                         if let Some(b) = lat.agent_near(at, o.off, o.dir) {
                             next.add(b);
                         }
@@ -655,6 +654,27 @@ fn readers_of_shift(
             }
         }
     }
+}
+
+/// Appends to `cells` the neighbour in direction index `d` of each interior slot code of
+/// `codes`, and says whether every code was interior. (Written in place, without a
+/// branch per code: a push per code waited on the last one's write of the length.)
+#[inline]
+fn interior_next(
+    cells: &mut Vec<usize>,
+    g: &crate::cells::Grid,
+    d: usize,
+    codes: impl ExactSizeIterator<Item = u32>,
+) -> bool {
+    let (start, len) = (cells.len(), codes.len());
+    cells.resize(start + len, 0);
+    let mut m = start;
+    for c in codes {
+        cells[m] = g.next(c & !RIM, d);
+        m += (c < RIM) as usize;
+    }
+    cells.truncate(m);
+    m - start == len
 }
 
 /// Wakes the agents on grid cells `cells` (slots).
