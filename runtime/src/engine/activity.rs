@@ -171,15 +171,20 @@ impl WakeSet {
 
     /// Moves the agents of the set into `out` (cleared first), in id order, and empties it.
     fn take(&mut self, out: &mut Vec<u32>) {
+        // (Written in place: a push per agent waited on the last one's write of the
+        // length. Every bit set is counted, unless the set turned into "all".)
         out.clear();
+        let mut k = 0;
         for t in self.take_span() {
             let mut tb = std::mem::take(&mut self.tops[t]);
             while tb != 0 {
                 let w = t * 64 + tb.trailing_zeros() as usize;
                 tb &= tb - 1;
                 let mut bits = std::mem::take(&mut self.words[w]);
+                out.resize(k + bits.count_ones() as usize, 0);
                 while bits != 0 {
-                    out.push((w * 64) as u32 + bits.trailing_zeros());
+                    out[k] = (w * 64) as u32 + bits.trailing_zeros();
+                    k += 1;
                     bits &= bits - 1;
                 }
             }

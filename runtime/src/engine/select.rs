@@ -574,12 +574,15 @@ impl Selector {
                             Rows::Ids(&next[..m])
                         };
                         batch_pre(prog, (pre, rows), lat, &mut bufs, &mut truth[..m]);
+                        // (Written in place, without a branch per agent.)
+                        let mut c = chosen.len();
+                        chosen.resize(c + m, 0);
                         for (&b, &t) in next[..m].iter().zip(&truth[..m]) {
                             unsafe { one.set(b as usize, if t { r } else { NO_RULE }) };
-                            if t {
-                                chosen.push(b);
-                            }
+                            chosen[c] = b;
+                            c += t as usize;
                         }
+                        chosen.truncate(c);
                         k += m;
                         continue;
                     }
