@@ -594,8 +594,8 @@ impl CellIndex {
     /// of those in the side box): the side box made again over every agent outside the
     /// grid, with room around them (a quarter of their extent per axis, halved until
     /// within a budget of cells per agent as the grid's, and at last none); none when even
-    /// their box is over it. Costs what those agents are; look-ups in it cost what they cost in the grid,
-    /// about a tenth of the hash map's.
+    /// their box is over it. Costs what those agents are; a look-up in the side box costs
+    /// what one in the grid costs, about a tenth of the hash map's.
     pub fn gather_outside(&mut self) {
         let side = self.side.as_ref().map_or(0, |s| s.count);
         if self.grid.is_none() || self.map.len() < 8.max(side / 8) {
@@ -696,7 +696,8 @@ impl CellIndex {
                 return None;
             }
         };
-        let (idx, _, code) = CellIndex::made(Some(grid), pos, shape);
+        let (mut idx, _, code) = CellIndex::made(Some(grid), pos, shape);
+        idx.gather_outside();
         Some((idx, code))
     }
 

@@ -407,20 +407,21 @@ impl Activity {
             moved.extend(changes.moved_parts.iter().map(|l| &l[..]));
             // A grid made again during the moves lays its cells out anew.
             let same_grid = changes.grid == lat.cells.grid_box();
-            // Every mover moved by one offset, its readers all one step away, on the
-            // grid the codes are for: the short way.
-            let one_step = back.occupancy.iter().all(|o| o.dir.is_some());
-            let one_offset = changes.one_offset.filter(|_| same_grid && one_step);
+            // Every mover moved by one offset, on the grid the codes are for: the short
+            // way, when the readers are all one step away.
+            let one_offset = changes.one_offset.filter(|_| same_grid);
             self.wake_each(th, &moved, |run, next| {
                 // The grid cells of readers, looked at together after the loop: their
                 // loads overlap, where one at a time each waited on the last (the movers'
                 // cells lie apart).
                 let mut cells = Vec::new();
                 next.add_all(run.iter().flat_map(|l| l.iter().map(|m| m.0)));
+                // (Every offset read for a state or counter is read for occupancy too.)
                 if let Some(off) = one_offset {
-                    readers_of_shift(next, lat, (run, off), &back.occupancy, &mut cells);
-                    wake_cells(next, lat, &cells);
-                    return;
+                    if readers_of_shift(next, lat, (run, off), &back.occupancy, &mut cells) {
+                        wake_cells(next, lat, &cells);
+                        return;
+                    }
                 }
                 for &(a, from, code) in run.iter().flat_map(|l| l.iter()) {
                     let code = if same_grid {
@@ -615,25 +616,30 @@ fn readers_of_move(
     }
 }
 
-/// [`readers_of_move`] for agents `moved` that all moved by one offset `off`, with
-/// `offsets` all one step and the slot codes in `moved` those of the grid now: which
-/// readers are known without looking (the mover itself, what stands on the cell it left)
-/// is then the same for every mover, and only codes are read.
+/// [`readers_of_move`] for agents `moved` that all moved by one offset `off`, the slot
+/// codes in `moved` those of the grid now: which readers are known without looking (the
+/// mover itself, what stands on the cell it left) is then the same for every mover, and
+/// only codes are read. Does nothing and returns false unless every offset is one step
+/// and there is a grid.
 fn readers_of_shift(
     next: &mut WakeSet,
     lat: &Lattice,
     (moved, off): (&[&[Moved]], [i32; 3]),
     offsets: &[Back],
     cells: &mut Vec<usize>,
-) {
+) -> bool {
     let Some(g) = lat.cells.grid() else {
-        return;
+        return false;
+    };
+    let Some(dirs) = offsets
+        .iter()
+        .map(|o| o.dir)
+        .collect::<Option<Vec<usize>>>()
+    else {
+        return false;
     };
     let back = [-off[0], -off[1], -off[2]];
-    for o in offsets {
-        let Some(d) = o.dir else {
-            continue;
-        };
+    for (o, d) in offsets.iter().zip(dirs) {
         let (from_known, to_known) = (o.off == off, o.off == back);
         for &l in moved {
             if !from_known {
@@ -659,6 +665,7 @@ fn readers_of_shift(
             }
         }
     }
+    true
 }
 
 /// Appends to `cells` the neighbour in direction index `d` of each interior slot code of

@@ -909,7 +909,8 @@ impl Lattice {
     /// weighed as one agent or cell of a new grid, as in [`Lattice::grow_toward`]), the
     /// cell index is made again over where they are (within its budget of cells; after a
     /// box over budget, tried again only when twice as many are out, or after as much
-    /// work again), and the neighbour table is dropped with a grid.
+    /// work again), and the neighbour table is dropped with a grid. Otherwise the agents
+    /// outside the grid may be gathered into its side box ([`CellIndex::gather_outside`]).
     fn after_moves(&mut self) {
         let out = self.cells.outside();
         let pays = self.slow_work_pays(out as u64);

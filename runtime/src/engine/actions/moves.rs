@@ -103,20 +103,26 @@ impl FusedPart {
     }
 }
 
-/// Drops from `notes` (the cells movers left, in the order of the movers) the entries of
-/// the agents of `deferred` (a subsequence of the same movers): they have not moved.
-fn unnote(notes: &mut Vec<Moved>, deferred: &[u32]) {
-    if deferred.is_empty() {
+/// Drops from `items` (entries of some agents, in their order; `agent`: an entry's agent)
+/// the entries of the agents of `gone`, a subsequence of the same agents.
+fn drop_agents<T>(items: &mut Vec<T>, gone: &[u32], agent: impl Fn(&T) -> u32) {
+    if gone.is_empty() {
         return;
     }
-    let mut left = deferred.iter().peekable();
-    notes.retain(|m| match left.peek() {
-        Some(&&a) if a == m.0 => {
+    let mut left = gone.iter().peekable();
+    items.retain(|m| match left.peek() {
+        Some(&&a) if a == agent(m) => {
             left.next();
             false
         }
         _ => true,
     });
+}
+
+/// Drops from `notes` (the cells movers left, in the order of the movers) the entries of
+/// the agents of `deferred` (a subsequence of the same movers): they have not moved.
+fn unnote(notes: &mut Vec<Moved>, deferred: &[u32]) {
+    drop_agents(notes, deferred, |m| m.0);
 }
 
 impl Act<'_> {
@@ -131,8 +137,8 @@ impl Act<'_> {
     /// grid is first made again with room ahead of them when that pays, and they are tried
     /// at once again), and those whose target was filled when they were tried. Returns
     /// false, having changed nothing, when a mover is bonded (the moves then go the general
-    /// way), and then does not try for the next 16 steps; nor when more than half the
-    /// movers of a step were blocked.
+    /// way), and then does not try for the next 16 steps (nor after a step where more than
+    /// half the movers were blocked: a jam goes the general way).
     pub(super) fn plain_moves_at_once(&mut self, sel: &Selection, rep: &mut StepReport) -> bool {
         let Some((off, d)) = self.plan.plain_step else {
             return false;
@@ -283,14 +289,7 @@ impl Act<'_> {
             let undo: Vec<Vec<u32>> = (parts.iter().zip(&made))
                 .map(|(p, m)| {
                     let mut moved = p.movers[..m.0].to_vec();
-                    let mut left = p.deferred.iter().peekable();
-                    moved.retain(|&a| match left.peek() {
-                        Some(&&b) if b == a => {
-                            left.next();
-                            false
-                        }
-                        _ => true,
-                    });
+                    drop_agents(&mut moved, &p.deferred, |&a| a);
                     moved
                 })
                 .collect();
