@@ -1,5 +1,6 @@
-//! Bit sets in words of 64 and runs of ids: the small helpers the lattice and the engine
-//! share. A leaf: it uses nothing of the crate.
+//! Bit sets in words of 64, runs of ids, and a vector filled without a branch per value:
+//! the small helpers the lattice and the engine share. A leaf: it uses nothing of the
+//! crate.
 
 /// The words a range of bits touches, `first..=last`, and the masks of the range in the
 /// first word and in the last; `None` for an empty range.
@@ -51,6 +52,30 @@ pub(crate) fn clear_bits(bits: &mut [u64], range: std::ops::Range<usize>) {
 #[inline]
 pub(crate) fn set_bits(bits: &mut [u64], range: std::ops::Range<usize>) {
     put_bits(bits, range, u64::MAX);
+}
+
+/// Appends to `out` the values of `items` whose flag is set, and returns how many. Each
+/// value is written into the vector's spare room and kept when flagged, without a branch
+/// per value (a `push` per value kept waited on the last one's write of the vector's
+/// length) and without filling the room first (a million movers a step).
+#[inline]
+pub(crate) fn extend_kept<T: Copy>(
+    out: &mut Vec<T>,
+    items: impl ExactSizeIterator<Item = (T, bool)>,
+) -> usize {
+    let (start, n) = (out.len(), items.len());
+    out.reserve(n);
+    let room = &mut out.spare_capacity_mut()[..n];
+    let mut m = 0;
+    for (v, keep) in items {
+        // (At most as many values as the iterator said: `room[m]` is checked.)
+        room[m].write(v);
+        m += keep as usize;
+    }
+    // SAFETY: the first `m` slots of the spare room were written (`m` counts writes kept,
+    // each at the slot after the last kept), within the capacity reserved.
+    unsafe { out.set_len(start + m) };
+    m
 }
 
 /// How many of the first values of `s` equal `v` (compared in blocks, which vectorises).
@@ -137,6 +162,29 @@ pub(crate) fn bit(i: usize) -> (usize, u64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Keeping the flagged values appends what a filter would, after what the vector held,
+    /// whatever its spare room: none kept, all kept, every other.
+    #[test]
+    fn extend_kept_appends_the_flagged_values() {
+        for len in [0usize, 1, 7, 64, 1000] {
+            for every in [1, 2, 3, usize::MAX] {
+                let items: Vec<(u32, bool)> = (0..len as u32)
+                    .map(|v| (v, v as usize % every == 0))
+                    .collect();
+                let want: Vec<u32> = [9, 9]
+                    .into_iter()
+                    .chain(items.iter().filter(|i| i.1).map(|i| i.0))
+                    .collect();
+                for cap in [2, 5000] {
+                    let mut out = Vec::with_capacity(cap);
+                    out.extend([9, 9]);
+                    let kept = extend_kept(&mut out, items.iter().copied());
+                    assert_eq!((kept, &out), (want.len() - 2, &want), "{len} {every} {cap}");
+                }
+            }
+        }
+    }
 
     /// Setting and clearing ranges of bits against single bits, on every range across
     /// four words.

@@ -60,7 +60,7 @@ pub(crate) fn prefetch<T>(p: *const T) {
 }
 
 /// The box of positions `pos`: its low and high corner (empty: `i32::MAX`, `i32::MIN`).
-fn bounds(pos: &[[i32; 3]]) -> ([i32; 3], [i32; 3]) {
+fn bounds<'p>(pos: impl IntoIterator<Item = &'p [i32; 3]>) -> ([i32; 3], [i32; 3]) {
     let (mut lo, mut hi) = ([i32::MAX; 3], [i32::MIN; 3]);
     for p in pos {
         for k in 0..3 {
@@ -120,9 +120,7 @@ struct Side {
 impl Side {
     #[inline]
     fn slot(&self, p: [i32; 3]) -> Option<usize> {
-        let o = [0, 1, 2].map(|k| (p[k] as i64 - self.lo[k] as i64) as u64);
-        let inside = (0..3).all(|k| o[k] < self.size[k] as u64);
-        inside.then(|| ((o[0] * self.size[1] as u64 + o[1]) * self.size[2] as u64 + o[2]) as usize)
+        box_slot((self.lo, self.size), p)
     }
 
     /// The agents it holds, with their cells.
@@ -284,11 +282,18 @@ impl Grid {
 
     #[inline]
     fn slot(&self, p: [i32; 3]) -> Option<usize> {
-        // Offsets from the low corner, exact in 64 bits; below it wraps to large.
-        let o = [0, 1, 2].map(|k| (p[k] as i64 - self.lo[k] as i64) as u64);
-        let inside = (0..3).all(|k| o[k] < self.size[k] as u64);
-        inside.then(|| ((o[0] * self.size[1] as u64 + o[1]) * self.size[2] as u64 + o[2]) as usize)
+        box_slot((self.lo, self.size), p)
     }
+}
+
+/// The index of cell `p` in a box of cells of `size` from `lo` (x-major, z fastest), if
+/// it lies inside.
+#[inline]
+fn box_slot((lo, size): ([i32; 3], [i64; 3]), p: [i32; 3]) -> Option<usize> {
+    // Offsets from the low corner, exact in 64 bits; below it wraps to large.
+    let o = [0, 1, 2].map(|k| (p[k] as i64 - lo[k] as i64) as u64);
+    let inside = (0..3).all(|k| o[k] < size[k] as u64);
+    inside.then(|| ((o[0] * size[1] as u64 + o[1]) * size[2] as u64 + o[2]) as usize)
 }
 
 /// The grid's cells and occupancy bits, for moving agents from several threads at once
@@ -605,12 +610,7 @@ impl CellIndex {
         if let Some(s) = self.side.take() {
             all.extend(s.agents());
         }
-        let (lo, hi) = (all.iter()).fold(([i32::MAX; 3], [i32::MIN; 3]), |(lo, hi), (p, _)| {
-            (
-                [0, 1, 2].map(|k| lo[k].min(p[k])),
-                [0, 1, 2].map(|k| hi[k].max(p[k])),
-            )
-        });
+        let (lo, hi) = bounds(all.iter().map(|(p, _)| p));
         let budget = CELLS_PER_AGENT * all.len() as i64 + 4096;
         let flat = |k: usize| k >= self.coords;
         let mut room = [0, 1, 2].map(|k| match flat(k) {

@@ -669,8 +669,7 @@ fn readers_of_shift(
 }
 
 /// Appends to `cells` the neighbour in direction index `d` of each interior slot code of
-/// `codes`, and says whether every code was interior. (Written in place, without a
-/// branch per code: a push per code waited on the last one's write of the length.)
+/// `codes`, and says whether every code was interior.
 #[inline]
 fn interior_next(
     cells: &mut Vec<usize>,
@@ -678,15 +677,8 @@ fn interior_next(
     d: usize,
     codes: impl ExactSizeIterator<Item = u32>,
 ) -> bool {
-    let (start, len) = (cells.len(), codes.len());
-    cells.resize(start + len, 0);
-    let mut m = start;
-    for c in codes {
-        cells[m] = g.next(c & !RIM, d);
-        m += (c < RIM) as usize;
-    }
-    cells.truncate(m);
-    m - start == len
+    let len = codes.len();
+    extend_kept(cells, codes.map(|c| (g.next(c & !RIM, d), c < RIM))) == len
 }
 
 /// Wakes the agents on grid cells `cells` (slots).

@@ -9,7 +9,9 @@
 // that more plainly than zipped iterators over five columns.
 #![allow(clippy::needless_range_loop)]
 
-use crate::bits::{all_bits, bit, clear_bits, is_sequence, no_bits, ones, run_of, set_bits};
+use crate::bits::{
+    all_bits, bit, clear_bits, extend_kept, is_sequence, no_bits, ones, run_of, set_bits,
+};
 use crate::cells::{NO_SLOT, RIM};
 use crate::lattice::Lattice;
 use crate::lattice::{Pending, Undo, Writes, NO_AGENT, NO_COL};

@@ -574,15 +574,11 @@ impl Selector {
                             Rows::Ids(&next[..m])
                         };
                         batch_pre(prog, (pre, rows), lat, &mut bufs, &mut truth[..m]);
-                        // (Written in place, without a branch per agent.)
-                        let mut c = chosen.len();
-                        chosen.resize(c + m, 0);
-                        for (&b, &t) in next[..m].iter().zip(&truth[..m]) {
+                        let valid = next[..m].iter().zip(&truth[..m]).map(|(&b, &t)| {
                             unsafe { one.set(b as usize, if t { r } else { NO_RULE }) };
-                            chosen[c] = b;
-                            c += t as usize;
-                        }
-                        chosen.truncate(c);
+                            (b, t)
+                        });
+                        extend_kept(&mut chosen, valid);
                         k += m;
                         continue;
                     }

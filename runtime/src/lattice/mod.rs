@@ -1084,23 +1084,10 @@ impl Lattice {
         let Some(k) = bonded else {
             return Some(rim);
         };
-        // Back, the last moved first (the deferred, in the same order, skipped): every
-        // cell is as it was.
-        let mut left = deferred.len();
-        for &b in movers[..k].iter().rev() {
-            if left > first && deferred[left - 1] == b {
-                left -= 1;
-                continue;
-            }
-            let b = b as usize;
-            let from = (code[b] & !RIM) as usize;
-            let back = (from as isize - step) as usize;
-            cells.vacate(from);
-            cells.occupy(back, b as u32);
-            code[b] = cells.code_of(back);
-            let p = pos[b];
-            pos[b] = [p[0] - off[0], p[1] - off[1], p[2] - off[2]];
-        }
+        // Back: the movers gone through, but those left.
+        let mut moved = movers[..k].to_vec();
+        drop_agents(&mut moved, &deferred[first..], |&a| a);
+        self.unshift(&[moved], (off, d));
         None
     }
 
@@ -1248,6 +1235,23 @@ impl Shift<'_> {
         let code = |a: usize| unsafe { *self.code.add(a.min(self.n - 1)) };
         crate::cells::scattered(agents.iter().map(|&a| code(a)))
     }
+}
+
+/// Drops from `items` (entries of some agents, in their order; `agent`: an entry's agent)
+/// the entries of the agents of `gone`, a subsequence of the same agents (the movers that
+/// moves at once left, [`Lattice::shift_alone`] and [`Shift::in_place`]).
+pub(crate) fn drop_agents<T>(items: &mut Vec<T>, gone: &[u32], agent: impl Fn(&T) -> u32) {
+    if gone.is_empty() {
+        return;
+    }
+    let mut left = gone.iter().peekable();
+    items.retain(|m| match left.peek() {
+        Some(&&a) if a == agent(m) => {
+            left.next();
+            false
+        }
+        _ => true,
+    });
 }
 
 #[cfg(test)]

@@ -4,6 +4,7 @@
 //! (`detach_move_attach`); then swaps.
 
 use super::*;
+use crate::lattice::drop_agents;
 
 /// The common case of [`Act::move_alone`]: with a grid, no target targeted twice or held
 /// by an agent that stays (the targets' slot codes are in `sc.codes`; targets outside the
@@ -89,34 +90,12 @@ impl FusedPart {
         agents: impl ExactSizeIterator<Item = usize>,
         (one, mover): (&[u32], &[bool]),
     ) {
-        let movers = &mut self.movers;
-        // Without a branch per agent: each is written, and kept when it moves.
         let last = mover.len() - 1;
-        let mut m = 0;
-        movers.resize(agents.len() + 1, 0);
-        for a in agents {
-            movers[m] = a as u32;
-            m += mover[(one[a] as usize).min(last)] as usize;
-        }
-        movers.truncate(m);
+        self.movers.clear();
+        let kept = agents.map(|a| (a as u32, mover[(one[a] as usize).min(last)]));
+        extend_kept(&mut self.movers, kept);
         self.deferred.clear();
     }
-}
-
-/// Drops from `items` (entries of some agents, in their order; `agent`: an entry's agent)
-/// the entries of the agents of `gone`, a subsequence of the same agents.
-fn drop_agents<T>(items: &mut Vec<T>, gone: &[u32], agent: impl Fn(&T) -> u32) {
-    if gone.is_empty() {
-        return;
-    }
-    let mut left = gone.iter().peekable();
-    items.retain(|m| match left.peek() {
-        Some(&&a) if a == agent(m) => {
-            left.next();
-            false
-        }
-        _ => true,
-    });
 }
 
 /// Drops from `notes` (the cells movers left, in the order of the movers) the entries of
