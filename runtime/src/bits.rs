@@ -170,7 +170,7 @@ mod tests {
         for len in [0usize, 1, 7, 64, 1000] {
             for every in [1, 2, 3, usize::MAX] {
                 let items: Vec<(u32, bool)> = (0..len as u32)
-                    .map(|v| (v, v as usize % every == 0))
+                    .map(|v| (v, (v as usize).is_multiple_of(every)))
                     .collect();
                 let want: Vec<u32> = [9, 9]
                     .into_iter()
