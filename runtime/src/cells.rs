@@ -300,6 +300,7 @@ fn box_slot((lo, size): ([i32; 3], [i64; 3]), p: [i32; 3]) -> Option<usize> {
 /// ([`Grid::shared`]): cells are read and written atomically (each is written by one mover
 /// at most, but read by others), and so are the occupancy bits, which cells of different
 /// threads share by the word.
+#[derive(Clone, Copy)]
 pub(crate) struct SharedCells<'a> {
     cells: *const std::sync::atomic::AtomicU32,
     occ: *const std::sync::atomic::AtomicU64,

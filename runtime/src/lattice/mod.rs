@@ -1053,7 +1053,9 @@ impl Lattice {
         let step = g.step(d);
         let mut cells = g.cells_mut();
         let mut held = crate::cells::Held::default();
-        let (code, pos, attach) = (&mut self.code, &mut self.pos, &self.attach);
+        // (Slices, whose lengths the loop keeps in registers: through the vectors, each
+        // was read again after every write to the cells.)
+        let (code, pos, attach) = (&mut self.code[..], &mut self.pos[..], &self.attach[..]);
         let (first, mut rim, mut bonded) = (deferred.len(), 0, None);
         for (k, &a) in movers.iter().enumerate() {
             // The cells a dozen moves ahead (see `cells::prefetch`).
@@ -1175,20 +1177,24 @@ impl Shift<'_> {
         deferred: &mut Vec<u32>,
     ) -> (usize, Option<usize>) {
         let mut rim = 0;
+        // (Copies, kept in registers: the fields of `self` were read again after every
+        // write through the pointers.)
+        let (cells, n, step, off) = (self.cells, self.n, self.step, self.off);
+        let (codes, positions, attach, ahead) = (self.code, self.pos, self.attach, self.ahead);
         for (k, &a) in movers.iter().enumerate() {
             let a = a as usize;
-            assert!(a < self.n, "an agent of the lattice");
+            assert!(a < n, "an agent of the lattice");
             // SAFETY: in bounds (checked); agent `a` belongs to this part alone (the
             // caller's promise), and its target's cell only it may fill (one offset from
             // distinct cells); cells are atomics.
             unsafe {
-                if let Some(&b) = movers.get(k + AHEAD).filter(|_| self.ahead) {
-                    let c = *self.code.add((b as usize).min(self.n - 1));
-                    self.cells.prefetch_cell((c & !RIM) as usize);
+                if let Some(&b) = movers.get(k + AHEAD).filter(|_| ahead) {
+                    let c = *codes.add((b as usize).min(n - 1));
+                    cells.prefetch_cell((c & !RIM) as usize);
                 }
-                let code = &mut *self.code.add(a);
+                let code = &mut *codes.add(a);
                 let c = *code;
-                if *self.attach.add(a) != 0 {
+                if *attach.add(a) != 0 {
                     return (k, None);
                 }
                 if c >= RIM {
@@ -1196,18 +1202,14 @@ impl Shift<'_> {
                     deferred.push(a as u32);
                     continue;
                 }
-                let (from, to) = (c as usize, Grid::along(c, self.step));
-                if !self.cells.take(a as u32, from, to) {
+                let (from, to) = (c as usize, Grid::along(c, step));
+                if !cells.take(a as u32, from, to) {
                     deferred.push(a as u32);
                     continue;
                 }
-                *code = self.cells.code_of_slot(to);
-                let pos = &mut *self.pos.add(a);
-                *pos = [
-                    pos[0] + self.off[0],
-                    pos[1] + self.off[1],
-                    pos[2] + self.off[2],
-                ];
+                *code = cells.code_of_slot(to);
+                let pos = &mut *positions.add(a);
+                *pos = [pos[0] + off[0], pos[1] + off[1], pos[2] + off[2]];
             }
         }
         (movers.len(), Some(rim))

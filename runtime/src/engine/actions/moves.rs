@@ -96,6 +96,33 @@ impl FusedPart {
         extend_kept(&mut self.movers, kept);
         self.deferred.clear();
     }
+
+    /// [`FusedPart::collect`] of the agents `lo..hi`. When every rule moves, an agent is a
+    /// mover when it executes any, and blocks of 64 agents of which none or all execute
+    /// a rule are found with one vectorised test each (passed over, or taken as a run):
+    /// B2's falling columns hold long runs of both (about half the time of `collect`).
+    fn collect_range(&mut self, (lo, hi): (usize, usize), (one, mover): (&[u32], &[bool])) {
+        let all = mover[..mover.len() - 1].iter().all(|&m| m);
+        if !all {
+            return self.collect(lo..hi, (one, mover));
+        }
+        self.movers.clear();
+        self.deferred.clear();
+        for (b, block) in one[lo..hi].chunks(64).enumerate() {
+            // (`NO_RULE` has every bit set: the block holds nothing else when its AND does.)
+            if block.iter().fold(NO_RULE, |m, &v| m & v) == NO_RULE {
+                continue;
+            }
+            let first = (lo + b * 64) as u32;
+            // Blocks where every agent moves, as one run.
+            if !block.iter().fold(false, |any, &v| any | (v == NO_RULE)) {
+                self.movers.extend(first..first + block.len() as u32);
+                continue;
+            }
+            let kept = (block.iter().enumerate()).map(|(i, &v)| (first + i as u32, v != NO_RULE));
+            extend_kept(&mut self.movers, kept);
+        }
+    }
 }
 
 /// Drops from `notes` (the cells movers left, in the order of the movers) the entries of
@@ -198,7 +225,7 @@ impl Act<'_> {
             if sel.listed {
                 part.collect(sel.list.iter().map(|&a| a as usize), (one, mover));
             } else {
-                part.collect(0..one.len(), (one, mover));
+                part.collect_range((0, one.len()), (one, mover));
             }
             let changes = &mut self.bufs.changes;
             changes.moved_all(self.lat, part.movers.iter().copied());
@@ -243,7 +270,7 @@ impl Act<'_> {
             if sel.listed {
                 part.collect(list[lo..hi].iter().map(|&a| a as usize), (one, mover));
             } else {
-                part.collect(lo..hi, (one, mover));
+                part.collect_range((lo, hi), (one, mover));
             }
             // SAFETY (both): every chunk's movers are its own agents (each agent in one
             // chunk), and no other thread uses the lattice but through `shift`.
