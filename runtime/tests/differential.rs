@@ -1697,6 +1697,17 @@ fn state_and_calc_cases() -> Vec<(String, String)> {
                 }
             }),
         ),
+        // The same add in place over 3,000 agents, the one that saturates first (at the
+        // third step) the last of them: the pass adds nothing for any, and the runs
+        // calculate (and make the record).
+        (
+            "up\n1\nSA****\nC00 + C00 0001\n".into(),
+            block(50, 60, |x, y, _| match (x, y) {
+                (49, 59) => " SAAAAA C00 32765".into(),
+                (20, _) => format!(" SAAAAA C00 {}", 32760 - y),
+                _ => format!(" SAAAAA C00 {}", (x * 7 + y) % 40),
+            }),
+        ),
         // A division by zero for some agents of a run, then a product that saturates for
         // the same agents: the second is saturated (and recorded) all the same.
         (
