@@ -6,8 +6,10 @@
 pub const AGENTS_PER_THREAD: usize = 1024;
 
 /// Per-agent work is cut into this many chunks per thread (fewer for fewer agents), so
-/// that a thread done early takes some of another's (see [`Workers::map`]).
-const CHUNKS_PER_THREAD: usize = 16;
+/// that a thread done early takes some of another's (see [`Workers::map`]). (4 before;
+/// B2F and the cloud on two threads the same with 8 and 16, B1's engine 2 % slower with
+/// 16, the same with 8: `profile_b1 1000 2 50 5`, eight runs each.)
+const CHUNKS_PER_THREAD: usize = 8;
 
 /// The engine's threads: the pool of workers (when more than one thread was asked for and
 /// there are enough agents), the tuner, and whether the phase running now stays on this
@@ -110,7 +112,7 @@ impl Workers {
     /// then takes items from the end of the others' blocks, so that no thread waits long
     /// for one that started late (a worker woken from sleep) or had more to do (B2's
     /// movers are not spread evenly over its agents): with two threads, B2F 7-14 % and
-    /// the gravity cloud 13 % faster.
+    /// the gravity cloud 13 % faster (ten runs each, alternating with the build before).
     pub(super) fn map<I: Send, T: Send>(&self, items: Vec<I>, f: impl Fn(I) -> T + Sync) -> Vec<T> {
         use std::sync::{Mutex, MutexGuard};
         // (A panic in `f` reaches the caller when the scope ends; the slots stay usable.)
