@@ -154,6 +154,7 @@ struct Blocks(Vec<std::sync::atomic::AtomicU64>);
 impl Blocks {
     /// `n` items in as many blocks as `threads` (fewer when there are fewer items).
     fn new(n: usize, threads: usize) -> Blocks {
+        assert!(n <= u32::MAX as usize, "items counted in 32 bits");
         let count = threads.min(n).max(1);
         let span = |b: usize| (b * n / count) as u64 | (((b + 1) * n / count) as u64) << 32;
         Blocks((0..count).map(|b| span(b).into()).collect())
