@@ -281,7 +281,7 @@ impl Grid {
     }
 
     #[inline]
-    fn slot(&self, p: [i32; 3]) -> Option<usize> {
+    pub(crate) fn slot(&self, p: [i32; 3]) -> Option<usize> {
         box_slot((self.lo, self.size), p)
     }
 }

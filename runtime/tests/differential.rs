@@ -1682,6 +1682,29 @@ fn state_and_calc_cases() -> Vec<(String, String)> {
                     t + &format!("{x},{y},{z}\n")
                 }),
         ),
+        // The bouncing example: four states of five rules each, of four priorities, mixed
+        // in any order (evaluated list by list over windows of agents), with `E` and `F`
+        // at diagonal and two-step offsets (one bit of the grid each), in a bounded
+        // universe whose walls are neither empty nor filled.
+        (
+            include_str!("../../examples/bouncing/rules.txt").into(),
+            (0..30)
+                .flat_map(|x| (0..24).map(move |y| (x, y)))
+                .filter(|&(x, y)| hash(x, y) % 3 == 0)
+                .fold("U0,29,0,23\n".to_string(), |t, (x, y)| {
+                    let d = ["NE", "NW", "SE", "SW"][hash(y, x) as usize % 4];
+                    t + &format!("{x},{y} S{d}000\n")
+                }),
+        ),
+        // In 3D, two rules of one priority true together (several rules for one agent)
+        // beside a lower one, with cells two steps and a diagonal away.
+        (
+            "up\n2\nSA**** E0,0,2 !F1,1,0\nC00 + C00 0001\n\nside\n2\nSA**** E2,0,0\nC01 + C01 0001\n\nrest\n1\nSA****\nC02 + C02 0001\n".into(),
+            (0..6)
+                .flat_map(|x| (0..6).flat_map(move |y| (0..6).map(move |z| (x, y, z))))
+                .filter(|(x, y, z)| (x * 5 + y * 3 + z * 7) % 3 != 0)
+                .fold(String::new(), |t, (x, y, z)| t + &format!("{x},{y},{z} SAAAAA\n")),
+        ),
         // One rule alone calculates, an add in place (made in one masked pass over each
         // chunk), its agents scattered among agents of a rule that does not calculate and
         // of none; some results saturate (the runs then make the records).

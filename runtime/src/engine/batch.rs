@@ -57,10 +57,27 @@ impl ColVal {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum PreStep {
     True,
-    Nbr { mask: u8, want: u8 },
-    Att { mask: u8, want: u8 },
-    State { pat: u16 },
-    Cmp { op: CmpOp, a: ColVal, b: ColVal },
+    Nbr {
+        mask: u8,
+        want: u8,
+    },
+    /// `F` (`filled`) or `E` at a literal offset other than one step.
+    Cell {
+        off: [i32; 3],
+        filled: bool,
+    },
+    Att {
+        mask: u8,
+        want: u8,
+    },
+    State {
+        pat: u16,
+    },
+    Cmp {
+        op: CmpOp,
+        a: ColVal,
+        b: ColVal,
+    },
     Not,
     And,
 }
@@ -95,15 +112,17 @@ pub(super) fn column_pre(prog: &Program, code: &[Op], filter: Option<u16>) -> Op
         let step = match *op {
             Op::True {} => PreStep::True,
             Op::Nbr { mask, want } => PreStep::Nbr { mask, want },
-            Op::Empty { off } => PreStep::Nbr {
-                mask: 1 << neighbour(off)?,
-                want: 0,
-            },
-            Op::Filled { off } => {
-                let bit = 1 << neighbour(off)?;
-                PreStep::Nbr {
-                    mask: bit,
-                    want: bit,
+            Op::Empty { off } | Op::Filled { off } => {
+                let filled = matches!(op, Op::Filled { .. });
+                match neighbour(off) {
+                    Some(d) => PreStep::Nbr {
+                        mask: 1 << d,
+                        want: (filled as u8) << d,
+                    },
+                    None => PreStep::Cell {
+                        off: literal(&prog.offsets[off as usize])?,
+                        filled,
+                    },
                 }
             }
             Op::Att { mask, want } => PreStep::Att { mask, want },
@@ -250,6 +269,17 @@ pub(super) fn batch_pre(
                     match rows {
                         Rows::Run(first) => lat.keep_if_filled(first, d, filled, top),
                         Rows::Ids(ids) => lat.keep_if_filled_ids(&ids[..m], d, filled, top),
+                    }
+                }
+                sp += 1;
+            }
+            PreStep::Cell { off, filled } => {
+                let top = &mut stack[sp][..m];
+                match rows {
+                    Rows::Run(first) => lat.cells_filled(first..first + m, off, filled, top),
+                    Rows::Ids(ids) => {
+                        let agents = ids[..m].iter().map(|&a| a as usize);
+                        lat.cells_filled(agents, off, filled, top)
                     }
                 }
                 sp += 1;

@@ -348,6 +348,19 @@ impl Selector {
         // Listed only when few executed a rule in the last selection too: a step of many
         // would list the first eighth of each chunk in vain (2.5 % of B2's time).
         let few = self.active as usize <= n / SPARSE_SHARE;
+        // Per candidate list: several rules, each state-only or run by the column
+        // interpreter, at most 32 of one priority (see `eval_window`).
+        let columnar: Vec<bool> = (lists.iter())
+            .map(|l| {
+                let runs = |r: &u32| trivial[*r as usize] || pre_columns[*r as usize].is_some();
+                let prio = |r: &u32| prog.rules[*r as usize].priority;
+                let widest = l
+                    .chunk_by(|a, b| prio(a) == prio(b))
+                    .map(<[u32]>::len)
+                    .max();
+                l.len() > 1 && l.iter().all(runs) && widest.unwrap_or(0) <= 32
+            })
+            .collect();
         let work = |(c, one): (usize, &mut [u32])| {
             let lo = c * chunk;
             let mut multi: Vec<(u32, Vec<u32>)> = Vec::new();
@@ -355,6 +368,7 @@ impl Selector {
             let mut evaluated = false;
             let mut truth = [false; BATCH];
             let mut bufs = PreBufs::new();
+            let mut win = Window::default();
             let hi = lo + one.len();
             let mut k = 0;
             while k < one.len() {
@@ -395,6 +409,16 @@ impl Selector {
                         k += m;
                         continue;
                     }
+                }
+                // A window of agents whose lists of several rules the column interpreter
+                // runs (and agents decided alone among them): each list's agents together.
+                if columnar[idx] {
+                    let view = (prog, &lists[..], &trivial[..], &pre_columns[..]);
+                    let cols = (&single[..], &columnar[..]);
+                    let end = (hi - lo).min(k + BATCH);
+                    let at = (&of[lo..hi], lo, k, end);
+                    k = eval_window(view, cols, lat, at, one, (&mut bufs, &mut win), &mut multi);
+                    continue;
                 }
                 one[k] = eval_one(prog, (trivial, &lists[idx]), lat, a, (&mut buf, &mut multi));
                 k += 1;
@@ -448,6 +472,114 @@ impl Selector {
             self.counted = true;
         }
     }
+}
+
+/// The program, its candidate lists, and per rule whether it is state-only and its column
+/// program (for [`eval_window`]).
+type Rules<'a> = (
+    &'a Program,
+    &'a [Vec<u32>],
+    &'a [bool],
+    &'a [Option<ColumnPre>],
+);
+
+/// Scratch of [`eval_window`], kept for a chunk: per candidate list met, its agents; per
+/// agent of one list, its entry and which rules of a priority level are true.
+#[derive(Default)]
+struct Window {
+    groups: Vec<(usize, Vec<u32>)>,
+    entry: Vec<u32>,
+    mask: Vec<u32>,
+    several: Vec<(u32, Vec<u32>)>,
+}
+
+/// Evaluates the agents `k..end` of a chunk (whose entries are `one`, the chunk starting at
+/// agent `lo`; `of`: the chunk's candidate list per agent) from the first, as far as each
+/// is decided by its list alone (`single`) or has a `columnar` list: the agents of each
+/// list together, priority level by level (each rule's precondition over them by
+/// [`batch_pre`], state-only rules true), each agent taking its true rules of the first
+/// level that has any, as [`eval_one`] does (agents of several states with several rules
+/// each, mixed in any order: the bouncing example's dots were evaluated one at a time).
+/// Returns where it stopped.
+fn eval_window(
+    (prog, lists, trivial, pre_columns): Rules<'_>,
+    (single, columnar): (&[u32], &[bool]),
+    lat: &Lattice,
+    (of, lo, k, end): (&[ListId], usize, usize, usize),
+    one: &mut [u32],
+    (bufs, w): (&mut PreBufs, &mut Window),
+    multi: &mut Vec<(u32, Vec<u32>)>,
+) -> usize {
+    w.groups.iter_mut().for_each(|g| g.1.clear());
+    let mut stop = end;
+    for j in k..end {
+        let idx = of[j].index();
+        match single[idx] {
+            EVALUATE if columnar[idx] => match w.groups.iter_mut().find(|g| g.0 == idx) {
+                Some(g) => g.1.push((lo + j) as u32),
+                None => w.groups.push((idx, vec![(lo + j) as u32])),
+            },
+            EVALUATE => {
+                stop = j;
+                break;
+            }
+            r => one[j] = r,
+        }
+    }
+    let mut truth = [false; BATCH];
+    for (idx, ids) in &w.groups {
+        let m = ids.len();
+        if m == 0 {
+            continue;
+        }
+        w.entry.clear();
+        w.mask.clear();
+        w.entry.resize(m, NO_RULE);
+        w.mask.resize(m, 0);
+        let mut open = m;
+        let prio = |r: &u32| prog.rules[*r as usize].priority;
+        for level in lists[*idx].chunk_by(|a, b| prio(a) == prio(b)) {
+            if open == 0 {
+                break;
+            }
+            w.mask.fill(0);
+            for (b, &r) in level.iter().enumerate() {
+                match &pre_columns[r as usize] {
+                    _ if trivial[r as usize] => truth[..m].fill(true),
+                    Some(pre) => batch_pre(prog, (pre, Rows::Ids(ids)), lat, bufs, &mut truth[..m]),
+                    None => unreachable!("a columnar list's rules run as columns"),
+                }
+                for (mask, &t) in w.mask.iter_mut().zip(&truth[..m]) {
+                    *mask |= (t as u32) << b;
+                }
+            }
+            for j in 0..m {
+                let mask = w.mask[j];
+                if w.entry[j] != NO_RULE || mask == 0 {
+                    continue;
+                }
+                open -= 1;
+                if mask.count_ones() == 1 {
+                    w.entry[j] = level[mask.trailing_zeros() as usize];
+                } else {
+                    let mut rs: Vec<u32> = (0..level.len())
+                        .filter(|&b| mask >> b & 1 != 0)
+                        .map(|b| level[b])
+                        .collect();
+                    rs.sort_unstable();
+                    w.several.push((ids[j], rs));
+                    w.entry[j] = MANY;
+                }
+            }
+        }
+        for (&a, &e) in ids.iter().zip(&w.entry) {
+            one[a as usize - lo] = e;
+        }
+    }
+    // (In agent order, as the selection sets them.)
+    w.several.sort_unstable_by_key(|s| s.0);
+    multi.append(&mut w.several);
+    stop
 }
 
 /// The entry of agent `a` whose candidate list `list` must be evaluated: its true rules of

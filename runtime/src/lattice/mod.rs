@@ -749,6 +749,34 @@ impl Lattice {
         }
     }
 
+    /// For each agent of `agents`, into `out`: whether the cell `off` away from it (any
+    /// literal offset) is filled (`filled`) or empty, and inside the universe: `F` and `E`
+    /// as [`Lattice::cell_at`] answers them, with one bit read where the grid holds the
+    /// cell (the bouncing example's `F2,2` and `E1,1` were evaluated agent by agent).
+    pub fn cells_filled(
+        &self,
+        agents: impl Iterator<Item = usize>,
+        off: [i32; 3],
+        filled: bool,
+        out: &mut [bool],
+    ) {
+        let grid = self.cells.grid();
+        for (t, a) in out.iter_mut().zip(agents) {
+            let p = self.pos[a];
+            // (Beyond `i32`, no grid holds it: `cell_at` answers.)
+            let q = [0, 1, 2].map(|k| p[k].wrapping_add(off[k]));
+            let near = (0..3).all(|k| (p[k] as i64 + off[k] as i64) == q[k] as i64);
+            *t = match grid.and_then(|g| near.then(|| g.slot(q)).flatten()) {
+                Some(i) => grid.is_some_and(|g| g.filled(i)) == filled,
+                None => match self.cell_at(p, off) {
+                    Cell::Agent(_) => filled,
+                    Cell::Empty => !filled,
+                    Cell::Blocked => false,
+                },
+            };
+        }
+    }
+
     /// [`Lattice::keep_if_filled`] for the agents `ids` (any, in any order): clears
     /// `out[j]` unless the cell next to agent `ids[j]` in direction index `d` is filled
     /// (`want`) or empty and inside the universe.
