@@ -1696,6 +1696,19 @@ fn state_and_calc_cases() -> Vec<(String, String)> {
                     t + &format!("{x},{y} S{d}000\n")
                 }),
         ),
+        // Seventy states of two rules each, mixed: a window of agents ends when it meets
+        // more lists than it looks up among (64).
+        (
+            (0..70)
+                .map(|i| {
+                    format!("a{i}\n2\nSK{i:02}AA E1,0\nC00 + C00 0001\n\nb{i}\n1\nSK{i:02}AA\nC01 + C01 0001\n\n")
+                })
+                .collect(),
+            block(24, 24, |x, y, _| match (x * 5 + y * 11) % 7 {
+                0 => String::new(),
+                _ => format!(" SK{:02}AA", (x * 7 + y * 3) % 70),
+            }),
+        ),
         // In 3D, two rules of one priority true together (several rules for one agent)
         // beside a lower one, with cells two steps and a diagonal away.
         (

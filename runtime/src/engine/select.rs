@@ -510,13 +510,22 @@ fn eval_window(
     (bufs, w): (&mut PreBufs, &mut Window),
     multi: &mut Vec<(u32, Vec<u32>)>,
 ) -> usize {
+    // (Lists are looked up among at most `GROUPS`: a window ends at one more.)
+    const GROUPS: usize = 64;
+    if w.groups.len() > GROUPS {
+        w.groups.clear();
+    }
     w.groups.iter_mut().for_each(|g| g.1.clear());
     let mut stop = end;
     for j in k..end {
         let idx = of[j].index();
         match single[idx] {
-            EVALUATE if columnar[idx] => match w.groups.iter_mut().find(|g| g.0 == idx) {
-                Some(g) => g.1.push((lo + j) as u32),
+            EVALUATE if columnar[idx] => match w.groups.iter().position(|g| g.0 == idx) {
+                Some(g) => w.groups[g].1.push((lo + j) as u32),
+                None if j > k && w.groups.len() >= GROUPS => {
+                    stop = j;
+                    break;
+                }
                 None => w.groups.push((idx, vec![(lo + j) as u32])),
             },
             EVALUATE => {
