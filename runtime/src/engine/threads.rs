@@ -112,7 +112,8 @@ impl Workers {
     /// then takes items from the end of the others' blocks, so that no thread waits long
     /// for one that started late (a worker woken from sleep) or had more to do (B2's
     /// movers are not spread evenly over its agents): with two threads, B2F 7-14 % and
-    /// the gravity cloud 13 % faster (ten runs each, alternating with the build before).
+    /// the gravity cloud 13 % faster (twelve and four pairs of runs, alternating with the
+    /// build before).
     pub(super) fn map<I: Send, T: Send>(&self, items: Vec<I>, f: impl Fn(I) -> T + Sync) -> Vec<T> {
         use std::sync::{Mutex, MutexGuard};
         // (A panic in `f` reaches the caller when the scope ends; the slots stay usable.)
