@@ -274,14 +274,8 @@ pub(super) fn batch_pre(
                 sp += 1;
             }
             PreStep::Cell { off, filled } => {
-                let top = &mut stack[sp][..m];
-                match rows {
-                    Rows::Run(first) => lat.cells_filled(first..first + m, off, filled, top),
-                    Rows::Ids(ids) => {
-                        let agents = ids[..m].iter().map(|&a| a as usize);
-                        lat.cells_filled(agents, off, filled, top)
-                    }
-                }
+                let agents = (0..m).map(|j| rows.agent(j));
+                lat.cells_filled(agents, off, filled, &mut stack[sp][..m]);
                 sp += 1;
             }
             PreStep::Att { mask, want } => {

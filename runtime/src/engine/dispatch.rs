@@ -153,6 +153,10 @@ pub(super) struct Dispatch {
     /// first rule needs nothing but the state filter and no other rule shares its
     /// priority; [`NO_RULE`] for an empty list; else [`EVALUATE`].
     pub(super) single: Vec<u32>,
+    /// Per candidate list: several rules, each state-only or with a column program, at
+    /// most 32 of one priority: its agents are evaluated list by list over windows of
+    /// agents (`select::eval_window`).
+    pub(super) columnar: Vec<bool>,
     /// Per candidate list: its state as a key ([`state_key`]).
     keys: Vec<u64>,
     /// Per candidate list: where its one state-only rule takes an agent (found when first
@@ -167,6 +171,17 @@ pub(super) struct Dispatch {
     dirty: bool,
 }
 
+/// Per rule: whether its precondition is only its state filter, and its column program
+/// (`Plan::trivial`, `Plan::pre_columns`).
+pub(super) type Facts<'a> = (&'a [bool], &'a [Option<ColumnPre>]);
+
+/// The rules of a candidate list (ordered by priority, highest first) in runs of one
+/// priority.
+pub(super) fn levels<'a>(prog: &'a Program, list: &'a [u32]) -> impl Iterator<Item = &'a [u32]> {
+    let prio = |r: &u32| prog.rules[*r as usize].priority;
+    list.chunk_by(move |a, b| prio(a) == prio(b))
+}
+
 impl Dispatch {
     /// Dispatch for `n` agents running `prog`; no list is known yet.
     pub(super) fn new(prog: &Program, n: usize) -> Dispatch {
@@ -178,6 +193,7 @@ impl Dispatch {
             cache: vec![(0, ListId(0)); CAND_CACHE],
             lists: Vec::new(),
             single: Vec::new(),
+            columnar: Vec::new(),
             keys: Vec::new(),
             hops: Vec::new(),
             hopped: Vec::new(),
@@ -212,13 +228,15 @@ impl Dispatch {
     /// Rule dispatch by state: an agent evaluates only the rules whose top-level state
     /// pattern its state matches. The list is computed once per distinct state, and each
     /// agent keeps its list until its state changes, so only those agents look it up again.
-    pub(super) fn update(&mut self, prog: &Program, trivial: &[bool], lat: &Lattice, th: &Threads) {
+    /// `rules`: per rule, whether it is state-only, and its column program.
+    pub(super) fn update(&mut self, prog: &Program, rules: Facts<'_>, lat: &Lattice, th: &Threads) {
         let n = lat.len();
         if self.lists.len() > 1 << 16 {
             self.candidates.clear();
             self.cache.fill((0, ListId(0)));
             self.lists.clear();
             self.single.clear();
+            self.columnar.clear();
             self.keys.clear();
             self.hops.clear();
             self.hopped.clear();
@@ -236,13 +254,13 @@ impl Dispatch {
         // Lists are made in the order of their states' first agents, whatever the chunks.
         for a in 0..n.min(1024) {
             if self.of[a] == ListId::NONE {
-                self.list_state_of(prog, trivial, &lat.state, a);
+                self.list_state_of(prog, rules, &lat.state, a);
             }
         }
         let firsts = self.known_states(&lat.state, th, false);
         if firsts.iter().any(|f| !f.is_empty()) {
             for &a in firsts.iter().flatten() {
-                self.list_state_of(prog, trivial, &lat.state, a as usize);
+                self.list_state_of(prog, rules, &lat.state, a as usize);
             }
             self.known_states(&lat.state, th, true);
         }
@@ -254,7 +272,8 @@ impl Dispatch {
     }
 
     /// Gives agent `a` the candidate list of its state, made if its state is new.
-    fn list_state_of(&mut self, prog: &Program, trivial: &[bool], states: &[[u8; 5]], a: usize) {
+    fn list_state_of(&mut self, prog: &Program, rules: Facts<'_>, states: &[[u8; 5]], a: usize) {
+        let (trivial, pre_columns) = rules;
         let st = &states[a];
         let key = state_key(st);
         if let Some(idx) = cached(&self.cache, key) {
@@ -262,7 +281,7 @@ impl Dispatch {
             return;
         }
         let lists = &mut self.lists;
-        let single = &mut self.single;
+        let (single, columnar) = (&mut self.single, &mut self.columnar);
         let (keys, hops) = (&mut self.keys, &mut self.hops);
         let hopped = &mut self.hopped;
         let by_prio = &self.by_prio;
@@ -286,6 +305,9 @@ impl Dispatch {
                 }
                 _ => EVALUATE,
             });
+            let runs = |&r: &u32| trivial[r as usize] || pre_columns[r as usize].is_some();
+            let widest = levels(prog, &list).map(<[u32]>::len).max().unwrap_or(0);
+            columnar.push(list.len() > 1 && list.iter().all(runs) && widest <= 32);
             lists.push(list);
             keys.push(key);
             hops.push(Hop::UNKNOWN);

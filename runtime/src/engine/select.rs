@@ -64,7 +64,7 @@ impl Selector {
         self.sel.found = false;
         let changed = dispatch.stale(lat.len()) || self.states_changed;
         self.states_changed = false;
-        dispatch.update(prog, &plan.trivial, lat, threads);
+        dispatch.update(prog, (&plan.trivial, &plan.pre_columns), lat, threads);
         self.reused = !plan.any_prio && !changed && self.by_state;
         if self.reused {
             return Vec::new();
@@ -348,19 +348,7 @@ impl Selector {
         // Listed only when few executed a rule in the last selection too: a step of many
         // would list the first eighth of each chunk in vain (2.5 % of B2's time).
         let few = self.active as usize <= n / SPARSE_SHARE;
-        // Per candidate list: several rules, each state-only or run by the column
-        // interpreter, at most 32 of one priority (see `eval_window`).
-        let columnar: Vec<bool> = (lists.iter())
-            .map(|l| {
-                let runs = |r: &u32| trivial[*r as usize] || pre_columns[*r as usize].is_some();
-                let prio = |r: &u32| prog.rules[*r as usize].priority;
-                let widest = l
-                    .chunk_by(|a, b| prio(a) == prio(b))
-                    .map(<[u32]>::len)
-                    .max();
-                l.len() > 1 && l.iter().all(runs) && widest.unwrap_or(0) <= 32
-            })
-            .collect();
+        let columnar = &dispatch.columnar;
         let work = |(c, one): (usize, &mut [u32])| {
             let lo = c * chunk;
             let mut multi: Vec<(u32, Vec<u32>)> = Vec::new();
@@ -546,8 +534,7 @@ fn eval_window(
         w.entry.resize(m, NO_RULE);
         w.mask.resize(m, 0);
         let mut open = m;
-        let prio = |r: &u32| prog.rules[*r as usize].priority;
-        for level in lists[*idx].chunk_by(|a, b| prio(a) == prio(b)) {
+        for level in levels(prog, &lists[*idx]) {
             if open == 0 {
                 break;
             }

@@ -766,8 +766,11 @@ impl Lattice {
             // (Beyond `i32`, no grid holds it: `cell_at` answers.)
             let q = [0, 1, 2].map(|k| p[k].wrapping_add(off[k]));
             let near = (0..3).all(|k| (p[k] as i64 + off[k] as i64) == q[k] as i64);
-            *t = match grid.and_then(|g| near.then(|| g.slot(q)).flatten()) {
-                Some(i) => grid.is_some_and(|g| g.filled(i)) == filled,
+            let bit = grid
+                .filter(|_| near)
+                .and_then(|g| Some(g.filled(g.slot(q)?)));
+            *t = match bit {
+                Some(f) => f == filled,
                 None => match self.cell_at(p, off) {
                     Cell::Agent(_) => filled,
                     Cell::Empty => !filled,
