@@ -204,9 +204,25 @@ fn remove_stale(folder: &Path, prefix: &str) {
 }
 
 /// Whether process `pid` runs (on systems without `/proc`, taken to run: nothing removed).
+/// A zombie does not: a run killed in a container whose first process is slow to reap it
+/// stays one for a while, and its temporary file was left to a later run (seen with
+/// `timeout -s KILL`).
 fn process_runs(pid: u32) -> bool {
     let proc = Path::new("/proc");
-    !proc.is_dir() || proc.join(pid.to_string()).exists()
+    if !proc.is_dir() {
+        return true;
+    }
+    match std::fs::read_to_string(proc.join(pid.to_string()).join("stat")) {
+        // The state is the first field after the command's name, which ends at the last
+        // `)` (the name may hold any character).
+        Ok(stat) => {
+            let state = stat
+                .rsplit_once(')')
+                .and_then(|(_, r)| r.trim_start().chars().next());
+            !matches!(state, Some('Z' | 'X'))
+        }
+        Err(_) => proc.join(pid.to_string()).exists(),
+    }
 }
 
 /// Opens a file that must not exist yet, without following a symbolic link.
@@ -384,6 +400,26 @@ pub(crate) fn write_output(mut f: AtomicFile, bytes: &[u8]) -> Result<(), ExitCo
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A process that ended but was not reaped (a zombie) does not run; this one does.
+    #[test]
+    #[cfg(target_os = "linux")]
+    fn a_zombie_does_not_run() {
+        assert!(process_runs(std::process::id()));
+        let mut child = std::process::Command::new("true")
+            .spawn()
+            .expect("`true` runs");
+        let stat = format!("/proc/{}/stat", child.id());
+        // Not waited for: once it has exited, it stays a zombie until `wait`.
+        let zombie = (0..500).any(|_| {
+            std::thread::sleep(std::time::Duration::from_millis(10));
+            std::fs::read_to_string(&stat).is_ok_and(|s| s.contains(") Z"))
+        });
+        assert!(zombie, "the child became a zombie");
+        assert!(!process_runs(child.id()));
+        child.wait().expect("reaped");
+        assert!(!process_runs(child.id()));
+    }
 
     fn scratch(name: &str) -> PathBuf {
         let d = std::env::temp_dir().join(format!("latticesim-out-{}-{name}", std::process::id()));
