@@ -934,11 +934,18 @@ fn threads_join_chunks_in_order() {
     for k in (1..scrambled.len()).rev() {
         scrambled.swap(k, (k * 7919 + 13) % (k + 1));
     }
+    // States set at once beside moves (the selection decided by states alone: agents
+    // take their state's hop, counted per chunk), with the moves of the general way.
+    let hops = "go\n1\nSA****\nP1,0 SB****\n\nturn\n1\nSB****\nSC****\n\nback\n1\nSC****\nSA****\n";
+    let states = block(64, 64, |x, y, _| {
+        format!(" S{}0000", ["A", "B", "C"][hash(x, y) as usize % 3])
+    });
     let cases = [
         cases[0].clone(),
         cases[1].clone(),
         (fall, cloud.concat()),
         (fall, scrambled.concat()),
+        (hops, states),
     ];
     for (i, (rules, agents)) in cases.iter().enumerate() {
         let (prog, lat) = common::compile(rules, agents);

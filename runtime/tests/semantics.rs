@@ -371,6 +371,49 @@ fn blocked_targets_and_collisions_cancel_moves() {
 }
 
 #[test]
+fn records_name_the_rules_executed_when_a_stayer_changes_state() {
+    // Agent 0 (`go`) moves into the cell of agent 1, which stays and only changes its state
+    // (`turn`, B to C): the collision names both rules, `go` (0) and `turn` (1), not the
+    // rule of agent 1's new state (`back`, 2), with skipping or not, on one thread or two
+    // (enough agents for the pool: a column of such pairs). Agent 0 takes its new state.
+    let rules =
+        "go\n1\nSA****\nP1,0 SB****\n\nturn\n1\nSB****\nSC****\n\nback\n1\nSC****\nSA****\n";
+    // (An agent in state C, so that C's rules are known when agent 1 takes its state.)
+    let mut agents: String = (0..1500)
+        .map(|y| format!("0,{y} SA0000\n1,{y} SB0000\n"))
+        .collect();
+    agents += "9,-9 SC0000\n";
+    for threads in [1, 2] {
+        for skip in [
+            latticesim_runtime::Skip::Off,
+            latticesim_runtime::Skip::Eager,
+        ] {
+            let opts = Options {
+                threads,
+                skip,
+                ..Options::default()
+            };
+            let mut e = engine_with(rules, &agents, opts);
+            let r = e.step();
+            assert_eq!(r.records.len(), 1500, "{threads} threads, {skip:?}");
+            for rec in &r.records {
+                assert_eq!(rec.kind.name(), "move-collision");
+                assert_eq!(
+                    rec.rules,
+                    vec![0, 1],
+                    "{threads} threads, {skip:?}: {}",
+                    rec.message
+                );
+            }
+            assert_eq!(
+                (state(&e, 0), state(&e, 1)),
+                ("B0000".into(), "C0000".into())
+            );
+        }
+    }
+}
+
+#[test]
 fn cancelled_moves_cascade() {
     // Agent 0 moves east into the cell agent 1 leaves; agent 1 moves east into a staying
     // agent 2: agent 1 is cancelled, so agent 0 now collides with agent 1 and is cancelled too.

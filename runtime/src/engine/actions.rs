@@ -4,9 +4,15 @@
 
 use super::*;
 
-// The second half of the phase: moves, carried groups, bonds and swaps.
+// The first half of the phase for agents whose actions are their own; the second half:
+// moves, carried groups, bonds and swaps.
+mod collect;
 mod moves;
+use collect::CollectPart;
 use moves::MoveScratch;
+
+/// A record made while the actions are collected, recorded when the chunks are joined.
+pub(super) type Note = (RecordKind, Vec<u32>, String);
 
 /// The actions of a step, each list in agent order.
 #[derive(Default)]
@@ -29,6 +35,15 @@ impl Actions {
         self.states.clear();
         self.links.clear();
         self.no_swap.clear();
+    }
+
+    /// Moves the actions of `other` (of agents after this one's) to the end of this one.
+    pub(super) fn append(&mut self, other: &mut Actions) {
+        self.moves.append(&mut other.moves);
+        self.blocked.append(&mut other.blocked);
+        self.states.append(&mut other.states);
+        self.links.append(&mut other.links);
+        self.no_swap.append(&mut other.no_swap);
     }
 
     /// Adds the combined actions `it` of agent `a`.
@@ -108,6 +123,8 @@ pub(super) struct ActionBufs {
     /// and its parts (for their allocations).
     pub(super) fused_pause: u32,
     fused: Vec<moves::FusedPart>,
+    /// The chunks' parts of [`Act::collect`] (for their allocations).
+    collect: Vec<CollectPart>,
 }
 
 /// The actions phase (paper step 2) with the parts of the engine it borrows: it reads the
@@ -148,6 +165,7 @@ impl Act<'_> {
     /// Returns whether some agent's state changed without its selection following (see
     /// [`Dispatch::set_state_at_once`]).
     pub(super) fn all_actions(&mut self, sel: &mut Selection, rep: &mut StepReport) -> bool {
+        sel.replaced.clear();
         if self.opts.static_first {
             let prog = &self.prog;
             let still: Vec<bool> = prog
@@ -175,7 +193,6 @@ impl Act<'_> {
         pass: Option<(&[bool], bool)>,
     ) -> bool {
         let every = pass.is_none();
-        let pick = |r: u32| pass.is_none_or(|p| p.0[r as usize]);
         let n = self.lat.len();
         // Rules with nothing to do in this phase (only calculations and sends) are left out;
         // only the agents with something to do get an intent.
@@ -192,7 +209,6 @@ impl Act<'_> {
         let states_before = self.opts.trace.then(|| self.lat.state.clone());
         let keep = self.by_state && !self.plan.any_prio && !self.opts.static_first;
         let (mut changed, mut lookups) = (false, false);
-        let mut rs: Vec<u32> = Vec::new();
         let simple = every && sel.many.is_empty();
         // When every rule's actions are a plain move (or none) and no agent executes several
         // rules, the step's actions are the list of moves, collected in one tight loop.
@@ -243,13 +259,32 @@ impl Act<'_> {
                 a += 1;
             }
         }
-        // Otherwise, every agent in turn (or every listed one: the others execute nothing).
+        // Otherwise, with `--static-first`, every agent in turn (or every listed one: the
+        // others execute nothing), for the rules of the pass; else in chunks.
+        match pass {
+            _ if plain_moves || hops => {}
+            Some(pass) => (changed, lookups) = self.pass_actions(sel, &mut todo, pass, rep),
+            None => (changed, lookups) = self.collect(sel, &mut todo, keep, rep),
+        }
+        self.dispatch.count_hops(self.counts, self.active);
+        self.carry_out(todo, states_before, (changed, lookups), rep)
+    }
+
+    /// With `--static-first`, the actions of the rules of one pass (`rules`: which rules;
+    /// `first`: whether it is the first, static one) of every agent in turn (or every
+    /// listed one) into `todo`, as [`Act::actions`] says. Returns what
+    /// [`Act::one_rule`] does, over the agents.
+    fn pass_actions(
+        &mut self,
+        sel: &mut Selection,
+        todo: &mut Actions,
+        (rules, first): (&[bool], bool),
+        rep: &mut StepReport,
+    ) -> (bool, bool) {
+        let (mut changed, mut lookups) = (false, false);
         let list = sel.listed.then(|| std::mem::take(&mut sel.list));
-        let agents = match &list {
-            _ if plain_moves || hops => 0,
-            Some(l) => l.len(),
-            None => n,
-        };
+        let agents = list.as_ref().map_or(sel.one.len(), |l| l.len());
+        let mut rs: Vec<u32> = Vec::new();
         for i in 0..agents {
             let a = list.as_ref().map_or(i, |l| l[i] as usize);
             let r = sel.one[a];
@@ -258,8 +293,8 @@ impl Act<'_> {
             }
             if r & MANY == 0 {
                 // One rule: nothing can conflict.
-                if pick(r) {
-                    let (c, l) = self.one_rule(&mut todo, a, r, keep, sel);
+                if rules[r as usize] {
+                    let (c, l) = self.one_rule(todo, a, r, false, sel);
                     changed |= c;
                     lookups |= l;
                 }
@@ -267,36 +302,23 @@ impl Act<'_> {
             }
             let acts = &self.plan.has_actions;
             rs.clear();
-            if let Some((still, first)) = pass {
-                let it = if first {
-                    rs.extend((sel.of(a).iter().copied()).filter(|&r| acts[r as usize]));
-                    let (now, later) = self.split_intent(a, &rs, still, rep);
-                    self.bufs.later.push((a as u32, later));
-                    now
-                } else {
-                    match self.bufs.later.binary_search_by_key(&(a as u32), |l| l.0) {
-                        Ok(k) => self.bufs.later[k].1,
-                        Err(_) => continue,
-                    }
-                };
-                todo.add(a as u32, &it);
-                continue;
-            }
-            rs.extend((sel.of(a).iter().copied()).filter(|&r| pick(r) && acts[r as usize]));
-            match rs[..] {
-                [] => {}
-                [r] => self.add_rule_actions(&mut todo, a as u32, r),
-                _ => {
-                    let it = self.combined_intent(a, &rs, rep);
-                    todo.add(a as u32, &it);
+            let it = if first {
+                rs.extend((sel.of(a).iter().copied()).filter(|&r| acts[r as usize]));
+                let (now, later) = self.split_intent(a, &rs, rules, rep);
+                self.bufs.later.push((a as u32, later));
+                now
+            } else {
+                match self.bufs.later.binary_search_by_key(&(a as u32), |l| l.0) {
+                    Ok(k) => self.bufs.later[k].1,
+                    Err(_) => continue,
                 }
-            }
+            };
+            todo.add(a as u32, &it);
         }
         if let Some(l) = list {
             sel.list = l;
         }
-        self.dispatch.count_hops(self.counts, self.active);
-        self.carry_out(todo, states_before, (changed, lookups), rep)
+        (changed, lookups)
     }
 
     /// Carries out the actions collected in `todo`: moves (alone, or with bonds and
@@ -363,8 +385,9 @@ impl Act<'_> {
     }
 
     /// The combined actions of agent `a` executing several rules `rs`: where they ask for
-    /// different things, a conflict is recorded and that part is left out.
-    pub(super) fn combined_intent(&mut self, a: usize, rs: &[u32], rep: &mut StepReport) -> Intent {
+    /// different things, a conflict is noted in `notes` (to be recorded) and that part is
+    /// left out.
+    pub(super) fn combined_intent(&self, a: usize, rs: &[u32], notes: &mut Vec<Note>) -> Intent {
         let nd = self.lat.dim.dirs();
         let mut it = Intent::default();
         let mut moves: Vec<(u32, [i32; 3])> = Vec::new();
@@ -430,7 +453,7 @@ impl Act<'_> {
                         .collect::<Vec<_>>()
                         .join(" and ")
                 );
-                self.record(rep, RecordKind::MoveConflict, &[a32], msg);
+                notes.push((RecordKind::MoveConflict, vec![a32], msg));
             }
         }
         match swaps.len() {
@@ -442,7 +465,7 @@ impl Act<'_> {
                     "agent {id} is asked to swap in different directions by rules {}; it takes part in no swap",
                     swaps.iter().map(|(r, d)| format!("`{}` (X{})", self.rule_name(*r), d.letter())).collect::<Vec<_>>().join(" and ")
                 );
-                self.record(rep, RecordKind::SwapConflict, &[a32], msg);
+                notes.push((RecordKind::SwapConflict, vec![a32], msg));
             }
         }
         for d in 0..nd {
@@ -451,7 +474,7 @@ impl Act<'_> {
                     "agent {id}'s rules give different attachment letters towards {}; that direction counts as `*`",
                     Dir::ALL[d].letter()
                 );
-                self.record(rep, RecordKind::AttachConflict, &[a32], msg);
+                notes.push((RecordKind::AttachConflict, vec![a32], msg));
             } else if let Some((_, l)) = letters[d] {
                 it.letters[d] = l;
             }
@@ -462,7 +485,7 @@ impl Act<'_> {
                     "agent {id}'s rules set character {} of the state differently; it is left unchanged",
                     i + 1
                 );
-                self.record(rep, RecordKind::StateConflict, &[a32], msg);
+                notes.push((RecordKind::StateConflict, vec![a32], msg));
             } else if let Some((_, c)) = chars[i] {
                 it.state[i] = Some(c);
             }
@@ -480,7 +503,11 @@ impl Act<'_> {
         still: &[bool],
         rep: &mut StepReport,
     ) -> (Intent, Intent) {
-        let all = self.combined_intent(a, rs, rep);
+        let mut notes = Vec::new();
+        let all = self.combined_intent(a, rs, &mut notes);
+        for (kind, ids, msg) in notes {
+            self.record(rep, kind, &ids, msg);
+        }
         let mut now = Intent::default();
         let mut later = Intent {
             mv: all.mv,
@@ -533,7 +560,7 @@ impl Act<'_> {
             match self.plan.direct_bits[r as usize] {
                 Some(bits) => {
                     let before = self.lat.state[a];
-                    let agent = (&mut self.lat.state[..], &mut sel.one[..]);
+                    let agent = (&mut self.lat.state[..], &mut sel.one[..], &mut sel.replaced);
                     let computes = &self.plan.computes;
                     let done =
                         (self.dispatch).set_state_at_once(agent, (a, r, bits), keep, computes);

@@ -39,19 +39,14 @@ impl Hop {
         state: [0; 5],
     };
 
-    /// An agent takes this hop: its new state, candidate list and selection entry, and
-    /// the count of its old list's agents that took the hop (their firings are moved by
-    /// [`Dispatch::count_hops`]).
+    /// An agent takes this hop: its new state, candidate list and selection entry (its
+    /// old list's count of agents that took the hop is the caller's: their firings are
+    /// moved by [`Dispatch::count_hops`]).
     #[inline(always)]
-    pub(super) fn take(
-        &self,
-        (list, state, one): (&mut ListId, &mut [u8; 5], &mut u32),
-        hopped: &mut u64,
-    ) {
+    pub(super) fn take(&self, (list, state, one): (&mut ListId, &mut [u8; 5], &mut u32)) {
         *state = self.state;
         *list = self.to;
         *one = self.next;
-        *hopped += 1;
     }
 }
 
@@ -77,7 +72,8 @@ pub(super) fn hop_run(
         if hop.to == ListId::NONE || hop.next == EVALUATE {
             return from + a;
         }
-        hop.take((list, state, one), &mut hopped[idx]);
+        hop.take((list, state, one));
+        hopped[idx] += 1;
     }
     n
 }
@@ -391,11 +387,106 @@ impl Dispatch {
         }
     }
 
-    /// Where rule `r`, the one rule of candidate list `idx`, which only sets the state (as
+    /// Applies a state pattern (as [`pat_bits`]) to agent `a`. When the state changes: the
+    /// old and new states, and whether the cache knew the new state's candidate list (the
+    /// agent's list is set from it, or marked for lookup).
+    #[inline(always)]
+    pub(super) fn apply_state(
+        &mut self,
+        states: &mut [[u8; 5]],
+        a: usize,
+        bits: (u64, u64),
+    ) -> Option<([u8; 5], [u8; 5], bool)> {
+        let (known, _, of) = self.known();
+        known.apply((&mut of[a], &mut states[a]), bits)
+    }
+
+    /// Agent `a`, whose one rule `r` only sets the state (as [`pat_bits`] `bits`), takes its
+    /// new state now (see [`Known::at_once`], whose answer is returned); the hops found are
+    /// remembered; when the agent takes one, it is added to `replaced` with `r`.
+    pub(super) fn set_state_at_once(
+        &mut self,
+        (states, one, replaced): Entries<'_>,
+        (a, r, bits): (usize, u32, (u64, u64)),
+        keep: bool,
+        computes: &[bool],
+    ) -> (bool, bool) {
+        let Dispatch {
+            candidates,
+            cache,
+            single,
+            keys,
+            hops,
+            hopped,
+            of,
+            ..
+        } = self;
+        let known = Known {
+            candidates,
+            cache,
+            single,
+            keys,
+        };
+        let hop_of = |i: usize| {
+            if hops[i].to == ListId::NONE {
+                hops[i] = known.hop(i, r, bits, computes);
+            }
+            hops[i]
+        };
+        let agent = (&mut of[a], &mut states[a], &mut one[a]);
+        let took = |i: usize| {
+            hopped[i] += 1;
+            replaced.push((a as u32, r));
+        };
+        known.at_once(agent, (r, bits), keep, hop_of, took)
+    }
+
+    /// What setting states reads (every list known, and the hops remembered), and each
+    /// agent's candidate list, to write: so that chunks of agents set their own agents'
+    /// states at once on the pool (see `actions/collect.rs`).
+    pub(super) fn known(&mut self) -> (Known<'_>, &[Hop], &mut [ListId]) {
+        let known = Known {
+            candidates: &self.candidates,
+            cache: &self.cache,
+            single: &self.single,
+            keys: &self.keys,
+        };
+        (known, &self.hops, &mut self.of)
+    }
+
+    /// Remembers hop `hop` of list `i`, found by a chunk (a hop found is the same whoever
+    /// finds it, and never changes while the lists stay).
+    pub(super) fn learn(&mut self, i: usize, hop: Hop) {
+        if self.hops[i].to == ListId::NONE {
+            self.hops[i] = hop;
+        }
+    }
+
+    /// Adds `m` agents to the count of list `i`'s agents that took its hop in this step.
+    pub(super) fn add_hopped(&mut self, i: usize, m: u64) {
+        self.hopped[i] += m;
+    }
+}
+
+/// What setting a state at once writes besides the dispatch: the agents' states, their
+/// selection entries, and the log of the hops taken ([`Selection::replaced`]).
+pub(super) type Entries<'a> = (&'a mut [[u8; 5]], &'a mut [u32], &'a mut Vec<(u32, u32)>);
+
+/// The part of [`Dispatch`] that setting states reads: the candidate lists known per
+/// state (and the cache in front of them), each list's one rule and state.
+pub(super) struct Known<'d> {
+    candidates: &'d FxHashMap<u64, ListId>,
+    cache: &'d [(u64, ListId)],
+    single: &'d [u32],
+    keys: &'d [u64],
+}
+
+impl Known<'_> {
+    /// Where rule `r`, the one rule of candidate list `i`, which only sets the state (as
     /// [`pat_bits`] `bits`), takes an agent: [`Hop::UNKNOWN`] while the new state has no
     /// list yet. `computes`: per rule, whether it calculates or sends.
-    fn hop(&self, idx: ListId, r: u32, bits: (u64, u64), computes: &[bool]) -> Hop {
-        let key = (self.keys[idx.index()] & !bits.0) | bits.1;
+    pub(super) fn hop(&self, i: usize, r: u32, bits: (u64, u64), computes: &[bool]) -> Hop {
+        let key = (self.keys[i] & !bits.0) | bits.1;
         let Some(&to) = self.candidates.get(&key) else {
             return Hop::UNKNOWN;
         };
@@ -412,60 +503,59 @@ impl Dispatch {
         }
     }
 
-    /// Applies a state pattern (as [`pat_bits`]) to agent `a`. When the state changes: the
-    /// old and new states, and whether the cache knew the new state's candidate list (the
-    /// agent's list is set from it, or marked for lookup).
+    /// Applies a state pattern (as [`pat_bits`]) to an agent (its candidate list and
+    /// state): see [`Dispatch::apply_state`].
     #[inline(always)]
-    pub(super) fn apply_state(
-        &mut self,
-        states: &mut [[u8; 5]],
-        a: usize,
+    pub(super) fn apply(
+        &self,
+        (list, state): (&mut ListId, &mut [u8; 5]),
         (mask, val): (u64, u64),
     ) -> Option<([u8; 5], [u8; 5], bool)> {
-        let old = states[a];
+        let old = *state;
         let o = state_key(&old);
         let v = (o & !mask) | val;
         if v == o {
             return None;
         }
         let new: [u8; 5] = v.to_le_bytes()[..5].try_into().expect("five bytes");
-        states[a] = new;
-        let idx = cached(&self.cache, v).or_else(|| self.candidates.get(&v).copied());
-        self.of[a] = idx.unwrap_or(ListId::NONE);
+        *state = new;
+        let idx = cached(self.cache, v).or_else(|| self.candidates.get(&v).copied());
+        *list = idx.unwrap_or(ListId::NONE);
         Some((old, new, idx.is_some()))
     }
 
-    /// Agent `a`, whose one rule `r` only sets the state (as [`pat_bits`] `bits`), takes its
-    /// new state now. With `keep` (the selection is decided by states alone), an agent whose
-    /// rule its state alone decides goes to the state that rule makes of it, remembered per
-    /// state, and its selection entry in `one` is set to that state's rule for the next
-    /// step (when neither rule calculates (`computes`): the calculations of this step read
-    /// the entry). Returns whether the state changed without the selection following, and
-    /// whether the new state's rules must be looked up.
-    pub(super) fn set_state_at_once(
-        &mut self,
-        (states, one): (&mut [[u8; 5]], &mut [u32]),
-        (a, r, bits): (usize, u32, (u64, u64)),
+    /// An agent (its candidate list, state and selection entry), whose one rule `r` only
+    /// sets the state (as [`pat_bits`] `bits`), takes its new state now. With `keep` (the
+    /// selection is decided by states alone), an agent whose rule its state alone decides
+    /// goes to the state that rule makes of it, remembered per state (`hop_of`: the hop of
+    /// a list, found when not known yet), and its selection entry is set to that state's
+    /// rule for the next step (when neither rule calculates (`computes`): the
+    /// calculations of this step read the entry); `took` is told its old list.
+    /// Returns whether the state changed without the selection following, and whether
+    /// the new state's rules must be looked up.
+    #[inline(always)]
+    pub(super) fn at_once(
+        &self,
+        (list, state, one): (&mut ListId, &mut [u8; 5], &mut u32),
+        (r, bits): (u32, (u64, u64)),
         keep: bool,
-        computes: &[bool],
+        mut hop_of: impl FnMut(usize) -> Hop,
+        mut took: impl FnMut(usize),
     ) -> (bool, bool) {
-        let idx = self.of[a];
+        let idx = *list;
         if keep && idx != ListId::NONE && self.single[idx.index()] == r {
             let i = idx.index();
-            if self.hops[i].to == ListId::NONE {
-                self.hops[i] = self.hop(idx, r, bits, computes);
-            }
-            let hop = self.hops[i];
+            let hop = hop_of(i);
             if hop.to == idx {
                 return (false, false);
             }
             if hop.to != ListId::NONE && hop.next != EVALUATE {
-                let agent = (&mut self.of[a], &mut states[a], &mut one[a]);
-                hop.take(agent, &mut self.hopped[i]);
+                hop.take((list, state, one));
+                took(i);
                 return (false, false);
             }
         }
-        match self.apply_state(states, a, bits) {
+        match self.apply((list, state), bits) {
             Some((_, _, known)) => (true, !known),
             None => (false, false),
         }

@@ -348,7 +348,7 @@ impl Engine {
         for r in &mut rep.records {
             let lat = &self.lat;
             let mut rules: Vec<u32> = (r.agents.iter())
-                .flat_map(|&(id, _)| sel.of_any(lat.agent_of(id) as usize).iter().copied())
+                .flat_map(|&(id, _)| sel.executed(lat.agent_of(id) as usize).iter().copied())
                 .collect();
             rules.sort_unstable();
             rules.dedup();

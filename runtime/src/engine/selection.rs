@@ -17,6 +17,13 @@ pub(super) struct Selection {
     /// step lists them without looking for them ([`Selection::make_list`]). Cleared at
     /// the start of every selection.
     pub(super) found: bool,
+    /// Agents whose entry a hop replaced in this step's actions (set to their new state's
+    /// rule for the next step: see [`Dispatch::set_state_at_once`]), with the rule they
+    /// executed, in agent order; cleared when the actions begin. (Hops of the tight loop
+    /// `hop_run` are not kept: it runs only when every rule only sets the state, so no
+    /// record of the actions names such an agent, and records of calculations name
+    /// agents that calculate, which never hop.)
+    pub(super) replaced: Vec<(u32, u32)>,
 }
 
 pub(super) const NO_RULE: u32 = u32::MAX;
@@ -37,8 +44,12 @@ impl Selection {
         }
     }
 
-    /// The rules agent `a` executes, none for an agent the selection does not hold.
-    pub(super) fn of_any(&self, a: usize) -> &[u32] {
+    /// The rules agent `a` executed in this step (whose entry a hop may have replaced),
+    /// none for an agent the selection does not hold.
+    pub(super) fn executed(&self, a: usize) -> &[u32] {
+        if let Ok(k) = (self.replaced).binary_search_by_key(&(a as u32), |h| h.0) {
+            return std::slice::from_ref(&self.replaced[k].1);
+        }
         if a < self.one.len() {
             self.of(a)
         } else {
