@@ -343,6 +343,55 @@ impl SharedCells<'_> {
         true
     }
 
+    /// Puts agent `a` into cell `i`. Its occupancy bit is set by an atomic instruction
+    /// when `shared` (several threads write bits of one word), else by a load and a
+    /// store (one thread: faster).
+    ///
+    /// # Safety
+    /// No other thread writes cell `i` meanwhile, nor, unless `shared`, any cell.
+    #[inline]
+    pub(crate) unsafe fn occupy(&self, i: usize, a: u32, shared: bool) {
+        use std::sync::atomic::Ordering::Relaxed;
+        assert!(i < self.len, "a cell of the grid");
+        let (w, b) = (i / 64, 1u64 << (i % 64));
+        // SAFETY: in bounds (checked); atomics; the caller's promise.
+        unsafe {
+            (*self.cells.add(i)).store(a, Relaxed);
+            let word = &*self.occ.add(w);
+            match shared {
+                true => drop(word.fetch_or(b, Relaxed)),
+                false => word.store(word.load(Relaxed) | b, Relaxed),
+            }
+        }
+    }
+
+    /// Empties cell `i`, as [`SharedCells::occupy`] fills it.
+    ///
+    /// # Safety
+    /// As for [`SharedCells::occupy`].
+    #[inline]
+    pub(crate) unsafe fn vacate(&self, i: usize, shared: bool) {
+        use std::sync::atomic::Ordering::Relaxed;
+        assert!(i < self.len, "a cell of the grid");
+        let (w, b) = (i / 64, 1u64 << (i % 64));
+        // SAFETY: in bounds (checked); atomics; the caller's promise.
+        unsafe {
+            (*self.cells.add(i)).store(EMPTY, Relaxed);
+            let word = &*self.occ.add(w);
+            match shared {
+                true => drop(word.fetch_and(!b, Relaxed)),
+                false => word.store(word.load(Relaxed) & !b, Relaxed),
+            }
+        }
+    }
+
+    /// Asks for cell `i` and its occupancy bit ahead of writing them (any `i`).
+    #[inline]
+    pub(crate) fn prefetch(&self, i: usize) {
+        prefetch(self.cells.wrapping_add(i));
+        prefetch(self.occ.wrapping_add(i / 64));
+    }
+
     /// Cell `i`'s slot code: `i`, with [`RIM`] when it is on the rim.
     #[inline]
     pub(crate) fn code_of_slot(&self, i: usize) -> u32 {
@@ -409,13 +458,6 @@ impl CellsMut<'_> {
     pub(crate) fn occupy(&mut self, i: usize, a: u32) {
         self.cells[i] = a;
         self.occ[i / 64] |= 1 << (i % 64);
-    }
-
-    /// Asks for cell `i` ahead of [`CellsMut::occupy`] or [`CellsMut::vacate`] (any `i`).
-    #[inline]
-    pub(crate) fn prefetch(&self, i: usize) {
-        prefetch(self.cells.as_ptr().wrapping_add(i));
-        prefetch(self.occ.as_ptr().wrapping_add(i / 64));
     }
 
     /// Empties cell `i`.
@@ -781,13 +823,6 @@ impl CellIndex {
             *o = &g.cells[s..s + m];
         }
         Some((m, out))
-    }
-
-    /// The grid slot of a cell (`None` outside the grid or without one), and the number
-    /// of slots: callers may keep their own per-cell marks.
-    #[inline]
-    pub fn slot(&self, p: [i32; 3]) -> Option<usize> {
-        self.grid.as_ref()?.slot(p)
     }
 
     /// The agent in grid slot `s`, or [`EMPTY`].

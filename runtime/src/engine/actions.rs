@@ -5,11 +5,12 @@
 use super::*;
 
 // The first half of the phase for agents whose actions are their own; the second half:
-// moves, carried groups, bonds and swaps.
+// moves alone, or carried groups and bonds; swaps.
+mod alone;
 mod collect;
 mod moves;
+use alone::{AlonePart, MoveScratch};
 use collect::CollectPart;
-use moves::MoveScratch;
 
 /// A record made while the actions are collected, recorded when the chunks are joined.
 pub(super) type Note = (RecordKind, Vec<u32>, String);
@@ -125,6 +126,8 @@ pub(super) struct ActionBufs {
     fused: Vec<moves::FusedPart>,
     /// The chunks' parts of [`Act::collect`] (for their allocations).
     collect: Vec<CollectPart>,
+    /// The chunks' parts of [`Act::move_alone`] (for their allocations).
+    alone: Vec<AlonePart>,
 }
 
 /// The actions phase (paper step 2) with the parts of the engine it borrows: it reads the

@@ -1124,53 +1124,108 @@ impl Lattice {
         None
     }
 
-    /// Moves agents to their targets, given with their slot codes ([`CellIndex::code`];
-    /// [`NO_SLOT`] for a target outside the grid), which no two share and which are empty
-    /// or left by movers: the same as [`Lattice::relocate`], with a grid. `targeted` tells whether a slot
-    /// is one of the targets: a mover's old cell is emptied only when it is not, without
-    /// reading the grid.
-    pub(crate) fn relocate_to_slots(
+    /// Movers to their targets on a grid, in parts that threads make at once
+    /// ([`Relocation::part`]; `shared`: more than one thread), then
+    /// [`Lattice::relocated`]; `None` without a grid.
+    pub(crate) fn relocation(&mut self, shared: bool) -> Option<Relocation<'_>> {
+        let n = self.pos.len();
+        let (pos, code) = (self.pos.as_mut_ptr(), self.code.as_mut_ptr());
+        let g = self.cells.grid_mut()?;
+        Some(Relocation {
+            cells: g.shared(),
+            pos,
+            code,
+            n,
+            shared,
+        })
+    }
+
+    /// After the parts of a [`Relocation`]: the movers that came from outside the grid
+    /// leave the hash map (`outside`: their old positions), then those that went outside
+    /// it enter it (`leaving`: their new positions).
+    pub(crate) fn relocated<'m>(
         &mut self,
-        moves: &[(u32, [i32; 3])],
-        codes: &[u32],
-        targeted: impl Fn(usize) -> bool,
+        outside: impl Iterator<Item = &'m Placed>,
+        leaving: impl Iterator<Item = &'m Placed>,
     ) {
-        // (With a grid there is no neighbour table.)
-        // Movers that come from outside the grid leave the hash map after the loop, and
-        // those that go outside it enter it then.
-        let (mut outside, mut leaving) = (Vec::new(), Vec::new());
-        let (pos, code) = (&mut self.pos, &mut self.code);
-        if let Some(g) = self.cells.grid_mut() {
-            let mut g = g.cells_mut();
-            for (k, (&(a, p), &c)) in moves.iter().zip(codes).enumerate() {
-                // The cells a few moves ahead leave and take (see `cells::prefetch`).
-                if let (Some(&(next, _)), Some(&to)) = (moves.get(k + AHEAD), codes.get(k + AHEAD))
-                {
-                    g.prefetch((code[next as usize] & !RIM) as usize);
-                    g.prefetch((to & !RIM) as usize);
-                }
-                let old = std::mem::replace(&mut pos[a as usize], p);
-                let was = std::mem::replace(&mut code[a as usize], c);
-                let o = (was & !RIM) as usize;
-                if was == NO_SLOT {
-                    outside.push((old, a));
-                } else if !targeted(o) {
-                    g.vacate(o);
-                }
-                if c == NO_SLOT {
-                    leaving.push((p, a));
-                } else {
-                    g.occupy((c & !RIM) as usize, a);
-                }
-            }
-        }
-        for (old, a) in outside {
+        for &(old, a) in outside {
             self.cells.remove(old, a);
         }
-        for (p, a) in leaving {
+        for &(p, a) in leaving {
             self.cells.insert(p, a);
         }
         self.after_moves();
+    }
+}
+
+/// An agent with a position it left or takes (see [`Relocation::part`]).
+pub(crate) type Placed = ([i32; 3], u32);
+
+/// Agents moving to their targets on the grid ([`Lattice::relocation`]), in parts that
+/// threads make at once.
+pub(crate) struct Relocation<'a> {
+    cells: crate::cells::SharedCells<'a>,
+    pos: *mut [i32; 3],
+    code: *mut u32,
+    n: usize,
+    shared: bool,
+}
+
+// SAFETY: written only through `Relocation::part`, whose callers give each thread movers
+// and targets of its own; cells and their bits are atomics (see `SharedCells`).
+unsafe impl Sync for Relocation<'_> {}
+unsafe impl Send for Relocation<'_> {}
+
+impl Relocation<'_> {
+    /// Moves the agents of `moves` (agent, target) to their targets, given with their
+    /// slot codes (`codes`: [`CellIndex::code`]; [`NO_SLOT`] for a target outside the
+    /// grid), which no two movers share and which are empty or left by movers: as
+    /// [`Lattice::relocate`] does. `targeted` tells whether a slot is one of the targets:
+    /// a mover's old cell is emptied only when it is not, without reading the grid.
+    /// Movers that come from outside the grid are pushed to `outside` with their old
+    /// positions, those that go outside it to `leaving` with their new ones, for
+    /// [`Lattice::relocated`].
+    ///
+    /// # Safety
+    /// Across all parts made at once, the movers are distinct, and so are the targets; no
+    /// other thread reads or writes the lattice meanwhile but through this relocation;
+    /// with one thread (not `shared`), one part at a time.
+    pub(crate) unsafe fn part(
+        &self,
+        (moves, codes): (&[(u32, [i32; 3])], &[u32]),
+        targeted: impl Fn(usize) -> bool,
+        (outside, leaving): (&mut Vec<Placed>, &mut Vec<Placed>),
+    ) {
+        // (Copies, kept in registers, as in `Shift::in_place`.)
+        let (cells, n, shared, pos, code) = (self.cells, self.n, self.shared, self.pos, self.code);
+        for (k, (&(a, p), &c)) in moves.iter().zip(codes).enumerate() {
+            let a = a as usize;
+            assert!(a < n, "an agent of the lattice");
+            // SAFETY: in bounds (checked, and `next` below); agent `a` and its target
+            // belong to this part alone, its old cell is emptied only when no mover
+            // targets it (the caller's promise); cells are atomics.
+            unsafe {
+                // The cells a few moves ahead leave and take (see `cells::prefetch`).
+                if let (Some(&(next, _)), Some(&to)) = (moves.get(k + AHEAD), codes.get(k + AHEAD))
+                {
+                    cells.prefetch((*code.add((next as usize).min(n - 1)) & !RIM) as usize);
+                    cells.prefetch((to & !RIM) as usize);
+                }
+                let old = std::mem::replace(&mut *pos.add(a), p);
+                let was = std::mem::replace(&mut *code.add(a), c);
+                let o = (was & !RIM) as usize;
+                if was == NO_SLOT {
+                    outside.push((old, a as u32));
+                } else if !targeted(o) {
+                    cells.vacate(o, shared);
+                }
+                if c == NO_SLOT {
+                    leaving.push((p, a as u32));
+                } else {
+                    cells.occupy((c & !RIM) as usize, a as u32, shared);
+                }
+            }
+        }
     }
 }
 

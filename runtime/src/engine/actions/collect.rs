@@ -65,7 +65,10 @@ impl Act<'_> {
         parts.resize_with(chunks, CollectPart::default);
         // The agents of chunk `c`: items `lo..hi` of the list, or agents `lo..hi`.
         let range = |c: usize| (c * size, ((c + 1) * size).min(len));
-        // 1. Reading only.
+        // 1. Reading only. (One chunk collects into `todo` itself.)
+        if chunks == 1 {
+            std::mem::swap(todo, &mut parts[0].todo);
+        }
         {
             let (this, sel) = (&*self, &*sel);
             let first = |(c, part): (usize, &mut CollectPart)| {
@@ -85,6 +88,9 @@ impl Act<'_> {
                 Some((pool, _)) => drop(pool.map(parts.iter_mut().enumerate().collect(), first)),
                 None => parts.iter_mut().enumerate().for_each(first),
             }
+        }
+        if chunks == 1 {
+            std::mem::swap(todo, &mut parts[0].todo);
         }
         // 2. States at once, each chunk writing its own agents' entries: chunk `c` holds
         // the agents from its first one to the next chunk's first.

@@ -6,68 +6,6 @@
 use super::*;
 use crate::lattice::drop_agents;
 
-/// The common case of [`Act::move_alone`]: with a grid, no target targeted twice or held
-/// by an agent that stays (the targets' slot codes are in `sc.codes`; targets outside the
-/// grid are checked in a hash map of their own, so that a few agents that walk off the
-/// grid do not send every mover of the step the slow way). Then the moves are made and
-/// true is returned; otherwise nothing changes. `one_offset`: every mover moves by the
-/// same offset.
-pub(super) fn move_free(
-    lat: &mut Lattice,
-    live: &[(u32, [i32; 3])],
-    sc: &mut MoveScratch,
-    one_offset: bool,
-) -> bool {
-    if !lat.cells.is_grid() {
-        return false;
-    }
-    let codes = std::mem::take(&mut sc.codes);
-    let off = |k: usize| codes[k] == NO_SLOT;
-    let empty = |k: usize| match codes[k] {
-        NO_SLOT => lat.cells.get(live[k].1).is_none(),
-        c => !lat.cells.filled_slot((c & !RIM) as usize),
-    };
-    // Movers by one offset have distinct targets; when every target is empty, none is
-    // held by an agent that stays and none is a mover's old cell: no marks are needed.
-    if one_offset && (0..live.len()).all(empty) {
-        lat.relocate_to_slots(live, &codes, |_| false);
-        sc.codes = codes;
-        return true;
-    }
-    let slot = |k: usize| (!off(k)).then(|| (codes[k] & !RIM) as usize);
-    for (k, &(a, _)) in live.iter().enumerate() {
-        sc.claim(a, slot(k));
-    }
-    // Targets outside the grid, counted.
-    let mut count: FxHashMap<[i32; 3], u32> = FxHashMap::default();
-    for (k, &(_, t)) in live.iter().enumerate() {
-        if off(k) {
-            *count.entry(t).or_insert(0) += 1;
-        }
-    }
-    let mut free = count.values().all(|&n| n == 1);
-    for (k, &(_, t)) in live.iter().enumerate() {
-        if !free {
-            break;
-        }
-        free &= match slot(k) {
-            Some(s) => {
-                let stays = lat.cells.filled_slot(s) && !sc.moving(lat.cells.at_slot(s));
-                !sc.claimed_twice(s) && !stays
-            }
-            None => lat.cells.get(t).is_none_or(|b| sc.moving(b)),
-        };
-    }
-    if free {
-        lat.relocate_to_slots(live, &codes, |s| sc.claimed(s));
-    }
-    for (k, &(a, _)) in live.iter().enumerate() {
-        sc.unclaim(a, slot(k));
-    }
-    sc.codes = codes;
-    free
-}
-
 /// Whether the cells of `movers` lie scattered over the grid (see `cells::scattered`).
 fn scattered(lat: &Lattice, movers: &[u32]) -> bool {
     crate::cells::scattered(movers.iter().map(|&a| lat.code_of(a)))
@@ -323,59 +261,6 @@ enum AtOnce {
     Failed,
 }
 
-/// Marks for deciding moves, all clear between rounds: per grid cell, a bit when a mover
-/// targets it and one when more than one does; per agent, a bit when it is moving.
-#[derive(Default)]
-pub(super) struct MoveScratch {
-    pub(super) once: Vec<u64>,
-    pub(super) twice: Vec<u64>,
-    pub(super) moving: Vec<u64>,
-    /// The movers' targets as slot codes.
-    pub(super) codes: Vec<u32>,
-}
-
-impl MoveScratch {
-    /// Marks agent `a` as moving, and its target's grid slot `s` (if any) as claimed.
-    #[inline]
-    pub(super) fn claim(&mut self, a: u32, s: Option<usize>) {
-        let (w, b) = bit(a as usize);
-        self.moving[w] |= b;
-        if let Some(s) = s {
-            let (w, b) = bit(s);
-            self.twice[w] |= self.once[w] & b;
-            self.once[w] |= b;
-        }
-    }
-
-    #[inline]
-    pub(super) fn moving(&self, a: u32) -> bool {
-        let (w, b) = bit(a as usize);
-        self.moving[w] & b != 0
-    }
-
-    #[inline]
-    pub(super) fn claimed(&self, s: usize) -> bool {
-        let (w, b) = bit(s);
-        self.once[w] & b != 0
-    }
-
-    #[inline]
-    pub(super) fn claimed_twice(&self, s: usize) -> bool {
-        let (w, b) = bit(s);
-        self.twice[w] & b != 0
-    }
-
-    /// Clears what [`MoveScratch::claim`] marked (whole words: nothing else is marked).
-    #[inline]
-    pub(super) fn unclaim(&mut self, a: u32, s: Option<usize>) {
-        self.moving[a as usize / 64] = 0;
-        if let Some(s) = s {
-            self.once[s / 64] = 0;
-            self.twice[s / 64] = 0;
-        }
-    }
-}
-
 /// Whether a bond stays rigid through the moves, from the letters of its two ends: one
 /// says `+` and neither `0`.
 fn rigid_bond(la: AttachLetter, lb: AttachLetter) -> bool {
@@ -533,127 +418,6 @@ impl Act<'_> {
             }
         }
         self.stats.moves += moves.len() as u64;
-    }
-
-    /// Steps 1 to 4 when no agent is attached and no rule attaches: every group is one
-    /// agent, so only the movers are looked at (the same decisions and records as
-    /// [`Engine::detach_move_attach`]).
-    pub(super) fn move_alone(&mut self, live: &mut Vec<(u32, [i32; 3])>, rep: &mut StepReport) {
-        // Movers in agent order, with their targets (in place of their offsets) and the
-        // targets' slot codes.
-        let mut sc = std::mem::take(&mut self.bufs.scratch);
-        sc.codes.clear();
-        let mut blocked = Vec::new();
-        let mut kept = 0;
-        let one_offset = live.iter().all(|m| m.1 == live[0].1);
-        for i in 0..live.len() {
-            let (a, o) = live[i];
-            if let Some(t) = self.lat.moved(self.lat.pos[a as usize], o) {
-                live[kept] = (a, t);
-                kept += 1;
-            } else {
-                blocked.push((a, o));
-            }
-        }
-        live.truncate(kept);
-        let cells = &self.lat.cells;
-        sc.codes.extend(live.iter().map(|&(_, t)| cells.code(t)));
-        for (a, o) in blocked {
-            let msg = format!(
-                "agent {} cannot move by {}: the target cell is blocked; its group does not move",
-                self.lat.label(a),
-                self.lat.cell_text(o)
-            );
-            self.record(rep, RecordKind::MoveBlocked, &[a], msg);
-        }
-        // Collisions: cancel every move involved, until none is left. Targets are counted
-        // in bits per grid cell (claimed once, claimed more than once) where the grid covers
-        // them, in a hash map elsewhere; movers are marked in bits per agent. Each round
-        // clears the bits it set.
-        let cells = self.lat.cells.slots();
-        let words = |bits: usize| bits.div_ceil(64);
-        if sc.once.len() != words(cells) || sc.moving.len() != words(self.lat.len()) {
-            sc.once = vec![0; words(cells)];
-            sc.twice = vec![0; words(cells)];
-            sc.moving = vec![0; words(self.lat.len())];
-        }
-        // Traced, the moves are reported from where the movers stand before they move.
-        let traced: Vec<TraceEvent> = if self.opts.trace {
-            (live.iter())
-                .map(|&(m, to)| TraceEvent::Move {
-                    agent: m,
-                    from: self.lat.pos[m as usize],
-                    to,
-                })
-                .collect()
-        } else {
-            Vec::new()
-        };
-        // The cells the movers leave, for the activity (kept only when the moves are made).
-        let noted = self.bufs.changes.moved.len();
-        (self.bufs.changes).moved_all(self.lat, live.iter().map(|m| m.0));
-        if move_free(self.lat, live, &mut sc, one_offset) {
-            self.bufs.scratch = sc;
-            rep.trace.extend(traced);
-            self.stats.moves += live.len() as u64;
-            return;
-        }
-        self.bufs.changes.moved.truncate(noted);
-        loop {
-            let mut count: FxHashMap<[i32; 3], u32> = FxHashMap::default();
-            for &(a, t) in live.iter() {
-                let s = self.lat.cells.slot(t);
-                sc.claim(a, s);
-                if s.is_none() {
-                    *count.entry(t).or_insert(0) += 1;
-                }
-            }
-            let moving = |s: u32| sc.moving(s);
-            let claimed_again = |t: [i32; 3]| match self.lat.cells.slot(t) {
-                Some(s) => sc.claimed_twice(s),
-                None => count[&t] > 1,
-            };
-            let mut bad: BTreeMap<[i32; 3], Vec<u32>> = BTreeMap::new();
-            for (a, t) in live.iter() {
-                let stay = self.lat.agent_at(*t).filter(|&s| !moving(s));
-                if claimed_again(*t) || stay.is_some() {
-                    bad.entry(*t).or_default().push(*a);
-                }
-            }
-            let clear = |sc: &mut MoveScratch,
-                         live: &[(u32, [i32; 3])],
-                         cells: &crate::cells::CellIndex| {
-                for &(a, t) in live {
-                    sc.unclaim(a, cells.slot(t));
-                }
-            };
-            if bad.is_empty() {
-                clear(&mut sc, live, &self.lat.cells);
-                break;
-            }
-            // One record per cell where agents would meet, naming them all.
-            let mut events: Vec<([i32; 3], Vec<u32>, Vec<u32>)> = Vec::new();
-            for (cell, ms) in bad {
-                let mut involved = ms.clone();
-                involved.extend(self.lat.agent_at(cell).filter(|&s| !moving(s)));
-                events.push((cell, ms, involved));
-            }
-            clear(&mut sc, live, &self.lat.cells);
-            for (cell, ms, involved) in events {
-                for a in &ms {
-                    let i = live.binary_search_by_key(a, |m| m.0).expect("a mover");
-                    live.remove(i);
-                }
-                let msg = collision_text(self.lat, cell, &ms, &involved);
-                self.record(rep, RecordKind::MoveCollision, &involved, msg);
-            }
-        }
-        self.bufs.scratch = sc;
-        self.count_moves(live, rep);
-        for &(a, _) in live.iter() {
-            self.bufs.changes.moved(self.lat, a);
-        }
-        self.lat.relocate(live);
     }
 
     /// Steps 1 to 4: detach, decide, move rigid groups, attach, for the agents `among`
@@ -1054,7 +818,12 @@ impl Act<'_> {
 
 /// The sentence of a collision at `cell`: the agents that would meet there and the moves
 /// cancelled (`movers`: the agents moving into it).
-fn collision_text(lat: &Lattice, cell: [i32; 3], movers: &[u32], involved: &[u32]) -> String {
+pub(super) fn collision_text(
+    lat: &Lattice,
+    cell: [i32; 3],
+    movers: &[u32],
+    involved: &[u32],
+) -> String {
     let list = |v: &[u32]| lat.ids_text(v);
     let (s, are) = if movers.len() == 1 {
         ("", "is")

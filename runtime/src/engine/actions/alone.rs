@@ -1,0 +1,405 @@
+//! Steps 1 to 4 of the actions when every group is one agent ([`Act::move_alone`]): the
+//! movers' targets, the collisions judged, and the moves made, in chunks of movers on the
+//! pool when it pays. What threads share they write by atomic instructions (the marks of
+//! targets and movers, the grid's occupancy bits) or not at all (each mover's position and
+//! cell are its chunk's; no two movers share a target, and a mover's old cell is emptied
+//! only when no mover targets it); everything that is recorded, counted or listed is
+//! joined in the movers' order, so a step is the same for any split.
+
+use super::moves::collision_text;
+use super::*;
+use crate::lattice::Placed;
+use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+
+/// Marks for deciding moves, clear between steps: per grid cell, a bit when a mover
+/// targets it and one when more than one does; per agent, a bit when it is moving.
+/// Atomics, so that chunks of movers claim at once.
+#[derive(Default)]
+pub(super) struct MoveScratch {
+    once: Vec<AtomicU64>,
+    twice: Vec<AtomicU64>,
+    moving: Vec<AtomicU64>,
+}
+
+impl MoveScratch {
+    /// Sizes the marks for `cells` grid cells and `agents` agents (all clear).
+    fn size(&mut self, cells: usize, agents: usize) {
+        let words = |bits: usize| bits.div_ceil(64);
+        if self.once.len() != words(cells) || self.moving.len() != words(agents) {
+            let zeros = |n: usize| (0..n).map(|_| AtomicU64::new(0)).collect();
+            self.once = zeros(words(cells));
+            self.twice = zeros(words(cells));
+            self.moving = zeros(words(agents));
+        }
+    }
+
+    /// Marks agent `a` as moving, and its target's grid slot `s` (if any) as claimed: by
+    /// atomic instructions when `shared` (chunks claim at once), else by loads and stores.
+    #[inline]
+    fn claim(&self, a: u32, s: Option<usize>, shared: bool) {
+        let or = |word: &AtomicU64, b: u64| match shared {
+            true => word.fetch_or(b, Relaxed),
+            false => {
+                let v = word.load(Relaxed);
+                word.store(v | b, Relaxed);
+                v
+            }
+        };
+        let (w, b) = bit(a as usize);
+        or(&self.moving[w], b);
+        if let Some(s) = s {
+            let (w, b) = bit(s);
+            if or(&self.once[w], b) & b != 0 {
+                or(&self.twice[w], b);
+            }
+        }
+    }
+
+    #[inline]
+    fn moving(&self, a: u32) -> bool {
+        let (w, b) = bit(a as usize);
+        self.moving[w].load(Relaxed) & b != 0
+    }
+
+    #[inline]
+    fn claimed(&self, s: usize) -> bool {
+        let (w, b) = bit(s);
+        self.once[w].load(Relaxed) & b != 0
+    }
+
+    #[inline]
+    fn claimed_twice(&self, s: usize) -> bool {
+        let (w, b) = bit(s);
+        self.twice[w].load(Relaxed) & b != 0
+    }
+
+    /// Clears slot `s`'s claims (one thread).
+    fn unmark(&self, s: usize) {
+        let (w, b) = bit(s);
+        self.once[w].store(self.once[w].load(Relaxed) & !b, Relaxed);
+        self.twice[w].store(self.twice[w].load(Relaxed) & !b, Relaxed);
+    }
+
+    /// Clears what [`MoveScratch::claim`] marked (whole words: nothing else is marked).
+    #[inline]
+    fn unclaim(&self, a: u32, s: Option<usize>) {
+        self.moving[a as usize / 64].store(0, Relaxed);
+        if let Some(s) = s {
+            self.once[s / 64].store(0, Relaxed);
+            self.twice[s / 64].store(0, Relaxed);
+        }
+    }
+}
+
+/// The grid slot of a slot code, if the code is on the grid.
+#[inline]
+fn slot(code: u32) -> Option<usize> {
+    (code != NO_SLOT).then_some((code & !RIM) as usize)
+}
+
+/// One chunk of movers (kept between steps for their allocations).
+#[derive(Default)]
+pub(super) struct AlonePart {
+    /// Movers (in agent order) with their targets, and the targets' slot codes.
+    live: Vec<(u32, [i32; 3])>,
+    codes: Vec<u32>,
+    /// Movers whose targets lie outside the universe, with their offsets.
+    blocked: Vec<(u32, [i32; 3])>,
+    /// Every target was seen empty (looked at only for movers by one offset).
+    empty: bool,
+    /// Movers that would collide, with their targets, in mover order.
+    bad: Vec<([i32; 3], u32)>,
+    /// The cells the movers leave (for the activity), and their moves (traced).
+    notes: Vec<Moved>,
+    trace: Vec<TraceEvent>,
+    /// Movers from and to cells outside the grid (see
+    /// [`crate::lattice::Relocation::part`]).
+    outside: Vec<Placed>,
+    leaving: Vec<Placed>,
+}
+
+impl AlonePart {
+    /// The targets of the movers in `live` (given with their offsets, which the targets
+    /// replace), and whether they are empty when `look_empty`.
+    fn targets(&mut self, lat: &Lattice, look_empty: bool) {
+        self.codes.clear();
+        self.blocked.clear();
+        self.empty = look_empty;
+        let mut kept = 0;
+        for i in 0..self.live.len() {
+            let (a, o) = self.live[i];
+            match lat.moved(lat.pos[a as usize], o) {
+                Some(t) => {
+                    let c = lat.cells.code(t);
+                    self.empty = self.empty
+                        && match slot(c) {
+                            Some(s) => !lat.cells.filled_slot(s),
+                            None => lat.cells.get(t).is_none(),
+                        };
+                    self.live[kept] = (a, t);
+                    self.codes.push(c);
+                    kept += 1;
+                }
+                None => self.blocked.push((a, o)),
+            }
+        }
+        self.live.truncate(kept);
+    }
+
+    fn claim(&self, marks: &MoveScratch, shared: bool) {
+        for (&(a, _), &c) in self.live.iter().zip(&self.codes) {
+            marks.claim(a, slot(c), shared);
+        }
+    }
+
+    fn unclaim(&self, marks: &MoveScratch) {
+        for (&(a, _), &c) in self.live.iter().zip(&self.codes) {
+            marks.unclaim(a, slot(c));
+        }
+    }
+
+    /// The movers whose target another mover claims too (`count`: movers per target
+    /// outside the grid), or an agent holds that does not move.
+    fn check(&mut self, lat: &Lattice, marks: &MoveScratch, count: &FxHashMap<[i32; 3], u32>) {
+        self.bad.clear();
+        for (&(a, t), &c) in self.live.iter().zip(&self.codes) {
+            let bad = match slot(c) {
+                Some(s) => {
+                    marks.claimed_twice(s)
+                        || (lat.cells.filled_slot(s) && !marks.moving(lat.cells.at_slot(s)))
+                }
+                None => count[&t] > 1 || lat.cells.get(t).is_some_and(|b| !marks.moving(b)),
+            };
+            if bad {
+                self.bad.push((t, a));
+            }
+        }
+    }
+
+    /// The movers' notes (when `noting`) and trace events (when `tracing`), before they
+    /// move.
+    fn note(&mut self, lat: &Lattice, (noting, tracing): (bool, bool)) {
+        self.notes.clear();
+        self.trace.clear();
+        if noting {
+            (self.notes).extend(
+                self.live
+                    .iter()
+                    .map(|&(a, _)| (a, lat.pos[a as usize], lat.code_of(a))),
+            );
+        }
+        if tracing {
+            (self.trace).extend(self.live.iter().map(|&(a, to)| TraceEvent::Move {
+                agent: a,
+                from: lat.pos[a as usize],
+                to,
+            }));
+        }
+    }
+}
+
+impl Act<'_> {
+    /// Steps 1 to 4 when no agent is attached and no rule attaches: every group is one
+    /// agent, so only the movers (`live`, in agent order, with their offsets) are looked
+    /// at (the same decisions and records as [`Act::detach_move_attach`]). Collisions
+    /// cancel every move involved, round after round until none is left: the first round
+    /// looks at every mover (targets claimed in bits per grid cell, once and more than
+    /// once, where the grid covers them, counted in a hash map elsewhere; movers marked
+    /// in bits per agent); a later round only at the movers whose targets the movers
+    /// cancelled in the round before stand on (nothing else changes between rounds: a
+    /// target claimed twice, or held by an agent that stays from the start, is found in
+    /// the first), so a queue of movers cancelled one after another costs what it holds.
+    pub(super) fn move_alone(&mut self, live: &mut Vec<(u32, [i32; 3])>, rep: &mut StepReport) {
+        let one_offset = live.iter().all(|m| m.1 == live[0].1);
+        let mut parts = std::mem::take(&mut self.bufs.alone);
+        let (par, size, chunks) = self.threads.chunks(live.len());
+        let shared = par.is_some();
+        parts.resize_with(chunks, AlonePart::default);
+        // Runs `f` on each chunk's part, on the pool when there is one.
+        fn each<F: Fn((usize, &mut AlonePart)) + Sync>(
+            par: Option<(&Workers, usize)>,
+            parts: &mut [AlonePart],
+            f: F,
+        ) {
+            match par {
+                Some((pool, _)) => drop(pool.map(parts.iter_mut().enumerate().collect(), f)),
+                None => parts.iter_mut().enumerate().for_each(f),
+            }
+        }
+        // 1. The targets, reading only. (One chunk takes the movers' list as it is.)
+        if chunks == 1 {
+            std::mem::swap(live, &mut parts[0].live);
+        }
+        {
+            let (lat, moves) = (&*self.lat, &live[..]);
+            each(par, &mut parts, |(c, part)| {
+                if chunks > 1 {
+                    part.live.clear();
+                    (part.live)
+                        .extend_from_slice(&moves[c * size..((c + 1) * size).min(moves.len())]);
+                }
+                part.targets(lat, one_offset);
+            });
+        }
+        for part in &parts {
+            for &(a, o) in &part.blocked {
+                let msg = format!(
+                    "agent {} cannot move by {}: the target cell is blocked; its group does not move",
+                    self.lat.label(a),
+                    self.lat.cell_text(o)
+                );
+                self.record(rep, RecordKind::MoveBlocked, &[a], msg);
+            }
+        }
+        // 2. Collisions. Movers by one offset have distinct targets; when every target is
+        // empty, none is held by an agent that stays and none is a mover's old cell: no
+        // marks are needed.
+        let mut sc = std::mem::take(&mut self.bufs.scratch);
+        sc.size(self.lat.cells.slots(), self.lat.len());
+        let marked = !(one_offset && parts.iter().all(|p| p.empty));
+        let mut cancelled: Vec<(u32, u32)> = Vec::new();
+        if marked {
+            let marks = &sc;
+            each(par, &mut parts, |(_, part)| part.claim(marks, shared));
+            let mut count: FxHashMap<[i32; 3], u32> = FxHashMap::default();
+            for part in &parts {
+                for (&(_, t), &c) in part.live.iter().zip(&part.codes) {
+                    if c == NO_SLOT {
+                        *count.entry(t).or_insert(0) += 1;
+                    }
+                }
+            }
+            let lat = &*self.lat;
+            each(par, &mut parts, |(_, part)| part.check(lat, marks, &count));
+            if parts.iter().any(|p| !p.bad.is_empty()) {
+                cancelled = self.cancel_collisions(&mut parts, &sc, rep);
+            }
+        }
+        // 3. The moves.
+        let noting = (self.bufs.changes.on, self.opts.trace);
+        {
+            let lat = &*self.lat;
+            each(par, &mut parts, |(_, part)| part.note(lat, noting));
+        }
+        for part in &mut parts {
+            self.bufs.changes.moved.append(&mut part.notes);
+            rep.trace.append(&mut part.trace);
+            self.stats.moves += part.live.len() as u64;
+        }
+        let marks = &sc;
+        let targeted = |s: usize| marked && marks.claimed(s);
+        match self.lat.relocation(shared) {
+            Some(r) => {
+                let r = &r;
+                each(par, &mut parts, |(_, part)| {
+                    part.outside.clear();
+                    part.leaving.clear();
+                    let AlonePart {
+                        live,
+                        codes,
+                        outside,
+                        leaving,
+                        ..
+                    } = part;
+                    // SAFETY: each mover is in one part; no two movers share a target
+                    // (the collisions are cancelled), and a mover's old cell is emptied
+                    // only when no mover targets it (`targeted`: the claims of the movers
+                    // left); nothing else uses the lattice meanwhile; one part at a time
+                    // without the pool.
+                    unsafe { r.part((live, codes), targeted, (outside, leaving)) };
+                });
+                let outside = parts.iter().flat_map(|p| &p.outside);
+                let leaving = parts.iter().flat_map(|p| &p.leaving);
+                self.lat.relocated(outside, leaving);
+            }
+            None => {
+                let all: Vec<(u32, [i32; 3])> =
+                    parts.iter().flat_map(|p| p.live.iter().copied()).collect();
+                self.lat.relocate(&all);
+            }
+        }
+        if marked {
+            each(par, &mut parts, |(_, part)| part.unclaim(marks));
+            for &(a, c) in &cancelled {
+                sc.unclaim(a, slot(c));
+            }
+        }
+        self.bufs.scratch = sc;
+        if chunks == 1 {
+            std::mem::swap(live, &mut parts[0].live);
+        }
+        live.clear();
+        self.bufs.alone = parts;
+    }
+
+    /// The collision rounds (see [`Act::move_alone`]), from the first round's movers that
+    /// would collide (the parts' `bad`): records made, one per cell where agents would
+    /// meet, naming them all, round by round in the order of the cells; the movers
+    /// cancelled are taken out of the parts, and their claims cleared (every other mover
+    /// that claimed their targets is cancelled too). Returns the movers cancelled, with
+    /// their targets' slot codes.
+    fn cancel_collisions(
+        &mut self,
+        parts: &mut [AlonePart],
+        marks: &MoveScratch,
+        rep: &mut StepReport,
+    ) -> Vec<(u32, u32)> {
+        // Which mover targets each cell (one, but where the first round cancels them all).
+        let by_target: FxHashMap<[i32; 3], u32> = (parts.iter())
+            .flat_map(|p| p.live.iter().map(|&(a, t)| (t, a)))
+            .collect();
+        let mut gone: rustc_hash::FxHashSet<u32> = Default::default();
+        let mut round: Vec<([i32; 3], u32)> =
+            parts.iter().flat_map(|p| p.bad.iter().copied()).collect();
+        while !round.is_empty() {
+            let mut bad: BTreeMap<[i32; 3], Vec<u32>> = BTreeMap::new();
+            for &(t, a) in &round {
+                bad.entry(t).or_default().push(a);
+            }
+            // Agents that stay: not moving from the start, or cancelled before.
+            let stays = |s: u32| !marks.moving(s) || gone.contains(&s);
+            let mut events = Vec::with_capacity(bad.len());
+            for (cell, ms) in bad {
+                let mut involved = ms.clone();
+                involved.extend(self.lat.agent_at(cell).filter(|&s| stays(s)));
+                events.push((cell, ms, involved));
+            }
+            let mut now: Vec<u32> = Vec::new();
+            for (cell, ms, involved) in events {
+                let msg = collision_text(self.lat, cell, &ms, &involved);
+                self.record(rep, RecordKind::MoveCollision, &involved, msg);
+                now.extend(ms);
+            }
+            gone.extend(now.iter().copied());
+            // The next round: the movers whose targets those cancelled now stand on.
+            round.clear();
+            for &a in &now {
+                let p = self.lat.pos[a as usize];
+                if let Some(&m) = by_target.get(&p).filter(|m| !gone.contains(m)) {
+                    round.push((p, m));
+                }
+            }
+            round.sort_unstable_by_key(|&(_, m)| m);
+        }
+        let mut cancelled = Vec::with_capacity(gone.len());
+        for part in parts.iter_mut() {
+            let mut k = 0;
+            for i in 0..part.live.len() {
+                let (a, c) = (part.live[i].0, part.codes[i]);
+                if gone.contains(&a) {
+                    cancelled.push((a, c));
+                    if let Some(s) = slot(c) {
+                        marks.unmark(s);
+                    }
+                } else {
+                    part.live[k] = part.live[i];
+                    part.codes[k] = c;
+                    k += 1;
+                }
+            }
+            part.live.truncate(k);
+            part.codes.truncate(k);
+        }
+        cancelled
+    }
+}
