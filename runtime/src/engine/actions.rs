@@ -8,6 +8,7 @@ use super::*;
 // moves alone, or carried groups and bonds; swaps.
 mod alone;
 mod collect;
+mod groups;
 mod moves;
 use alone::{AlonePart, MoveScratch};
 use collect::CollectPart;
@@ -65,9 +66,11 @@ impl Actions {
         }
     }
 
-    /// The moves and letters as one intent per agent.
-    pub(super) fn dense(&self, n: usize) -> Vec<Intent> {
-        let mut dense = vec![Intent::default(); n];
+    /// The moves and letters as one intent per agent, into `dense` (whose allocation is
+    /// reused).
+    pub(super) fn dense(&self, n: usize, mut dense: Vec<Intent>) -> Vec<Intent> {
+        dense.clear();
+        dense.resize(n, Intent::default());
         for &(a, o) in &self.moves {
             dense[a as usize].mv = Some(o);
         }
@@ -128,6 +131,9 @@ pub(super) struct ActionBufs {
     collect: Vec<CollectPart>,
     /// The chunks' parts of [`Act::move_alone`] (for their allocations).
     alone: Vec<AlonePart>,
+    /// The intents and partners of [`Act::detach_move_attach`] (for their allocations).
+    intents: Vec<Intent>,
+    partners: Vec<moves::Partners>,
 }
 
 /// The actions phase (paper step 2) with the parts of the engine it borrows: it reads the

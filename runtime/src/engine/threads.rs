@@ -68,6 +68,21 @@ impl Threads {
         }
     }
 
+    /// Sets `out[i]` to `f(i)` for every `i`, in chunks on the pool when there are threads.
+    pub(super) fn fill<T: Send>(&self, out: &mut [T], f: impl Fn(usize) -> T + Sync) {
+        match self.parallel(out.len()) {
+            Some((pool, size)) => {
+                let items: Vec<(usize, &mut [T])> = out.chunks_mut(size).enumerate().collect();
+                pool.map(items, |(c, part)| {
+                    for (k, x) in part.iter_mut().enumerate() {
+                        *x = f(c * size + k);
+                    }
+                });
+            }
+            None => out.iter_mut().enumerate().for_each(|(i, x)| *x = f(i)),
+        }
+    }
+
     /// Runs phase `f` on the pool or on this thread, as the tuner chooses, and tells the
     /// tuner how long it took.
     pub(super) fn tuned<R>(&mut self, phase: Phase, f: impl FnOnce(&Threads) -> R) -> R {

@@ -23,7 +23,7 @@ pub(super) struct MoveScratch {
 
 impl MoveScratch {
     /// Sizes the marks for `cells` grid cells and `agents` agents (all clear).
-    fn size(&mut self, cells: usize, agents: usize) {
+    pub(super) fn size(&mut self, cells: usize, agents: usize) {
         let words = |bits: usize| bits.div_ceil(64);
         if self.once.len() != words(cells) || self.moving.len() != words(agents) {
             let zeros = |n: usize| (0..n).map(|_| AtomicU64::new(0)).collect();
@@ -36,7 +36,7 @@ impl MoveScratch {
     /// Marks agent `a` as moving, and its target's grid slot `s` (if any) as claimed: by
     /// atomic instructions when `shared` (chunks claim at once), else by loads and stores.
     #[inline]
-    fn claim(&self, a: u32, s: Option<usize>, shared: bool) {
+    pub(super) fn claim(&self, a: u32, s: Option<usize>, shared: bool) {
         let or = |word: &AtomicU64, b: u64| match shared {
             true => word.fetch_or(b, Relaxed),
             false => {
@@ -56,25 +56,25 @@ impl MoveScratch {
     }
 
     #[inline]
-    fn moving(&self, a: u32) -> bool {
+    pub(super) fn moving(&self, a: u32) -> bool {
         let (w, b) = bit(a as usize);
         self.moving[w].load(Relaxed) & b != 0
     }
 
     #[inline]
-    fn claimed(&self, s: usize) -> bool {
+    pub(super) fn claimed(&self, s: usize) -> bool {
         let (w, b) = bit(s);
         self.once[w].load(Relaxed) & b != 0
     }
 
     #[inline]
-    fn claimed_twice(&self, s: usize) -> bool {
+    pub(super) fn claimed_twice(&self, s: usize) -> bool {
         let (w, b) = bit(s);
         self.twice[w].load(Relaxed) & b != 0
     }
 
     /// Clears slot `s`'s claims (one thread).
-    fn unmark(&self, s: usize) {
+    pub(super) fn unmark(&self, s: usize) {
         let (w, b) = bit(s);
         self.once[w].store(self.once[w].load(Relaxed) & !b, Relaxed);
         self.twice[w].store(self.twice[w].load(Relaxed) & !b, Relaxed);
@@ -82,7 +82,7 @@ impl MoveScratch {
 
     /// Clears what [`MoveScratch::claim`] marked (whole words: nothing else is marked).
     #[inline]
-    fn unclaim(&self, a: u32, s: Option<usize>) {
+    pub(super) fn unclaim(&self, a: u32, s: Option<usize>) {
         self.moving[a as usize / 64].store(0, Relaxed);
         if let Some(s) = s {
             self.once[s / 64].store(0, Relaxed);
@@ -93,7 +93,7 @@ impl MoveScratch {
 
 /// The grid slot of a slot code, if the code is on the grid.
 #[inline]
-fn slot(code: u32) -> Option<usize> {
+pub(super) fn slot(code: u32) -> Option<usize> {
     (code != NO_SLOT).then_some((code & !RIM) as usize)
 }
 

@@ -285,8 +285,25 @@ pub(super) struct Among {
 }
 
 impl Among {
-    fn of(todo: &Actions, lat: &Lattice, all: bool) -> Among {
+    /// The agents of `todo`'s actions concern (every agent with `all`); `spare`: an
+    /// allocation for the intents.
+    fn of(todo: &Actions, lat: &Lattice, all: bool, spare: Vec<Intent>) -> Among {
         let n = lat.len();
+        let every = |spare| Among {
+            ids: Vec::new(),
+            every: n,
+            index: FxHashMap::default(),
+            intents: todo.dense(n, spare),
+        };
+        // (At least as many agents as have intents: every agent, without counting them.)
+        let lettered = || {
+            todo.links
+                .iter()
+                .filter(|l| l.1.iter().any(|&l| l != AttachLetter::Keep))
+        };
+        if all || todo.moves.len() + todo.blocked.len() + lettered().count() > n / 8 {
+            return every(spare);
+        }
         let mut sparse: FxHashMap<u32, Intent> = FxHashMap::default();
         for &(a, o) in &todo.moves {
             sparse.entry(a).or_default().mv = Some(o);
@@ -299,15 +316,7 @@ impl Among {
                 sparse.entry(a).or_default().letters = letters;
             }
         }
-        let every = || Among {
-            ids: Vec::new(),
-            every: n,
-            index: FxHashMap::default(),
-            intents: todo.dense(n),
-        };
-        if all || sparse.len() > n / 8 {
-            return every();
-        }
+
         let intent = |a: u32| sparse.get(&a).copied().unwrap_or_default();
         let nd = lat.dim.dirs();
         let partners = |a: u32| {
@@ -338,7 +347,7 @@ impl Among {
             found.extend(partners(a).map(|(_, b)| b));
         }
         if found.len() > n / 4 {
-            return every();
+            return every(spare);
         }
         let mut ids: Vec<u32> = found.into_iter().collect();
         ids.sort_unstable();
@@ -356,13 +365,18 @@ impl Among {
         }
     }
 
-    fn len(&self) -> usize {
+    /// The intents' allocation, for the next step.
+    fn into_intents(self) -> Vec<Intent> {
+        self.intents
+    }
+
+    pub(super) fn len(&self) -> usize {
         self.every.max(self.ids.len())
     }
 
     /// The agent of index `i`.
     #[inline]
-    fn id(&self, i: usize) -> u32 {
+    pub(super) fn id(&self, i: usize) -> u32 {
         if self.every > 0 {
             i as u32
         } else {
@@ -372,7 +386,7 @@ impl Among {
 
     /// Agent `a`'s index, when it is among them.
     #[inline]
-    fn local(&self, a: u32) -> Option<u32> {
+    pub(super) fn local(&self, a: u32) -> Option<u32> {
         if self.every > 0 {
             Some(a)
         } else {
@@ -382,13 +396,13 @@ impl Among {
 
     /// The intent of the agent of index `i`.
     #[inline]
-    fn intent_at(&self, i: usize) -> &Intent {
+    pub(super) fn intent_at(&self, i: usize) -> &Intent {
         &self.intents[i]
     }
 
     /// Agent `a`'s intent (none when it is not among them).
     #[inline]
-    fn intent(&self, a: u32) -> Intent {
+    pub(super) fn intent(&self, a: u32) -> Intent {
         self.local(a)
             .map_or_else(Intent::default, |i| self.intents[i as usize])
     }
@@ -425,36 +439,43 @@ impl Act<'_> {
     /// over all agents would leave them.
     pub(super) fn detach_move_attach(&mut self, todo: &Actions, rep: &mut StepReport) {
         let all = self.opts.trace;
-        let among = Among::of(todo, self.lat, all);
+        let among = Among::of(todo, self.lat, all, std::mem::take(&mut self.bufs.intents));
         let (m, nd) = (among.len(), self.lat.dim.dirs());
-        let old: Vec<u8> = (0..m)
-            .map(|i| self.lat.attach[among.id(i) as usize])
-            .collect();
-        // Partner before detaching, per agent (by its index among them) and direction.
-        let partner = |lat: &Lattice, i: usize, d: usize| -> Option<u32> {
-            (old[i] & (1 << d) != 0)
-                .then(|| lat.neighbour(among.id(i), Dir::ALL[d]))
-                .flatten()
-        };
-        // 1. Detach: keep rigid bonds only.
-        let mut rigid = vec![0u8; m];
-        for i in 0..m {
-            for d in 0..nd {
-                let Some(b) = partner(self.lat, i, d) else {
-                    continue;
-                };
-                let od = Dir::ALL[d].opposite().index();
-                if rigid_bond(among.intent_at(i).letters[d], among.intent(b).letters[od]) {
-                    rigid[i] |= 1 << d;
+        let (lat, th) = (&*self.lat, self.threads);
+        let old: Vec<u8> = (0..m).map(|i| lat.attach[among.id(i) as usize]).collect();
+        // Partners before detaching (and before the moves, for `*`), per agent (by its
+        // index among them) and direction.
+        let mut partners = std::mem::take(&mut self.bufs.partners);
+        partners.resize(m, [None; 6]);
+        th.fill(&mut partners, |i| {
+            let mut ps = [None; 6];
+            for (d, p) in ps.iter_mut().enumerate().take(nd) {
+                if old[i] & (1 << d) != 0 {
+                    *p = lat.neighbour(among.id(i), Dir::ALL[d]);
                 }
             }
-        }
+            ps
+        });
+        // 1. Detach: keep rigid bonds only.
+        let mut rigid = vec![0u8; m];
+        th.fill(&mut rigid, |i| {
+            let mut bits = 0;
+            for d in 0..nd {
+                if let Some(b) = partners[i][d] {
+                    let od = Dir::ALL[d].opposite().index();
+                    if rigid_bond(among.intent_at(i).letters[d], among.intent(b).letters[od]) {
+                        bits |= 1 << d;
+                    }
+                }
+            }
+            bits
+        });
         // 3. Move: groups of rigid bonds (a group's root: its first agent).
         let mut parent: Vec<u32> = (0..m as u32).collect();
         for i in 0..m {
             for d in 0..nd {
                 if rigid[i] & (1 << d) != 0 {
-                    if let Some(b) = partner(self.lat, i, d) {
+                    if let Some(b) = partners[i][d] {
                         let j = among
                             .local(b)
                             .expect("both ends of a rigid bond are among them");
@@ -466,162 +487,37 @@ impl Act<'_> {
                 }
             }
         }
-        let mut members: BTreeMap<u32, Vec<u32>> = BTreeMap::new();
-        for i in 0..m {
-            let it = among.intent_at(i);
-            if it.mv.is_some() || it.mv_bad {
-                let root = find(&mut parent, i as u32);
-                members.entry(root).or_default();
-            }
-        }
-        if !members.is_empty() {
-            for i in 0..m as u32 {
-                let root = find(&mut parent, i);
-                if let Some(ms) = members.get_mut(&root) {
-                    ms.push(among.id(i as usize));
-                }
-            }
-        }
-        // Group offsets.
-        let mut group_off: BTreeMap<u32, [i32; 3]> = BTreeMap::new();
-        for (&root, ms) in &members {
-            let mut off: Option<[i32; 3]> = None;
-            let mut bad = false;
-            let mut differ = false;
-            for &a in ms {
-                let it = among.intent(a);
-                bad |= it.mv_bad;
-                if let Some(o) = it.mv {
-                    match off {
-                        None => off = Some(o),
-                        Some(p) if p != o => differ = true,
-                        _ => {}
-                    }
-                }
-            }
-            if differ && !bad {
-                let msg = format!(
-                    "the rigid group of agents {} is asked for different moves by its members; it does not move",
-                    self.lat.ids_text(ms)
-                );
-                self.record(rep, RecordKind::GroupConflict, ms, msg);
-            }
-            if let (Some(o), false, false) = (off, bad, differ) {
-                group_off.insert(root, o);
-            }
-        }
-        self.cancel_blocked_groups(&mut group_off, &members, rep);
-        self.cancel_group_collisions(&mut group_off, &members, (&mut parent, &among), rep);
-        let mut moves: Vec<(u32, [i32; 3])> = Vec::new();
-        for (root, o) in &group_off {
-            for &a in &members[root] {
-                let p = self.lat.pos[a as usize];
-                moves.push((a, [p[0] + o[0], p[1] + o[1], p[2] + o[2]]));
-            }
-        }
-        moves.sort_unstable();
-        self.count_moves(&moves, rep);
+        let root: Vec<u32> = (0..m as u32).map(|i| find(&mut parent, i)).collect();
+        let mut sc = std::mem::take(&mut self.bufs.scratch);
+        let (moves, tried) = self.move_groups(&among, &root, &mut sc, rep);
+        let plain: Vec<(u32, [i32; 3])> = moves.iter().map(|&(a, t, _)| (a, t)).collect();
+        self.count_moves(&plain, rep);
         let carried = moves.iter().filter(|m| among.intent(m.0).mv.is_none());
         self.stats.carried += carried.count() as u64;
-        // Partners for `*` must be read before the moves.
-        let keep_partner: Vec<Partners> = (0..m)
-            .map(|i| {
-                let mut ps = [None; 6];
-                for (d, p) in ps.iter_mut().enumerate().take(nd) {
-                    *p = partner(self.lat, i, d);
-                }
-                ps
-            })
-            .collect();
-        for &(a, _) in &moves {
+        for &(a, _, _) in &moves {
             self.bufs.changes.moved(self.lat, a);
         }
-        self.lat.relocate(&moves);
-        self.attach_after_moves(&among, (&old, rigid, &keep_partner), rep);
-    }
-
-    /// Groups whose move would take an agent out of the universe stay, with a record.
-    /// `group_off`: per moving group (its root), its offset; `members`: per root, the
-    /// group's agents.
-    pub(super) fn cancel_blocked_groups(
-        &mut self,
-        group_off: &mut BTreeMap<u32, [i32; 3]>,
-        members: &BTreeMap<u32, Vec<u32>>,
-        rep: &mut StepReport,
-    ) {
-        let roots: Vec<u32> = group_off.keys().copied().collect();
-        for root in roots {
-            let o = group_off[&root];
-            let ms = &members[&root];
-            let blocked = ms.iter().find(|&&m| {
-                let p = self.lat.pos[m as usize];
-                !self.lat.inside([
-                    p[0] as i64 + o[0] as i64,
-                    p[1] as i64 + o[1] as i64,
-                    p[2] as i64 + o[2] as i64,
-                ])
-            });
-            if let Some(&m) = blocked {
-                let ms = ms.clone();
-                group_off.remove(&root);
-                let msg = format!("agent {} cannot move by {}: the target cell is blocked; its group does not move", self.lat.label(m), self.lat.cell_text(o));
-                self.record(rep, RecordKind::MoveBlocked, &ms, msg);
+        // The moves (no two share a target; a mover's old cell is emptied only when no
+        // mover targets it, as the claims left tell).
+        match self.lat.relocation(false) {
+            Some(r) => {
+                let (mut outside, mut leaving) = (Vec::new(), Vec::new());
+                let codes: Vec<u32> = moves.iter().map(|m| m.2).collect();
+                let targeted = |s: usize| sc.claimed(s);
+                // SAFETY: one thread; distinct movers and targets (collisions cancelled).
+                unsafe { r.part((&plain, &codes), targeted, (&mut outside, &mut leaving)) };
+                self.lat.relocated(outside.iter(), leaving.iter());
             }
+            None => self.lat.relocate(&plain),
         }
-    }
-
-    /// Groups whose moves would put two agents on a cell (or one on an agent that stays)
-    /// stay, with a record, until no collision is left (as [`Engine::cancel_blocked_groups`];
-    /// `parent`: the union-find of groups).
-    pub(super) fn cancel_group_collisions(
-        &mut self,
-        group_off: &mut BTreeMap<u32, [i32; 3]>,
-        members: &BTreeMap<u32, Vec<u32>>,
-        (parent, among): (&mut Vec<u32>, &Among),
-        rep: &mut StepReport,
-    ) {
-        // Cancel every group involved, until none is left.
-        loop {
-            let mut target: rustc_hash::FxHashMap<[i32; 3], Vec<u32>> = Default::default();
-            for (&root, o) in group_off.iter() {
-                for &m in &members[&root] {
-                    let p = self.lat.pos[m as usize];
-                    target
-                        .entry([p[0] + o[0], p[1] + o[1], p[2] + o[2]])
-                        .or_default()
-                        .push(m);
-                }
-            }
-            let moving = |a: u32, parent: &mut Vec<u32>| {
-                (among.local(a)).is_some_and(|i| group_off.contains_key(&find(parent, i)))
-            };
-            // One record per cell where agents would meet, naming them all; every group
-            // with an agent there stays.
-            let mut events: Vec<([i32; 3], Vec<u32>, Vec<u32>)> = Vec::new();
-            let mut cells: Vec<&[i32; 3]> = target.keys().collect();
-            cells.sort();
-            for cell in cells {
-                let ms = &target[cell];
-                let stay = self.lat.agent_at(*cell).filter(|&s| !moving(s, parent));
-                if ms.len() > 1 || stay.is_some() {
-                    let mut involved = ms.clone();
-                    involved.extend(stay);
-                    events.push((*cell, ms.clone(), involved));
-                }
-            }
-            if events.is_empty() {
-                break;
-            }
-            for (cell, ms, involved) in events {
-                for &m in &ms {
-                    let i = among.local(m).expect("a mover is among them");
-                    let root = find(parent, i);
-                    group_off.remove(&root);
-                }
-                let msg = collision_text(self.lat, cell, &ms, &involved);
-                self.record(rep, RecordKind::MoveCollision, &involved, msg);
-            }
+        for &(a, c) in &tried {
+            sc.unclaim(a, alone::slot(c));
         }
+        self.bufs.scratch = sc;
+        self.attach_after_moves(&among, (&old, rigid, &partners), rep);
+        partners.clear();
+        self.bufs.partners = partners;
+        self.bufs.intents = among.into_intents();
     }
 
     /// Step 4: attach after the moves: rigid bonds stay; a bond forms where one side

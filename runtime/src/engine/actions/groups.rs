@@ -1,0 +1,256 @@
+//! Step 3 of the actions for carried groups ([`Act::move_groups`]): the rigid groups that
+//! move, their offsets, those blocked and those that would collide, decided over flat
+//! arrays (groups by their roots, members counted into one list) with the marks of the
+//! moves (`alone.rs`), and the moves made as the moves alone are.
+
+use super::alone::{slot, MoveScratch};
+use super::moves::{collision_text, Among};
+use super::*;
+
+/// The moving groups of a step: each by its root (the least index among its members, in
+/// [`Among`]'s order), its members in index order.
+struct Groups {
+    /// The roots, in increasing order.
+    roots: Vec<u32>,
+    /// Per group, where its members start in `members` (one more entry: the end).
+    starts: Vec<u32>,
+    members: Vec<u32>,
+    /// Per index among the agents: its group, or `NONE`.
+    of: Vec<u32>,
+}
+
+const NONE: u32 = u32::MAX;
+
+/// A mover, its target and the target's slot code.
+pub(super) type Mover = (u32, [i32; 3], u32);
+
+impl Groups {
+    /// The groups (by `root`, per index) with a member that asks to move (or whose rules
+    /// asked for different moves).
+    fn of(among: &Among, root: &[u32]) -> Groups {
+        let m = among.len();
+        let mut of = vec![NONE; m];
+        for i in 0..m {
+            let it = among.intent_at(i);
+            if it.mv.is_some() || it.mv_bad {
+                of[root[i] as usize] = 0;
+            }
+        }
+        // Counted, then listed (the roots in order, each group's members in order).
+        let mut size = vec![0u32; m];
+        for i in 0..m {
+            if of[root[i] as usize] != NONE {
+                size[root[i] as usize] += 1;
+            }
+        }
+        let (mut roots, mut starts) = (Vec::new(), vec![0]);
+        let mut at = vec![0u32; m];
+        for r in 0..m {
+            if size[r] > 0 {
+                of[r] = roots.len() as u32;
+                at[r] = *starts.last().expect("a start");
+                roots.push(r as u32);
+                starts.push(at[r] + size[r]);
+            }
+        }
+        let mut members = vec![0; *starts.last().expect("a start") as usize];
+        for i in 0..m {
+            let r = root[i] as usize;
+            if size[r] > 0 {
+                members[at[r] as usize] = among.id(i);
+                at[r] += 1;
+            }
+        }
+        for i in 0..m {
+            of[i] = match size[root[i] as usize] {
+                0 => NONE,
+                _ => of[root[i] as usize],
+            };
+        }
+        Groups {
+            roots,
+            starts,
+            members,
+            of,
+        }
+    }
+
+    fn members(&self, g: usize) -> &[u32] {
+        &self.members[self.starts[g] as usize..self.starts[g + 1] as usize]
+    }
+}
+
+impl Act<'_> {
+    /// Step 3 for the rigid groups (`root`: per index among the agents, its group's root):
+    /// a group with a member asking to move moves by that offset when its members agree
+    /// (else it stays, with a record when they ask for different ones), unless an agent
+    /// of it would leave the universe or collide (cancelling every group involved, round
+    /// after round, as [`Act::move_alone`] does). Returns the moves (agent, target, the
+    /// target's slot code) in agent order; the marks of the moves (`sc`) keep the targets
+    /// claimed, to be cleared with the returned list of every mover tried (agent, slot
+    /// code).
+    pub(super) fn move_groups(
+        &mut self,
+        among: &Among,
+        root: &[u32],
+        sc: &mut MoveScratch,
+        rep: &mut StepReport,
+    ) -> (Vec<Mover>, Vec<(u32, u32)>) {
+        let groups = Groups::of(among, root);
+        // The groups' offsets, in the order of their roots.
+        let mut off: Vec<Option<[i32; 3]>> = vec![None; groups.roots.len()];
+        for (g, o) in off.iter_mut().enumerate() {
+            let ms = groups.members(g);
+            let (mut bad, mut differ) = (false, false);
+            for &a in ms {
+                let it = among.intent(a);
+                bad |= it.mv_bad;
+                if let Some(p) = it.mv {
+                    match *o {
+                        None => *o = Some(p),
+                        Some(q) if q != p => differ = true,
+                        _ => {}
+                    }
+                }
+            }
+            if differ && !bad {
+                let msg = format!(
+                    "the rigid group of agents {} is asked for different moves by its members; it does not move",
+                    self.lat.ids_text(ms)
+                );
+                self.record(rep, RecordKind::GroupConflict, ms, msg);
+            }
+            if bad || differ {
+                *o = None;
+            }
+        }
+        // Groups whose move would take an agent out of the universe stay.
+        for (g, o) in off.iter_mut().enumerate() {
+            let Some(d) = *o else { continue };
+            let ms = groups.members(g);
+            let lat = &*self.lat;
+            if let Some(&m) = ms
+                .iter()
+                .find(|&&m| lat.moved(lat.pos[m as usize], d).is_none())
+            {
+                *o = None;
+                let msg = format!("agent {} cannot move by {}: the target cell is blocked; its group does not move", self.lat.label(m), self.lat.cell_text(d));
+                self.record(rep, RecordKind::MoveBlocked, ms, msg);
+            }
+        }
+        // The movers, group by group, with their targets and the targets' slot codes.
+        let mut live: Vec<Mover> = Vec::new();
+        for (g, o) in off.iter().enumerate() {
+            if let Some(d) = *o {
+                for &a in groups.members(g) {
+                    let p = self.lat.pos[a as usize];
+                    let t = [p[0] + d[0], p[1] + d[1], p[2] + d[2]];
+                    live.push((a, t, self.lat.cells.code(t)));
+                }
+            }
+        }
+        // Collisions: claims, then the first round over every mover.
+        sc.size(self.lat.cells.slots(), self.lat.len());
+        for &(a, _, c) in &live {
+            sc.claim(a, slot(c), false);
+        }
+        let tried: Vec<(u32, u32)> = live.iter().map(|&(a, _, c)| (a, c)).collect();
+        let mut count: FxHashMap<[i32; 3], u32> = FxHashMap::default();
+        for &(_, t, c) in &live {
+            if c == NO_SLOT {
+                *count.entry(t).or_insert(0) += 1;
+            }
+        }
+        let lat = &*self.lat;
+        let collides = |&(_, t, c): &Mover| match slot(c) {
+            Some(s) => {
+                sc.claimed_twice(s)
+                    || (lat.cells.filled_slot(s) && !sc.moving(lat.cells.at_slot(s)))
+            }
+            None => count[&t] > 1 || lat.cells.get(t).is_some_and(|b| !sc.moving(b)),
+        };
+        let mut round: Vec<([i32; 3], u32)> = (live.iter().filter(|m| collides(m)))
+            .map(|&(a, t, _)| (t, a))
+            .collect();
+        if !round.is_empty() {
+            self.cancel_group_collisions(
+                round.split_off(0),
+                (among, &groups),
+                &live,
+                (&mut off, &*sc),
+                rep,
+            );
+        }
+        // The moves of the groups left; the claims of the others cleared (every mover
+        // that claimed their targets is cancelled too).
+        let group_of = |a: u32| groups.of[among.local(a).expect("a mover is among them") as usize];
+        live.retain(|&(a, _, c)| {
+            let moves = off[group_of(a) as usize].is_some();
+            if !moves {
+                if let Some(s) = slot(c) {
+                    sc.unmark(s);
+                }
+            }
+            moves
+        });
+        live.sort_unstable_by_key(|m| m.0);
+        (live, tried)
+    }
+
+    /// The collision rounds of the groups, from the first round's movers that would
+    /// collide (`round`: target and mover, in the movers' order): one record per cell
+    /// where agents would meet, naming them all, round by round in the order of the
+    /// cells; every group with a mover there stays (its `off` cleared). A later round
+    /// looks only at the movers whose targets the members of the groups cancelled in the
+    /// round before stand on.
+    fn cancel_group_collisions(
+        &mut self,
+        mut round: Vec<([i32; 3], u32)>,
+        (among, groups): (&Among, &Groups),
+        live: &[Mover],
+        (off, marks): (&mut [Option<[i32; 3]>], &MoveScratch),
+        rep: &mut StepReport,
+    ) {
+        let group_of = |a: u32| groups.of[among.local(a).expect("a mover is among them") as usize];
+        let by_target: FxHashMap<[i32; 3], u32> = live.iter().map(|&(a, t, _)| (t, a)).collect();
+        while !round.is_empty() {
+            let mut bad: BTreeMap<[i32; 3], Vec<u32>> = BTreeMap::new();
+            for &(t, a) in &round {
+                bad.entry(t).or_default().push(a);
+            }
+            // Agents that stay: not moving from the start, or in a group cancelled before.
+            let stays = |s: u32| !marks.moving(s) || off[group_of(s) as usize].is_none();
+            let events: Vec<_> = (bad.into_iter())
+                .map(|(cell, ms)| {
+                    let mut involved = ms.clone();
+                    involved.extend(self.lat.agent_at(cell).filter(|&s| stays(s)));
+                    (cell, ms, involved)
+                })
+                .collect();
+            let mut now: Vec<usize> = Vec::new();
+            for (cell, ms, involved) in events {
+                for &a in &ms {
+                    let g = group_of(a) as usize;
+                    if off[g].take().is_some() {
+                        now.push(g);
+                    }
+                }
+                let msg = collision_text(self.lat, cell, &ms, &involved);
+                self.record(rep, RecordKind::MoveCollision, &involved, msg);
+            }
+            // The next round: the movers whose targets those cancelled now stand on.
+            round.clear();
+            for &g in &now {
+                for &a in groups.members(g) {
+                    let p = self.lat.pos[a as usize];
+                    if let Some(&m) = by_target
+                        .get(&p)
+                        .filter(|&&m| off[group_of(m) as usize].is_some())
+                    {
+                        round.push((p, m));
+                    }
+                }
+            }
+        }
+    }
+}
