@@ -623,6 +623,8 @@ impl Act<'_> {
     pub(super) fn swaps(&mut self, links: &[Link], no_swap: &[u32], rep: &mut StepReport) {
         // (x, y, direction from x to y, cancelled because one of them takes no swap)
         let mut pairs: Vec<(u32, u32, Dir, bool)> = Vec::new();
+        let mut seen: rustc_hash::FxHashSet<(u32, u32)> = Default::default();
+        seen.reserve(links.len());
         for &(a, _, swap) in links {
             let Some(d) = swap else { continue };
             match self.lat.cell_at(self.lat.pos[a as usize], d.offset()) {
@@ -643,7 +645,7 @@ impl Act<'_> {
                         );
                         self.record(rep, RecordKind::SwapTarget, &[a, b], msg);
                     }
-                    if !pairs.iter().any(|p| p.0 == x && p.1 == y) {
+                    if seen.insert((x, y)) {
                         pairs.push((x, y, dd, dead));
                     }
                 }
@@ -658,6 +660,7 @@ impl Act<'_> {
             }
         }
         let mut count: rustc_hash::FxHashMap<u32, u32> = Default::default();
+        count.reserve(2 * pairs.len());
         for p in &pairs {
             *count.entry(p.0).or_default() += 1;
             *count.entry(p.1).or_default() += 1;
