@@ -532,52 +532,75 @@ impl Act<'_> {
         rep: &mut StepReport,
     ) {
         let nd = self.lat.dim.dirs();
-        let mut new_attach = rigid;
-        // Bonds made with agents not among them.
-        let mut outside: Vec<(u32, u8)> = Vec::new();
-        for i in 0..among.len() {
-            let a = among.id(i);
-            for d in 0..nd {
-                if new_attach[i] & (1 << d) != 0 {
-                    continue;
-                }
-                let la = among.intent_at(i).letters[d];
-                // Only `1`, or `*`/`+` towards a former partner, can form a bond: look up
-                // the neighbour only then.
-                let wants = match la {
-                    AttachLetter::Attach => true,
-                    AttachLetter::Keep | AttachLetter::Rigid => keep_partner[i][d].is_some(),
-                    AttachLetter::Detach => false,
-                };
-                if !wants {
-                    continue;
-                }
-                let Some(b) = self.lat.neighbour(a, Dir::ALL[d]) else {
-                    continue;
-                };
-                if la != AttachLetter::Attach && keep_partner[i][d] != Some(b) {
-                    continue;
-                }
-                let od = Dir::ALL[d].opposite().index();
-                let lb = among.intent(b).letters[od];
-                if lb == AttachLetter::Detach {
-                    if la == AttachLetter::Attach {
-                        let msg = format!(
-                            "agent {} wants to attach towards {} to agent {}, which says 0; no bond",
-                            self.lat.label(a),
-                            Dir::ALL[d].letter(),
-                            self.lat.label(b)
-                        );
-                        self.record(rep, RecordKind::AttachRefused, &[a, b], msg);
+        let lat = &*self.lat;
+        // Each agent's side, in chunks (on the pool when there are threads): its bonds
+        // kept rigid and those it makes, the bonds it makes for its partners among them
+        // (set after: a bond is made from either side) and for those not among them, and
+        // its refusals (recorded in agent order).
+        let side = |lo: usize, hi: usize| {
+            let mut bits: Vec<u8> = rigid[lo..hi].to_vec();
+            let (mut partners, mut outside, mut notes) = (Vec::new(), Vec::new(), Vec::new());
+            for i in lo..hi {
+                let a = among.id(i);
+                for d in 0..nd {
+                    if bits[i - lo] & (1 << d) != 0 {
+                        continue;
                     }
-                    continue;
-                }
-                new_attach[i] |= 1 << d;
-                match among.local(b) {
-                    Some(j) => new_attach[j as usize] |= 1 << od,
-                    None => outside.push((b, 1 << od)),
+                    let la = among.intent_at(i).letters[d];
+                    // Only `1`, or `*`/`+` towards a former partner, can form a bond:
+                    // look up the neighbour only then.
+                    let wants = match la {
+                        AttachLetter::Attach => true,
+                        AttachLetter::Keep | AttachLetter::Rigid => keep_partner[i][d].is_some(),
+                        AttachLetter::Detach => false,
+                    };
+                    if !wants {
+                        continue;
+                    }
+                    let Some(b) = lat.neighbour(a, Dir::ALL[d]) else {
+                        continue;
+                    };
+                    if la != AttachLetter::Attach && keep_partner[i][d] != Some(b) {
+                        continue;
+                    }
+                    let od = Dir::ALL[d].opposite().index();
+                    let lb = among.intent(b).letters[od];
+                    if lb == AttachLetter::Detach {
+                        if la == AttachLetter::Attach {
+                            let msg = format!(
+                                "agent {} wants to attach towards {} to agent {}, which says 0; no bond",
+                                lat.label(a),
+                                Dir::ALL[d].letter(),
+                                lat.label(b)
+                            );
+                            notes.push((RecordKind::AttachRefused, vec![a, b], msg));
+                        }
+                        continue;
+                    }
+                    bits[i - lo] |= 1 << d;
+                    match among.local(b) {
+                        Some(j) => partners.push((j, 1u8 << od)),
+                        None => outside.push((b, 1u8 << od)),
+                    }
                 }
             }
+            (bits, partners, outside, notes)
+        };
+        let parts = self.threads.par_chunks(among.len(), &side);
+        let mut new_attach: Vec<u8> = Vec::with_capacity(among.len());
+        // Bonds made with agents not among them.
+        let mut outside: Vec<(u32, u8)> = Vec::new();
+        let mut partners: Vec<(u32, u8)> = Vec::new();
+        for (bits, ps, out, notes) in parts {
+            new_attach.extend_from_slice(&bits);
+            partners.extend(ps);
+            outside.extend(out);
+            for (kind, ids, msg) in notes {
+                self.record(rep, kind, &ids, msg);
+            }
+        }
+        for (j, bit) in partners {
+            new_attach[j as usize] |= bit;
         }
         if self.opts.trace {
             // (Traced, every agent is among them: the events come in agent order.)
