@@ -904,9 +904,10 @@ fn threads_give_the_same_results() {
 
 /// Threads change nothing where the chunks' results must be joined in order: messages
 /// left with their senders (the plan of senders is made in chunks), records of every
-/// chunk (divisions by zero, saturations), runs of agents evaluated over chunks' ends, and
-/// the agents woken for the next step (found in chunks); 1, 2, 3 and 8 threads for eight
-/// steps (the thread tuner's first trial included).
+/// chunk (divisions by zero, saturations), runs of agents evaluated over chunks' ends, the
+/// agents woken for the next step (found in chunks), and the actions collected, moves
+/// made, groups carried, collisions cancelled, bonds made and swaps of chunks of agents;
+/// 1, 2, 3 and 8 threads for eight steps (the thread tuner's first trial included).
 #[test]
 fn threads_join_chunks_in_order() {
     let hash = |x: i32, y: i32| ((x * 31 + y * 17) % 23) as i64;
@@ -940,12 +941,41 @@ fn threads_join_chunks_in_order() {
     let states = block(64, 64, |x, y, _| {
         format!(" S{}0000", ["A", "B", "C"][hash(x, y) as usize % 3])
     });
+    // Rigid bars of four carried east into a wall (groups, collisions cancelled round
+    // after round as the bars close up), and lines sorted by swaps (odd-even sort).
+    let bars = "push\n1\nSB****\nP1,0 A+***\n\nhold\n1\nSC****\nA+**+\n";
+    let mut barred = String::new();
+    for row in 0..40 {
+        for b in 0..10 {
+            let (x, y) = (2 * b, 5 * row);
+            barred += &format!("{x},{y} SB0000 A1000\n{x},{} SC0000 A1001\n", y + 1);
+            barred += &format!("{x},{} SC0000 A1001\n{x},{} SC0000 A0001\n", y + 2, y + 3);
+        }
+        for y in 5 * row..5 * row + 5 {
+            barred += &format!("24,{y} SW0000\n");
+        }
+    }
+    let sort = include_str!("../../examples/odd-even-sort/rules.txt");
+    let lines: String = (0..4)
+        .flat_map(|y| {
+            (0..300).map(move |x| {
+                format!(
+                    "{x},{} S0SORT C00 {} C01 {} C03 300\n",
+                    2 * y,
+                    (x * 7919 + y) % 300,
+                    x % 2
+                )
+            })
+        })
+        .collect();
     let cases = [
         cases[0].clone(),
         cases[1].clone(),
         (fall, cloud.concat()),
         (fall, scrambled.concat()),
         (hops, states),
+        (bars, barred),
+        (sort, lines),
     ];
     for (i, (rules, agents)) in cases.iter().enumerate() {
         let (prog, lat) = common::compile(rules, agents);
@@ -970,18 +1000,23 @@ fn threads_join_chunks_in_order() {
             mk(2, Skip::Eager),
             mk(3, Skip::Eager),
         ];
+        let mut collided = false;
         for step in 0..8 {
             let a = one.step();
             assert!(
                 step < 2 || !a.records.is_empty() || i != 1,
                 "case {i} makes records"
             );
+            collided |= a.records.iter().any(|r| r.kind.name() == "move-collision");
             for e in &mut more {
                 assert_eq!(a, e.step(), "case {i}, step {step}: reports");
                 assert!(one.lat == e.lat, "case {i}, step {step}: lattices differ");
                 assert_eq!(one.stats, e.stats, "case {i}, step {step}: statistics");
             }
         }
+        // The bars are carried and collide; the lines swap.
+        assert!(i != 5 || (one.stats.carried > 0 && collided), "case {i}");
+        assert!(i != 6 || one.stats.swaps > 1000, "case {i}");
     }
 }
 
