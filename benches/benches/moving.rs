@@ -12,7 +12,9 @@
 //!   where it was.
 //! - **Threads**: stepping time on one and two threads for B1F (L = 1000, 50 steps), B2F
 //!   and the walkers, and a gravity cloud of 10^6 agents listed at random (`gen cloud`,
-//!   1,340 steps; the outputs of both runs must be the same).
+//!   1,340 steps; the outputs of both runs must be the same), and the actions of the
+//!   general way: the bouncing example's rules on 200,000 dots, rigid bars carried, lines
+//!   sorted by swaps (`general_files`; the outputs of both runs must be the same).
 //!
 //! `cargo bench -p latticesim-benches --bench moving` writes the files under
 //! target/moving/ (once), docs/data/performance-moving.csv and
@@ -55,6 +57,83 @@ fn walkers_file(dir: &Path, r: u64) -> PathBuf {
             writeln!(out, "{},{} SWALK0 C01 1000", 2 * i, r + 1).unwrap();
         }
     })
+}
+
+/// Rigid bars of four agents, bonded north-south, each carried east by its bottom agent.
+const BARS_RULES: &str = "push\n1\nSB****\nP1,0 A+***\n\nhold\n1\nSC****\nA+**+\n";
+
+/// The inputs of the actions of the general way (moves in several directions and state
+/// changes, carried groups, swaps): the bouncing example's rules on 200,000 dots at random
+/// in its 1,000 x 1,000 universe, heading every way; 25,000 bars of four (100 rows of 250);
+/// the odd-even sort example's rules on 100 lines of 1,000 agents in reverse order. With
+/// their rules and the steps each runs.
+fn general_files(dir: &Path) -> Vec<(&'static str, PathBuf, PathBuf, u64)> {
+    let dots = once(&dir.join("bounce.txt"), |out| {
+        writeln!(out, "U0,999,0,999").unwrap();
+        let mut taken = vec![false; 1_000_000];
+        let mut s: u64 = 12345;
+        let mut left = 200_000;
+        while left > 0 {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let c = (s >> 33) as usize % 1_000_000;
+            if !taken[c] {
+                taken[c] = true;
+                let dir = ["NE", "NW", "SE", "SW"][(s >> 20) as usize % 4];
+                writeln!(out, "{},{} S{dir}000", c / 1000, c % 1000).unwrap();
+                left -= 1;
+            }
+        }
+    });
+    let bars = once(&dir.join("bars.txt"), |out| {
+        for row in 0..100 {
+            for b in 0..250 {
+                let (x, y) = (2 * b, 5 * row);
+                writeln!(out, "{x},{y} SB0000 A1000").unwrap();
+                writeln!(out, "{x},{} SC0000 A1001", y + 1).unwrap();
+                writeln!(out, "{x},{} SC0000 A1001", y + 2).unwrap();
+                writeln!(out, "{x},{} SC0000 A0001", y + 3).unwrap();
+            }
+        }
+    });
+    let bars_rules = dir.join("bars-rules.txt");
+    std::fs::write(&bars_rules, BARS_RULES).unwrap();
+    let lines = once(&dir.join("sort.txt"), |out| {
+        for y in 0..100 {
+            for x in 0..1000 {
+                writeln!(
+                    out,
+                    "{x},{} S0SORT C00 {} C01 {} C03 1000",
+                    2 * y,
+                    1000 - x,
+                    x % 2
+                )
+                .unwrap();
+            }
+        }
+    });
+    let ex = root().join("examples");
+    vec![
+        (
+            "bouncing example, 200,000 dots, 200 steps",
+            ex.join("bouncing/rules.txt"),
+            dots,
+            200,
+        ),
+        (
+            "25,000 rigid bars of four carried, 100 steps",
+            bars_rules,
+            bars,
+            100,
+        ),
+        (
+            "odd-even sort by swaps, 100 x 1,000 agents, 100 steps",
+            ex.join("odd-even-sort/rules.txt"),
+            lines,
+            100,
+        ),
+    ]
 }
 
 /// A gravity cloud: 10^6 cells at random in a 1825 x 1825 box (`latticesim gen cloud`,
@@ -314,6 +393,22 @@ fn main() {
         let (two, one) = (runs.pop().unwrap(), runs.pop().unwrap());
         assert!(same_files(&o1, &o2), "B1F: one and two threads differ");
         threads.push((format!("B1F L = {l}, 50 steps"), one.steps_s, two.steps_s));
+    }
+    // The actions of the general way, on one and two threads.
+    for (name, rules, input, steps) in general_files(&dir) {
+        let (o1, o2) = (dir.join("general-1.txt"), dir.join("general-2.txt"));
+        let max = ["--max-steps".to_string(), steps.to_string()];
+        let max: Vec<&str> = max.iter().map(String::as_str).collect();
+        let mut one = || run_latticesim(&exe, (&rules, &input), 1, &o1, &max);
+        let mut two = || run_latticesim(&exe, (&rules, &input), 2, &o2, &max);
+        let mut runs = best_of(reps, &mut [&mut one, &mut two], |r| r.steps_s);
+        let (two, one) = (runs.pop().unwrap(), runs.pop().unwrap());
+        assert!(same_files(&o1, &o2), "{name}: one and two threads differ");
+        eprintln!(
+            "{name}: {:.3} s one thread, {:.3} s two",
+            one.steps_s, two.steps_s
+        );
+        threads.push((name.into(), one.steps_s, two.steps_s));
     }
     if !quick {
         let input = cloud_file(&exe, &dir);
