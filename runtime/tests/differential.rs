@@ -968,6 +968,17 @@ fn threads_join_chunks_in_order() {
             })
         })
         .collect();
+    // The bouncing example's dots, 35,000 in a 400 x 400 universe: moves of several
+    // offsets, more than 8,192 a step (the moves alone on the pool), and turns.
+    let bounce = include_str!("../../examples/bouncing/rules.txt");
+    let mut dots = String::from("U0,399,0,399\n");
+    for k in 0..160_000u64 {
+        let h = k.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 40;
+        if h % 9 < 2 {
+            let heading = ["NE", "NW", "SE", "SW"][(h / 9 % 4) as usize];
+            dots += &format!("{},{} S{heading}000\n", k / 400, k % 400);
+        }
+    }
     let cases = [
         cases[0].clone(),
         cases[1].clone(),
@@ -976,6 +987,7 @@ fn threads_join_chunks_in_order() {
         (hops, states),
         (bars, barred),
         (sort, lines),
+        (bounce, dots),
     ];
     for (i, (rules, agents)) in cases.iter().enumerate() {
         let (prog, lat) = common::compile(rules, agents);
@@ -1017,6 +1029,11 @@ fn threads_join_chunks_in_order() {
         // The bars are carried and collide; the lines swap.
         assert!(i != 5 || (one.stats.carried > 0 && collided), "case {i}");
         assert!(i != 6 || one.stats.swaps > 1000, "case {i}");
+        assert!(
+            i != 7 || one.stats.moves > 8 * 8192,
+            "case {i}: {}",
+            one.stats.moves
+        );
     }
 }
 

@@ -53,6 +53,19 @@ impl Threads {
         (par, size, n.div_ceil(size))
     }
 
+    /// [`Threads::chunks`] of `n` items of light work: on the pool only from `min` items
+    /// (waking the workers costs what thousands of such items do).
+    pub(super) fn chunks_from(
+        &self,
+        n: usize,
+        min: usize,
+    ) -> (Option<(&Workers, usize)>, usize, usize) {
+        match n >= min {
+            true => self.chunks(n),
+            false => (None, n.max(1), n.div_ceil(n.max(1))),
+        }
+    }
+
     /// Runs `f` over the agents `0..n` in chunks, in parallel when there are threads, and
     /// returns the chunks' results in agent order.
     pub(super) fn par_chunks<T: Send>(
