@@ -979,6 +979,17 @@ fn threads_join_chunks_in_order() {
             dots += &format!("{},{} S{heading}000\n", k / 400, k % 400);
         }
     }
+    // 40,000 agents heading east, west or north (or staying) in a 250 x 250 square,
+    // unbounded: collisions (cancelled round after round), agents leaving the grid, more
+    // than 8,192 moves asked for a step.
+    let mut field = String::new();
+    for k in 0..62_500u64 {
+        let h = k.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 40;
+        if h % 25 < 16 {
+            let state = ["E", "W", "N", "S"][(h / 25 % 4) as usize];
+            field += &format!("{},{} S{state}0000\n", k / 250, k % 250);
+        }
+    }
     let cases = [
         cases[0].clone(),
         cases[1].clone(),
@@ -988,6 +999,7 @@ fn threads_join_chunks_in_order() {
         (bars, barred),
         (sort, lines),
         (bounce, dots),
+        (PLAIN, field),
     ];
     for (i, (rules, agents)) in cases.iter().enumerate() {
         let (prog, lat) = common::compile(rules, agents);
@@ -1032,6 +1044,13 @@ fn threads_join_chunks_in_order() {
         assert!(
             i != 7 || one.stats.moves > 8 * 8192,
             "case {i}: {}",
+            one.stats.moves
+        );
+        // (Firings of `east`, `west` and `north`: moves asked for.)
+        let asked: u64 = one.stats.firings.iter().take(3).sum();
+        assert!(
+            i != 8 || (asked > 8 * 8192 && one.stats.moves > 8192 && collided),
+            "case {i}: {asked} moves asked, {} made, collisions {collided}",
             one.stats.moves
         );
     }
