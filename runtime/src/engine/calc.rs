@@ -164,10 +164,7 @@ impl Post {
             };
             (issues, events, counted)
         };
-        let results: Vec<_> = match par {
-            Some((pool, _)) => pool.map(items, work),
-            _ => items.into_iter().map(work).collect(),
-        };
+        let results: Vec<_> = map_on(par, items, work);
         lat.counters = counters;
         self.out_num = out_num;
         self.out_has = out_has;

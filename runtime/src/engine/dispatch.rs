@@ -364,10 +364,7 @@ impl Dispatch {
             }
             firsts
         };
-        match par {
-            Some((pool, _)) => pool.map(self.of.chunks_mut(size).enumerate().collect(), pass),
-            None => self.of.chunks_mut(size).enumerate().map(pass).collect(),
-        }
+        map_on(par, self.of.chunks_mut(size).enumerate().collect(), pass)
     }
 
     /// Moves the firing counts of the agents that took a hop in this step (see
@@ -411,22 +408,7 @@ impl Dispatch {
         keep: bool,
         computes: &[bool],
     ) -> (bool, bool) {
-        let Dispatch {
-            candidates,
-            cache,
-            single,
-            keys,
-            hops,
-            hopped,
-            of,
-            ..
-        } = self;
-        let known = Known {
-            candidates,
-            cache,
-            single,
-            keys,
-        };
+        let (known, hops, hopped, of) = self.split();
         let hop_of = |i: usize| {
             if hops[i].to == ListId::NONE {
                 hops[i] = known.hop(i, r, bits, computes);
@@ -445,13 +427,20 @@ impl Dispatch {
     /// agent's candidate list, to write: so that chunks of agents set their own agents'
     /// states at once on the pool (see `actions/collect.rs`).
     pub(super) fn known(&mut self) -> (Known<'_>, &[Hop], &mut [ListId]) {
+        let (known, hops, _, of) = self.split();
+        (known, hops, of)
+    }
+
+    /// What setting states reads ([`Known`]), and the hops, their counts and each agent's
+    /// candidate list, to write.
+    fn split(&mut self) -> (Known<'_>, &mut [Hop], &mut [u64], &mut [ListId]) {
         let known = Known {
             candidates: &self.candidates,
             cache: &self.cache,
             single: &self.single,
             keys: &self.keys,
         };
-        (known, &self.hops, &mut self.of)
+        (known, &mut self.hops, &mut self.hopped, &mut self.of)
     }
 
     /// Remembers hop `hop` of list `i`, found by a chunk (a hop found is the same whoever

@@ -248,10 +248,7 @@ impl Post {
         };
         let view = &*lat;
         let pull = |ch: InboxChunk<'_>| pull(ch, view, &out, (nd, ns, texts));
-        let delivered: u64 = match par {
-            Some((pool, _)) => pool.map(items, pull).into_iter().sum(),
-            None => items.into_iter().map(pull).sum(),
-        };
+        let delivered: u64 = map_on(par, items, pull).into_iter().sum();
         lat.inbox_num = inbox_num;
         lat.inbox_text = inbox_text;
         lat.inbox_text_has = inbox_has;

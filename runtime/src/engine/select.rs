@@ -424,10 +424,7 @@ impl Selector {
             });
             (multi, evaluated, counted, chosen)
         };
-        let parts: Vec<_> = match par {
-            Some((pool, _)) => pool.map(one.chunks_mut(chunk).enumerate().collect(), work),
-            None => one.chunks_mut(chunk).enumerate().map(work).collect(),
-        };
+        let parts: Vec<_> = map_on(par, one.chunks_mut(chunk).enumerate().collect(), work);
         self.sel.one = one;
         self.sel.starts.clear();
         self.sel.many.clear();

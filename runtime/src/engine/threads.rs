@@ -62,7 +62,7 @@ impl Threads {
     ) -> (Option<(&Workers, usize)>, usize, usize) {
         match n >= min {
             true => self.chunks(n),
-            false => (None, n.max(1), n.div_ceil(n.max(1))),
+            false => (None, n.max(1), usize::from(n > 0)),
         }
     }
 
@@ -108,6 +108,19 @@ impl Threads {
         self.tuner.took(phase, t.elapsed());
         self.serial = false;
         r
+    }
+}
+
+/// `f` of each item, in the items' order: on the pool when the split (`par`, as
+/// [`Threads::chunks`] gives it) has one, else on this thread.
+pub(super) fn map_on<I: Send, T: Send>(
+    par: Option<(&Workers, usize)>,
+    items: Vec<I>,
+    f: impl Fn(I) -> T + Sync,
+) -> Vec<T> {
+    match par {
+        Some((pool, _)) => pool.map(items, f),
+        None => items.into_iter().map(f).collect(),
     }
 }
 

@@ -118,7 +118,26 @@ pub(super) struct AlonePart {
     leaving: Vec<Placed>,
 }
 
+/// Runs `f` on each chunk's part, on the pool when the split `par` has one.
+fn each(
+    par: Option<(&Workers, usize)>,
+    parts: &mut [AlonePart],
+    f: impl Fn((usize, &mut AlonePart)) + Sync,
+) {
+    map_on(par, parts.iter_mut().enumerate().collect(), f);
+}
+
 impl AlonePart {
+    /// A part of movers decided elsewhere (agent, target, the target's slot code), in
+    /// agent order, for [`Act::move_parts`].
+    pub(super) fn of_moves(moves: &[(u32, [i32; 3], u32)]) -> AlonePart {
+        AlonePart {
+            live: moves.iter().map(|&(a, t, _)| (a, t)).collect(),
+            codes: moves.iter().map(|m| m.2).collect(),
+            ..AlonePart::default()
+        }
+    }
+
     /// The targets of the movers in `live` (given with their offsets, which the targets
     /// replace), and whether they are empty when `look_empty`.
     fn targets(&mut self, lat: &Lattice, look_empty: bool) {
@@ -218,17 +237,6 @@ impl Act<'_> {
         let (par, size, chunks) = self.threads.chunks_from(live.len(), 8 * AGENTS_PER_THREAD);
         let shared = par.is_some();
         parts.resize_with(chunks, AlonePart::default);
-        // Runs `f` on each chunk's part, on the pool when there is one.
-        fn each<F: Fn((usize, &mut AlonePart)) + Sync>(
-            par: Option<(&Workers, usize)>,
-            parts: &mut [AlonePart],
-            f: F,
-        ) {
-            match par {
-                Some((pool, _)) => drop(pool.map(parts.iter_mut().enumerate().collect(), f)),
-                None => parts.iter_mut().enumerate().for_each(f),
-            }
-        }
         // 1. The targets, reading only. (One chunk takes the movers' list as it is.)
         if chunks == 1 {
             std::mem::swap(live, &mut parts[0].live);
@@ -279,22 +287,49 @@ impl Act<'_> {
             }
         }
         // 3. The moves.
+        let marks = &sc;
+        self.move_parts(par, &mut parts, |s| marked && marks.claimed(s), rep);
+        if marked {
+            let marks = &sc;
+            each(par, &mut parts, |(_, part)| part.unclaim(marks));
+            for &(a, c) in &cancelled {
+                sc.unclaim(a, slot(c));
+            }
+        }
+        self.bufs.scratch = sc;
+        if chunks == 1 {
+            std::mem::swap(live, &mut parts[0].live);
+        }
+        live.clear();
+        self.bufs.alone = parts;
+    }
+
+    /// The moves of the parts' movers (`live`, with their targets' slot codes), whose
+    /// collisions are cancelled: their notes and trace events (before they move), their
+    /// count, and the moves, through a [`crate::lattice::Relocation`] per part (on the
+    /// pool when the split `par` has one; `targeted`: whether a grid slot is one of the
+    /// targets), or [`Lattice::relocate`] without a grid.
+    pub(super) fn move_parts(
+        &mut self,
+        par: Option<(&Workers, usize)>,
+        parts: &mut [AlonePart],
+        targeted: impl Fn(usize) -> bool + Sync,
+        rep: &mut StepReport,
+    ) {
         let noting = (self.bufs.changes.on, self.opts.trace);
         {
             let lat = &*self.lat;
-            each(par, &mut parts, |(_, part)| part.note(lat, noting));
+            each(par, parts, |(_, part)| part.note(lat, noting));
         }
-        for part in &mut parts {
+        for part in parts.iter_mut() {
             self.bufs.changes.moved.append(&mut part.notes);
             rep.trace.append(&mut part.trace);
             self.stats.moves += part.live.len() as u64;
         }
-        let marks = &sc;
-        let targeted = |s: usize| marked && marks.claimed(s);
-        match self.lat.relocation(shared) {
+        match self.lat.relocation(par.is_some()) {
             Some(r) => {
-                let r = &r;
-                each(par, &mut parts, |(_, part)| {
+                let (r, targeted) = (&r, &targeted);
+                each(par, parts, |(_, part)| {
                     part.outside.clear();
                     part.leaving.clear();
                     let AlonePart {
@@ -306,9 +341,8 @@ impl Act<'_> {
                     } = part;
                     // SAFETY: each mover is in one part; no two movers share a target
                     // (the collisions are cancelled), and a mover's old cell is emptied
-                    // only when no mover targets it (`targeted`: the claims of the movers
-                    // left); nothing else uses the lattice meanwhile; one part at a time
-                    // without the pool.
+                    // only when no mover targets it (`targeted`); nothing else uses the
+                    // lattice meanwhile; one part at a time without the pool.
                     unsafe { r.part((live, codes), targeted, (outside, leaving)) };
                 });
                 let outside = parts.iter().flat_map(|p| &p.outside);
@@ -321,18 +355,6 @@ impl Act<'_> {
                 self.lat.relocate(&all);
             }
         }
-        if marked {
-            each(par, &mut parts, |(_, part)| part.unclaim(marks));
-            for &(a, c) in &cancelled {
-                sc.unclaim(a, slot(c));
-            }
-        }
-        self.bufs.scratch = sc;
-        if chunks == 1 {
-            std::mem::swap(live, &mut parts[0].live);
-        }
-        live.clear();
-        self.bufs.alone = parts;
     }
 
     /// The collision rounds (see [`Act::move_alone`]), from the first round's movers that

@@ -84,10 +84,7 @@ impl Act<'_> {
                     }
                 }
             };
-            match par {
-                Some((pool, _)) => drop(pool.map(parts.iter_mut().enumerate().collect(), first)),
-                None => parts.iter_mut().enumerate().for_each(first),
-            }
+            map_on(par, parts.iter_mut().enumerate().collect(), first);
         }
         if chunks == 1 {
             std::mem::swap(todo, &mut parts[0].todo);
@@ -150,10 +147,7 @@ impl Act<'_> {
                     }
                 }
             };
-            match par {
-                Some((pool, _)) => drop(pool.map(items, second)),
-                None => items.into_iter().for_each(second),
-            }
+            map_on(par, items, second);
         }
         // Joined in agent order.
         let (mut changed, mut lookups) = (false, false);

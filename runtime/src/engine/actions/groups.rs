@@ -7,11 +7,9 @@ use super::alone::{slot, MoveScratch};
 use super::moves::{collision_text, Among};
 use super::*;
 
-/// The moving groups of a step: each by its root (the least index among its members, in
-/// [`Among`]'s order), its members in index order.
+/// The moving groups of a step, in the order of their roots (a group's root: the least
+/// index among its members, in [`Among`]'s order), each with its members in index order.
 struct Groups {
-    /// The roots, in increasing order.
-    roots: Vec<u32>,
     /// Per group, where its members start in `members` (one more entry: the end).
     starts: Vec<u32>,
     members: Vec<u32>,
@@ -25,33 +23,29 @@ const NONE: u32 = u32::MAX;
 pub(super) type Mover = (u32, [i32; 3], u32);
 
 impl Groups {
-    /// The groups (by `root`, per index) with a member that asks to move (or whose rules
-    /// asked for different moves).
+    /// The groups (`root`: per index, its group's root) with a member that asks to move
+    /// (or whose rules asked for different moves).
     fn of(among: &Among, root: &[u32]) -> Groups {
         let m = among.len();
-        let mut of = vec![NONE; m];
+        // Per root: whether its group moves, then its members counted.
+        let mut size = vec![0u32; m];
         for i in 0..m {
             let it = among.intent_at(i);
             if it.mv.is_some() || it.mv_bad {
-                of[root[i] as usize] = 0;
+                size[root[i] as usize] = 1;
             }
         }
-        // Counted, then listed (the roots in order, each group's members in order).
-        let mut size = vec![0u32; m];
+        let moves: Vec<bool> = size.iter().map(|&s| s > 0).collect();
+        size.fill(0);
         for i in 0..m {
-            if of[root[i] as usize] != NONE {
-                size[root[i] as usize] += 1;
-            }
+            size[root[i] as usize] += u32::from(moves[root[i] as usize]);
         }
-        let (mut roots, mut starts) = (Vec::new(), vec![0]);
-        let mut at = vec![0u32; m];
-        for r in 0..m {
-            if size[r] > 0 {
-                of[r] = roots.len() as u32;
-                at[r] = *starts.last().expect("a start");
-                roots.push(r as u32);
-                starts.push(at[r] + size[r]);
-            }
+        // Per root: its group and where its members go next.
+        let (mut group, mut at, mut starts) = (vec![NONE; m], vec![0u32; m], vec![0]);
+        for r in (0..m).filter(|&r| size[r] > 0) {
+            group[r] = starts.len() as u32 - 1;
+            at[r] = *starts.last().expect("a start");
+            starts.push(at[r] + size[r]);
         }
         let mut members = vec![0; *starts.last().expect("a start") as usize];
         for i in 0..m {
@@ -61,18 +55,15 @@ impl Groups {
                 at[r] += 1;
             }
         }
-        for i in 0..m {
-            of[i] = match size[root[i] as usize] {
-                0 => NONE,
-                _ => of[root[i] as usize],
-            };
-        }
         Groups {
-            roots,
             starts,
             members,
-            of,
+            of: root.iter().map(|&r| group[r as usize]).collect(),
         }
+    }
+
+    fn count(&self) -> usize {
+        self.starts.len() - 1
     }
 
     fn members(&self, g: usize) -> &[u32] {
@@ -98,7 +89,7 @@ impl Act<'_> {
     ) -> (Vec<Mover>, Vec<(u32, u32)>) {
         let groups = Groups::of(among, root);
         // The groups' offsets, in the order of their roots.
-        let mut off: Vec<Option<[i32; 3]>> = vec![None; groups.roots.len()];
+        let mut off: Vec<Option<[i32; 3]>> = vec![None; groups.count()];
         for (g, o) in off.iter_mut().enumerate() {
             let ms = groups.members(g);
             let (mut bad, mut differ) = (false, false);

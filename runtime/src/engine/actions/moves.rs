@@ -316,7 +316,6 @@ impl Among {
                 sparse.entry(a).or_default().letters = letters;
             }
         }
-
         let intent = |a: u32| sparse.get(&a).copied().unwrap_or_default();
         let nd = lat.dim.dirs();
         let partners = |a: u32| {
@@ -420,20 +419,6 @@ pub(super) fn find(parent: &mut [u32], mut x: u32) -> u32 {
 }
 
 impl Act<'_> {
-    /// Counts the moves about to be made (agent, target), and traces them.
-    pub(super) fn count_moves(&mut self, moves: &[(u32, [i32; 3])], rep: &mut StepReport) {
-        if self.opts.trace {
-            for &(m, to) in moves {
-                rep.trace.push(TraceEvent::Move {
-                    agent: m,
-                    from: self.lat.pos[m as usize],
-                    to,
-                });
-            }
-        }
-        self.stats.moves += moves.len() as u64;
-    }
-
     /// Steps 1 to 4: detach, decide, move rigid groups, attach, for the agents `among`
     /// concerns (see [`Among`]); every other agent's bonds stay as they were, as those steps
     /// over all agents would leave them.
@@ -490,26 +475,12 @@ impl Act<'_> {
         let root: Vec<u32> = (0..m as u32).map(|i| find(&mut parent, i)).collect();
         let mut sc = std::mem::take(&mut self.bufs.scratch);
         let (moves, tried) = self.move_groups(&among, &root, &mut sc, rep);
-        let plain: Vec<(u32, [i32; 3])> = moves.iter().map(|&(a, t, _)| (a, t)).collect();
-        self.count_moves(&plain, rep);
         let carried = moves.iter().filter(|m| among.intent(m.0).mv.is_none());
         self.stats.carried += carried.count() as u64;
-        for &(a, _, _) in &moves {
-            self.bufs.changes.moved(self.lat, a);
-        }
         // The moves (no two share a target; a mover's old cell is emptied only when no
         // mover targets it, as the claims left tell).
-        match self.lat.relocation(false) {
-            Some(r) => {
-                let (mut outside, mut leaving) = (Vec::new(), Vec::new());
-                let codes: Vec<u32> = moves.iter().map(|m| m.2).collect();
-                let targeted = |s: usize| sc.claimed(s);
-                // SAFETY: one thread; distinct movers and targets (collisions cancelled).
-                unsafe { r.part((&plain, &codes), targeted, (&mut outside, &mut leaving)) };
-                self.lat.relocated(outside.iter(), leaving.iter());
-            }
-            None => self.lat.relocate(&plain),
-        }
+        let mut part = [alone::AlonePart::of_moves(&moves)];
+        self.move_parts(None, &mut part, |s| sc.claimed(s), rep);
         for &(a, c) in &tried {
             sc.unclaim(a, alone::slot(c));
         }
