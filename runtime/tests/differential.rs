@@ -990,6 +990,19 @@ fn threads_join_chunks_in_order() {
             field += &format!("{},{} S{state}0000\n", k / 250, k % 250);
         }
     }
+    // Swaps in every direction on a 120 x 120 block (more than 4,096 asked a step: the
+    // swaps on the pool), agents asked for two swaps (in none), swaps sharing an agent,
+    // and bonded pairs (their swaps made one at a time, dropping their neighbours' bonds).
+    let swap = "e\n1\nSE****\nXE\n\nw\n1\nSW****\nXW\n\nn\n1\nSN****\nXN\n\ns\n1\nSS****\nXS\n\nd1\n1\nSD****\nXE\n\nd2\n1\nSD****\nXN\n";
+    let swapping = block(120, 120, |x, y, _| {
+        let bond = match x % 4 {
+            0 if x < 119 => "A0010",
+            1 => "A0100",
+            _ => "A0000",
+        };
+        let state = ["E", "W", "N", "S", "D", "R"][((x * 13 + y * 7) % 29 % 6) as usize];
+        format!(" S{state}0000 {bond}")
+    });
     let cases = [
         cases[0].clone(),
         cases[1].clone(),
@@ -1000,6 +1013,7 @@ fn threads_join_chunks_in_order() {
         (sort, lines),
         (bounce, dots),
         (PLAIN, field),
+        (swap, swapping),
     ];
     for (i, (rules, agents)) in cases.iter().enumerate() {
         let (prog, lat) = common::compile(rules, agents);
@@ -1025,8 +1039,10 @@ fn threads_join_chunks_in_order() {
             mk(3, Skip::Eager),
         ];
         let mut collided = false;
+        let mut kinds = std::collections::BTreeSet::new();
         for step in 0..8 {
             let a = one.step();
+            kinds.extend(a.records.iter().map(|r| r.kind.name()));
             assert!(
                 step < 2 || !a.records.is_empty() || i != 1,
                 "case {i} makes records"
@@ -1045,6 +1061,14 @@ fn threads_join_chunks_in_order() {
             i != 7 || one.stats.moves > 8 * 8192,
             "case {i}: {}",
             one.stats.moves
+        );
+        assert!(
+            i != 9
+                || (one.stats.swaps > 2000
+                    && kinds.contains("swap-shared")
+                    && kinds.contains("swap-target")),
+            "case {i}: {} swaps, records {kinds:?}",
+            one.stats.swaps
         );
         // (Firings of `east`, `west` and `north`: moves asked for.)
         let asked: u64 = one.stats.firings.iter().take(3).sum();

@@ -10,6 +10,7 @@ mod alone;
 mod collect;
 mod groups;
 mod moves;
+mod swaps;
 use alone::{AlonePart, MoveScratch};
 use collect::CollectPart;
 

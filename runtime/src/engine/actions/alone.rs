@@ -11,25 +11,95 @@ use super::*;
 use crate::lattice::Placed;
 use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 
-/// Marks for deciding moves, clear between steps: per grid cell, a bit when a mover
-/// targets it and one when more than one does; per agent, a bit when it is moving.
-/// Atomics, so that chunks of movers claim at once.
+/// A set of indices (cells, agents), with a second mark for those marked more than once.
+/// Atomics, so that chunks mark at once; clear between steps.
 #[derive(Default)]
-pub(super) struct MoveScratch {
+pub(super) struct Twice {
     once: Vec<AtomicU64>,
     twice: Vec<AtomicU64>,
+}
+
+/// Sets bits `b` of `word`, returning it as it was: by an atomic instruction when
+/// `shared` (chunks mark at once), else by a load and a store.
+#[inline]
+fn or(word: &AtomicU64, b: u64, shared: bool) -> u64 {
+    match shared {
+        true => word.fetch_or(b, Relaxed),
+        false => {
+            let v = word.load(Relaxed);
+            word.store(v | b, Relaxed);
+            v
+        }
+    }
+}
+
+impl Twice {
+    /// Sizes the marks for indices below `n` (all clear).
+    pub(super) fn size(&mut self, n: usize) {
+        if self.once.len() != n.div_ceil(64) {
+            self.once = zeros(n);
+            self.twice = zeros(n);
+        }
+    }
+
+    /// Marks `i` (a second time: marks it twice).
+    #[inline]
+    pub(super) fn mark(&self, i: usize, shared: bool) {
+        let (w, b) = bit(i);
+        if or(&self.once[w], b, shared) & b != 0 {
+            or(&self.twice[w], b, shared);
+        }
+    }
+
+    #[inline]
+    pub(super) fn once(&self, i: usize) -> bool {
+        let (w, b) = bit(i);
+        self.once[w].load(Relaxed) & b != 0
+    }
+
+    #[inline]
+    pub(super) fn twice(&self, i: usize) -> bool {
+        let (w, b) = bit(i);
+        self.twice[w].load(Relaxed) & b != 0
+    }
+
+    /// Clears `i`'s marks (one thread).
+    pub(super) fn unmark(&self, i: usize) {
+        let (w, b) = bit(i);
+        self.once[w].store(self.once[w].load(Relaxed) & !b, Relaxed);
+        self.twice[w].store(self.twice[w].load(Relaxed) & !b, Relaxed);
+    }
+
+    /// Clears the marks of `i` and of the indices beside it, its whole word (when
+    /// every index marked is cleared so, this clears all).
+    #[inline]
+    pub(super) fn clear_around(&self, i: usize) {
+        self.once[i / 64].store(0, Relaxed);
+        self.twice[i / 64].store(0, Relaxed);
+    }
+}
+
+/// `n` clear bits.
+fn zeros(n: usize) -> Vec<AtomicU64> {
+    (0..n.div_ceil(64)).map(|_| AtomicU64::new(0)).collect()
+}
+
+/// Marks for deciding moves and swaps, clear between steps: per grid cell, whether movers
+/// target it (once, or more); per agent, whether it is moving; per agent, whether it is
+/// in swaps (once, or more).
+#[derive(Default)]
+pub(super) struct MoveScratch {
+    cells: Twice,
     moving: Vec<AtomicU64>,
+    pub(super) paired: Twice,
 }
 
 impl MoveScratch {
     /// Sizes the marks for `cells` grid cells and `agents` agents (all clear).
     pub(super) fn size(&mut self, cells: usize, agents: usize) {
-        let words = |bits: usize| bits.div_ceil(64);
-        if self.once.len() != words(cells) || self.moving.len() != words(agents) {
-            let zeros = |n: usize| (0..n).map(|_| AtomicU64::new(0)).collect();
-            self.once = zeros(words(cells));
-            self.twice = zeros(words(cells));
-            self.moving = zeros(words(agents));
+        self.cells.size(cells);
+        if self.moving.len() != agents.div_ceil(64) {
+            self.moving = zeros(agents);
         }
     }
 
@@ -37,21 +107,10 @@ impl MoveScratch {
     /// atomic instructions when `shared` (chunks claim at once), else by loads and stores.
     #[inline]
     pub(super) fn claim(&self, a: u32, s: Option<usize>, shared: bool) {
-        let or = |word: &AtomicU64, b: u64| match shared {
-            true => word.fetch_or(b, Relaxed),
-            false => {
-                let v = word.load(Relaxed);
-                word.store(v | b, Relaxed);
-                v
-            }
-        };
         let (w, b) = bit(a as usize);
-        or(&self.moving[w], b);
+        or(&self.moving[w], b, shared);
         if let Some(s) = s {
-            let (w, b) = bit(s);
-            if or(&self.once[w], b) & b != 0 {
-                or(&self.twice[w], b);
-            }
+            self.cells.mark(s, shared);
         }
     }
 
@@ -63,21 +122,17 @@ impl MoveScratch {
 
     #[inline]
     pub(super) fn claimed(&self, s: usize) -> bool {
-        let (w, b) = bit(s);
-        self.once[w].load(Relaxed) & b != 0
+        self.cells.once(s)
     }
 
     #[inline]
     pub(super) fn claimed_twice(&self, s: usize) -> bool {
-        let (w, b) = bit(s);
-        self.twice[w].load(Relaxed) & b != 0
+        self.cells.twice(s)
     }
 
     /// Clears slot `s`'s claims (one thread).
     pub(super) fn unmark(&self, s: usize) {
-        let (w, b) = bit(s);
-        self.once[w].store(self.once[w].load(Relaxed) & !b, Relaxed);
-        self.twice[w].store(self.twice[w].load(Relaxed) & !b, Relaxed);
+        self.cells.unmark(s);
     }
 
     /// Clears what [`MoveScratch::claim`] marked (whole words: nothing else is marked).
@@ -85,8 +140,7 @@ impl MoveScratch {
     pub(super) fn unclaim(&self, a: u32, s: Option<usize>) {
         self.moving[a as usize / 64].store(0, Relaxed);
         if let Some(s) = s {
-            self.once[s / 64].store(0, Relaxed);
-            self.twice[s / 64].store(0, Relaxed);
+            self.cells.clear_around(s);
         }
     }
 }

@@ -1,7 +1,7 @@
-//! Moves, carried groups, bonds and swaps: the actions that change positions. A mover alone
-//! (`move_alone`) when no agent is bonded and no group moves; otherwise bonds are broken,
-//! groups found and moved whole or not at all, and bonds made again
-//! (`detach_move_attach`); then swaps.
+//! Moves, carried groups and bonds: the actions that change positions (but swaps,
+//! `swaps.rs`). A mover alone (`move_alone`) when no agent is bonded and no group moves;
+//! otherwise bonds are broken, groups found and moved whole or not at all, and bonds made
+//! again (`detach_move_attach`).
 
 use super::*;
 use crate::lattice::drop_agents;
@@ -609,102 +609,6 @@ impl Act<'_> {
         for (b, bit) in outside {
             self.lat.attach[b as usize] |= bit;
             self.bufs.changes.bonds(b);
-        }
-    }
-
-    /// Step 6: swaps. `no_swap` (in agent order) take part in none: a request towards one
-    /// is cancelled with a record, but still counts when pairs are judged.
-    pub(super) fn swaps(&mut self, links: &[Link], no_swap: &[u32], rep: &mut StepReport) {
-        // (x, y, direction from x to y, cancelled because one of them takes no swap)
-        let mut pairs: Vec<(u32, u32, Dir, bool)> = Vec::new();
-        let mut seen: rustc_hash::FxHashSet<(u32, u32)> = Default::default();
-        seen.reserve(links.len());
-        for &(a, _, swap) in links {
-            let Some(d) = swap else { continue };
-            match self.lat.cell_at(self.lat.pos[a as usize], d.offset()) {
-                Cell::Agent(b) => {
-                    // Two agents asking to swap with each other make one swap.
-                    let (x, y, dd) = if a < b {
-                        (a, b, d)
-                    } else {
-                        (b, a, d.opposite())
-                    };
-                    let dead = no_swap.binary_search(&b).is_ok();
-                    if dead {
-                        let msg = format!(
-                            "agent {} cannot swap towards {}: agent {} there is asked for different swaps and takes part in none",
-                            self.lat.label(a),
-                            d.letter(),
-                            self.lat.label(b)
-                        );
-                        self.record(rep, RecordKind::SwapTarget, &[a, b], msg);
-                    }
-                    if seen.insert((x, y)) {
-                        pairs.push((x, y, dd, dead));
-                    }
-                }
-                _ => {
-                    let msg = format!(
-                        "agent {} cannot swap towards {}: no agent stands there",
-                        self.lat.label(a),
-                        d.letter()
-                    );
-                    self.record(rep, RecordKind::SwapTarget, &[a], msg);
-                }
-            }
-        }
-        let mut count: rustc_hash::FxHashMap<u32, u32> = Default::default();
-        count.reserve(2 * pairs.len());
-        for p in &pairs {
-            *count.entry(p.0).or_default() += 1;
-            *count.entry(p.1).or_default() += 1;
-        }
-        for (x, y, d, dead) in pairs {
-            if dead {
-                continue;
-            }
-            if count[&x] > 1 || count[&y] > 1 {
-                let mut pair = [self.lat.label(x), self.lat.label(y)];
-                pair.sort_unstable();
-                let msg = format!(
-                    "the swap of agents {} and {} shares an agent with another swap; it is cancelled",
-                    pair[0], pair[1]
-                );
-                self.record(rep, RecordKind::SwapShared, &[x, y], msg);
-                continue;
-            }
-            let (px, py) = (self.lat.pos[x as usize], self.lat.pos[y as usize]);
-            // Bonds other than the one between them are dropped.
-            let nd = self.lat.dim.dirs();
-            let bonded = self.lat.attach[x as usize] & (1 << d.index()) != 0;
-            for &(s, _) in &[(x, px), (y, py)] {
-                for k in 0..nd {
-                    if self.lat.attach[s as usize] & (1 << k) != 0 {
-                        if let Some(o) = self.lat.neighbour(s, Dir::ALL[k]) {
-                            if o != x && o != y {
-                                self.lat.attach[o as usize] &=
-                                    !(1 << Dir::ALL[k].opposite().index());
-                                self.bufs.changes.bonds(o);
-                            }
-                        }
-                    }
-                }
-                self.lat.attach[s as usize] = 0;
-            }
-            for s in [x, y] {
-                self.bufs.changes.moved(self.lat, s);
-                self.bufs.changes.bonds(s);
-            }
-            self.lat.relocate(&[(x, py), (y, px)]);
-            if bonded {
-                // x is now where y was: y lies opposite to d from x.
-                self.lat.attach[x as usize] |= 1 << d.opposite().index();
-                self.lat.attach[y as usize] |= 1 << d.index();
-            }
-            self.stats.swaps += 1;
-            if self.opts.trace {
-                rep.trace.push(TraceEvent::Swap { a: x, b: y });
-            }
         }
     }
 }
