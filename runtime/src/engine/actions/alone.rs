@@ -145,6 +145,53 @@ impl MoveScratch {
     }
 }
 
+/// Which mover targets a cell (one, but where the first round of collisions cancels them
+/// all), for the later rounds: when every mover moves by one offset, the mover standing
+/// that far back (found on the grid, no map made); else a map of every target.
+pub(super) enum Targets {
+    One([i32; 3]),
+    Map(FxHashMap<[i32; 3], u32>),
+}
+
+impl Targets {
+    /// Of `movers` (agent, target).
+    pub(super) fn of(
+        lat: &Lattice,
+        movers: impl Iterator<Item = (u32, [i32; 3])> + Clone,
+    ) -> Targets {
+        let off = |(a, t): (u32, [i32; 3])| {
+            let p = lat.pos[a as usize];
+            [t[0] - p[0], t[1] - p[1], t[2] - p[2]]
+        };
+        let first = movers.clone().next().map(off);
+        match first {
+            Some(o) if movers.clone().all(|m| off(m) == o) => Targets::One(o),
+            _ => Targets::Map(movers.map(|(a, t)| (t, a)).collect()),
+        }
+    }
+
+    /// The mover that targets cell `p`, if any (`marks`: the movers).
+    pub(super) fn at(&self, lat: &Lattice, marks: &MoveScratch, p: [i32; 3]) -> Option<u32> {
+        match self {
+            Targets::One(o) => {
+                let back = |i: usize| p[i].checked_sub(o[i]);
+                let back = [back(0)?, back(1)?, back(2)?];
+                lat.agent_at(back).filter(|&m| marks.moving(m))
+            }
+            Targets::Map(map) => map.get(&p).copied(),
+        }
+    }
+}
+
+/// The movers of a round of collisions (target, mover: in the movers' order) by target
+/// cell, in the cells' order, each cell's movers in their order.
+pub(super) fn by_cell(round: &mut [([i32; 3], u32)]) -> Vec<([i32; 3], Vec<u32>)> {
+    round.sort_by_key(|m| m.0);
+    (round.chunk_by(|a, b| a.0 == b.0))
+        .map(|c| (c[0].0, c.iter().map(|m| m.1).collect()))
+        .collect()
+}
+
 /// The grid slot of a slot code, if the code is on the grid.
 #[inline]
 pub(super) fn slot(code: u32) -> Option<usize> {
@@ -423,18 +470,13 @@ impl Act<'_> {
         marks: &MoveScratch,
         rep: &mut StepReport,
     ) -> Vec<(u32, u32)> {
-        // Which mover targets each cell (one, but where the first round cancels them all).
-        let by_target: FxHashMap<[i32; 3], u32> = (parts.iter())
-            .flat_map(|p| p.live.iter().map(|&(a, t)| (t, a)))
-            .collect();
+        let movers = parts.iter().flat_map(|p| p.live.iter().copied());
+        let targets = Targets::of(self.lat, movers);
         let mut gone: rustc_hash::FxHashSet<u32> = Default::default();
         let mut round: Vec<([i32; 3], u32)> =
             parts.iter().flat_map(|p| p.bad.iter().copied()).collect();
         while !round.is_empty() {
-            let mut bad: BTreeMap<[i32; 3], Vec<u32>> = BTreeMap::new();
-            for &(t, a) in &round {
-                bad.entry(t).or_default().push(a);
-            }
+            let bad = by_cell(&mut round);
             // Agents that stay: not moving from the start, or cancelled before.
             let stays = |s: u32| !marks.moving(s) || gone.contains(&s);
             let mut events = Vec::with_capacity(bad.len());
@@ -454,7 +496,7 @@ impl Act<'_> {
             round.clear();
             for &a in &now {
                 let p = self.lat.pos[a as usize];
-                if let Some(&m) = by_target.get(&p).filter(|m| !gone.contains(m)) {
+                if let Some(m) = (targets.at(self.lat, marks, p)).filter(|m| !gone.contains(m)) {
                     round.push((p, m));
                 }
             }

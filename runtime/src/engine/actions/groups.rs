@@ -3,7 +3,7 @@
 //! arrays (groups by their roots, members counted into one list) with the marks of the
 //! moves (`alone.rs`), and the moves made as the moves alone are.
 
-use super::alone::{slot, MoveScratch};
+use super::alone::{by_cell, slot, MoveScratch, Targets};
 use super::moves::{collision_text, Among};
 use super::*;
 
@@ -203,12 +203,9 @@ impl Act<'_> {
         rep: &mut StepReport,
     ) {
         let group_of = |a: u32| groups.of[among.local(a).expect("a mover is among them") as usize];
-        let by_target: FxHashMap<[i32; 3], u32> = live.iter().map(|&(a, t, _)| (t, a)).collect();
+        let targets = Targets::of(self.lat, live.iter().map(|&(a, t, _)| (a, t)));
         while !round.is_empty() {
-            let mut bad: BTreeMap<[i32; 3], Vec<u32>> = BTreeMap::new();
-            for &(t, a) in &round {
-                bad.entry(t).or_default().push(a);
-            }
+            let bad = by_cell(&mut round);
             // Agents that stay: not moving from the start, or in a group cancelled before.
             let stays = |s: u32| !marks.moving(s) || off[group_of(s) as usize].is_none();
             let events: Vec<_> = (bad.into_iter())
@@ -234,9 +231,8 @@ impl Act<'_> {
             for &g in &now {
                 for &a in groups.members(g) {
                     let p = self.lat.pos[a as usize];
-                    if let Some(&m) = by_target
-                        .get(&p)
-                        .filter(|&&m| off[group_of(m) as usize].is_some())
+                    if let Some(m) = (targets.at(self.lat, marks, p))
+                        .filter(|&m| off[group_of(m) as usize].is_some())
                     {
                         round.push((p, m));
                     }
