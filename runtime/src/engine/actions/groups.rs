@@ -19,6 +19,14 @@ struct Groups {
 
 const NONE: u32 = u32::MAX;
 
+/// The chunks' lists as one, in order (one chunk's list as it is).
+fn joined<T: Copy>(mut parts: Vec<Vec<T>>) -> Vec<T> {
+    match parts.len() {
+        1 => parts.pop().expect("one part"),
+        _ => parts.concat(),
+    }
+}
+
 /// A mover, its target and the target's slot code.
 pub(super) type Mover = (u32, [i32; 3], u32);
 
@@ -129,48 +137,56 @@ impl Act<'_> {
                 self.record(rep, RecordKind::MoveBlocked, ms, msg);
             }
         }
-        // The movers, group by group, with their targets and the targets' slot codes.
-        let mut live: Vec<Mover> = Vec::new();
-        for (g, o) in off.iter().enumerate() {
-            if let Some(d) = *o {
-                for &a in groups.members(g) {
-                    let p = self.lat.pos[a as usize];
+        // The movers, group by group, with their targets and the targets' slot codes,
+        // claimed; per chunk of the members (on the pool when there are threads).
+        sc.size(self.lat.cells.slots(), self.lat.len());
+        let all = &groups.members[..];
+        let (par, size, chunks) = self.threads.chunks(all.len());
+        let shared = par.is_some();
+        let (lat, marks, offsets) = (&*self.lat, &*sc, &off[..]);
+        let parts: Vec<Vec<Mover>> = map_on(par, (0..chunks).collect(), |c| {
+            let (lo, hi) = (c * size, ((c + 1) * size).min(all.len()));
+            // (The group of the member at `lo`, then of each in turn.)
+            let mut g = groups.starts.partition_point(|&s| s as usize <= lo) - 1;
+            let mut live = Vec::new();
+            for (i, &a) in all.iter().enumerate().take(hi).skip(lo) {
+                while groups.starts[g + 1] as usize <= i {
+                    g += 1;
+                }
+                if let Some(d) = offsets[g] {
+                    let p = lat.pos[a as usize];
                     let t = [p[0] + d[0], p[1] + d[1], p[2] + d[2]];
-                    live.push((a, t, self.lat.cells.code(t)));
+                    let code = lat.cells.code(t);
+                    marks.claim(a, slot(code), shared);
+                    live.push((a, t, code));
                 }
             }
-        }
-        // Collisions: claims, then the first round over every mover.
-        sc.size(self.lat.cells.slots(), self.lat.len());
-        for &(a, _, c) in &live {
-            sc.claim(a, slot(c), false);
-        }
-        let tried: Vec<(u32, u32)> = live.iter().map(|&(a, _, c)| (a, c)).collect();
+            live
+        });
+        // Collisions: the first round over every mover, per chunk.
         let mut count: FxHashMap<[i32; 3], u32> = FxHashMap::default();
-        for &(_, t, c) in &live {
+        for &(_, t, c) in parts.iter().flatten() {
             if c == NO_SLOT {
                 *count.entry(t).or_insert(0) += 1;
             }
         }
-        let lat = &*self.lat;
         let collides = |&(_, t, c): &Mover| match slot(c) {
             Some(s) => {
-                sc.claimed_twice(s)
-                    || (lat.cells.filled_slot(s) && !sc.moving(lat.cells.at_slot(s)))
+                marks.claimed_twice(s)
+                    || (lat.cells.filled_slot(s) && !marks.moving(lat.cells.at_slot(s)))
             }
-            None => count[&t] > 1 || lat.cells.get(t).is_some_and(|b| !sc.moving(b)),
+            None => count[&t] > 1 || lat.cells.get(t).is_some_and(|b| !marks.moving(b)),
         };
-        let mut round: Vec<([i32; 3], u32)> = (live.iter().filter(|m| collides(m)))
-            .map(|&(a, t, _)| (t, a))
-            .collect();
+        let rounds: Vec<Vec<([i32; 3], u32)>> = map_on(par, parts.iter().collect(), |live| {
+            (live.iter().filter(|m| collides(m)))
+                .map(|&(a, t, _)| (t, a))
+                .collect()
+        });
+        let mut live: Vec<Mover> = joined(parts);
+        let tried: Vec<(u32, u32)> = live.iter().map(|&(a, _, c)| (a, c)).collect();
+        let round: Vec<([i32; 3], u32)> = joined(rounds);
         if !round.is_empty() {
-            self.cancel_group_collisions(
-                round.split_off(0),
-                (among, &groups),
-                &live,
-                (&mut off, &*sc),
-                rep,
-            );
+            self.cancel_group_collisions(round, (among, &groups), &live, (&mut off, &*sc), rep);
         }
         // The moves of the groups left; the claims of the others cleared (every mover
         // that claimed their targets is cancelled too).
