@@ -168,6 +168,17 @@ impl Act<'_> {
         record((self.stats, self.lat), rep, kind, ids, message);
     }
 
+    /// Records `notes` (made while the actions were decided), in their order.
+    pub(super) fn record_notes(
+        &mut self,
+        notes: impl IntoIterator<Item = Note>,
+        rep: &mut StepReport,
+    ) {
+        for (kind, ids, msg) in notes {
+            self.record(rep, kind, &ids, msg);
+        }
+    }
+
     pub(super) fn rule_name(&self, r: u32) -> &str {
         &self.prog.rules[r as usize].name
     }
@@ -515,9 +526,7 @@ impl Act<'_> {
     ) -> (Intent, Intent) {
         let mut notes = Vec::new();
         let all = self.combined_intent(a, rs, &mut notes);
-        for (kind, ids, msg) in notes {
-            self.record(rep, kind, &ids, msg);
-        }
+        self.record_notes(notes, rep);
         let mut now = Intent::default();
         let mut later = Intent {
             mv: all.mv,

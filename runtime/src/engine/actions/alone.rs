@@ -183,15 +183,6 @@ impl Targets {
     }
 }
 
-/// The movers of a round of collisions (target, mover: in the movers' order) by target
-/// cell, in the cells' order, each cell's movers in their order.
-pub(super) fn by_cell(round: &mut [([i32; 3], u32)]) -> Vec<([i32; 3], Vec<u32>)> {
-    round.sort_by_key(|m| m.0);
-    (round.chunk_by(|a, b| a.0 == b.0))
-        .map(|c| (c[0].0, c.iter().map(|m| m.1).collect()))
-        .collect()
-}
-
 /// The grid slot of a slot code, if the code is on the grid.
 #[inline]
 pub(super) fn slot(code: u32) -> Option<usize> {
@@ -458,6 +449,29 @@ impl Act<'_> {
         }
     }
 
+    /// Records a round of collisions (`round`: target and mover, in the movers' order):
+    /// one record per cell where agents would meet, in the cells' order, naming its movers
+    /// and the agent standing there when it stays (`stays`). Returns the round's movers,
+    /// cell by cell, for the caller to cancel.
+    pub(super) fn record_collisions(
+        &mut self,
+        round: &mut [([i32; 3], u32)],
+        stays: impl Fn(u32) -> bool,
+        rep: &mut StepReport,
+    ) -> Vec<u32> {
+        round.sort_by_key(|m| m.0);
+        let mut movers = Vec::with_capacity(round.len());
+        for at in round.chunk_by(|a, b| a.0 == b.0) {
+            let (cell, ms): ([i32; 3], Vec<u32>) = (at[0].0, at.iter().map(|m| m.1).collect());
+            let mut involved = ms.clone();
+            involved.extend(self.lat.agent_at(cell).filter(|&s| stays(s)));
+            let msg = collision_text(self.lat, cell, &ms, &involved);
+            self.record(rep, RecordKind::MoveCollision, &involved, msg);
+            movers.extend(ms);
+        }
+        movers
+    }
+
     /// The collision rounds (see [`Act::move_alone`]), from the first round's movers that
     /// would collide (the parts' `bad`): records made, one per cell where agents would
     /// meet, naming them all, round by round in the order of the cells; the movers
@@ -476,21 +490,9 @@ impl Act<'_> {
         let mut round: Vec<([i32; 3], u32)> =
             parts.iter().flat_map(|p| p.bad.iter().copied()).collect();
         while !round.is_empty() {
-            let bad = by_cell(&mut round);
             // Agents that stay: not moving from the start, or cancelled before.
             let stays = |s: u32| !marks.moving(s) || gone.contains(&s);
-            let mut events = Vec::with_capacity(bad.len());
-            for (cell, ms) in bad {
-                let mut involved = ms.clone();
-                involved.extend(self.lat.agent_at(cell).filter(|&s| stays(s)));
-                events.push((cell, ms, involved));
-            }
-            let mut now: Vec<u32> = Vec::new();
-            for (cell, ms, involved) in events {
-                let msg = collision_text(self.lat, cell, &ms, &involved);
-                self.record(rep, RecordKind::MoveCollision, &involved, msg);
-                now.extend(ms);
-            }
+            let now = self.record_collisions(&mut round, stays, rep);
             gone.extend(now.iter().copied());
             // The next round: the movers whose targets those cancelled now stand on.
             round.clear();

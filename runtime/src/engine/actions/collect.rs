@@ -152,9 +152,7 @@ impl Act<'_> {
         // Joined in agent order.
         let (mut changed, mut lookups) = (false, false);
         for part in &mut parts {
-            for (kind, ids, msg) in part.records.drain(..) {
-                self.record(rep, kind, &ids, msg);
-            }
+            self.record_notes(part.records.drain(..), rep);
             todo.append(&mut part.todo);
             (self.bufs.changes.states).extend_from_slice(&part.states);
             sel.replaced.extend_from_slice(&part.replaced);

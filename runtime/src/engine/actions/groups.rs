@@ -3,8 +3,8 @@
 //! arrays (groups by their roots, members counted into one list) with the marks of the
 //! moves (`alone.rs`), and the moves made as the moves alone are.
 
-use super::alone::{by_cell, slot, MoveScratch, Targets};
-use super::moves::{collision_text, Among};
+use super::alone::{slot, MoveScratch, Targets};
+use super::moves::Among;
 use super::*;
 
 /// The moving groups of a step, in the order of their roots (a group's root: the least
@@ -221,26 +221,15 @@ impl Act<'_> {
         let group_of = |a: u32| groups.of[among.local(a).expect("a mover is among them") as usize];
         let targets = Targets::of(self.lat, live.iter().map(|&(a, t, _)| (a, t)));
         while !round.is_empty() {
-            let bad = by_cell(&mut round);
             // Agents that stay: not moving from the start, or in a group cancelled before.
             let stays = |s: u32| !marks.moving(s) || off[group_of(s) as usize].is_none();
-            let events: Vec<_> = (bad.into_iter())
-                .map(|(cell, ms)| {
-                    let mut involved = ms.clone();
-                    involved.extend(self.lat.agent_at(cell).filter(|&s| stays(s)));
-                    (cell, ms, involved)
-                })
-                .collect();
+            let movers = self.record_collisions(&mut round, stays, rep);
             let mut now: Vec<usize> = Vec::new();
-            for (cell, ms, involved) in events {
-                for &a in &ms {
-                    let g = group_of(a) as usize;
-                    if off[g].take().is_some() {
-                        now.push(g);
-                    }
+            for a in movers {
+                let g = group_of(a) as usize;
+                if off[g].take().is_some() {
+                    now.push(g);
                 }
-                let msg = collision_text(self.lat, cell, &ms, &involved);
-                self.record(rep, RecordKind::MoveCollision, &involved, msg);
             }
             // The next round: the movers whose targets those cancelled now stand on.
             round.clear();

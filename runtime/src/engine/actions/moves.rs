@@ -611,9 +611,7 @@ impl Act<'_> {
             new_attach.extend_from_slice(&bits);
             partners.extend(ps);
             outside.extend(out);
-            for (kind, ids, msg) in notes {
-                self.record(rep, kind, &ids, msg);
-            }
+            self.record_notes(notes, rep);
         }
         for (j, bit) in partners {
             new_attach[j as usize] |= bit;

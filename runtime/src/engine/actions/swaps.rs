@@ -86,10 +86,10 @@ impl SwapPart {
         }
     }
 
-    /// The swaps found, sorted: those cancelled (one of them in no swap, or in another
+    /// The swaps found, decided: those cancelled (one of them in no swap, or in another
     /// swap too: recorded), those of agents without bonds (their moves), the others
     /// (`bonded`; every one when `one_at_a_time`). `noting`: the cells left are noted.
-    fn sort(&mut self, lat: &Lattice, paired: &Twice, (one_at_a_time, noting): (bool, bool)) {
+    fn decide(&mut self, lat: &Lattice, paired: &Twice, (one_at_a_time, noting): (bool, bool)) {
         for &(x, y, d, dead) in &self.pairs {
             if dead {
                 continue;
@@ -137,13 +137,13 @@ impl Act<'_> {
             part.find(lat, (mine, links), no_swap, (paired, shared));
             part
         });
-        self.record_parts(&mut parts, rep);
+        self.record_notes(parts.iter_mut().flat_map(|p| p.notes.drain(..)), rep);
         let how = (self.opts.trace, self.bufs.changes.on);
         let lat = &*self.lat;
         map_on(par, parts.iter_mut().collect(), |p| {
-            p.sort(lat, paired, how)
+            p.decide(lat, paired, how)
         });
-        self.record_parts(&mut parts, rep);
+        self.record_notes(parts.iter_mut().flat_map(|p| p.notes.drain(..)), rep);
         for &(x, y, ..) in parts.iter().flat_map(|p| &p.pairs) {
             paired.clear_around(x as usize);
             paired.clear_around(y as usize);
@@ -152,11 +152,9 @@ impl Act<'_> {
         // The swaps of agents without bonds, per chunk; then the others.
         let moved: usize = parts.iter().map(|p| p.moves.len()).sum();
         if moved > 0 {
+            // (The cells left wake the agents that moved: their bonds, none, stay.)
             for part in &mut parts {
                 self.bufs.changes.moved.append(&mut part.left);
-                for &(a, _) in &part.moves {
-                    self.bufs.changes.bonds(a);
-                }
             }
             self.stats.swaps += moved as u64 / 2;
             match self.lat.relocation(shared) {
@@ -183,15 +181,6 @@ impl Act<'_> {
         }
         for &(x, y, d, _) in parts.iter().flat_map(|p| &p.bonded) {
             self.swap_bonded(x, y, d, rep);
-        }
-    }
-
-    /// Records the notes of `parts`, in their order.
-    fn record_parts(&mut self, parts: &mut [SwapPart], rep: &mut StepReport) {
-        for part in parts {
-            for (kind, ids, msg) in part.notes.drain(..) {
-                self.record(rep, kind, &ids, msg);
-            }
         }
     }
 
