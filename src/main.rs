@@ -4,5 +4,6 @@
 static ALLOCATOR: latticesim::alloc::HugePages = latticesim::alloc::HugePages;
 
 fn main() -> std::process::ExitCode {
+    latticesim::alloc::tune();
     latticesim::main()
 }

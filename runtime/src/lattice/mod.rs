@@ -495,10 +495,19 @@ impl Lattice {
 
     /// A cell or offset as records write it: `(x,y)` in 2D, `(x,y,z)` in 3D.
     pub fn cell_text(&self, p: [i32; 3]) -> String {
-        match self.dim.coords() {
-            2 => format!("({},{})", p[0], p[1]),
-            _ => format!("({},{},{})", p[0], p[1], p[2]),
-        }
+        let mut s = String::with_capacity(16);
+        self.push_cell(&mut s, p);
+        s
+    }
+
+    /// [`Lattice::cell_text`] appended to `s`.
+    pub(crate) fn push_cell(&self, s: &mut String, p: [i32; 3]) {
+        use std::fmt::Write;
+        let r = match self.dim.coords() {
+            2 => write!(s, "({},{})", p[0], p[1]),
+            _ => write!(s, "({},{},{})", p[0], p[1], p[2]),
+        };
+        r.expect("writing to a string");
     }
 
     /// The values of counter `i`, one per agent, when it has a column (see

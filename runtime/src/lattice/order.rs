@@ -49,10 +49,31 @@ impl Lattice {
     /// Agents `agents` as a record's sentence names them: their ids in the agents file,
     /// ascending, joined by `, `.
     pub(crate) fn ids_text(&self, agents: &[u32]) -> String {
-        let mut ids: Vec<u32> = agents.iter().map(|&a| self.label(a)).collect();
+        let mut s = String::with_capacity(agents.len() * 8);
+        self.push_ids(&mut s, agents);
+        s
+    }
+
+    /// [`Lattice::ids_text`] appended to `s` (a record's few agents sorted on the stack:
+    /// a jam makes thousands of records a step).
+    pub(crate) fn push_ids(&self, s: &mut String, agents: &[u32]) {
+        use std::fmt::Write;
+        let (mut few, mut many) = ([0u32; 8], Vec::new());
+        let ids: &mut [u32] = match agents.len() {
+            n if n <= few.len() => &mut few[..n],
+            n => {
+                many.resize(n, 0);
+                &mut many
+            }
+        };
+        for (id, &a) in ids.iter_mut().zip(agents) {
+            *id = self.label(a);
+        }
         ids.sort_unstable();
-        let ids: Vec<String> = ids.iter().map(u32::to_string).collect();
-        ids.join(", ")
+        for (i, id) in ids.iter().enumerate() {
+            let sep = if i > 0 { ", " } else { "" };
+            write!(s, "{sep}{id}").expect("writing to a string");
+        }
     }
 
     /// Whether the agents are kept in space order ([`Lattice::keep_in_space_order`]).

@@ -461,13 +461,15 @@ impl Act<'_> {
     ) -> Vec<u32> {
         round.sort_by_key(|m| m.0);
         let mut movers = Vec::with_capacity(round.len());
+        let mut involved = Vec::new();
         for at in round.chunk_by(|a, b| a.0 == b.0) {
-            let (cell, ms): ([i32; 3], Vec<u32>) = (at[0].0, at.iter().map(|m| m.1).collect());
-            let mut involved = ms.clone();
+            let (cell, first) = (at[0].0, movers.len());
+            movers.extend(at.iter().map(|m| m.1));
+            involved.clear();
+            involved.extend_from_slice(&movers[first..]);
             involved.extend(self.lat.agent_at(cell).filter(|&s| stays(s)));
-            let msg = collision_text(self.lat, cell, &ms, &involved);
+            let msg = collision_text(self.lat, cell, &movers[first..], &involved);
             self.record(rep, RecordKind::MoveCollision, &involved, msg);
-            movers.extend(ms);
         }
         movers
     }

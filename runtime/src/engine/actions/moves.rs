@@ -664,16 +664,20 @@ pub(super) fn collision_text(
     movers: &[u32],
     involved: &[u32],
 ) -> String {
-    let list = |v: &[u32]| lat.ids_text(v);
     let (s, are) = if movers.len() == 1 {
         ("", "is")
     } else {
         ("s", "are")
     };
-    format!(
-        "agents {} would meet on the cell {}; the move{s} of agent{s} {} {are} cancelled",
-        list(involved),
-        lat.cell_text(cell),
-        list(movers)
-    )
+    // (One string written in place: a jam makes thousands of these a step.)
+    use std::fmt::Write;
+    let mut text = String::with_capacity(80 + 8 * (involved.len() + movers.len()));
+    text.push_str("agents ");
+    lat.push_ids(&mut text, involved);
+    text.push_str(" would meet on the cell ");
+    lat.push_cell(&mut text, cell);
+    let _ = write!(text, "; the move{s} of agent{s} ");
+    lat.push_ids(&mut text, movers);
+    let _ = write!(text, " {are} cancelled");
+    text
 }
