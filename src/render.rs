@@ -826,6 +826,8 @@ pub fn render(args: RenderArgs) -> ExitCode {
         trace: false,
         skip: Default::default(),
         space_order: Default::default(),
+        // (Frames show no records.)
+        records_per_step: Some(0),
     };
     let mut engine = Engine::new(ready.prog, ready.lat, opts);
     let agent_frames = engine.lat.len() as u64 * (last - first + 1);

@@ -438,10 +438,11 @@ fn run_to_end(args: &RunArgs) -> Result<ExitCode, ExitCode> {
     // A resumed run says what it did beside the totals since step 0.
     let resumed_at = args.resume.is_some().then(|| engine.stats.clone());
     let started = Instant::now();
+    let console = Console::new(args.quiet, args.max_steps, &engine.stats.records);
     let steps = Steps {
         engine,
         undo: None,
-        console: Console::new(args.quiet, args.max_steps),
+        console,
         trace: trace_out,
         trace_failed: false,
         series,
@@ -544,6 +545,8 @@ fn start(
             true => SpaceOrder::Off,
             false => SpaceOrder::Auto,
         },
+        // The records shown; a trace has them all.
+        records_per_step: (!trace).then_some(RECORDS_SHOWN_PER_KIND as usize),
     };
     let levels = args.lints.lints()?;
     let shown = (args.quiet, colour);
@@ -608,11 +611,12 @@ impl Steps {
             let t = Instant::now();
             let rep = self.engine.step();
             let secs = t.elapsed().as_secs_f64();
-            self.console.records(&rep);
+            self.console.records(&rep, &self.engine.stats.records);
             if rep.executing == 0 && self.engine.stats.steps == 1 && !args.quiet {
                 say!("warning: no rule fired in the first step (no agent's precondition held), so the run ends at once");
             }
             self.trace_step(&rep);
+            // (A step keeps its first records of each kind: any error kind made, one.)
             if args.strict && rep.records.iter().any(|r| r.is_error()) {
                 self.undo = before;
                 return Stop::Strict;
@@ -699,33 +703,46 @@ struct Console {
     max_steps: u64,
     started: Instant,
     bar: Option<indicatif::ProgressBar>,
-    shown: BTreeMap<RecordKind, u64>,
+    /// Per kind: the records shown, the records the run made (counted from the engine's
+    /// totals: a step's report keeps only the records shown), the totals last seen.
+    printed: BTreeMap<RecordKind, u64>,
+    made: BTreeMap<RecordKind, u64>,
+    seen: BTreeMap<RecordKind, u64>,
 }
 
 impl Console {
-    fn new(quiet: bool, max_steps: u64) -> Console {
+    /// `totals`: the engine's counts of records at the start (a resumed run's checkpoint's).
+    fn new(quiet: bool, max_steps: u64, totals: &BTreeMap<RecordKind, u64>) -> Console {
         Console {
             quiet,
             show_progress: !quiet && std::io::stderr().is_terminal(),
             max_steps,
             started: Instant::now(),
             bar: None,
-            shown: BTreeMap::new(),
+            printed: BTreeMap::new(),
+            made: BTreeMap::new(),
+            seen: totals.clone(),
         }
     }
 
-    /// Shows the step's records, up to [`RECORDS_SHOWN_PER_KIND`] of each kind in a run.
-    fn records(&mut self, rep: &StepReport) {
+    /// Shows the step's records, up to [`RECORDS_SHOWN_PER_KIND`] of each kind in a run,
+    /// and counts those the step made (`totals`: the engine's counts after it).
+    fn records(&mut self, rep: &StepReport, totals: &BTreeMap<RecordKind, u64>) {
         for r in &rep.records {
-            let n = self.shown.entry(r.kind).or_insert(0);
-            *n += 1;
-            if !self.quiet && *n <= RECORDS_SHOWN_PER_KIND {
+            let n = self.printed.entry(r.kind).or_insert(0);
+            if !self.quiet && *n < RECORDS_SHOWN_PER_KIND {
+                *n += 1;
                 let line = format!("{r}");
                 match &self.bar {
                     Some(b) => b.println(line),
                     None => say!("{line}"),
                 }
             }
+        }
+        for (&k, &t) in totals {
+            let seen = self.seen.entry(k).or_insert(0);
+            *self.made.entry(k).or_insert(0) += t.saturating_sub(*seen);
+            *seen = t;
         }
     }
 
@@ -754,7 +771,7 @@ impl Console {
         if let Some(b) = self.bar {
             b.finish_and_clear();
         }
-        self.shown
+        self.made
     }
 
     /// How many records of each kind were not shown.

@@ -314,6 +314,65 @@ fn a_flood_of_records_is_summarised() {
     );
 }
 
+/// Without `--trace` a run keeps only the records it shows (the rest are counted, their
+/// sentences never made): what it prints, its stats and its series are those of a run
+/// that keeps every record (with `--trace`, which writes them all).
+#[test]
+fn records_not_shown_are_counted_alike() {
+    let rules = "d\n1\nS*****\nC00 / C00 0000\n";
+    let agents: String = (0..40).map(|i| format!("{i},0\n")).collect();
+    let (traced, d) = run_files(rules, &agents, "flood-traced", &["--max-steps", "10"]);
+    let r = tmp("flood-traced-rules.txt", rules.as_bytes());
+    let a = tmp("flood-traced-agents.txt", agents.as_bytes());
+    let path = |name: &str| d.join(name).display().to_string();
+    let (r, a) = (r.display().to_string(), a.display().to_string());
+    let mut args: Vec<String> = ["run", &r, &a, "--max-steps", "10", "--no-timing"]
+        .map(String::from)
+        .to_vec();
+    args.extend(["--stats".into(), path("stats-untraced.json")]);
+    args.extend(["--series".into(), path("series-untraced.csv")]);
+    args.extend(["--out".into(), path("out-untraced.txt")]);
+    let plain = bin().args(&args).output().unwrap();
+    assert_eq!(plain.status.code(), Some(0), "{}", stderr(&plain));
+    // (The summary's last line has times.)
+    let shown = |o: &Output| {
+        stderr(o)
+            .split("40 agents, 10 steps")
+            .next()
+            .unwrap()
+            .to_string()
+    };
+    assert_eq!(shown(&plain), shown(&traced));
+    let e = stderr(&plain);
+    assert_eq!(e.matches("error[division-by-zero]").count(), 5, "{e}");
+    assert!(
+        e.contains("... and 395 more division-by-zero records"),
+        "{e}"
+    );
+    let stats = |name: &str| -> serde_json::Value {
+        serde_json::from_slice(&std::fs::read(d.join(name)).unwrap()).unwrap()
+    };
+    let (s, t) = (stats("stats-untraced.json"), stats("stats.json"));
+    assert_eq!(s["records"], t["records"]);
+    assert_eq!(s["records"]["by_kind"]["division-by-zero"], 400);
+    let trace = std::fs::read_to_string(d.join("trace.jsonl")).unwrap();
+    assert_eq!(trace.matches("\"division-by-zero\"").count(), 400);
+    let series = std::fs::read_to_string(d.join("series-untraced.csv")).unwrap();
+    let rows: Vec<&str> = series.lines().collect();
+    assert_eq!(rows.len(), 11, "{series}");
+    let head: Vec<&str> = rows[0].split(',').collect();
+    let col = head
+        .iter()
+        .position(|&c| c == "records:division-by-zero")
+        .unwrap();
+    assert!(
+        rows[1..]
+            .iter()
+            .all(|r| r.split(',').nth(col) == Some("40")),
+        "{series}"
+    );
+}
+
 #[test]
 fn ctrl_c_stops_after_the_step_and_still_writes() {
     let r = tmp("int-rules.txt", b"spin\n1\nS*****\nC00 + C00 0001\n");

@@ -34,10 +34,11 @@ impl StepCost {
     /// The cost of the step that took the statistics from `before` to `after` and
     /// reported `rep`.
     pub fn of(before: &Stats, after: &Stats, rep: &StepReport) -> StepCost {
-        let mut records = vec![0; RecordKind::ALL.len()];
-        for r in &rep.records {
-            records[r.kind as usize] += 1;
-        }
+        // (From the counts: a report may keep only a step's first records of each kind.)
+        let count = |s: &Stats, k: &RecordKind| s.records.get(k).copied().unwrap_or(0);
+        let records = (RecordKind::ALL.iter())
+            .map(|k| count(after, k) - count(before, k))
+            .collect();
         StepCost {
             step: after.steps,
             firings: (after.firings.iter())

@@ -361,6 +361,7 @@ fn differential_on(
                 Skip::Off => SpaceOrder::Off,
                 _ => SpaceOrder::Always,
             },
+            records_per_step: None,
         },
     );
     let mut w = World::new(
@@ -2008,6 +2009,7 @@ fn resume_and_undo(rules: &str, agents: &str) -> Result<(), TestCaseError> {
                 threads: 1,
                 skip: Skip::Eager,
                 space_order: SpaceOrder::Off,
+                records_per_step: None,
             };
             let mut whole = Engine::new(prog.clone(), lat.clone(), opts);
             let before: Vec<(String, String)> =
@@ -2109,6 +2111,7 @@ fn traced_as_untraced(rules: &str, agents: &str) -> Result<(), TestCaseError> {
                 threads: 1,
                 skip: Skip::Eager,
                 space_order: SpaceOrder::Off,
+                records_per_step: None,
             };
             let mut plain = Engine::new(prog.clone(), lat.clone(), opts(false));
             let mut traced = Engine::new(prog.clone(), lat.clone(), opts(true));

@@ -884,3 +884,53 @@ east\n1\nSEAST0\nP1,0\n\nwest\n1\nSWEST0\nP-1,0\n";
         "{named:?}"
     );
 }
+
+/// `Options::records_per_step` keeps a step's first records of each kind, in order, and
+/// changes nothing else: the lattice, and the statistics (which count every record), are
+/// those of a run keeping all, on one thread and on two (queues into walls: cascades of
+/// collisions; divisions by zero).
+#[test]
+fn a_cap_on_records_keeps_the_first_of_each_kind() {
+    let rules = "m\n1\nSM****\nP1,0\n\nd\n1\nSD****\nC00 / C00 0000\n";
+    let mut agents: String = (0..50)
+        .flat_map(|y| (0..60).map(move |x| format!("{x},{y} SM0000\n")))
+        .collect();
+    agents.extend((0..50).map(|y| format!("60,{y}\n")));
+    agents.extend((0..300).map(|x| format!("{x},-5 SD0000\n")));
+    for threads in [1, 2] {
+        let run = |cap| {
+            let opts = Options {
+                threads,
+                records_per_step: cap,
+                ..Options::default()
+            };
+            let mut e = engine_with(rules, &agents, opts);
+            let reports: Vec<StepReport> = (0..3).map(|_| e.step()).collect();
+            (e, reports)
+        };
+        let (all, full) = run(None);
+        let (capped, kept) = run(Some(2));
+        assert_eq!(all.stats, capped.stats, "{threads} threads");
+        assert_eq!(all.lat.pos, capped.lat.pos);
+        assert_eq!(all.stats.records.values().sum::<u64>(), 3 * (60 * 50 + 300));
+        for (f, k) in full.iter().zip(&kept) {
+            let mut first: Vec<&latticesim_runtime::Record> = Vec::new();
+            for r in &f.records {
+                if first.iter().filter(|x| x.kind == r.kind).count() < 2 {
+                    first.push(r);
+                }
+            }
+            let kept: Vec<_> = k.records.iter().collect();
+            assert_eq!(kept, first, "{threads} threads");
+            assert_eq!(
+                kinds(k),
+                [
+                    "move-collision",
+                    "move-collision",
+                    "division-by-zero",
+                    "division-by-zero"
+                ]
+            );
+        }
+    }
+}

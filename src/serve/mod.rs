@@ -231,6 +231,7 @@ pub fn serve(args: ServeArgs) -> ExitCode {
             trace: false,
             skip: Default::default(),
             space_order: Default::default(),
+            records_per_step: None,
         },
         keyframe_every: args.keyframe_every.max(1),
         history_bytes: usize::try_from(args.history_mb.saturating_mul(1 << 20))

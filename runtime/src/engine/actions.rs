@@ -17,6 +17,32 @@ use collect::CollectPart;
 /// A record made while the actions are collected, recorded when the chunks are joined.
 pub(super) type Note = (RecordKind, Vec<u32>, String);
 
+/// The notes of one chunk, where many may be made (swaps in a crowd): a message is made
+/// only for the chunk's first `cap` notes of each kind (see [`Options::records_per_step`]:
+/// no later one can be among the step's first of its kind, which are kept).
+#[derive(Default)]
+pub(super) struct Notes {
+    pub(super) list: Vec<Note>,
+    made: [usize; RecordKind::ALL.len()],
+}
+
+impl Notes {
+    pub(super) fn push(
+        &mut self,
+        cap: Option<usize>,
+        (kind, ids): (RecordKind, Vec<u32>),
+        message: impl FnOnce() -> String,
+    ) {
+        let made = &mut self.made[kind as usize];
+        *made += 1;
+        let message = match cap {
+            Some(c) if *made > c => String::new(),
+            _ => message(),
+        };
+        self.list.push((kind, ids, message));
+    }
+}
+
 /// The actions of a step, each list in agent order.
 #[derive(Default)]
 pub(super) struct Actions {
@@ -68,21 +94,39 @@ impl Actions {
     }
 
     /// The moves and letters as one intent per agent, into `dense` (whose allocation is
-    /// reused).
-    pub(super) fn dense(&self, n: usize, mut dense: Vec<Intent>) -> Vec<Intent> {
-        dense.clear();
+    /// reused), per chunk of agents (on the pool when there are threads): each chunk
+    /// takes its agents' entries of the lists (which are in agent order).
+    pub(super) fn dense(&self, n: usize, mut dense: Vec<Intent>, th: &Threads) -> Vec<Intent> {
+        debug_assert!(self.moves.is_sorted_by_key(|m| m.0));
+        debug_assert!(self.blocked.is_sorted());
+        debug_assert!(self.links.is_sorted_by_key(|l| l.0));
+        // (Each chunk clears its own entries.)
         dense.resize(n, Intent::default());
-        for &(a, o) in &self.moves {
-            dense[a as usize].mv = Some(o);
-        }
-        for &a in &self.blocked {
-            dense[a as usize].mv_bad = true;
-        }
-        for &(a, letters, _) in &self.links {
-            dense[a as usize].letters = letters;
-        }
+        let (par, size, _) = th.chunks(n);
+        let items: Vec<(usize, &mut [Intent])> = dense.chunks_mut(size).enumerate().collect();
+        map_on(par, items, |(c, part)| {
+            let lo = (c * size) as u32;
+            let hi = lo + part.len() as u32;
+            part.fill(Intent::default());
+            for &(a, o) in within(&self.moves, (lo, hi), |m| m.0) {
+                part[(a - lo) as usize].mv = Some(o);
+            }
+            for &a in within(&self.blocked, (lo, hi), |&a| a) {
+                part[(a - lo) as usize].mv_bad = true;
+            }
+            for &(a, letters, _) in within(&self.links, (lo, hi), |l| l.0) {
+                part[(a - lo) as usize].letters = letters;
+            }
+        });
         dense
     }
+}
+
+/// The entries of `list` (in the order of `agent`) of agents `lo..hi`.
+fn within<T>(list: &[T], (lo, hi): (u32, u32), agent: impl Fn(&T) -> u32) -> &[T] {
+    let from = list.partition_point(|x| agent(x) < lo);
+    let to = from + list[from..].partition_point(|x| agent(x) < hi);
+    &list[from..to]
 }
 
 /// The combined actions of one agent's selected rules.
@@ -165,7 +209,19 @@ impl Act<'_> {
         ids: &[u32],
         message: String,
     ) {
-        record((self.stats, self.lat), rep, kind, ids, message);
+        self.record_with(rep, kind, ids, || message);
+    }
+
+    /// [`Act::record`], the message made only when the record is kept.
+    pub(super) fn record_with(
+        &mut self,
+        rep: &mut StepReport,
+        kind: RecordKind,
+        ids: &[u32],
+        message: impl FnOnce() -> String,
+    ) {
+        let cap = self.opts.records_per_step;
+        record_with((self.stats, self.lat, cap), rep, kind, ids, message);
     }
 
     /// Records `notes` (made while the actions were decided), in their order.

@@ -19,7 +19,7 @@ impl Post {
         (prog, plan, trace): (&Program, &Plan, bool),
         (lat, th): (&mut Lattice, &Threads),
         (sel, fire_counts): (&Selection, &[u64]),
-        stats: &mut Stats,
+        (stats, cap): (&mut Stats, Option<usize>),
         rep: &mut StepReport,
     ) {
         if !plan.any_computes {
@@ -176,7 +176,7 @@ impl Post {
             self.counted = Some(tallies.fold(first, |t, u| t.and(u)));
         }
         for (issues, events, _) in results {
-            calc_records(prog, (stats, lat), issues, rep);
+            calc_records(prog, (stats, lat, cap), issues, rep);
             rep.trace.extend(events);
         }
     }
@@ -185,34 +185,35 @@ impl Post {
 /// The records of the calculations' issues (agent, rule, issue), in order.
 fn calc_records(
     prog: &Program,
-    (stats, lat): (&mut Stats, &Lattice),
+    (stats, lat, cap): (&mut Stats, &Lattice, Option<usize>),
     issues: Vec<(u32, u32, CalcIssue)>,
     rep: &mut StepReport,
 ) {
     for (a, r, issue) in issues {
         let name = &prog.rules[r as usize].name;
         let id = lat.label(a);
-        let (kind, msg) = match issue {
-                CalcIssue::Saturated { exact } => (
-                    RecordKind::Saturation,
-                    format!(
-                        "agent {id}, rule `{name}`: the result {exact} is saturated to the {}-bit range",
-                        prog.width.bits()
-                    ),
-                ),
-                CalcIssue::DivisionByZero => (
-                    RecordKind::DivisionByZero,
-                    format!("agent {id}, rule `{name}`: division by zero; the target is unchanged"),
-                ),
-                CalcIssue::NoExternalAgent { off } => (
-                    RecordKind::NoExternalAgent,
-                    format!(
-                        "agent {id}, rule `{name}`: no agent at ({},{}) to read an external counter from; the calculation is skipped",
-                        off[0], off[1]
-                    ),
-                ),
-            };
-        record((stats, lat), rep, kind, &[a], msg);
+        let kind = match issue {
+            CalcIssue::Saturated { .. } => RecordKind::Saturation,
+            CalcIssue::DivisionByZero => RecordKind::DivisionByZero,
+            CalcIssue::NoExternalAgent { .. } => RecordKind::NoExternalAgent,
+        };
+        // (Counters near their range may saturate for every agent, every step.)
+        let msg = || {
+            match issue {
+            CalcIssue::Saturated { exact } => format!(
+                "agent {id}, rule `{name}`: the result {exact} is saturated to the {}-bit range",
+                prog.width.bits()
+            ),
+            CalcIssue::DivisionByZero => {
+                format!("agent {id}, rule `{name}`: division by zero; the target is unchanged")
+            }
+            CalcIssue::NoExternalAgent { off } => format!(
+                "agent {id}, rule `{name}`: no agent at ({},{}) to read an external counter from; the calculation is skipped",
+                off[0], off[1]
+            ),
+        }
+        };
+        record_with((stats, lat, cap), rep, kind, &[a], msg);
     }
 }
 

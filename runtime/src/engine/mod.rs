@@ -79,6 +79,11 @@ pub struct Options {
     /// Whether the engine keeps its agents in space order; the results do not depend on
     /// it, but for the order of one step's records.
     pub space_order: SpaceOrder,
+    /// Of each kind of record, at most this many per step are kept in the step's report
+    /// (the first ones); the others are only counted (in [`Stats::records`]) and never
+    /// written out. `None`: every record (the default). `latticesim run` keeps as many
+    /// as it shows, unless it writes a trace: a jam makes thousands of records a step.
+    pub records_per_step: Option<usize>,
 }
 
 /// Whether an engine keeps its agents in space order (`Lattice::keep_in_space_order`):
@@ -196,22 +201,46 @@ const OPPOSITE: [usize; 6] = [3, 2, 1, 0, 5, 4];
 /// Adds a record of this step (`stats.steps + 1`) of `kind` about agents `ids` (with their
 /// positions in `lat`) to `rep`, and counts it.
 fn record(
-    (stats, lat): (&mut Stats, &Lattice),
+    (stats, lat, cap): (&mut Stats, &Lattice, Option<usize>),
     rep: &mut StepReport,
     kind: RecordKind,
     ids: &[u32],
     message: String,
 ) {
+    record_with((stats, lat, cap), rep, kind, ids, || message);
+}
+
+/// [`record`], its message made only when the record is kept (`cap`: see
+/// [`Options::records_per_step`]).
+fn record_with(
+    (stats, lat, cap): (&mut Stats, &Lattice, Option<usize>),
+    rep: &mut StepReport,
+    kind: RecordKind,
+    ids: &[u32],
+    message: impl FnOnce() -> String,
+) {
     *stats.records.entry(kind).or_insert(0) += 1;
+    if !rep.keeps(kind, cap) {
+        return;
+    }
     rep.records.push(Record {
         step: stats.steps + 1,
         kind,
         agents: (ids.iter())
             .map(|&a| (lat.label(a), lat.pos[a as usize]))
             .collect(),
-        message,
+        message: message(),
         rules: Vec::new(),
     });
+}
+
+impl StepReport {
+    /// Whether a record of `kind` made now is kept, at most `cap` of each kind being kept
+    /// (see [`Options::records_per_step`]). (A step keeps few records when capped: they
+    /// are counted here.)
+    pub(crate) fn keeps(&self, kind: RecordKind, cap: Option<usize>) -> bool {
+        cap.is_none_or(|c| self.records.iter().filter(|r| r.kind == kind).count() < c)
+    }
 }
 
 impl Engine {
@@ -387,7 +416,13 @@ impl Engine {
         let circles = (self.selection).select(view, &mut self.dispatch, &mut self.threads, listed);
         for (circle, msg) in circles {
             let kind = RecordKind::CircularPriority;
-            record((&mut self.stats, &self.lat), rep, kind, &circle, msg);
+            record(
+                (&mut self.stats, &self.lat, self.opts.records_per_step),
+                rep,
+                kind,
+                &circle,
+                msg,
+            );
         }
         self.selection.count_firings(&self.threads);
     }
@@ -423,8 +458,9 @@ impl Engine {
         let (post, stats) = (&mut self.post, &mut self.stats);
         let cx = (&*self.prog, &self.plan, self.opts.trace);
         let (lat, counts) = (&mut self.lat, &self.selection.fire_counts[..]);
+        let cap = self.opts.records_per_step;
         (self.threads).tuned(Phase::Calculate, |th| {
-            post.calculate(cx, (lat, th), (sel, counts), stats, rep)
+            post.calculate(cx, (lat, th), (sel, counts), (stats, cap), rep)
         });
     }
 

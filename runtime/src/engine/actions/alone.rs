@@ -468,8 +468,15 @@ impl Act<'_> {
             involved.clear();
             involved.extend_from_slice(&movers[first..]);
             involved.extend(self.lat.agent_at(cell).filter(|&s| stays(s)));
-            let msg = collision_text(self.lat, cell, &movers[first..], &involved);
-            self.record(rep, RecordKind::MoveCollision, &involved, msg);
+            let (lat, ms) = (&*self.lat, &movers[first..]);
+            let msg = || collision_text(lat, cell, ms, &involved);
+            record_with(
+                (self.stats, lat, self.opts.records_per_step),
+                rep,
+                RecordKind::MoveCollision,
+                &involved,
+                msg,
+            );
         }
         movers
     }

@@ -287,13 +287,13 @@ pub(super) struct Among {
 impl Among {
     /// The agents of `todo`'s actions concern (every agent with `all`); `spare`: an
     /// allocation for the intents.
-    fn of(todo: &Actions, lat: &Lattice, all: bool, spare: Vec<Intent>) -> Among {
+    fn of(todo: &Actions, lat: &Lattice, (all, th): (bool, &Threads), spare: Vec<Intent>) -> Among {
         let n = lat.len();
         let every = |spare| Among {
             ids: Vec::new(),
             every: n,
             index: FxHashMap::default(),
-            intents: todo.dense(n, spare),
+            intents: todo.dense(n, spare, th),
         };
         // (At least as many agents as have intents: every agent, without counting them.)
         let lettered = || {
@@ -436,10 +436,11 @@ impl Act<'_> {
     /// over all agents would leave them.
     pub(super) fn detach_move_attach(&mut self, todo: &Actions, rep: &mut StepReport) {
         let all = self.opts.trace;
-        let among = Among::of(todo, self.lat, all, std::mem::take(&mut self.bufs.intents));
-        let (m, nd) = (among.len(), self.lat.dim.dirs());
         let (lat, th) = (&*self.lat, self.threads);
-        let old: Vec<u8> = (0..m).map(|i| lat.attach[among.id(i) as usize]).collect();
+        let among = Among::of(todo, lat, (all, th), std::mem::take(&mut self.bufs.intents));
+        let (m, nd) = (among.len(), lat.dim.dirs());
+        let mut old = vec![0u8; m];
+        th.fill(&mut old, |i| lat.attach[among.id(i) as usize]);
         // Partners before detaching (and before the moves, for `*`), per agent (by its
         // index among them) and direction.
         let mut partners = std::mem::take(&mut self.bufs.partners);
@@ -470,7 +471,7 @@ impl Act<'_> {
         // 3. Move: groups of rigid bonds (a group's root: its first agent).
         let root = self.groups_roots(&among, &rigid, &partners);
         let mut sc = std::mem::take(&mut self.bufs.scratch);
-        let (moves, tried) = self.move_groups(&among, &root, &mut sc, rep);
+        let (moves, cancelled) = self.move_groups(&among, &root, &mut sc, rep);
         let carried = moves.iter().filter(|m| among.intent(m.0).mv.is_none());
         self.stats.carried += carried.count() as u64;
         // The moves (no two share a target; a mover's old cell is emptied only when no
@@ -479,7 +480,7 @@ impl Act<'_> {
         // moves of 25,000 carried bars slower (1.3-1.8x their time on one thread).
         let mut part = [alone::AlonePart::of_moves(&moves)];
         self.move_parts(None, &mut part, |s| sc.claimed(s), rep);
-        for &(a, c) in &tried {
+        for (a, c) in (moves.iter().map(|m| (m.0, m.2))).chain(cancelled) {
             sc.unclaim(a, alone::slot(c));
         }
         self.bufs.scratch = sc;

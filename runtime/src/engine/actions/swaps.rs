@@ -23,7 +23,7 @@ type Pair = (u32, u32, Dir, bool);
 #[derive(Default)]
 struct SwapPart {
     pairs: Vec<Pair>,
-    notes: Vec<Note>,
+    notes: Notes,
     /// The swaps of agents without bonds: their moves (two per swap), the targets' slot
     /// codes, and the cells left (for the activity).
     moves: Vec<(u32, [i32; 3])>,
@@ -44,7 +44,7 @@ impl SwapPart {
         &mut self,
         lat: &Lattice,
         (mine, links): (&[Link], &[Link]),
-        no_swap: &[u32],
+        (no_swap, cap): (&[u32], Option<usize>),
         (paired, shared): (&Twice, bool),
     ) {
         let asks = |b: u32, d: Dir| {
@@ -53,23 +53,25 @@ impl SwapPart {
         for &(a, _, swap) in mine {
             let Some(d) = swap else { continue };
             let Cell::Agent(b) = lat.cell_at(lat.pos[a as usize], d.offset()) else {
-                let msg = format!(
-                    "agent {} cannot swap towards {}: no agent stands there",
-                    lat.label(a),
-                    d.letter()
-                );
-                self.notes.push((RecordKind::SwapTarget, vec![a], msg));
+                let msg = || {
+                    let (id, to) = (lat.label(a), d.letter());
+                    format!("agent {id} cannot swap towards {to}: no agent stands there")
+                };
+                self.notes.push(cap, (RecordKind::SwapTarget, vec![a]), msg);
                 continue;
             };
             let dead = no_swap.binary_search(&b).is_ok();
             if dead {
-                let msg = format!(
+                let msg = || {
+                    format!(
                     "agent {} cannot swap towards {}: agent {} there is asked for different swaps and takes part in none",
                     lat.label(a),
                     d.letter(),
                     lat.label(b)
-                );
-                self.notes.push((RecordKind::SwapTarget, vec![a, b], msg));
+                )
+                };
+                self.notes
+                    .push(cap, (RecordKind::SwapTarget, vec![a, b]), msg);
             }
             // Found at the lesser agent's request, or at the other's when the lesser asks
             // for no swap with it.
@@ -89,19 +91,27 @@ impl SwapPart {
     /// The swaps found, decided: those cancelled (one of them in no swap, or in another
     /// swap too: recorded), those of agents without bonds (their moves), the others
     /// (`bonded`; every one when `one_at_a_time`). `noting`: the cells left are noted.
-    fn decide(&mut self, lat: &Lattice, paired: &Twice, (one_at_a_time, noting): (bool, bool)) {
+    fn decide(
+        &mut self,
+        lat: &Lattice,
+        (paired, cap): (&Twice, Option<usize>),
+        (one_at_a_time, noting): (bool, bool),
+    ) {
         for &(x, y, d, dead) in &self.pairs {
             if dead {
                 continue;
             }
             if paired.twice(x as usize) || paired.twice(y as usize) {
-                let mut pair = [lat.label(x), lat.label(y)];
-                pair.sort_unstable();
-                let msg = format!(
-                    "the swap of agents {} and {} shares an agent with another swap; it is cancelled",
-                    pair[0], pair[1]
-                );
-                self.notes.push((RecordKind::SwapShared, vec![x, y], msg));
+                let msg = || {
+                    let mut pair = [lat.label(x), lat.label(y)];
+                    pair.sort_unstable();
+                    format!(
+                        "the swap of agents {} and {} shares an agent with another swap; it is cancelled",
+                        pair[0], pair[1]
+                    )
+                };
+                self.notes
+                    .push(cap, (RecordKind::SwapShared, vec![x, y]), msg);
                 continue;
             }
             if one_at_a_time || lat.attach[x as usize] | lat.attach[y as usize] != 0 {
@@ -129,21 +139,22 @@ impl Act<'_> {
         sc.paired.size(self.lat.len());
         let paired = &sc.paired;
         let (par, size, chunks) = self.threads.chunks_from(links.len(), 4096);
+        let cap = self.opts.records_per_step;
         let shared = par.is_some();
         let lat = &*self.lat;
         let mut parts: Vec<SwapPart> = map_on(par, (0..chunks).collect(), |c| {
             let mine = &links[c * size..((c + 1) * size).min(links.len())];
             let mut part = SwapPart::default();
-            part.find(lat, (mine, links), no_swap, (paired, shared));
+            part.find(lat, (mine, links), (no_swap, cap), (paired, shared));
             part
         });
-        self.record_notes(parts.iter_mut().flat_map(|p| p.notes.drain(..)), rep);
+        self.record_notes(parts.iter_mut().flat_map(|p| p.notes.list.drain(..)), rep);
         let how = (self.opts.trace, self.bufs.changes.on);
         let lat = &*self.lat;
         map_on(par, parts.iter_mut().collect(), |p| {
-            p.decide(lat, paired, how)
+            p.decide(lat, (paired, cap), how)
         });
-        self.record_notes(parts.iter_mut().flat_map(|p| p.notes.drain(..)), rep);
+        self.record_notes(parts.iter_mut().flat_map(|p| p.notes.list.drain(..)), rep);
         for &(x, y, ..) in parts.iter().flat_map(|p| &p.pairs) {
             paired.clear_around(x as usize);
             paired.clear_around(y as usize);
