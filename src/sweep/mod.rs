@@ -748,8 +748,10 @@ pub fn sweep(a: SweepArgs) -> ExitCode {
         opts: Options {
             order: a.order.into(),
             static_first: a.static_first,
-            // Counts alone are kept of a run: the same in any order of the agents.
+            // Counts alone are kept of a run: the same in any order of the agents, and
+            // no record needs its sentence.
             space_order: latticesim_runtime::SpaceOrder::Auto,
+            records_per_step: Some(0),
             ..Options::default()
         },
         cancel: Some(stop.clone()),
