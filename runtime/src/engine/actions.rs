@@ -27,6 +27,11 @@ pub(super) struct Notes {
 }
 
 impl Notes {
+    pub(super) fn clear(&mut self) {
+        self.list.clear();
+        self.made = Default::default();
+    }
+
     pub(super) fn push(
         &mut self,
         cap: Option<usize>,
@@ -464,7 +469,8 @@ impl Act<'_> {
     /// The combined actions of agent `a` executing several rules `rs`: where they ask for
     /// different things, a conflict is noted in `notes` (to be recorded) and that part is
     /// left out.
-    pub(super) fn combined_intent(&self, a: usize, rs: &[u32], notes: &mut Vec<Note>) -> Intent {
+    pub(super) fn combined_intent(&self, a: usize, rs: &[u32], notes: &mut Notes) -> Intent {
+        let cap = self.opts.records_per_step;
         let nd = self.lat.dim.dirs();
         let mut it = Intent::default();
         let mut moves: Vec<(u32, [i32; 3])> = Vec::new();
@@ -522,15 +528,17 @@ impl Act<'_> {
             1 => it.mv = Some(moves[0].1),
             _ => {
                 it.mv_bad = true;
-                let msg = format!(
+                let msg = || {
+                    format!(
                     "agent {id} is asked for different moves by rules {}; its group does not move",
                     moves
                         .iter()
                         .map(|(r, o)| format!("`{}` ({},{})", self.rule_name(*r), o[0], o[1]))
                         .collect::<Vec<_>>()
                         .join(" and ")
-                );
-                notes.push((RecordKind::MoveConflict, vec![a32], msg));
+                )
+                };
+                notes.push(cap, (RecordKind::MoveConflict, vec![a32]), msg);
             }
         }
         match swaps.len() {
@@ -538,31 +546,37 @@ impl Act<'_> {
             1 => it.swap = Some(swaps[0].1),
             _ => {
                 it.swap_bad = true;
-                let msg = format!(
+                let msg = || {
+                    format!(
                     "agent {id} is asked to swap in different directions by rules {}; it takes part in no swap",
                     swaps.iter().map(|(r, d)| format!("`{}` (X{})", self.rule_name(*r), d.letter())).collect::<Vec<_>>().join(" and ")
-                );
-                notes.push((RecordKind::SwapConflict, vec![a32], msg));
+                )
+                };
+                notes.push(cap, (RecordKind::SwapConflict, vec![a32]), msg);
             }
         }
         for d in 0..nd {
             if conflict_dirs & (1 << d) != 0 {
-                let msg = format!(
+                let msg = || {
+                    format!(
                     "agent {id}'s rules give different attachment letters towards {}; that direction counts as `*`",
                     Dir::ALL[d].letter()
-                );
-                notes.push((RecordKind::AttachConflict, vec![a32], msg));
+                )
+                };
+                notes.push(cap, (RecordKind::AttachConflict, vec![a32]), msg);
             } else if let Some((_, l)) = letters[d] {
                 it.letters[d] = l;
             }
         }
         for i in 0..5 {
             if conflict_chars & (1 << i) != 0 {
-                let msg = format!(
+                let msg = || {
+                    format!(
                     "agent {id}'s rules set character {} of the state differently; it is left unchanged",
                     i + 1
-                );
-                notes.push((RecordKind::StateConflict, vec![a32], msg));
+                )
+                };
+                notes.push(cap, (RecordKind::StateConflict, vec![a32]), msg);
             } else if let Some((_, c)) = chars[i] {
                 it.state[i] = Some(c);
             }
@@ -580,9 +594,9 @@ impl Act<'_> {
         still: &[bool],
         rep: &mut StepReport,
     ) -> (Intent, Intent) {
-        let mut notes = Vec::new();
+        let mut notes = Notes::default();
         let all = self.combined_intent(a, rs, &mut notes);
-        self.record_notes(notes, rep);
+        self.record_notes(notes.list, rep);
         let mut now = Intent::default();
         let mut later = Intent {
             mv: all.mv,

@@ -346,12 +346,22 @@ impl Act<'_> {
         }
         for part in &parts {
             for &(a, o) in &part.blocked {
-                let msg = format!(
+                let lat = &*self.lat;
+                let msg = || {
+                    format!(
                     "agent {} cannot move by {}: the target cell is blocked; its group does not move",
-                    self.lat.label(a),
-                    self.lat.cell_text(o)
+                    lat.label(a),
+                    lat.cell_text(o)
+                )
+                };
+                let cap = self.opts.records_per_step;
+                record_with(
+                    (self.stats, lat, cap),
+                    rep,
+                    RecordKind::MoveBlocked,
+                    &[a],
+                    msg,
                 );
-                self.record(rep, RecordKind::MoveBlocked, &[a], msg);
             }
         }
         // 2. Collisions. Movers by one offset have distinct targets; when every target is

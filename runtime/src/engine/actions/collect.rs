@@ -14,7 +14,7 @@ pub(super) struct CollectPart {
     /// second pass.
     direct: Vec<u32>,
     /// Records of conflicts between an agent's rules, made in the first pass.
-    records: Vec<Note>,
+    records: Notes,
     /// The agents whose state the second pass changed (for the activity).
     states: Vec<u32>,
     /// Hops of lists found in the second pass, and how many agents of each list took its
@@ -152,7 +152,7 @@ impl Act<'_> {
         // Joined in agent order.
         let (mut changed, mut lookups) = (false, false);
         for part in &mut parts {
-            self.record_notes(part.records.drain(..), rep);
+            self.record_notes(part.records.list.drain(..), rep);
             todo.append(&mut part.todo);
             (self.bufs.changes.states).extend_from_slice(&part.states);
             sel.replaced.extend_from_slice(&part.replaced);

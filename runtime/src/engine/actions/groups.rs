@@ -108,12 +108,12 @@ impl Act<'_> {
         // pool when there are threads): a group whose members ask for different moves
         // stays (noted), as does a group whose move would take an agent out of the
         // universe (noted after every group's conflict, as they are recorded).
-        let lat = &*self.lat;
+        let (lat, cap) = (&*self.lat, self.opts.records_per_step);
         let (par, size, chunks) = self.threads.chunks(groups.count());
         let parts = map_on(par, (0..chunks).collect(), |c| {
             let gs = c * size..((c + 1) * size).min(groups.count());
-            let (mut off, mut conflicts, mut blocked) =
-                (Vec::with_capacity(gs.len()), vec![], vec![]);
+            let mut off = Vec::with_capacity(gs.len());
+            let (mut conflicts, mut blocked) = (Notes::default(), Notes::default());
             for g in gs {
                 let ms = groups.members(g);
                 let (mut o, mut bad, mut differ) = (None, false, false);
@@ -127,11 +127,13 @@ impl Act<'_> {
                     }
                 }
                 if differ && !bad {
-                    let msg = format!(
+                    let msg = || {
+                        format!(
                         "the rigid group of agents {} is asked for different moves by its members; it does not move",
                         lat.ids_text(ms)
-                    );
-                    conflicts.push((RecordKind::GroupConflict, ms.to_vec(), msg));
+                    )
+                    };
+                    conflicts.push(cap, (RecordKind::GroupConflict, ms.to_vec()), msg);
                 }
                 if bad || differ {
                     o = None;
@@ -140,8 +142,10 @@ impl Act<'_> {
                     let out = |&&m: &&u32| lat.moved(lat.pos[m as usize], d).is_none();
                     if let Some(&m) = ms.iter().find(out) {
                         o = None;
-                        let msg = format!("agent {} cannot move by {}: the target cell is blocked; its group does not move", lat.label(m), lat.cell_text(d));
-                        blocked.push((RecordKind::MoveBlocked, ms.to_vec(), msg));
+                        let msg = || {
+                            format!("agent {} cannot move by {}: the target cell is blocked; its group does not move", lat.label(m), lat.cell_text(d))
+                        };
+                        blocked.push(cap, (RecordKind::MoveBlocked, ms.to_vec()), msg);
                     }
                 }
                 off.push(o);
@@ -152,8 +156,8 @@ impl Act<'_> {
         let mut blocked = Vec::new();
         for (o, conflicts, b) in parts {
             off.extend(o);
-            self.record_notes(conflicts, rep);
-            blocked.extend(b);
+            self.record_notes(conflicts.list, rep);
+            blocked.extend(b.list);
         }
         self.record_notes(blocked, rep);
         // The movers, group by group, with their targets and the targets' slot codes,

@@ -548,7 +548,7 @@ impl Act<'_> {
         (old, rigid, keep_partner): (&[u8], Vec<u8>, &[Partners]),
         rep: &mut StepReport,
     ) {
-        let nd = self.lat.dim.dirs();
+        let (nd, cap) = (self.lat.dim.dirs(), self.opts.records_per_step);
         let lat = &*self.lat;
         // Each agent's side, in chunks (on the pool when there are threads): its bonds
         // kept rigid and those it makes, the bonds it makes for its partners among them
@@ -556,7 +556,7 @@ impl Act<'_> {
         // its refusals (recorded in agent order).
         let side = |lo: usize, hi: usize| {
             let mut bits: Vec<u8> = rigid[lo..hi].to_vec();
-            let (mut partners, mut outside, mut notes) = (Vec::new(), Vec::new(), Vec::new());
+            let (mut partners, mut outside, mut notes) = (Vec::new(), Vec::new(), Notes::default());
             for i in lo..hi {
                 let a = among.id(i);
                 for d in 0..nd {
@@ -584,13 +584,15 @@ impl Act<'_> {
                     let lb = among.intent(b).letters[od];
                     if lb == AttachLetter::Detach {
                         if la == AttachLetter::Attach {
-                            let msg = format!(
+                            let msg = || {
+                                format!(
                                 "agent {} wants to attach towards {} to agent {}, which says 0; no bond",
                                 lat.label(a),
                                 Dir::ALL[d].letter(),
                                 lat.label(b)
-                            );
-                            notes.push((RecordKind::AttachRefused, vec![a, b], msg));
+                            )
+                            };
+                            notes.push(cap, (RecordKind::AttachRefused, vec![a, b]), msg);
                         }
                         continue;
                     }
@@ -612,7 +614,7 @@ impl Act<'_> {
             new_attach.extend_from_slice(&bits);
             partners.extend(ps);
             outside.extend(out);
-            self.record_notes(notes, rep);
+            self.record_notes(notes.list, rep);
         }
         for (j, bit) in partners {
             new_attach[j as usize] |= bit;
