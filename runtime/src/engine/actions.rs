@@ -530,13 +530,13 @@ impl Act<'_> {
                 it.mv_bad = true;
                 let msg = || {
                     format!(
-                    "agent {id} is asked for different moves by rules {}; its group does not move",
-                    moves
-                        .iter()
-                        .map(|(r, o)| format!("`{}` ({},{})", self.rule_name(*r), o[0], o[1]))
-                        .collect::<Vec<_>>()
-                        .join(" and ")
-                )
+                        "agent {id} is asked for different moves by rules {}; its group does not move",
+                        moves
+                            .iter()
+                            .map(|(r, o)| format!("`{}` ({},{})", self.rule_name(*r), o[0], o[1]))
+                            .collect::<Vec<_>>()
+                            .join(" and ")
+                    )
                 };
                 notes.push(cap, (RecordKind::MoveConflict, vec![a32]), msg);
             }
@@ -548,9 +548,9 @@ impl Act<'_> {
                 it.swap_bad = true;
                 let msg = || {
                     format!(
-                    "agent {id} is asked to swap in different directions by rules {}; it takes part in no swap",
-                    swaps.iter().map(|(r, d)| format!("`{}` (X{})", self.rule_name(*r), d.letter())).collect::<Vec<_>>().join(" and ")
-                )
+                        "agent {id} is asked to swap in different directions by rules {}; it takes part in no swap",
+                        swaps.iter().map(|(r, d)| format!("`{}` (X{})", self.rule_name(*r), d.letter())).collect::<Vec<_>>().join(" and ")
+                    )
                 };
                 notes.push(cap, (RecordKind::SwapConflict, vec![a32]), msg);
             }
@@ -559,9 +559,9 @@ impl Act<'_> {
             if conflict_dirs & (1 << d) != 0 {
                 let msg = || {
                     format!(
-                    "agent {id}'s rules give different attachment letters towards {}; that direction counts as `*`",
-                    Dir::ALL[d].letter()
-                )
+                        "agent {id}'s rules give different attachment letters towards {}; that direction counts as `*`",
+                        Dir::ALL[d].letter()
+                    )
                 };
                 notes.push(cap, (RecordKind::AttachConflict, vec![a32]), msg);
             } else if let Some((_, l)) = letters[d] {
@@ -572,9 +572,9 @@ impl Act<'_> {
             if conflict_chars & (1 << i) != 0 {
                 let msg = || {
                     format!(
-                    "agent {id}'s rules set character {} of the state differently; it is left unchanged",
-                    i + 1
-                )
+                        "agent {id}'s rules set character {} of the state differently; it is left unchanged",
+                        i + 1
+                    )
                 };
                 notes.push(cap, (RecordKind::StateConflict, vec![a32]), msg);
             } else if let Some((_, c)) = chars[i] {

@@ -349,10 +349,10 @@ impl Act<'_> {
                 let lat = &*self.lat;
                 let msg = || {
                     format!(
-                    "agent {} cannot move by {}: the target cell is blocked; its group does not move",
-                    lat.label(a),
-                    lat.cell_text(o)
-                )
+                        "agent {} cannot move by {}: the target cell is blocked; its group does not move",
+                        lat.label(a),
+                        lat.cell_text(o)
+                    )
                 };
                 let cap = self.opts.records_per_step;
                 record_with(

@@ -129,9 +129,9 @@ impl Act<'_> {
                 if differ && !bad {
                     let msg = || {
                         format!(
-                        "the rigid group of agents {} is asked for different moves by its members; it does not move",
-                        lat.ids_text(ms)
-                    )
+                            "the rigid group of agents {} is asked for different moves by its members; it does not move",
+                            lat.ids_text(ms)
+                        )
                     };
                     conflicts.push(cap, (RecordKind::GroupConflict, ms.to_vec()), msg);
                 }

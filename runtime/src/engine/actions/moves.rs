@@ -586,11 +586,11 @@ impl Act<'_> {
                         if la == AttachLetter::Attach {
                             let msg = || {
                                 format!(
-                                "agent {} wants to attach towards {} to agent {}, which says 0; no bond",
-                                lat.label(a),
-                                Dir::ALL[d].letter(),
-                                lat.label(b)
-                            )
+                                    "agent {} wants to attach towards {} to agent {}, which says 0; no bond",
+                                    lat.label(a),
+                                    Dir::ALL[d].letter(),
+                                    lat.label(b)
+                                )
                             };
                             notes.push(cap, (RecordKind::AttachRefused, vec![a, b]), msg);
                         }

@@ -64,11 +64,11 @@ impl SwapPart {
             if dead {
                 let msg = || {
                     format!(
-                    "agent {} cannot swap towards {}: agent {} there is asked for different swaps and takes part in none",
-                    lat.label(a),
-                    d.letter(),
-                    lat.label(b)
-                )
+                        "agent {} cannot swap towards {}: agent {} there is asked for different swaps and takes part in none",
+                        lat.label(a),
+                        d.letter(),
+                        lat.label(b)
+                    )
                 };
                 self.notes
                     .push(cap, (RecordKind::SwapTarget, vec![a, b]), msg);
