@@ -65,6 +65,26 @@ def test_step_reports_add_up_to_a_run():
     assert "Report(steps=" in repr(whole)
 
 
+def test_a_report_keeps_its_first_records_and_counts_all():
+    # 2,000 divisions by zero a step, 60 steps: 120,000 records, of which a report keeps
+    # the first 100,000 (steps 1 to 50); the others are counted, and a later report keeps
+    # its own.
+    rules = "d\n1\nS*****\nC00 / C00 0000\n"
+    agents = "".join(f"{x},{y}\n" for y in range(20) for x in range(100))
+    sim = latticesim.Simulation.from_text(rules, agents)
+    r = sim.run(60)
+    assert r.record_count == 120_000
+    assert len(r.records) == 100_000
+    assert (r.records[0].step, r.records[-1].step) == (1, 50)
+    assert [a[0] for a in r.records[0].agents] == [0]
+    assert str(r.records[-1]) == "error[division-by-zero] step 50: agent 1999, rule `d`: division by zero; the target is unchanged"
+    assert sim.stats()["records"]["by_kind"]["division-by-zero"] == 120_000
+    assert sim.series()["records"].sum() == 120_000
+    r = sim.step(2)
+    assert (r.record_count, len(r.records)) == (4_000, 4_000)
+    assert (r.records[0].step, r.records[-1].step) == (61, 62)
+
+
 def test_arrays_view_the_engine_and_follow_each_step():
     sim = latticesim.Simulation.from_files(ROOT / "examples/gravity/rules.txt", ROOT / "examples/gravity/agents.txt")
     pos, states, attach = sim.positions, sim.states, sim.attachments
