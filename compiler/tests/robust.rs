@@ -35,6 +35,26 @@ fn run(rules: &[u8], agents: Option<&[u8]>, dim: Option<Dim>) -> Checked {
     c
 }
 
+/// A blank after a pattern's letter, before a character of two bytes (found by
+/// `random_token_lines`): the pattern's span is counted from its end, so the character's
+/// label is the character.
+#[test]
+fn a_blank_after_the_letter_keeps_the_pattern_span() {
+    let c = run(
+        "N \nN \nS \u{e9}Q1,1 \nN \n".as_bytes(),
+        None,
+        Some(Dim::Two),
+    );
+    let e304 = c
+        .diags
+        .iter()
+        .find(|d| d.code.as_str() == "E304")
+        .expect("E304");
+    let text = c.sources.text(e304.primary.file);
+    let span = e304.primary.span;
+    assert_eq!(&text[span.start as usize..span.end as usize], "\u{e9}");
+}
+
 /// `latticesim fmt` on any input: no panic; what it formats, it formats to a fixed point
 /// that reads without errors.
 fn fmt_holds(bytes: &[u8]) {
