@@ -214,16 +214,16 @@ impl Act<'_> {
         ids: &[u32],
         message: String,
     ) {
-        self.record_with(rep, kind, ids, || message);
+        self.record_with(rep, kind, ids, |_| message);
     }
 
-    /// [`Act::record`], the message made only when the record is kept.
+    /// [`Act::record`], the message made (from the lattice) only when the record is kept.
     pub(super) fn record_with(
         &mut self,
         rep: &mut StepReport,
         kind: RecordKind,
         ids: &[u32],
-        message: impl FnOnce() -> String,
+        message: impl FnOnce(&Lattice) -> String,
     ) {
         let cap = self.opts.records_per_step;
         record_with((self.stats, self.lat, cap), rep, kind, ids, message);

@@ -198,8 +198,7 @@ fn calc_records(
             CalcIssue::NoExternalAgent { .. } => RecordKind::NoExternalAgent,
         };
         // (Counters near their range may saturate for every agent, every step.)
-        let msg = || {
-            match issue {
+        let msg = |_: &Lattice| match issue {
             CalcIssue::Saturated { exact } => format!(
                 "agent {id}, rule `{name}`: the result {exact} is saturated to the {}-bit range",
                 prog.width.bits()
@@ -208,10 +207,10 @@ fn calc_records(
                 format!("agent {id}, rule `{name}`: division by zero; the target is unchanged")
             }
             CalcIssue::NoExternalAgent { off } => format!(
-                "agent {id}, rule `{name}`: no agent at ({},{}) to read an external counter from; the calculation is skipped",
+                "agent {id}, rule `{name}`: no agent at ({},{}) to read an external counter \
+                 from; the calculation is skipped",
                 off[0], off[1]
             ),
-        }
         };
         record_with((stats, lat, cap), rep, kind, &[a], msg);
     }

@@ -207,17 +207,17 @@ fn record(
     ids: &[u32],
     message: String,
 ) {
-    record_with((stats, lat, cap), rep, kind, ids, || message);
+    record_with((stats, lat, cap), rep, kind, ids, |_| message);
 }
 
-/// [`record`], its message made only when the record is kept (`cap`: see
-/// [`Options::records_per_step`]).
+/// [`record`], its message made (from the lattice) only when the record is kept (`cap`:
+/// see [`Options::records_per_step`]).
 fn record_with(
     (stats, lat, cap): (&mut Stats, &Lattice, Option<usize>),
     rep: &mut StepReport,
     kind: RecordKind,
     ids: &[u32],
-    message: impl FnOnce() -> String,
+    message: impl FnOnce(&Lattice) -> String,
 ) {
     *stats.records.entry(kind).or_insert(0) += 1;
     if !rep.keeps(kind, cap) {
@@ -229,7 +229,7 @@ fn record_with(
         agents: (ids.iter())
             .map(|&a| (lat.label(a), lat.pos[a as usize]))
             .collect(),
-        message: message(),
+        message: message(lat),
         rules: Vec::new(),
     });
 }

@@ -346,22 +346,14 @@ impl Act<'_> {
         }
         for part in &parts {
             for &(a, o) in &part.blocked {
-                let lat = &*self.lat;
-                let msg = || {
+                let msg = |lat: &Lattice| {
                     format!(
                         "agent {} cannot move by {}: the target cell is blocked; its group does not move",
                         lat.label(a),
                         lat.cell_text(o)
                     )
                 };
-                let cap = self.opts.records_per_step;
-                record_with(
-                    (self.stats, lat, cap),
-                    rep,
-                    RecordKind::MoveBlocked,
-                    &[a],
-                    msg,
-                );
+                self.record_with(rep, RecordKind::MoveBlocked, &[a], msg);
             }
         }
         // 2. Collisions. Movers by one offset have distinct targets; when every target is
@@ -478,15 +470,9 @@ impl Act<'_> {
             involved.clear();
             involved.extend_from_slice(&movers[first..]);
             involved.extend(self.lat.agent_at(cell).filter(|&s| stays(s)));
-            let (lat, ms) = (&*self.lat, &movers[first..]);
-            let msg = || collision_text(lat, cell, ms, &involved);
-            record_with(
-                (self.stats, lat, self.opts.records_per_step),
-                rep,
-                RecordKind::MoveCollision,
-                &involved,
-                msg,
-            );
+            let ms = &movers[first..];
+            let msg = |lat: &Lattice| collision_text(lat, cell, ms, &involved);
+            self.record_with(rep, RecordKind::MoveCollision, &involved, msg);
         }
         movers
     }
