@@ -1010,6 +1010,15 @@ fn threads_join_chunks_in_order() {
         let state = ["E", "W", "N", "S", "D", "R"][((x * 13 + y * 7) % 29 % 6) as usize];
         format!(" S{state}0000 {bond}")
     });
+    // Gravity with a rule per state, each turning its agents to the other state as they
+    // fall (more than 4,096 states set a step: on the pool, each chunk its own agents; the
+    // moves at once from the actions' list; runs across the two states' lists).
+    let toggle = "fall_a\n1\nSA**** N***0 >C00 0000\nP0,-1 SB0000 C00 - C00 0001\n\n\
+                  fall_b\n1\nSB**** N***0 >C00 0000\nP0,-1 SA0000 C00 - C00 0001\n";
+    let toggling = sparse_block(150, 150, |x, y, k| {
+        let state = ["A", "B"][((k * 7919) >> 3) % 2];
+        ((k * 7919) % 10 < 4).then(|| format!(" S{state}0000 C00 {}", y + x % 3))
+    });
     let cases = [
         cases[0].clone(),
         cases[1].clone(),
@@ -1022,6 +1031,7 @@ fn threads_join_chunks_in_order() {
         (PLAIN, field),
         (swap, swapping),
         (bars, bars_scrambled),
+        (toggle, toggling),
     ];
     for (i, (rules, agents)) in cases.iter().enumerate() {
         // Unoptimised (`cargo test`), the three largest cases are left out (this test took
@@ -1086,6 +1096,12 @@ fn threads_join_chunks_in_order() {
             "case {i}: {} swaps, records {kinds:?}",
             one.stats.swaps
         );
+        // (More than 4,096 states set a step.)
+        assert!(
+            i != 11 || one.stats.moves > 8 * 4096,
+            "case {i}: {} moves",
+            one.stats.moves
+        );
         // (Firings of `east`, `west` and `north`: moves asked for.)
         let asked: u64 = one.stats.firings.iter().take(3).sum();
         assert!(
@@ -1105,6 +1121,18 @@ fn block(w: i32, h: i32, extra: impl Fn(i32, i32, usize) -> String) -> String {
         for y in 0..h {
             s += &format!("{x},{y}{}\n", extra(x, y, k));
             k += 1;
+        }
+    }
+    s
+}
+
+/// The cells of a `w` x `h` block (x, then y) where `agent` (given x, y and the cell's
+/// index) gives an agent's line after its position; the others empty.
+fn sparse_block(w: i32, h: i32, agent: impl Fn(i32, i32, usize) -> Option<String>) -> String {
+    let mut s = String::new();
+    for (k, (x, y)) in (0..w).flat_map(|x| (0..h).map(move |y| (x, y))).enumerate() {
+        if let Some(rest) = agent(x, y, k) {
+            s += &format!("{x},{y}{rest}\n");
         }
     }
     s
@@ -1759,6 +1787,44 @@ fn state_and_calc_cases() -> Vec<(String, String)> {
                 } else {
                     format!(" S{st} C00 {}", (x + 2 * y) % 5)
                 }
+            }),
+        ),
+        // A rule per state that moves one step down, changes the state and counts down
+        // (`fall_a` takes SA to SB, `fall_b` back; the same precondition but for the state):
+        // their agents, mixed one by one, evaluated in runs across the two lists; the moves
+        // made at once from the actions' list; the counters counted down in one masked pass
+        // for both rules. In a universe bounded below (movers at its rim go the general
+        // way), with holes, and agents in a state without rules.
+        (
+            "// steps 12\nfall_a\n1\nSA**** N***0 >C00 0000\nP0,-1 SB0000 C00 - C00 0001\n\n\
+             fall_b\n1\nSB**** N***0 >C00 0000\nP0,-1 SA0000 C00 - C00 0001\n"
+                .into(),
+            format!(
+                "U0,8,0,13\n{}",
+                sparse_block(9, 14, |x, y, k| {
+                    // (Runs of SA and SB alone in the first columns, and short ones among
+                    // agents of a state without rules after.)
+                    let st = match x {
+                        0..=3 => ["A", "B", "B", "A"][(y as usize + k) % 4],
+                        _ => ["A", "B", "B", "A", "X"][(x as usize * 3 + y as usize + k) % 5],
+                    };
+                    ((x * 5 + y * 11) % 4 != 0).then(|| format!(" S{st}0000 C00 {}", (x + 3 * y) % 6))
+                })
+            ),
+        ),
+        // The same walking east out of the input's box (the grid made again ahead of the
+        // movers at its rim), counting up to saturation (32767: the masked pass declines,
+        // the runs record it); beside rules of two states that test different cells,
+        // their agents mixed one by one (short runs, evaluated in windows of lists).
+        (
+            "// steps 9\nwalk_a\n1\nSA**** N**0*\nP1,0 SB0000 C00 + C00 0001\n\n\
+             walk_b\n1\nSB**** N**0*\nP1,0 SA0000 C00 + C00 0001\n\n\
+             up\n1\nSC**** N0***\nSD0000\n\ndown\n1\nSD**** N***0\nSC0000\n"
+                .into(),
+            sparse_block(7, 9, |x, y, k| {
+                let st = ["A", "C", "B", "D", "A", "B"][(x as usize + y as usize * 2 + k) % 6];
+                let c = [0, 5, 32765, 32766, 32767][(x + y) as usize % 5];
+                ((x * 3 + y * 5) % 4 != 0).then(|| format!(" S{st}0000 C00 {c}"))
             }),
         ),
         // States changed at once along chains of state-only rules: into a state without

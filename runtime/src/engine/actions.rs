@@ -127,6 +127,15 @@ impl Actions {
     }
 }
 
+/// One chunk of [`Act::set_states`]: its new states, its agents' candidate lists and
+/// states, and its first agent.
+type StatesChunk<'a> = (
+    &'a [(u32, (u64, u64))],
+    &'a mut [ListId],
+    &'a mut [[u8; 5]],
+    usize,
+);
+
 /// The entries of `list` (in the order of `agent`) of agents `lo..hi`.
 fn within<T>(list: &[T], (lo, hi): (u32, u32), agent: impl Fn(&T) -> u32) -> &[T] {
     let from = list.partition_point(|x| agent(x) < lo);
@@ -431,20 +440,12 @@ impl Act<'_> {
         if letters || (moves && bonded()) {
             self.detach_move_attach(&todo, rep);
         } else if moves {
-            self.move_alone(&mut todo.moves, rep);
+            self.move_list(&mut todo.moves, rep);
         }
         // 5. State updates, in agent order.
-        for &(a, bits) in &todo.states {
-            let Some((_, _, known)) =
-                self.dispatch
-                    .apply_state(&mut self.lat.state, a as usize, bits)
-            else {
-                continue;
-            };
-            self.bufs.changes.state(a);
-            changed = true;
-            lookups |= !known;
-        }
+        let (c, l) = self.set_states(&todo.states);
+        changed |= c;
+        lookups |= l;
         if let Some(before) = states_before {
             for (a, (old, new)) in before.iter().zip(&self.lat.state).enumerate() {
                 if old != new {
@@ -464,6 +465,58 @@ impl Act<'_> {
         }
         self.bufs.todo = todo;
         changed
+    }
+
+    /// Step 5: the new states `states` (agent and state pattern, as [`pat_bits`], in
+    /// agent order, one per agent), per chunk of them (on the pool from 4,096, each chunk
+    /// writing only its own agents' entries: from its first agent to the next chunk's
+    /// first); the agents whose state changed noted in agent order. Returns whether some
+    /// state changed, and whether some new state's rules must be looked up.
+    fn set_states(&mut self, states: &[(u32, (u64, u64))]) -> (bool, bool) {
+        let (par, size, chunks) = self.threads.chunks_from(states.len(), 4096);
+        let n = self.lat.len();
+        let (known, _, of) = self.dispatch.known();
+        let one = |(states, of, state, lo): StatesChunk<'_>| {
+            let (mut changed, mut lookups) = (Vec::new(), false);
+            for &(a, bits) in states {
+                let i = a as usize - lo;
+                if let Some((_, _, k)) = known.apply((&mut of[i], &mut state[i]), bits) {
+                    changed.push(a);
+                    lookups |= !k;
+                }
+            }
+            (changed, lookups)
+        };
+        let ordered = || states.windows(2).all(|w| w[0].0 < w[1].0);
+        let parts = match par {
+            Some(_) if chunks > 1 && ordered() => {
+                let start = |c: usize| {
+                    if c == 0 {
+                        0
+                    } else {
+                        states[c * size].0 as usize
+                    }
+                };
+                let bounds: Vec<usize> = (0..chunks).map(start).chain([n]).collect();
+                let items: Vec<_> = (states.chunks(size))
+                    .zip(collect::cut(of, &bounds))
+                    .zip(collect::cut(&mut self.lat.state, &bounds))
+                    .zip(bounds.iter().copied())
+                    .map(|(((s, o), st), lo)| (s, o, st, lo))
+                    .collect();
+                map_on(par, items, one)
+            }
+            _ => vec![one((states, of, &mut self.lat.state[..], 0))],
+        };
+        let (mut changed, mut lookups) = (false, false);
+        for (agents, l) in parts {
+            changed |= !agents.is_empty();
+            lookups |= l;
+            for a in agents {
+                self.bufs.changes.state(a);
+            }
+        }
+        (changed, lookups)
     }
 
     /// The combined actions of agent `a` executing several rules `rs`: where they ask for
@@ -690,8 +743,8 @@ impl Act<'_> {
                 .map_or([AttachLetter::Keep; 6], |l| self.prog.letters[l as usize]);
             todo.links.push((a, letters, info.swaps));
         }
-        if let Some(p) = info.sets_state {
-            todo.states.push((a, pat_bits(&self.prog.pats[p as usize])));
+        if let Some(bits) = self.plan.state_bits[r as usize] {
+            todo.states.push((a, bits));
         }
     }
 }

@@ -149,10 +149,13 @@ pub(super) struct Dispatch {
     /// first rule needs nothing but the state filter and no other rule shares its
     /// priority; [`NO_RULE`] for an empty list; else [`EVALUATE`].
     pub(super) single: Vec<u32>,
-    /// Per candidate list: several rules, each state-only or with a column program, at
-    /// most 32 of one priority: its agents are evaluated list by list over windows of
-    /// agents (`select::eval_window`).
+    /// Per candidate list: rules each state-only or with a column program, at most 32 of
+    /// one priority: its agents are evaluated list by list over windows of agents
+    /// (`select::eval_window`; a list of one rule only where its agents make short runs).
     pub(super) columnar: Vec<bool>,
+    /// Per candidate list of one rule with a column program: the rule's class
+    /// (`Plan::pre_class`) and the rule; else [`ONE_NONE`].
+    pub(super) one_rule: Vec<(u32, u32)>,
     /// Per candidate list: its state as a key ([`state_key`]).
     keys: Vec<u64>,
     /// Per candidate list: where its one state-only rule takes an agent (found when first
@@ -167,9 +170,12 @@ pub(super) struct Dispatch {
     dirty: bool,
 }
 
-/// Per rule: whether its precondition is only its state filter, and its column program
-/// (`Plan::trivial`, `Plan::pre_columns`).
-pub(super) type Facts<'a> = (&'a [bool], &'a [Option<ColumnPre>]);
+/// Per rule: whether its precondition is only its state filter, its column program and
+/// the class of that program (`Plan::trivial`, `Plan::pre_columns`, `Plan::pre_class`).
+/// [`Dispatch::one_rule`] of a list that is not one rule with a column program.
+pub(super) const ONE_NONE: (u32, u32) = (u32::MAX, u32::MAX);
+
+pub(super) type Facts<'a> = (&'a [bool], &'a [Option<ColumnPre>], &'a [u32]);
 
 /// The rules of a candidate list (ordered by priority, highest first) in runs of one
 /// priority.
@@ -190,6 +196,7 @@ impl Dispatch {
             lists: Vec::new(),
             single: Vec::new(),
             columnar: Vec::new(),
+            one_rule: Vec::new(),
             keys: Vec::new(),
             hops: Vec::new(),
             hopped: Vec::new(),
@@ -233,6 +240,7 @@ impl Dispatch {
             self.lists.clear();
             self.single.clear();
             self.columnar.clear();
+            self.one_rule.clear();
             self.keys.clear();
             self.hops.clear();
             self.hopped.clear();
@@ -269,7 +277,7 @@ impl Dispatch {
 
     /// Gives agent `a` the candidate list of its state, made if its state is new.
     fn list_state_of(&mut self, prog: &Program, rules: Facts<'_>, states: &[[u8; 5]], a: usize) {
-        let (trivial, pre_columns) = rules;
+        let (trivial, pre_columns, pre_class) = rules;
         let st = &states[a];
         let key = state_key(st);
         if let Some(idx) = cached(&self.cache, key) {
@@ -278,6 +286,7 @@ impl Dispatch {
         }
         let lists = &mut self.lists;
         let (single, columnar) = (&mut self.single, &mut self.columnar);
+        let one_rule = &mut self.one_rule;
         let (keys, hops) = (&mut self.keys, &mut self.hops);
         let hopped = &mut self.hopped;
         let by_prio = &self.by_prio;
@@ -303,7 +312,11 @@ impl Dispatch {
             });
             let runs = |&r: &u32| trivial[r as usize] || pre_columns[r as usize].is_some();
             let widest = levels(prog, &list).map(<[u32]>::len).max().unwrap_or(0);
-            columnar.push(list.len() > 1 && list.iter().all(runs) && widest <= 32);
+            columnar.push(!list.is_empty() && list.iter().all(runs) && widest <= 32);
+            one_rule.push(match list[..] {
+                [r] if pre_columns[r as usize].is_some() => (pre_class[r as usize], r),
+                _ => ONE_NONE,
+            });
             lists.push(list);
             keys.push(key);
             hops.push(Hop::UNKNOWN);
@@ -382,20 +395,6 @@ impl Dispatch {
             }
             *m = 0;
         }
-    }
-
-    /// Applies a state pattern (as [`pat_bits`]) to agent `a`. When the state changes: the
-    /// old and new states, and whether the cache knew the new state's candidate list (the
-    /// agent's list is set from it, or marked for lookup).
-    #[inline(always)]
-    pub(super) fn apply_state(
-        &mut self,
-        states: &mut [[u8; 5]],
-        a: usize,
-        bits: (u64, u64),
-    ) -> Option<([u8; 5], [u8; 5], bool)> {
-        let (known, _, of) = self.known();
-        known.apply((&mut of[a], &mut states[a]), bits)
     }
 
     /// Agent `a`, whose one rule `r` only sets the state (as [`pat_bits`] `bits`), takes its
@@ -493,7 +492,9 @@ impl Known<'_> {
     }
 
     /// Applies a state pattern (as [`pat_bits`]) to an agent (its candidate list and
-    /// state): see [`Dispatch::apply_state`].
+    /// state). When the state changes: the old and new states, and whether the cache knew
+    /// the new state's candidate list (the agent's list is set from it, or marked for
+    /// lookup).
     #[inline(always)]
     pub(super) fn apply(
         &self,

@@ -7,15 +7,15 @@
 //! | path | applies when | falls back to | test that guards it |
 //! |---|---|---|---|
 //! | state-only rules (`trivial`) | a rule's precondition is only its state filter (or nothing): agents in that state execute it without evaluating (`dispatch.rs`, `cand_single`) | evaluating preconditions (`select.rs`) | `differential.rs` `optimisations_agree_with_reference` (chains of state-only rules), `themes_agree_with_reference_*` |
-//! | preconditions over runs (`pre_columns`) | every op of the precondition is one the column interpreter runs: `batch::column_pre` translates it into `batch::PreStep`s, which `batch::batch_pre` runs (`E`/`F` at a literal offset of one step as the neighbour pattern it equals, at any other literal offset as one bit of the grid per agent, `Lattice::cells_filled`; the test of the agent's state against the rule's state filter left out, with its conjunction: the dispatch passed it; an op it cannot run makes no column program, so none is met mid-run). A run of agents with one rule to test goes together; agents whose lists have several rules, all run so (or state-only), at most 32 of one priority, go list by list over windows of agents (`select::eval_window`) | `eval_pre` one agent at a time | `optimisations_agree_with_reference` (preconditions over runs, runs longer than a batch, `E`/`F` of one step in a bounded universe in 2D and 3D; the bouncing example's lists of five rules and `E`/`F` at diagonals and two steps in a bounded universe; several rules of one priority true together in 3D) |
+//! | preconditions over runs (`pre_columns`) | every op of the precondition is one the column interpreter runs: `batch::column_pre` translates it into `batch::PreStep`s, which `batch::batch_pre` runs (`E`/`F` at a literal offset of one step as the neighbour pattern it equals, at any other literal offset as one bit of the grid per agent, `Lattice::cells_filled`; the test of the agent's state against the rule's state filter left out, with its conjunction: the dispatch passed it; an op it cannot run makes no column program, so none is met mid-run). A run of agents with one rule to test goes together, with the agents next to them whose lists are one rule of the same column program (`pre_class`: the rules of states that alternate among the agents, `SA` falls and becomes `SB` and back, test the same); agents whose lists have several rules, all run so (or state-only), at most 32 of one priority, and runs of one rule shorter than 16 among them, go list by list over windows of agents (`select::eval_window`) | `eval_pre` one agent at a time | `optimisations_agree_with_reference` (preconditions over runs, runs longer than a batch, `E`/`F` of one step in a bounded universe in 2D and 3D; the bouncing example's lists of five rules and `E`/`F` at diagonals and two steps in a bounded universe; several rules of one priority true together in 3D; a rule per state falling and turning its agents to the other state, their states mixed in long runs and short ones; rules of two states testing different cells mixed one by one) |
 //! | priorities (`any_prio`, `prio_offsets`) | no rule reads `P`, `L` or `Q`: the plain selection (`select_plain`); with literal `L`/`Q` offsets, priorities are resolved only where read | `select_with_priorities` over every agent | `semantics.rs` priority tests, `optimisations_agree_with_reference` (priority chains) |
 //! | no actions (`acting` = `Nothing`) | no rule moves, swaps, attaches or sets a state: the actions phase is skipped | `actions.rs` | `engine_agrees_with_reference_*` |
 //! | plain moves (`acting` = `PlainMoves`, `plain_moves`) | every acting rule only moves by a literal, non-zero offset: movers are collected without intents (`actions.rs`), and a mover without bonds moves alone (`alone.rs`, `Act::move_alone`) | intents per agent and `detach_move_attach` | `optimisations_agree_with_reference` (programs of plain moves only, single-agent moves) |
-//! | moves at once (`plain_step`) | every acting rule only moves one step, all in one direction, and in this step no mover is bonded: movers found and moved in two passes over chunks of agents, on the pool (`moves.rs`, `plain_moves_at_once`), each that stands on the grid away from its rim into its target when that is empty as it is tried | `move_alone` for the movers left (at the rim, after the grid is made again with room ahead when that pays; target filled); for all when one is bonded (then not tried for 16 steps, nor after a step where most movers were blocked) | `differential.rs` `skipping_agrees_with_reference`, `the_cell_index_follows_the_agents`, `threads_give_the_same_results` |
+//! | moves at once (`plain_step`) | every acting rule only moves one step, all in one direction, and in this step no mover is bonded: movers found and moved in two passes over chunks of agents, on the pool (`moves.rs`, `plain_moves_at_once`), each that stands on the grid away from its rim into its target when that is empty as it is tried; also, in any program, a step whose moves (collected with the other actions: rules that move and set the state) are all one step in one direction and whose movers have no bonds (`move_list`) | `move_alone` for the movers left (at the rim, after the grid is made again with room ahead when that pays; target filled); for all when one is bonded (then not tried for 16 steps, nor after a step where most movers were blocked) | `differential.rs` `skipping_agrees_with_reference`, `the_cell_index_follows_the_agents`, `threads_give_the_same_results`; `optimisations_agree_with_reference` and `threads_join_chunks_in_order` (rules that fall or walk and set the state, in a bounded universe and out of the input's box) |
 //! | state hops (`acting` = `States`, `direct_bits`) | every acting rule only sets a state: runs of agents in one state take its hop at once (`dispatch.rs`) | `set_state_at_once` per agent | `optimisations_agree_with_reference` (chains of state-only rules taken as hops) |
 //! | literal offsets (`literal_offsets`) | an offset has no counter in it: its value is known once | the offset evaluated per agent | `engine_agrees_with_reference_*` |
 //! | calculations over runs (`post_columns`) | no calculation of the rule reads an external counter or a message from any direction: `batch::column_post` translates the postcondition into `batch::PostStep`s (chains of in-place `max`/`min` found then), which `batch::run_batch` runs over runs of agents (with `fast_calc` for the most frequent ones); any instruction it does not know makes no column program | `run_post` one agent at a time | `optimisations_agree_with_reference` (runs calculating together, chains of in-place max/min, saturation and division by zero inside runs) |
-//! | one in-place add (`masked_add`) | one rule alone calculates or sends, and its only calculation adds a literal to a counter in place (`C00 - C00 0001`); in a step without a list of executing agents, no agent executing several rules, no trace: each chunk adds to the counter of every agent whose entry is that rule in one masked pass over the column (`batch::masked_add`), when no result saturates | runs of agents (`run_batch`) | `differential.rs` `optimisations_agree_with_reference` (one rule counting down beside rules that do not calculate, saturation), `threads_join_chunks_in_order` (gravity) |
+//! | one in-place add (`masked_add`) | one to four rules calculate or send, and the only calculation of each adds the same literal to the same counter in place (`C00 - C00 0001`); in a step without a list of executing agents, no agent executing several rules, no trace: each chunk adds to the counter of every agent whose entry is one of those rules in one masked pass over the column (`batch::masked_add`), when no result saturates | runs of agents (`run_batch`) | `differential.rs` `optimisations_agree_with_reference` (one rule counting down beside rules that do not calculate, saturation), `threads_join_chunks_in_order` (gravity) |
 //! | no calculations (`any_computes`, `computes`) | no rule calculates or sends: the calculation phase is skipped; per rule, agents of rules that do not compute are passed over | `calc.rs` | `engine_agrees_with_reference_*` |
 //! | skipping quiet agents (`reads`, `activity.rs`) | an agent that had no valid rule at its last evaluation is evaluated again only when something it reads changed: its own state, counters, bonds or inbox, or a cell at an offset some precondition reads (`reads`: occupancy, states, counters), known here; agents in a state with a rule whose offset depends on a counter (`Reads::unbounded`) are evaluated at every step; no skipping with priority terms, `Skip::Off`, or when more than an eighth of the agents are woken | every agent evaluated (`select_plain` and the dense phases) | `differential.rs` every generated case with `Skip::Eager` and `Skip::Off`, `skipping_agrees_with_reference` |
 //! | messages left with their senders (`defer`) | numeric slots are used, no text message, and no rule moves or swaps: sends stay in the outboxes and are read through the plan of senders (`Pending` in lattice.rs, `post.rs`) | copying every message into its recipient's inbox (`post::deliver`) | `optimisations_agree_with_reference` (messages left with their senders, stale outboxes, sends to all and to one direction), `threads_join_chunks_in_order` |
@@ -29,6 +29,11 @@ pub(super) struct Plan {
     /// Per rule: its precondition as the column interpreter runs it over a run of agents
     /// ([`batch_pre`]), when it can.
     pub(super) pre_columns: Vec<Option<ColumnPre>>,
+    /// Per rule: the first rule whose column program is the same as its own (itself
+    /// when none before is, or it has none). Agents whose lists are one rule each, of one
+    /// class, are evaluated together: the rules of states that alternate among the agents
+    /// (`SA` falls and becomes `SB`, `SB` falls and becomes `SA`) test the same.
+    pub(super) pre_class: Vec<u32>,
     /// Some rule reads neighbours' priorities.
     pub(super) any_prio: bool,
     /// The offsets at which `L`/`Q` terms read priorities, when none depends on a counter
@@ -49,14 +54,17 @@ pub(super) struct Plan {
     pub(super) plain_mask: Vec<bool>,
     /// Per rule whose only action sets the state: that state pattern as [`pat_bits`].
     pub(super) direct_bits: Vec<Option<(u64, u64)>>,
+    /// Per rule that sets the state: that state pattern as [`pat_bits`].
+    pub(super) state_bits: Vec<Option<(u64, u64)>>,
     /// Per entry of the program's offsets: its value when it has no counter in it.
     pub(super) literal_offsets: Vec<Option<[i32; 3]>>,
     /// Per rule: its calculations as the column interpreter runs them over a run of
     /// agents ([`run_batch`]), when it can (no external counters).
     pub(super) post_columns: Vec<Option<ColumnPost>>,
-    /// When one rule alone calculates or sends, and its only calculation adds a literal to
-    /// a counter in place (`C00 - C00 0001`): that rule, the counter and what is added.
-    pub(super) masked_add: Option<(u32, u8, i32)>,
+    /// When one to four rules calculate or send, and the only calculation of each adds one
+    /// literal to one counter in place (`C00 - C00 0001`; a rule per state counting down):
+    /// those rules (the last repeated to make four), the counter and what is added.
+    pub(super) masked_add: Option<([u32; 4], u8, i32)>,
     /// Some rule calculates or sends.
     pub(super) any_computes: bool,
     /// Per rule: it calculates or sends.
@@ -193,8 +201,16 @@ impl Plan {
                 _ => false,
             })
             .collect();
-        let pre_columns = (prog.rules.iter())
+        let pre_columns: Vec<Option<ColumnPre>> = (prog.rules.iter())
             .map(|r| column_pre(prog, pre(r), r.state_filter))
+            .collect();
+        let pre_class = (0..pre_columns.len())
+            .map(|r| match &pre_columns[r] {
+                Some(p) => pre_columns.iter().position(|q| q.as_ref() == Some(p)),
+                None => None,
+            })
+            .enumerate()
+            .map(|(r, first)| first.unwrap_or(r) as u32)
             .collect();
         let post_columns: Vec<_> = (prog.rules.iter())
             .map(|r| column_post(prog, post(r)))
@@ -220,6 +236,9 @@ impl Plan {
                 (Some(p), None, None, None) => Some(pat_bits(&prog.pats[p as usize])),
                 _ => None,
             })
+            .collect();
+        let state_bits = (prog.rules.iter())
+            .map(|i| i.sets_state.map(|p| pat_bits(&prog.pats[p as usize])))
             .collect();
         let prio_offsets = (prog.code.iter())
             .filter_map(|op| match op {
@@ -247,12 +266,14 @@ impl Plan {
             plain_mask,
             trivial,
             pre_columns,
+            pre_class,
             any_prio: prog.rules.iter().any(|r| r.reads_priorities),
             prio_offsets,
             acting,
             has_actions,
             plain_moves,
             direct_bits,
+            state_bits,
             literal_offsets: prog.offsets.iter().map(literal).collect(),
             post_columns,
             masked_add,
@@ -266,28 +287,33 @@ impl Plan {
 }
 
 /// See [`Plan::masked_add`].
-fn masked_add(prog: &Program, post_columns: &[Option<ColumnPost>]) -> Option<(u32, u8, i32)> {
-    let mut computing = (prog.rules.iter().enumerate()).filter(|(_, r)| r.computes);
-    let (r, _) = computing.next()?;
-    if computing.next().is_some() {
+fn masked_add(prog: &Program, post_columns: &[Option<ColumnPost>]) -> Option<([u32; 4], u8, i32)> {
+    let computing: Vec<usize> = (prog.rules.iter().enumerate())
+        .filter(|(_, r)| r.computes)
+        .map(|(r, _)| r)
+        .collect();
+    if computing.is_empty() || computing.len() > 4 {
         return None;
     }
-    match post_columns[r].as_deref()? {
+    let add = |r: usize| match post_columns[r].as_deref()? {
         [PostStep::Calc {
             target: Target::Counter(c),
             op: op @ (CalcOp::Add | CalcOp::Sub),
             a: ColVal::Counter(ca),
             b: ColVal::Lit(v),
-        }] if c == ca => {
-            let v = if *op == CalcOp::Add {
-                *v
-            } else {
-                v.checked_neg()?
-            };
-            Some((r as u32, *c, v))
-        }
+        }] if c == ca => match op {
+            CalcOp::Add => Some((*c, *v)),
+            _ => Some((*c, v.checked_neg()?)),
+        },
         _ => None,
+    };
+    let (c, v) = add(computing[0])?;
+    if computing.iter().any(|&r| add(r) != Some((c, v))) {
+        return None;
     }
+    // (Padded with the last: the test of an entry against the four stays one.)
+    let rules = [0, 1, 2, 3].map(|i| computing[i.min(computing.len() - 1)] as u32);
+    Some((rules, c, v))
 }
 
 /// What a step of `prog` can change in the lattice: positions (and bonds) when a rule moves

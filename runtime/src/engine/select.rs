@@ -64,7 +64,12 @@ impl Selector {
         self.sel.found = false;
         let changed = dispatch.stale(lat.len()) || self.states_changed;
         self.states_changed = false;
-        dispatch.update(prog, (&plan.trivial, &plan.pre_columns), lat, threads);
+        let facts = (
+            &plan.trivial[..],
+            &plan.pre_columns[..],
+            &plan.pre_class[..],
+        );
+        dispatch.update(prog, facts, lat, threads);
         self.reused = !plan.any_prio && !changed && self.by_state;
         if self.reused {
             return Vec::new();
@@ -131,6 +136,12 @@ impl Selector {
 
 /// Rules up to which firings are counted per chunk of agents, and the chunks' counts added.
 const TALLIED: usize = 64;
+
+/// A run of agents with one rule to test shorter than this, among agents of other lists
+/// the column interpreter runs, is evaluated with them in a window ([`eval_window`]):
+/// rules of two states that alternate among the agents (`SA` moves and becomes `SB`, and
+/// back) made runs of one or two agents, each a call of [`batch_pre`].
+const SHORT_RUN: usize = 16;
 
 /// Adds to `counts` how many entries of `one` (a part of the selection) name each single
 /// rule, and returns how many name any rule; `many`: some entry may be [`MANY`]. With few
@@ -348,7 +359,7 @@ impl Selector {
         // Listed only when few executed a rule in the last selection too: a step of many
         // would list the first eighth of each chunk in vain (2.5 % of B2's time).
         let few = self.active as usize <= n / SPARSE_SHARE;
-        let columnar = &dispatch.columnar;
+        let (columnar, one_rule) = (&dispatch.columnar, &dispatch.one_rule);
         let work = |(c, one): (usize, &mut [u32])| {
             let lo = c * chunk;
             let mut multi: Vec<(u32, Vec<u32>)> = Vec::new();
@@ -382,20 +393,34 @@ impl Selector {
                 if let [r] = lists[idx][..] {
                     if let Some(pre) = &pre_columns[r as usize] {
                         // The agents next in line with this list, or another state's
-                        // list of just this rule (agents of several states mixed in
-                        // any order still go together).
+                        // list of just this rule or one that tests the same (agents of
+                        // several states mixed in any order still go together).
+                        let class = one_rule[idx].0;
                         let next = &of[a..(a + BATCH).min(hi)];
                         let same = run_of(next, of[a]);
                         let m = same
                             + (next[same..].iter())
-                                .take_while(|&&o| o == of[a] || lists[o.index()][..] == [r])
+                                .take_while(|&&o| one_rule[o.index()].0 == class)
                                 .count();
-                        batch_pre(prog, (pre, Rows::Run(a)), lat, &mut bufs, &mut truth[..m]);
-                        for (slot, &t) in one[k..k + m].iter_mut().zip(&truth[..m]) {
-                            *slot = if t { r } else { NO_RULE };
+                        // (A short run among agents of other lists, in states mixed
+                        // one by one, goes with them in a window, below.)
+                        if m >= SHORT_RUN || !columnar[idx] {
+                            let rows = (&pre[..], Rows::Run(a));
+                            batch_pre(prog, rows, lat, &mut bufs, &mut truth[..m]);
+                            let run = one[k..k + m].iter_mut().zip(&truth[..m]);
+                            if same == m {
+                                // (One list: a loop the compiler vectorises.)
+                                for (slot, &t) in run {
+                                    *slot = if t { r } else { NO_RULE };
+                                }
+                            } else {
+                                for ((slot, &t), &o) in run.zip(next) {
+                                    *slot = if t { one_rule[o.index()].1 } else { NO_RULE };
+                                }
+                            }
+                            k += m;
+                            continue;
                         }
-                        k += m;
-                        continue;
                     }
                 }
                 // A window of agents whose lists of several rules the column interpreter
@@ -654,7 +679,7 @@ impl Selector {
     ) {
         let trivial = &plan.trivial;
         let (lists, single, of) = (&dispatch.lists, &dispatch.single, &dispatch.of);
-        let pre_columns = &plan.pre_columns;
+        let (pre_columns, one_rule) = (&plan.pre_columns, &dispatch.one_rule);
         let one = Scatter::new(&mut self.sel.one);
         let work = |lo: usize, hi: usize| {
             let ids = &list[lo..hi];
@@ -685,11 +710,10 @@ impl Selector {
                 if let [r] = lists[idx][..] {
                     if let Some(pre) = &pre_columns[r as usize] {
                         let next = &ids[k..(k + BATCH).min(ids.len())];
+                        // (With the lists of one rule that tests the same.)
+                        let class = one_rule[idx].0;
                         let m = (next.iter())
-                            .take_while(|&&b| {
-                                let o = of[b as usize];
-                                o == of[a] || lists[o.index()][..] == [r]
-                            })
+                            .take_while(|&&b| one_rule[of[b as usize].index()].0 == class)
                             .count();
                         // (The list is in id order without repeats: agents of consecutive
                         // ids, a row of walkers, are read as a run, without gathering.)
@@ -700,7 +724,14 @@ impl Selector {
                         };
                         batch_pre(prog, (pre, rows), lat, &mut bufs, &mut truth[..m]);
                         let valid = next[..m].iter().zip(&truth[..m]).map(|(&b, &t)| {
-                            unsafe { one.set(b as usize, if t { r } else { NO_RULE }) };
+                            // (Without a branch on the agent's list: states mixed one by one
+                            // would mislead its prediction.)
+                            let e = if t {
+                                one_rule[of[b as usize].index()].1
+                            } else {
+                                NO_RULE
+                            };
+                            unsafe { one.set(b as usize, e) };
                             (b, t)
                         });
                         extend_kept(&mut chosen, valid);

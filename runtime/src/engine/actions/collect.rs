@@ -216,7 +216,7 @@ type Item<'a> = (
 
 /// `col` cut at `bounds` (increasing, the first 0 and the last `col.len()`): one part per
 /// pair of neighbouring bounds.
-fn cut<'a, T>(mut col: &'a mut [T], bounds: &[usize]) -> Vec<&'a mut [T]> {
+pub(super) fn cut<'a, T>(mut col: &'a mut [T], bounds: &[usize]) -> Vec<&'a mut [T]> {
     let mut out = Vec::with_capacity(bounds.len().saturating_sub(1));
     for w in bounds.windows(2) {
         let (part, rest) = col.split_at_mut(w[1] - w[0]);

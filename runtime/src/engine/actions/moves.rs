@@ -69,25 +69,108 @@ fn unnote(notes: &mut Vec<Moved>, deferred: &[u32]) {
     drop_agents(notes, deferred, |m| m.0);
 }
 
+/// Where the movers of [`Act::moves_at_once`] come from.
+#[derive(Clone, Copy)]
+pub(super) enum Movers<'a> {
+    /// The agents that the selection says execute a rule that moves
+    /// (`Plan::plain_mask`).
+    Selected(&'a Selection),
+    /// The actions' moves (agent order), all by one offset.
+    Listed(&'a [(u32, [i32; 3])]),
+}
+
+impl Movers<'_> {
+    /// How many agents (or moves) the chunks split.
+    fn len(self) -> usize {
+        match self {
+            Movers::Selected(sel) if sel.listed => sel.list.len(),
+            Movers::Selected(sel) => sel.one.len(),
+            Movers::Listed(moves) => moves.len(),
+        }
+    }
+
+    /// The movers of items `lo..hi` into `part` (`mover`: `Plan::plain_mask`).
+    fn collect(self, part: &mut FusedPart, (lo, hi): (usize, usize), mover: &[bool]) {
+        match self {
+            Movers::Selected(sel) if sel.listed => part.collect(
+                sel.list[lo..hi].iter().map(|&a| a as usize),
+                (&sel.one, mover),
+            ),
+            Movers::Selected(sel) => part.collect_range((lo, hi), (&sel.one, mover)),
+            Movers::Listed(moves) => {
+                part.movers.clear();
+                part.movers.extend(moves[lo..hi].iter().map(|m| m.0));
+                part.deferred.clear();
+            }
+        }
+    }
+
+    /// The first agents (up to 65), to judge whether the movers lie scattered.
+    fn first(self) -> Vec<usize> {
+        match self {
+            Movers::Selected(sel) if sel.listed => {
+                sel.list.iter().take(65).map(|&a| a as usize).collect()
+            }
+            Movers::Selected(sel) => (0..sel.one.len().min(65)).collect(),
+            Movers::Listed(moves) => moves.iter().take(65).map(|m| m.0 as usize).collect(),
+        }
+    }
+}
+
 impl Act<'_> {
     /// The plain moves of a step at once, on the pool when it pays (see `plan.rs`): when
     /// every rule that acts only moves one step in one direction (`Plan::plain_step`) and
-    /// no mover is bonded. Then no move can collide and no bond changes: the movers of
-    /// each chunk of agents are found in one pass that reads, and each that stands on the
-    /// grid away from its rim, with its target empty, is moved in one that writes (a
-    /// target seen empty was empty at the start of the step, or left by an agent moving
-    /// the same way, which nothing else may enter). The others go the general way after
-    /// (`move_alone`): those at the rim (a cloud that falls, a line that walks away; the
-    /// grid is first made again with room ahead of them when that pays, and they are tried
-    /// at once again), and those whose target was filled when they were tried. Returns
-    /// false, having changed nothing, when a mover is bonded (the moves then go the general
-    /// way), and then does not try for the next 16 steps (nor after a step where more than
-    /// half the movers were blocked: a jam goes the general way).
+    /// no mover is bonded, as [`Act::moves_at_once`] makes them. Returns false, having
+    /// changed nothing, when they were not made so.
     pub(super) fn plain_moves_at_once(&mut self, sel: &Selection, rep: &mut StepReport) -> bool {
-        let Some((off, d)) = self.plan.plain_step else {
-            return false;
-        };
-        let (rim, movers) = match self.plain_moves_on_grid(sel) {
+        match self.plan.plain_step {
+            Some(step) => self.moves_at_once(Movers::Selected(sel), step, rep),
+            None => false,
+        }
+    }
+
+    /// The moves of `live` (in agent order, with their offsets; none bonded): when all are
+    /// one step in one direction, made at once (as [`Act::moves_at_once`] makes them: a
+    /// rule that moves and sets the state, rules in several states that move alike);
+    /// else, or when they were not made so, by [`Act::move_alone`].
+    pub(super) fn move_list(&mut self, live: &mut Vec<(u32, [i32; 3])>, rep: &mut StepReport) {
+        let off = live.first().map(|m| m.1);
+        let step = off
+            .filter(|&o| live.iter().all(|m| m.1 == o))
+            .and_then(|o| {
+                (0..self.lat.dim.dirs())
+                    .find(|&d| Dir::ALL[d].offset() == o)
+                    .map(|d| (o, d))
+            });
+        if let Some(step) = step {
+            if self.moves_at_once(Movers::Listed(live), step, rep) {
+                live.clear();
+                return;
+            }
+        }
+        self.move_alone(live, rep);
+    }
+
+    /// Moves by one step in direction `d` (offset `off`) at once, on the pool when it
+    /// pays, when no mover is bonded. Then no move can collide and no bond changes: the
+    /// movers of each chunk (of agents, or of the list) are found in one pass that reads,
+    /// and each that stands on the grid away from its rim, with its target empty, is moved
+    /// in one that writes (a target seen empty was empty at the start of the step, or
+    /// left by an agent moving the same way, which nothing else may enter). The others go
+    /// the general way after (`move_alone`): those at the rim (a cloud that falls, a line
+    /// that walks away; the grid is first made again with room ahead of them when that
+    /// pays, and they are tried at once again), and those whose target was filled when
+    /// they were tried. Returns false, having changed nothing, when a mover is bonded (the
+    /// moves then go the general way), and then does not try for the next 16 steps (nor
+    /// after a step where more than half the movers were blocked: a jam goes the general
+    /// way).
+    fn moves_at_once(
+        &mut self,
+        src: Movers<'_>,
+        (off, d): ([i32; 3], usize),
+        rep: &mut StepReport,
+    ) -> bool {
+        let (rim, movers) = match self.moves_on_grid(src, (off, d)) {
             AtOnce::Done { rim, movers } => (rim, movers),
             AtOnce::NotTried => return false,
             AtOnce::Failed => {
@@ -128,12 +211,9 @@ impl Act<'_> {
         true
     }
 
-    /// [`Act::plain_moves_at_once`] on the grid as it is, without the pause it sets and
-    /// the general way for the movers it leaves (in the parts' `deferred`).
-    fn plain_moves_on_grid(&mut self, sel: &Selection) -> AtOnce {
-        let Some((off, d)) = self.plan.plain_step else {
-            return AtOnce::NotTried;
-        };
+    /// [`Act::moves_at_once`] on the grid as it is, without the pause it sets and the
+    /// general way for the movers it leaves (in the parts' `deferred`).
+    fn moves_on_grid(&mut self, src: Movers<'_>, (off, d): ([i32; 3], usize)) -> AtOnce {
         if self.opts.trace {
             return AtOnce::NotTried;
         }
@@ -145,13 +225,9 @@ impl Act<'_> {
             Some(g) => g.ready_rim(),
             None => return AtOnce::NotTried,
         }
-        let (one, mover) = (&sel.one[..], &self.plan.plain_mask[..]);
+        let mover = &self.plan.plain_mask[..];
         let th = self.threads;
-        let len = if sel.listed {
-            sel.list.len()
-        } else {
-            one.len()
-        };
+        let len = src.len();
         let (par, size, chunks) = th.chunks(len);
         if par.is_none() {
             // One thread: the movers, then their moves checked as they are made.
@@ -160,11 +236,7 @@ impl Act<'_> {
                 self.bufs.fused.push(FusedPart::default());
             }
             let part = &mut self.bufs.fused[0];
-            if sel.listed {
-                part.collect(sel.list.iter().map(|&a| a as usize), (one, mover));
-            } else {
-                part.collect_range((0, one.len()), (one, mover));
-            }
+            src.collect(part, (0, len), mover);
             let changes = &mut self.bufs.changes;
             changes.moved_all(self.lat, part.movers.iter().copied());
             let ahead = scattered(self.lat, &part.movers);
@@ -188,28 +260,16 @@ impl Act<'_> {
         // move is undone.
         let mut parts = std::mem::take(&mut self.bufs.fused);
         parts.resize_with(chunks, FusedPart::default);
-        let list = &sel.list;
         let mut shift = self.lat.shift((off, d)).expect("a grid");
         // Scattered movers are asked for ahead (judged on the first chunk's agents).
-        shift.ahead = {
-            let first: Vec<usize> = match sel.listed {
-                true => list.iter().take(65).map(|&a| a as usize).collect(),
-                false => (0..len.min(65)).collect(),
-            };
-            // SAFETY: only codes are read, and no thread moves yet.
-            unsafe { shift.scattered(&first) }
-        };
+        // SAFETY: only codes are read, and no thread moves yet.
+        shift.ahead = unsafe { shift.scattered(&src.first()) };
         // The cells the movers leave, for the activity: a list per chunk, made with it.
         let changes = &mut self.bufs.changes;
         let noting = changes.on;
         changes.moved_parts.resize_with(chunks, Vec::new);
         let moves = |(c, (part, notes)): (usize, (&mut FusedPart, &mut Vec<Moved>))| {
-            let (lo, hi) = (c * size, ((c + 1) * size).min(len));
-            if sel.listed {
-                part.collect(list[lo..hi].iter().map(|&a| a as usize), (one, mover));
-            } else {
-                part.collect_range((lo, hi), (one, mover));
-            }
+            src.collect(part, (c * size, ((c + 1) * size).min(len)), mover);
             // SAFETY (both): every chunk's movers are its own agents (each agent in one
             // chunk), and no other thread uses the lattice but through `shift`.
             if noting {
