@@ -13,8 +13,10 @@
 //! - **Threads**: stepping time on one and two threads for B1F (L = 1000, 50 steps), B2F
 //!   and the walkers, and a gravity cloud of 10^6 agents listed at random (`gen cloud`,
 //!   1,340 steps; the outputs of both runs must be the same), and the actions of the
-//!   general way: the bouncing example's rules on 200,000 dots, rigid bars carried, lines
-//!   sorted by swaps (`general_files`; the outputs of both runs must be the same).
+//!   general way: B2's gravity with a rule per state (the agents' positions at the end
+//!   must be B2's, by WORKLOADS.md's checksum), the bouncing example's rules on 200,000
+//!   dots, rigid bars carried, lines sorted by swaps (`general_files`; the outputs of both
+//!   runs must be the same).
 //!
 //! `cargo bench -p latticesim-benches --bench moving` writes the files under
 //! target/moving/ (once), docs/data/performance-moving.csv and
@@ -59,11 +61,16 @@ fn walkers_file(dir: &Path, r: u64) -> PathBuf {
     })
 }
 
+/// B2's gravity with a rule per state: `fall_a` turns A to B as it falls, `fall_b` B to A.
+const TOGGLE_RULES: &str = "fall_a\n1\nSA**** N***0 >C00 0000\nP0,-1 SB0000 C00 - C00 0001\n\n\
+                            fall_b\n1\nSB**** N***0 >C00 0000\nP0,-1 SA0000 C00 - C00 0001\n";
+
 /// Rigid bars of four agents, bonded north-south, each carried east by its bottom agent.
 const BARS_RULES: &str = "push\n1\nSB****\nP1,0 A+***\n\nhold\n1\nSC****\nA+**+\n";
 
 /// The inputs of the actions of the general way (moves in several directions and state
-/// changes, carried groups, swaps): the bouncing example's rules on 200,000 dots at random
+/// changes, carried groups, swaps): B2's gravity with a rule per state turning its agents
+/// to the other state; the bouncing example's rules on 200,000 dots at random
 /// in its 1,000 x 1,000 universe, heading every way; 25,000 bars of four (100 rows of 250);
 /// the odd-even sort example's rules on 100 lines of 1,000 agents in reverse order. With
 /// their rules and the steps each runs.
@@ -113,8 +120,28 @@ fn general_files(dir: &Path) -> Vec<(&'static str, PathBuf, PathBuf, u64)> {
             }
         }
     });
+    // B2's gravity with a rule per state, each turning its agents to the other state as
+    // they fall: B2F W = 1000's agents, each in state A or B at random.
+    let toggle_rules = dir.join("toggle-rules.txt");
+    std::fs::write(&toggle_rules, TOGGLE_RULES).unwrap();
+    let toggle = once(&dir.join("toggle.txt"), |out| {
+        let mut s: u64 = 777;
+        for (x, y) in latticesim_benches::workloads::b2_cells(1000, 1000) {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let state = ["A", "B"][(s >> 40) as usize % 2];
+            writeln!(out, "{x},{y} S{state}0000 C00 {y}").unwrap();
+        }
+    });
     let ex = root().join("examples");
     vec![
+        (
+            "gravity, a rule per state turning A to B and back, 299,501 agents, 754 steps",
+            toggle_rules,
+            toggle,
+            754,
+        ),
         (
             "bouncing example, 200,000 dots, 200 steps",
             ex.join("bouncing/rules.txt"),
@@ -404,6 +431,14 @@ fn main() {
         let mut runs = best_of(reps, &mut [&mut one, &mut two], |r| r.steps_s);
         let (two, one) = (runs.pop().unwrap(), runs.pop().unwrap());
         assert!(same_files(&o1, &o2), "{name}: one and two threads differ");
+        if rules.ends_with("toggle-rules.txt") {
+            // The same moves as B2's: WORKLOADS.md's checksum of the positions.
+            assert_eq!(
+                positions_checksum(&o1),
+                (14959134065689, 299501),
+                "{name}: the positions"
+            );
+        }
         eprintln!(
             "{name}: {:.3} s one thread, {:.3} s two",
             one.steps_s, two.steps_s

@@ -501,6 +501,12 @@ struct Window {
     entry: Vec<u32>,
     mask: Vec<u32>,
     several: Vec<(u32, Vec<u32>)>,
+    /// The agents of a group no level has decided yet, and their places in the group.
+    open: Vec<u32>,
+    at: Vec<u32>,
+    /// Per candidate list, its group (or `u32::MAX`): the lists do not change during a
+    /// selection, which this window is made for.
+    slot: Vec<u32>,
 }
 
 /// Evaluates the agents `k..end` of a chunk (whose entries are `one`, the chunk starting at
@@ -523,20 +529,29 @@ fn eval_window(
     // (Lists are looked up among at most `GROUPS`: a window ends at one more.)
     const GROUPS: usize = 64;
     if w.groups.len() > GROUPS {
+        for g in &w.groups {
+            w.slot[g.0] = u32::MAX;
+        }
         w.groups.clear();
+    }
+    if w.slot.len() < lists.len() {
+        w.slot.resize(lists.len(), u32::MAX);
     }
     w.groups.iter_mut().for_each(|g| g.1.clear());
     let mut stop = end;
     for j in k..end {
         let idx = of[j].index();
         match single[idx] {
-            EVALUATE if columnar[idx] => match w.groups.iter().position(|g| g.0 == idx) {
-                Some(g) => w.groups[g].1.push((lo + j) as u32),
-                None if j > k && w.groups.len() >= GROUPS => {
+            EVALUATE if columnar[idx] => match w.slot[idx] {
+                u32::MAX if j > k && w.groups.len() >= GROUPS => {
                     stop = j;
                     break;
                 }
-                None => w.groups.push((idx, vec![(lo + j) as u32])),
+                u32::MAX => {
+                    w.slot[idx] = w.groups.len() as u32;
+                    w.groups.push((idx, vec![(lo + j) as u32]));
+                }
+                g => w.groups[g as usize].1.push((lo + j) as u32),
             },
             EVALUATE => {
                 stop = j;
@@ -552,34 +567,42 @@ fn eval_window(
             continue;
         }
         w.entry.clear();
-        w.mask.clear();
         w.entry.resize(m, NO_RULE);
-        w.mask.resize(m, 0);
-        let mut open = m;
+        // Each level evaluates only the agents the levels before left open (the bouncing
+        // example's dots mostly fly: its first level decides nine in ten).
+        w.open.clear();
+        w.open.extend_from_slice(ids);
+        w.at.clear();
+        w.at.extend(0..m as u32);
         for level in levels(prog, &lists[*idx]) {
-            if open == 0 {
+            let k = w.open.len();
+            if k == 0 {
                 break;
             }
-            w.mask.fill(0);
+            w.mask.clear();
+            w.mask.resize(k, 0);
             for (b, &r) in level.iter().enumerate() {
+                let rows = Rows::Ids(&w.open);
                 match &pre_columns[r as usize] {
-                    _ if trivial[r as usize] => truth[..m].fill(true),
-                    Some(pre) => batch_pre(prog, (pre, Rows::Ids(ids)), lat, bufs, &mut truth[..m]),
+                    _ if trivial[r as usize] => truth[..k].fill(true),
+                    Some(pre) => batch_pre(prog, (pre, rows), lat, bufs, &mut truth[..k]),
                     None => unreachable!("a columnar list's rules run as columns"),
                 }
-                for (mask, &t) in w.mask.iter_mut().zip(&truth[..m]) {
+                for (mask, &t) in w.mask.iter_mut().zip(&truth[..k]) {
                     *mask |= (t as u32) << b;
                 }
             }
-            for j in 0..m {
-                let mask = w.mask[j];
-                if w.entry[j] != NO_RULE || mask == 0 {
-                    continue;
-                }
-                open -= 1;
-                if mask.count_ones() == 1 {
-                    w.entry[j] = level[mask.trailing_zeros() as usize];
-                } else {
+            // (Without a branch on whether an agent is decided: levels true for some
+            // agents and not for others at random would mislead its prediction.)
+            let (mut kept, last) = (0, level.len() - 1);
+            for i in 0..k {
+                let (mask, j) = (w.mask[i], w.at[i] as usize);
+                (w.open[kept], w.at[kept]) = (w.open[i], w.at[i]);
+                kept += usize::from(mask == 0);
+                let r = level[(mask.trailing_zeros() as usize).min(last)];
+                // (`NO_RULE` has every bit set: or-ed in when no rule is true.)
+                w.entry[j] = r | u32::from(mask == 0).wrapping_neg();
+                if mask & mask.wrapping_sub(1) != 0 {
                     let mut rs: Vec<u32> = (0..level.len())
                         .filter(|&b| mask >> b & 1 != 0)
                         .map(|b| level[b])
@@ -589,6 +612,8 @@ fn eval_window(
                     w.entry[j] = MANY;
                 }
             }
+            w.open.truncate(kept);
+            w.at.truncate(kept);
         }
         for (&a, &e) in ids.iter().zip(&w.entry) {
             one[a as usize - lo] = e;
