@@ -569,39 +569,56 @@ fn eval_window(
         w.entry.clear();
         w.entry.resize(m, NO_RULE);
         // Each level evaluates only the agents the levels before left open (the bouncing
-        // example's dots mostly fly: its first level decides nine in ten).
-        w.open.clear();
-        w.open.extend_from_slice(ids);
-        w.at.clear();
-        w.at.extend(0..m as u32);
+        // example's dots mostly fly: its first level decides about half of them), listed
+        // (`open`, with their places in the group, `at`) from the first level that decides
+        // any: all of `ids` until then.
+        let mut listed = false;
         for level in levels(prog, &lists[*idx]) {
-            let k = w.open.len();
+            let k = if listed { w.open.len() } else { m };
             if k == 0 {
                 break;
             }
+            let open: &[u32] = if listed { &w.open } else { ids };
             w.mask.clear();
             w.mask.resize(k, 0);
             for (b, &r) in level.iter().enumerate() {
-                let rows = Rows::Ids(&w.open);
                 match &pre_columns[r as usize] {
                     _ if trivial[r as usize] => truth[..k].fill(true),
-                    Some(pre) => batch_pre(prog, (pre, rows), lat, bufs, &mut truth[..k]),
+                    Some(pre) => {
+                        batch_pre(prog, (pre, Rows::Ids(open)), lat, bufs, &mut truth[..k])
+                    }
                     None => unreachable!("a columnar list's rules run as columns"),
                 }
                 for (mask, &t) in w.mask.iter_mut().zip(&truth[..k]) {
                     *mask |= (t as u32) << b;
                 }
             }
-            // (Without a branch on whether an agent is decided: levels true for some
-            // agents and not for others at random would mislead its prediction.)
-            let (mut kept, last) = (0, level.len() - 1);
+            let decided = w.mask.iter().filter(|&&mask| mask != 0).count();
+            if decided == 0 {
+                continue;
+            }
+            if !listed {
+                w.open.clear();
+                w.open.extend_from_slice(ids);
+                w.at.clear();
+                w.at.extend(0..m as u32);
+                listed = true;
+            }
+            // Where a level decides many agents (in states mixed at random), without a
+            // branch on whether an agent is decided, which would be mispredicted; where it
+            // decides few, with one (predicted).
+            let (mut kept, last, many) = (0, level.len() - 1, decided * 4 >= k);
             for i in 0..k {
                 let (mask, j) = (w.mask[i], w.at[i] as usize);
                 (w.open[kept], w.at[kept]) = (w.open[i], w.at[i]);
                 kept += usize::from(mask == 0);
-                let r = level[(mask.trailing_zeros() as usize).min(last)];
-                // (`NO_RULE` has every bit set: or-ed in when no rule is true.)
-                w.entry[j] = r | u32::from(mask == 0).wrapping_neg();
+                if many {
+                    let r = level[(mask.trailing_zeros() as usize).min(last)];
+                    // (`NO_RULE` has every bit set: or-ed in when no rule is true.)
+                    w.entry[j] = r | u32::from(mask == 0).wrapping_neg();
+                } else if mask != 0 {
+                    w.entry[j] = level[(mask.trailing_zeros() as usize).min(last)];
+                }
                 if mask & mask.wrapping_sub(1) != 0 {
                     let mut rs: Vec<u32> = (0..level.len())
                         .filter(|&b| mask >> b & 1 != 0)
