@@ -660,9 +660,9 @@ impl CalcBufs {
 
 /// `Cxx = Cxx + v` ([`Plan::masked_add`]) for the agents of the chunk whose entry of the
 /// selection (`one`, the chunk's part) is one of the rules `r`, in one pass over the
-/// column without a branch per agent (agents that execute `r` scattered among others would make runs of one
-/// or two for [`run_batch`]). Returns false, having changed nothing, when a result would
-/// saturate (the runs then make the records).
+/// column without a branch per agent (agents that execute them scattered among others
+/// would make runs of one or two for [`run_batch`]). Returns false, having changed nothing,
+/// when a result would saturate (the runs then make the records).
 pub(super) fn masked_add(
     lat: &Lattice,
     ch: &mut CalcChunk<'_>,

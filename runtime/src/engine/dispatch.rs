@@ -170,11 +170,11 @@ pub(super) struct Dispatch {
     dirty: bool,
 }
 
-/// Per rule: whether its precondition is only its state filter, its column program and
-/// the class of that program (`Plan::trivial`, `Plan::pre_columns`, `Plan::pre_class`).
 /// [`Dispatch::one_rule`] of a list that is not one rule with a column program.
 pub(super) const ONE_NONE: (u32, u32) = (u32::MAX, u32::MAX);
 
+/// Per rule: whether its precondition is only its state filter, its column program and
+/// the class of that program (`Plan::trivial`, `Plan::pre_columns`, `Plan::pre_class`).
 pub(super) type Facts<'a> = (&'a [bool], &'a [Option<ColumnPre>], &'a [u32]);
 
 /// The rules of a candidate list (ordered by priority, highest first) in runs of one
