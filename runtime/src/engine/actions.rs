@@ -717,26 +717,34 @@ impl Act<'_> {
         (false, false)
     }
 
+    /// Adds the move of agent `a` executing rule `r` alone (if any, and not by zero) to
+    /// `todo`.
+    #[inline(always)]
+    pub(super) fn add_rule_move(&self, todo: &mut Actions, a: u32, r: u32) {
+        let Some(off) = self.prog.rules[r as usize].moves else {
+            return;
+        };
+        let o = match self.plan.literal_offsets[off as usize] {
+            Some(o) => o,
+            None => {
+                let env = SelEnv {
+                    lat: self.lat,
+                    a,
+                    prio: None,
+                };
+                latticesim_vm::eval::resolve(&self.prog.offsets[off as usize], &env)
+            }
+        };
+        if o != [0, 0, 0] {
+            todo.moves.push((a, o));
+        }
+    }
+
     /// Adds the actions of agent `a` executing rule `r` alone to `todo`.
     #[inline(always)]
     pub(super) fn add_rule_actions(&self, todo: &mut Actions, a: u32, r: u32) {
         let info = &self.prog.rules[r as usize];
-        if let Some(off) = info.moves {
-            let o = match self.plan.literal_offsets[off as usize] {
-                Some(o) => o,
-                None => {
-                    let env = SelEnv {
-                        lat: self.lat,
-                        a,
-                        prio: None,
-                    };
-                    latticesim_vm::eval::resolve(&self.prog.offsets[off as usize], &env)
-                }
-            };
-            if o != [0, 0, 0] {
-                todo.moves.push((a, o));
-            }
-        }
+        self.add_rule_move(todo, a, r);
         if info.attaches.is_some() || info.swaps.is_some() {
             let letters = info
                 .attaches

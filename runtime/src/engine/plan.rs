@@ -13,6 +13,7 @@
 //! | plain moves (`acting` = `PlainMoves`, `plain_moves`) | every acting rule only moves by a literal, non-zero offset: movers are collected without intents (`actions.rs`), and a mover without bonds moves alone (`alone.rs`, `Act::move_alone`) | intents per agent and `detach_move_attach` | `optimisations_agree_with_reference` (programs of plain moves only, single-agent moves) |
 //! | moves at once (`plain_step`) | every acting rule only moves one step, all in one direction, and in this step no mover is bonded: movers found and moved in two passes over chunks of agents, on the pool (`moves.rs`, `plain_moves_at_once`), each that stands on the grid away from its rim into its target when that is empty as it is tried; also, in any program, a step whose moves (collected with the other actions: rules that move and set the state) are all one step in one direction and whose movers have no bonds (`move_list`) | `move_alone` for the movers left (at the rim, after the grid is made again with room ahead when that pays; target filled); for all when one is bonded (then not tried for 16 steps, nor after a step where most movers were blocked) | `differential.rs` `skipping_agrees_with_reference`, `the_cell_index_follows_the_agents`, `threads_give_the_same_results`; `optimisations_agree_with_reference` and `threads_join_chunks_in_order` (rules that fall or walk and set the state, in a bounded universe and out of the input's box) |
 //! | state hops (`acting` = `States`, `direct_bits`) | every acting rule only sets a state: runs of agents in one state take its hop at once (`dispatch.rs`) | `set_state_at_once` per agent | `optimisations_agree_with_reference` (chains of state-only rules taken as hops) |
+//! | states of rules that move (`moving_bits`) | a rule moves and sets the state, and neither swaps nor attaches: an agent executing it alone takes its new state while the actions are collected, in the chunk's second pass (no action reads states), rather than after the moves | step 5, `Act::set_states` (several rules, other actions) | `optimisations_agree_with_reference` and `threads_join_chunks_in_order` (a rule per state falling and turning its agents to the other state) |
 //! | literal offsets (`literal_offsets`) | an offset has no counter in it: its value is known once | the offset evaluated per agent | `engine_agrees_with_reference_*` |
 //! | calculations over runs (`post_columns`) | no calculation of the rule reads an external counter or a message from any direction: `batch::column_post` translates the postcondition into `batch::PostStep`s (chains of in-place `max`/`min` found then), which `batch::run_batch` runs over runs of agents (with `fast_calc` for the most frequent ones); any instruction it does not know makes no column program | `run_post` one agent at a time | `optimisations_agree_with_reference` (runs calculating together, chains of in-place max/min, saturation and division by zero inside runs) |
 //! | one in-place add (`masked_add`) | one to four rules calculate or send, and the only calculation of each adds the same literal to the same counter in place (`C00 - C00 0001`); in a step without a list of executing agents, no agent executing several rules, no trace: each chunk adds to the counter of every agent whose entry is one of those rules in one masked pass over the column (`batch::masked_add`), when no result saturates | runs of agents (`run_batch`) | `differential.rs` `optimisations_agree_with_reference` (one rule counting down beside rules that do not calculate, saturation), `threads_join_chunks_in_order` (gravity) |
@@ -56,6 +57,9 @@ pub(super) struct Plan {
     pub(super) direct_bits: Vec<Option<(u64, u64)>>,
     /// Per rule that sets the state: that state pattern as [`pat_bits`].
     pub(super) state_bits: Vec<Option<(u64, u64)>>,
+    /// Per rule that moves and sets the state, and neither swaps nor attaches: that state
+    /// pattern as [`pat_bits`] (set as the actions are collected: no action reads states).
+    pub(super) moving_bits: Vec<Option<(u64, u64)>>,
     /// Per entry of the program's offsets: its value when it has no counter in it.
     pub(super) literal_offsets: Vec<Option<[i32; 3]>>,
     /// Per rule: its calculations as the column interpreter runs them over a run of
@@ -237,8 +241,14 @@ impl Plan {
                 _ => None,
             })
             .collect();
-        let state_bits = (prog.rules.iter())
+        let state_bits: Vec<Option<(u64, u64)>> = (prog.rules.iter())
             .map(|i| i.sets_state.map(|p| pat_bits(&prog.pats[p as usize])))
+            .collect();
+        let moving_bits = (prog.rules.iter().zip(&state_bits))
+            .map(|(i, &bits)| match (i.moves, i.swaps, i.attaches) {
+                (Some(_), None, None) => bits,
+                _ => None,
+            })
             .collect();
         let prio_offsets = (prog.code.iter())
             .filter_map(|op| match op {
@@ -274,6 +284,7 @@ impl Plan {
             plain_moves,
             direct_bits,
             state_bits,
+            moving_bits,
             literal_offsets: prog.offsets.iter().map(literal).collect(),
             post_columns,
             masked_add,

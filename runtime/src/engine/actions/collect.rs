@@ -1,8 +1,8 @@
 //! The first half of the actions phase for agents whose actions are their own: each chunk
 //! of agents (on the pool when it pays) collects its agents' actions, reading only, then
-//! sets the states of its agents whose one rule only sets the state, writing only its own
-//! agents' entries; the chunks' lists, records and notes are joined in agent order, so the
-//! step is the same for any split.
+//! sets the states of its agents whose one rule only sets the state, or moves and sets
+//! it, writing only its own agents' entries; the chunks' lists, records and notes are
+//! joined in agent order, so the step is the same for any split.
 
 use super::*;
 
@@ -13,6 +13,9 @@ pub(super) struct CollectPart {
     /// Agents whose one rule only sets the state (`Plan::direct_bits`): set in the
     /// second pass.
     direct: Vec<u32>,
+    /// Agents whose one rule moves and sets the state (`Plan::moving_bits`), with that
+    /// state: set in the second pass too (their moves are in `todo`).
+    moving: Vec<(u32, (u64, u64))>,
     /// Records of conflicts between an agent's rules, made in the first pass.
     records: Notes,
     /// The agents whose state the second pass changed (for the activity).
@@ -35,6 +38,7 @@ impl CollectPart {
     fn clear(&mut self) {
         self.todo.clear();
         self.direct.clear();
+        self.moving.clear();
         self.records.clear();
         self.states.clear();
         self.learned.clear();
@@ -91,7 +95,10 @@ impl Act<'_> {
         }
         // 2. States at once, each chunk writing its own agents' entries: chunk `c` holds
         // the agents from its first one to the next chunk's first.
-        if parts.iter().any(|p| !p.direct.is_empty()) {
+        if parts
+            .iter()
+            .any(|p| !p.direct.is_empty() || !p.moving.is_empty())
+        {
             let start = |c: usize| match (c, listed) {
                 (0, _) => 0,
                 (c, true) => sel.list[range(c).0] as usize,
@@ -109,6 +116,7 @@ impl Act<'_> {
             let second = |((((part, of), state), one), lo): Item<'_>| {
                 let CollectPart {
                     direct,
+                    moving,
                     states,
                     learned,
                     hopped,
@@ -144,6 +152,17 @@ impl Act<'_> {
                     *lookups |= l;
                     if on && state[i] != before {
                         states.push(a);
+                    }
+                }
+                // (Their selection entries are not kept: they move.)
+                for &(a, bits) in moving.iter() {
+                    let i = a as usize - lo;
+                    if let Some((_, _, k)) = known.apply((&mut of[i], &mut state[i]), bits) {
+                        *changed = true;
+                        *lookups |= !k;
+                        if on {
+                            states.push(a);
+                        }
                     }
                 }
             };
@@ -183,9 +202,13 @@ impl Act<'_> {
             if let Some(o) = plan.plain_moves[r as usize] {
                 part.todo.moves.push((a as u32, o));
             } else if plan.has_actions[r as usize] {
-                match plan.direct_bits[r as usize] {
-                    Some(_) => part.direct.push(a as u32),
-                    None => self.add_rule_actions(&mut part.todo, a as u32, r),
+                match (plan.direct_bits[r as usize], plan.moving_bits[r as usize]) {
+                    (Some(_), _) => part.direct.push(a as u32),
+                    (None, Some(bits)) => {
+                        self.add_rule_move(&mut part.todo, a as u32, r);
+                        part.moving.push((a as u32, bits));
+                    }
+                    (None, None) => self.add_rule_actions(&mut part.todo, a as u32, r),
                 }
             }
             return;
