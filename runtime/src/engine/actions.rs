@@ -476,16 +476,12 @@ impl Act<'_> {
         let (par, size, chunks) = self.threads.chunks_from(states.len(), 4096);
         let n = self.lat.len();
         let (known, _, of) = self.dispatch.known();
+        let on = self.bufs.changes.on;
         let one = |(states, of, state, lo): StatesChunk<'_>| {
-            let (mut changed, mut lookups) = (Vec::new(), false);
-            for &(a, bits) in states {
-                let i = a as usize - lo;
-                if let Some((_, _, k)) = known.apply((&mut of[i], &mut state[i]), bits) {
-                    changed.push(a);
-                    lookups |= !k;
-                }
-            }
-            (changed, lookups)
+            let mut noted = Vec::new();
+            let (changed, lookups) =
+                known.apply_all(states, (of, state, lo), on.then_some(&mut noted));
+            (noted, changed, lookups)
         };
         let ordered = || states.windows(2).all(|w| w[0].0 < w[1].0);
         let parts = match par {
@@ -509,12 +505,10 @@ impl Act<'_> {
             _ => vec![one((states, of, &mut self.lat.state[..], 0))],
         };
         let (mut changed, mut lookups) = (false, false);
-        for (agents, l) in parts {
-            changed |= !agents.is_empty();
+        for (noted, c, l) in parts {
+            changed |= c;
             lookups |= l;
-            for a in agents {
-                self.bufs.changes.state(a);
-            }
+            self.bufs.changes.states.extend_from_slice(&noted);
         }
         (changed, lookups)
     }

@@ -514,6 +514,31 @@ impl Known<'_> {
         Some((old, new, idx.is_some()))
     }
 
+    /// [`Known::apply`] of each state pattern of `states` (agent and pattern, as
+    /// [`pat_bits`]) to its agent, among the agents from `lo` whose candidate lists and
+    /// states are `of` and `state`; the agents whose state changed pushed to `noted` when
+    /// it is given. Returns whether some state changed, and whether some new state's
+    /// candidate list was not known.
+    pub(super) fn apply_all(
+        &self,
+        states: &[(u32, (u64, u64))],
+        (of, state, lo): (&mut [ListId], &mut [[u8; 5]], usize),
+        mut noted: Option<&mut Vec<u32>>,
+    ) -> (bool, bool) {
+        let (mut changed, mut lookups) = (false, false);
+        for &(a, bits) in states {
+            let i = a as usize - lo;
+            if let Some((_, _, known)) = self.apply((&mut of[i], &mut state[i]), bits) {
+                changed = true;
+                lookups |= !known;
+                if let Some(noted) = noted.as_deref_mut() {
+                    noted.push(a);
+                }
+            }
+        }
+        (changed, lookups)
+    }
+
     /// An agent (its candidate list, state and selection entry), whose one rule `r` only
     /// sets the state (as [`pat_bits`] `bits`), takes its new state now. With `keep` (the
     /// selection is decided by states alone), an agent whose rule its state alone decides

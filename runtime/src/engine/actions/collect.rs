@@ -155,16 +155,9 @@ impl Act<'_> {
                     }
                 }
                 // (Their selection entries are not kept: they move.)
-                for &(a, bits) in moving.iter() {
-                    let i = a as usize - lo;
-                    if let Some((_, _, k)) = known.apply((&mut of[i], &mut state[i]), bits) {
-                        *changed = true;
-                        *lookups |= !k;
-                        if on {
-                            states.push(a);
-                        }
-                    }
-                }
+                let (c, l) = known.apply_all(moving, (of, state, lo), on.then_some(states));
+                *changed |= c;
+                *lookups |= l;
             };
             map_on(par, items, second);
         }
