@@ -13,6 +13,7 @@
 //! on it ([`Lattice::set_width`]).
 
 use crate::bits::{all_bits, no_bits, run_of, sequence_len, set_bits};
+pub(crate) use crate::cells::{BitLog, Bits};
 use crate::cells::{CellIndex, Grid, AHEAD, EMPTY, NO_SLOT, RIM};
 use latticesim_vm::column::Value;
 use latticesim_vm::eval::Cell;
@@ -1193,7 +1194,8 @@ impl Relocation<'_> {
     /// a mover's old cell is emptied only when it is not, without reading the grid.
     /// Movers that come from outside the grid are pushed to `outside` with their old
     /// positions, those that go outside it to `leaving` with their new ones, for
-    /// [`Lattice::relocated`].
+    /// [`Lattice::relocated`]. The occupancy bits are written as `bits` says: with
+    /// [`Bits::Log`] (several threads at once), by [`Relocation::apply`] after every part.
     ///
     /// # Safety
     /// Across all parts made at once, the movers are distinct, and so are the targets; no
@@ -1204,9 +1206,14 @@ impl Relocation<'_> {
         (moves, codes): (&[(u32, [i32; 3])], &[u32]),
         targeted: impl Fn(usize) -> bool,
         (outside, leaving): (&mut Vec<Placed>, &mut Vec<Placed>),
+        mut bits: Bits<'_>,
     ) {
+        assert!(
+            !(self.shared && matches!(bits, Bits::Write)),
+            "threads at once log the bits"
+        );
         // (Copies, kept in registers, as in `Shift::in_place`.)
-        let (cells, n, shared, pos, code) = (self.cells, self.n, self.shared, self.pos, self.code);
+        let (cells, n, pos, code) = (self.cells, self.n, self.pos, self.code);
         for (k, (&(a, p), &c)) in moves.iter().zip(codes).enumerate() {
             let a = a as usize;
             assert!(a < n, "an agent of the lattice");
@@ -1226,15 +1233,34 @@ impl Relocation<'_> {
                 if was == NO_SLOT {
                     outside.push((old, a as u32));
                 } else if !targeted(o) {
-                    cells.vacate(o, shared);
+                    cells.vacate(o, &mut bits);
                 }
                 if c == NO_SLOT {
                     leaving.push((p, a as u32));
                 } else {
-                    cells.occupy((c & !RIM) as usize, a as u32, shared);
+                    cells.occupy((c & !RIM) as usize, a as u32, &mut bits);
                 }
             }
         }
+    }
+}
+
+impl Relocation<'_> {
+    /// How a [`BitLog`] of the parts splits the occupancy bits (into at most `most`
+    /// buckets), for [`BitLog::ready`].
+    pub(crate) fn buckets(&self, most: usize) -> (u32, usize) {
+        self.cells.buckets(most)
+    }
+
+    /// Writes the occupancy bits of bucket `b` of `log`, a part's.
+    ///
+    /// # Safety
+    /// After every part; no other thread writes the bits of bucket `b` meanwhile (threads
+    /// writing distinct buckets may run at once), nor uses the lattice but through this
+    /// relocation.
+    pub(crate) unsafe fn apply(&self, log: &BitLog, b: usize) {
+        // SAFETY: the caller's promise.
+        unsafe { self.cells.apply(log, b) }
     }
 }
 

@@ -8,7 +8,7 @@
 
 use super::moves::collision_text;
 use super::*;
-use crate::lattice::Placed;
+use crate::lattice::{BitLog, Bits, Placed};
 use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 
 /// A set of indices (cells, agents), with a second mark for those marked more than once.
@@ -208,6 +208,8 @@ pub(super) struct AlonePart {
     /// [`crate::lattice::Relocation::part`]).
     outside: Vec<Placed>,
     leaving: Vec<Placed>,
+    /// The occupancy bits its moves change, when parts move at once.
+    bits: BitLog,
 }
 
 /// Runs `f` on each chunk's part, on the pool when the split `par` has one.
@@ -420,9 +422,11 @@ impl Act<'_> {
             rep.trace.append(&mut part.trace);
             self.stats.moves += part.live.len() as u64;
         }
-        match self.lat.relocation(par.is_some()) {
+        let shared = par.is_some();
+        match self.lat.relocation(shared) {
             Some(r) => {
                 let (r, targeted) = (&r, &targeted);
+                let split = r.buckets(parts.len());
                 each(par, parts, |(_, part)| {
                     part.outside.clear();
                     part.leaving.clear();
@@ -431,14 +435,34 @@ impl Act<'_> {
                         codes,
                         outside,
                         leaving,
+                        bits,
                         ..
                     } = part;
+                    let bits = match shared {
+                        true => {
+                            bits.ready(split);
+                            Bits::Log(bits)
+                        }
+                        false => Bits::Write,
+                    };
                     // SAFETY: each mover is in one part; no two movers share a target
                     // (the collisions are cancelled), and a mover's old cell is emptied
                     // only when no mover targets it (`targeted`); nothing else uses the
                     // lattice meanwhile; one part at a time without the pool.
-                    unsafe { r.part((live, codes), targeted, (outside, leaving)) };
+                    unsafe { r.part((live, codes), targeted, (outside, leaving), bits) };
                 });
+                if shared {
+                    // The occupancy bits, a range of words per bucket, each bucket on
+                    // one thread from every part's log.
+                    let parts = &*parts;
+                    map_on(par, (0..split.1).collect(), |b| {
+                        for part in parts {
+                            // SAFETY: after every part; bucket `b`'s words are written
+                            // here alone; nothing else uses the lattice meanwhile.
+                            unsafe { r.apply(&part.bits, b) };
+                        }
+                    });
+                }
                 let outside = parts.iter().flat_map(|p| &p.outside);
                 let leaving = parts.iter().flat_map(|p| &p.leaving);
                 self.lat.relocated(outside, leaving);

@@ -13,7 +13,7 @@
 
 use super::alone::Twice;
 use super::*;
-use crate::lattice::Placed;
+use crate::lattice::{Bits, Placed};
 
 /// A swap: the lesser agent, the other, the direction from the first to the second, and
 /// whether it is cancelled because the agent asked is in no swap.
@@ -176,9 +176,10 @@ impl Act<'_> {
                         let places = (&mut part.outside, &mut part.leaving);
                         // SAFETY: each agent is in one swap, whose two cells are its own
                         // (a swap sharing an agent with another is cancelled); each old
-                        // cell is the other agent's target (`targeted`); nothing else uses
-                        // the lattice meanwhile; one part at a time without the pool.
-                        unsafe { r.part((moves, codes), |_| true, places) };
+                        // cell is the other agent's target (`targeted`), so every cell
+                        // written stays filled (its bit kept); nothing else uses the
+                        // lattice meanwhile; one part at a time without the pool.
+                        unsafe { r.part((moves, codes), |_| true, places, Bits::Keep) };
                     });
                     let outside = parts.iter().flat_map(|p| &p.outside);
                     let leaving = parts.iter().flat_map(|p| &p.leaving);
