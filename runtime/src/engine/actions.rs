@@ -193,6 +193,7 @@ pub(super) struct ActionBufs {
     /// The intents and partners of [`Act::detach_move_attach`] (for their allocations).
     intents: Vec<Intent>,
     partners: Vec<moves::Partners>,
+    spares: moves::Spares,
 }
 
 /// The actions phase (paper step 2) with the parts of the engine it borrows: it reads the

@@ -222,14 +222,13 @@ fn each(
 }
 
 impl AlonePart {
-    /// A part of movers decided elsewhere (agent, target, the target's slot code), in
-    /// agent order, for [`Act::move_parts`].
-    pub(super) fn of_moves(moves: &[(u32, [i32; 3], u32)]) -> AlonePart {
-        AlonePart {
-            live: moves.iter().map(|&(a, t, _)| (a, t)).collect(),
-            codes: moves.iter().map(|m| m.2).collect(),
-            ..AlonePart::default()
-        }
+    /// The part's movers: movers decided elsewhere (agent, target, the target's slot
+    /// code), in agent order, for [`Act::move_parts`].
+    pub(super) fn set_moves(&mut self, moves: &[(u32, [i32; 3], u32)]) {
+        self.live.clear();
+        self.live.extend(moves.iter().map(|&(a, t, _)| (a, t)));
+        self.codes.clear();
+        self.codes.extend(moves.iter().map(|m| m.2));
     }
 
     /// The targets of the movers in `live` (given with their offsets, which the targets

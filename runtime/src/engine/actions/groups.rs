@@ -4,7 +4,7 @@
 //! moves (`alone.rs`), and the moves made as the moves alone are.
 
 use super::alone::{slot, MoveScratch, Targets};
-use super::moves::Among;
+use super::moves::{Among, Spares};
 use super::*;
 
 /// The moving groups of a step, in the order of their roots (a group's root: the least
@@ -35,29 +35,30 @@ impl Groups {
     /// (or whose rules asked for different moves). On this thread: its five passes on the
     /// pool, counting by atomic instructions, took 1.3x its time on two threads and 1.7x
     /// on one for 25,000 bars.
-    fn of(among: &Among, root: &[u32]) -> Groups {
+    fn of(among: &Among, root: &[u32], spares: &mut Spares) -> Groups {
         let m = among.len();
-        // Per root: whether its group moves, then its members counted.
-        let mut size = vec![0u32; m];
+        // Per root: whether its group moves (in `group`, for now), then its members
+        // counted.
+        let mut group = spares.u32s(m, 0);
         for i in 0..m {
             let it = among.intent_at(i);
             if it.mv.is_some() || it.mv_bad {
-                size[root[i] as usize] = 1;
+                group[root[i] as usize] = 1;
             }
         }
-        let moves: Vec<bool> = size.iter().map(|&s| s > 0).collect();
-        size.fill(0);
+        let mut size = spares.u32s(m, 0);
         for i in 0..m {
-            size[root[i] as usize] += u32::from(moves[root[i] as usize]);
+            size[root[i] as usize] += group[root[i] as usize];
         }
         // Per root: its group and where its members go next.
-        let (mut group, mut at, mut starts) = (vec![NONE; m], vec![0u32; m], vec![0]);
+        let (mut at, mut starts) = (spares.u32s(m, 0), vec![0]);
+        group.fill(NONE);
         for r in (0..m).filter(|&r| size[r] > 0) {
             group[r] = starts.len() as u32 - 1;
             at[r] = *starts.last().expect("a start");
             starts.push(at[r] + size[r]);
         }
-        let mut members = vec![0; *starts.last().expect("a start") as usize];
+        let mut members = spares.u32s(*starts.last().expect("a start") as usize, 0);
         for i in 0..m {
             let r = root[i] as usize;
             if size[r] > 0 {
@@ -65,11 +66,19 @@ impl Groups {
                 at[r] += 1;
             }
         }
+        spares.keep_u32s(size);
+        spares.keep_u32s(at);
         Groups {
             starts,
             members,
             by_root: group,
         }
+    }
+
+    /// Keeps the lists for a later step.
+    fn keep(self, spares: &mut Spares) {
+        spares.keep_u32s(self.members);
+        spares.keep_u32s(self.by_root);
     }
 
     /// The group of mover `a` (`root` as for [`Groups::of`]).
@@ -100,10 +109,10 @@ impl Act<'_> {
         &mut self,
         among: &Among,
         root: &[u32],
-        sc: &mut MoveScratch,
+        (sc, spares): (&mut MoveScratch, &mut Spares),
         rep: &mut StepReport,
     ) -> (Vec<Mover>, Vec<(u32, u32)>) {
-        let groups = Groups::of(among, root);
+        let groups = Groups::of(among, root, spares);
         // The groups' offsets, in the order of their roots, per chunk of groups (on the
         // pool when there are threads): a group whose members ask for different moves
         // stays (noted), as does a group whose move would take an agent out of the
@@ -171,7 +180,7 @@ impl Act<'_> {
             let (lo, hi) = (c * size, ((c + 1) * size).min(all.len()));
             // (The group of the member at `lo`, then of each in turn.)
             let mut g = groups.starts.partition_point(|&s| s as usize <= lo) - 1;
-            let mut live = Vec::new();
+            let mut live = Vec::with_capacity(hi - lo);
             for (i, &a) in all.iter().enumerate().take(hi).skip(lo) {
                 while groups.starts[g + 1] as usize <= i {
                     g += 1;
@@ -236,6 +245,7 @@ impl Act<'_> {
             }
         }
         live.sort_unstable_by_key(|m| m.0);
+        groups.keep(spares);
         (live, cancelled)
     }
 

@@ -474,6 +474,42 @@ impl Among {
     }
 }
 
+/// Lists of every agent concerned (or every group) that a step of carried groups makes
+/// and drops, kept for the next step: made fresh, those of 2 MB and more were mapped anew
+/// and their pages faulted in every step (an eighth of the time of 250,000 carried bars).
+#[derive(Default)]
+pub(super) struct Spares {
+    u32s: Vec<Vec<u32>>,
+    u8s: Vec<Vec<u8>>,
+}
+
+impl Spares {
+    /// A list of `n` times `v`.
+    pub(super) fn u32s(&mut self, n: usize, v: u32) -> Vec<u32> {
+        let mut x = self.u32s.pop().unwrap_or_default();
+        x.clear();
+        x.resize(n, v);
+        x
+    }
+
+    /// A list of `n` zeros.
+    fn u8s(&mut self, n: usize) -> Vec<u8> {
+        let mut x = self.u8s.pop().unwrap_or_default();
+        x.clear();
+        x.resize(n, 0);
+        x
+    }
+
+    /// Keeps `x` for a later list.
+    pub(super) fn keep_u32s(&mut self, x: Vec<u32>) {
+        self.u32s.push(x);
+    }
+
+    fn keep_u8s(&mut self, x: Vec<u8>) {
+        self.u8s.push(x);
+    }
+}
+
 /// Per direction, an agent's partner before the moves.
 pub(super) type Partners = [Option<u32>; 6];
 
@@ -506,7 +542,8 @@ impl Act<'_> {
         let (lat, th) = (&*self.lat, self.threads);
         let among = Among::of(todo, lat, (all, th), std::mem::take(&mut self.bufs.intents));
         let (m, nd) = (among.len(), lat.dim.dirs());
-        let mut old = vec![0u8; m];
+        let mut spares = std::mem::take(&mut self.bufs.spares);
+        let mut old = spares.u8s(m);
         th.fill(&mut old, |i| lat.attach[among.id(i) as usize]);
         // Partners before detaching (and before the moves, for `*`), per agent (by its
         // index among them) and direction.
@@ -522,7 +559,7 @@ impl Act<'_> {
             ps
         });
         // 1. Detach: keep rigid bonds only.
-        let mut rigid = vec![0u8; m];
+        let mut rigid = spares.u8s(m);
         th.fill(&mut rigid, |i| {
             let mut bits = 0;
             for d in 0..nd {
@@ -536,24 +573,32 @@ impl Act<'_> {
             bits
         });
         // 3. Move: groups of rigid bonds (a group's root: its first agent).
-        let root = self.groups_roots(&among, &rigid, &partners);
+        let root = self.groups_roots(&among, &rigid, &partners, &mut spares);
         let mut sc = std::mem::take(&mut self.bufs.scratch);
-        let (moves, cancelled) = self.move_groups(&among, &root, &mut sc, rep);
+        let (moves, cancelled) = self.move_groups(&among, &root, (&mut sc, &mut spares), rep);
+        spares.keep_u32s(root);
         let carried = moves.iter().filter(|m| among.intent(m.0).mv.is_none());
         self.stats.carried += carried.count() as u64;
         // The moves (no two share a target; a mover's old cell is emptied only when no
         // mover targets it, as the claims left tell), per chunk of movers on the pool
         // from `GROUP_MOVES_ON_POOL` movers a step, else on this thread.
         let (par, size, _) = self.threads.chunks_from(moves.len(), GROUP_MOVES_ON_POOL);
-        let mut parts: Vec<alone::AlonePart> =
-            moves.chunks(size).map(alone::AlonePart::of_moves).collect();
+        let mut parts = std::mem::take(&mut self.bufs.alone);
+        parts.resize_with(moves.len().div_ceil(size), alone::AlonePart::default);
+        for (part, ms) in parts.iter_mut().zip(moves.chunks(size)) {
+            part.set_moves(ms);
+        }
         self.move_parts(par, &mut parts, |s| sc.claimed(s), rep);
+        self.bufs.alone = parts;
         for (a, c) in (moves.iter().map(|m| (m.0, m.2))).chain(cancelled) {
             sc.unclaim(a, alone::slot(c));
         }
         self.bufs.scratch = sc;
-        self.attach_after_moves(&among, (&old, rigid, &partners), rep);
-        partners.clear();
+        self.attach_after_moves(&among, (&old, &rigid, &partners), rep);
+        spares.keep_u8s(old);
+        spares.keep_u8s(rigid);
+        self.bufs.spares = spares;
+        // (Kept whole: the next step's as many agents need not write it twice.)
         self.bufs.partners = partners;
         self.bufs.intents = among.into_intents();
     }
@@ -562,9 +607,16 @@ impl Act<'_> {
     /// joined to it by rigid bonds (`rigid`: per index, the directions of its rigid bonds;
     /// `partners`: their ends). Joined per chunk of indices (on the pool when there are
     /// threads), the bonds between chunks after; the roots are the same for any split.
-    fn groups_roots(&self, among: &Among, rigid: &[u8], partners: &[Partners]) -> Vec<u32> {
+    fn groups_roots(
+        &self,
+        among: &Among,
+        rigid: &[u8],
+        partners: &[Partners],
+        spares: &mut Spares,
+    ) -> Vec<u32> {
         let (m, nd) = (among.len(), self.lat.dim.dirs());
-        let mut parent: Vec<u32> = (0..m as u32).collect();
+        let mut parent = spares.u32s(m, 0);
+        self.threads.fill(&mut parent, |i| i as u32);
         let (par, size, _) = self.threads.chunks(m);
         let items: Vec<(usize, &mut [u32])> = parent.chunks_mut(size).enumerate().collect();
         let across: Vec<Vec<(u32, u32)>> = map_on(par, items, |(c, mine)| {
@@ -593,15 +645,16 @@ impl Act<'_> {
         for (i, j) in across.into_iter().flatten() {
             union(&mut parent, 0, (i, j));
         }
-        let mut root = vec![0u32; m];
-        let parent = &parent;
+        let mut root = spares.u32s(m, 0);
+        let up = &parent;
         self.threads.fill(&mut root, |i| {
             let mut x = i as u32;
-            while parent[x as usize] != x {
-                x = parent[x as usize];
+            while up[x as usize] != x {
+                x = up[x as usize];
             }
             x
         });
+        spares.keep_u32s(parent);
         root
     }
 
@@ -613,7 +666,7 @@ impl Act<'_> {
     pub(super) fn attach_after_moves(
         &mut self,
         among: &Among,
-        (old, rigid, keep_partner): (&[u8], Vec<u8>, &[Partners]),
+        (old, rigid, keep_partner): (&[u8], &[u8], &[Partners]),
         rep: &mut StepReport,
     ) {
         let (nd, cap) = (self.lat.dim.dirs(), self.opts.records_per_step);
