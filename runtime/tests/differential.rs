@@ -1032,6 +1032,12 @@ fn threads_join_chunks_in_order() {
             many_bars += &format!("500,{y} SW0000\n");
         }
     }
+    // The scrambled bars pulled apart, bottom east and top west: every group's members
+    // disagree (a record naming them, in order), members in other chunks than their
+    // roots'.
+    let apart = "push\n1\nSB****\nP1,0 A+***\n\nhold\n1\nSC****\nA+**+\n\n\
+                 pull\n1\nSD****\nP-1,0 A***+\n";
+    let bars_apart = bars_scrambled.replace("SC0000 A0001", "SD0000 A0001");
     let cases = [
         cases[0].clone(),
         cases[1].clone(),
@@ -1046,6 +1052,7 @@ fn threads_join_chunks_in_order() {
         (bars, bars_scrambled),
         (toggle, toggling),
         (bars, many_bars),
+        (apart, bars_apart),
     ];
     for (i, (rules, agents)) in cases.iter().enumerate() {
         // Unoptimised (`cargo test`), the four largest cases are left out (this test took
@@ -1116,6 +1123,10 @@ fn threads_join_chunks_in_order() {
             i != 11 || one.stats.moves > 8 * 4096,
             "case {i}: {} moves",
             one.stats.moves
+        );
+        assert!(
+            i != 13 || (kinds.contains("group-conflict") && one.stats.moves == 0),
+            "case {i}: {kinds:?}"
         );
         assert!(
             i != 12 || (one.stats.moves > 8 << 18 && collided),

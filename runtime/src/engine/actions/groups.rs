@@ -32,42 +32,121 @@ pub(super) type Mover = (u32, [i32; 3], u32);
 
 impl Groups {
     /// The groups (`root`: per index, its group's root) with a member that asks to move
-    /// (or whose rules asked for different moves). On this thread: its five passes on the
-    /// pool, counting by atomic instructions, took 1.3x its time on two threads and 1.7x
-    /// on one for 25,000 bars.
-    fn of(among: &Among, root: &[u32], spares: &mut Spares) -> Groups {
+    /// (or whose rules asked for different moves). Per chunk of indices (on the pool when
+    /// there are threads; `th`), each chunk counting and placing the members of the
+    /// groups whose roots are its own; a member whose root lies in an earlier chunk (a
+    /// root is its group's least index) is listed, and counted and placed after, in
+    /// order. The same for any split.
+    fn of(among: &Among, root: &[u32], spares: &mut Spares, th: &Threads) -> Groups {
         let m = among.len();
-        // Per root: whether its group moves (in `group`, for now), then its members
-        // counted.
-        let mut group = spares.u32s(m, 0);
-        for i in 0..m {
+        let (par, size, _) = th.chunks(m);
+        let moving = |i: usize| {
             let it = among.intent_at(i);
-            if it.mv.is_some() || it.mv_bad {
-                group[root[i] as usize] = 1;
+            it.mv.is_some() || it.mv_bad
+        };
+        // 1. Per root: whether its group moves (in `group`, for now).
+        let mut group = spares.u32s(m, 0);
+        let items: Vec<(usize, &mut [u32])> = group.chunks_mut(size).enumerate().collect();
+        let across: Vec<Vec<u32>> = map_on(par, items, |(c, mine)| {
+            let lo = c * size;
+            let mut across = Vec::new();
+            for i in (lo..lo + mine.len()).filter(|&i| moving(i)) {
+                match root[i] as usize {
+                    r if r >= lo => mine[r - lo] = 1,
+                    r => across.push(r as u32),
+                }
+            }
+            across
+        });
+        for r in across.into_iter().flatten() {
+            group[r as usize] = 1;
+        }
+        // 2. Per root: its members counted; per chunk, its groups and their members.
+        let mut count = spares.u32s(m, 0);
+        let flag = &group;
+        let items: Vec<(usize, &mut [u32])> = count.chunks_mut(size).enumerate().collect();
+        let parts: Vec<(Vec<u32>, u32, u32)> = map_on(par, items, |(c, mine)| {
+            let lo = c * size;
+            let (mut across, mut members) = (Vec::new(), 0);
+            for i in lo..lo + mine.len() {
+                match root[i] as usize {
+                    r if flag[r] == 0 => {}
+                    r if r >= lo => {
+                        mine[r - lo] += 1;
+                        members += 1;
+                    }
+                    r => across.push(r as u32),
+                }
+            }
+            let groups = mine.iter().filter(|&&n| n > 0).count() as u32;
+            (across, groups, members)
+        });
+        // Per chunk: where its groups and their members start.
+        let mut totals: Vec<(u32, u32)> = parts.iter().map(|p| (p.1, p.2)).collect();
+        for &r in parts.iter().flat_map(|p| &p.0) {
+            count[r as usize] += 1;
+            totals[r as usize / size].1 += 1;
+        }
+        let mut bases = Vec::with_capacity(totals.len());
+        let (mut g0, mut m0) = (0u32, 0u32);
+        for &(g, n) in &totals {
+            bases.push((g0, m0));
+            (g0, m0) = (g0 + g, m0 + n);
+        }
+        // 3. Per chunk: its roots' groups and first places, its members placed (but those
+        // of roots in earlier chunks, listed).
+        let mut at = spares.u32s(m, 0);
+        let mut members = spares.u32s(m0 as usize, 0);
+        let mut rest: &mut [u32] = &mut members;
+        let mut slices = Vec::with_capacity(totals.len());
+        for &(_, n) in &totals {
+            let (mine, after) = std::mem::take(&mut rest).split_at_mut(n as usize);
+            slices.push(mine);
+            rest = after;
+        }
+        let counts = &count;
+        let items: Vec<_> = (group.chunks_mut(size).zip(at.chunks_mut(size)))
+            .zip(slices.into_iter().zip(bases))
+            .enumerate()
+            .collect();
+        let placed: Vec<(Vec<u32>, Vec<(u32, u32)>)> =
+            map_on(par, items, |(c, ((group, at), (slots, (g0, m0))))| {
+                let lo = c * size;
+                let mut starts = Vec::new();
+                let (mut g, mut next) = (g0, m0);
+                for (k, &n) in counts[lo..lo + group.len()].iter().enumerate() {
+                    group[k] = NONE;
+                    if n > 0 {
+                        group[k] = g;
+                        at[k] = next;
+                        starts.push(next);
+                        (g, next) = (g + 1, next + n);
+                    }
+                }
+                let mut across = Vec::new();
+                for i in lo..lo + group.len() {
+                    match root[i] as usize {
+                        r if counts[r] == 0 => {}
+                        r if r >= lo => {
+                            slots[(at[r - lo] - m0) as usize] = among.id(i);
+                            at[r - lo] += 1;
+                        }
+                        r => across.push((r as u32, among.id(i))),
+                    }
+                }
+                (starts, across)
+            });
+        let mut starts = Vec::with_capacity(g0 as usize + 1);
+        for (s, across) in &placed {
+            starts.extend_from_slice(s);
+            for &(r, a) in across {
+                members[at[r as usize] as usize] = a;
+                at[r as usize] += 1;
             }
         }
-        let mut size = spares.u32s(m, 0);
-        for i in 0..m {
-            size[root[i] as usize] += group[root[i] as usize];
-        }
-        // Per root: its group and where its members go next.
-        let (mut at, mut starts) = (spares.u32s(m, 0), vec![0]);
-        group.fill(NONE);
-        for r in (0..m).filter(|&r| size[r] > 0) {
-            group[r] = starts.len() as u32 - 1;
-            at[r] = *starts.last().expect("a start");
-            starts.push(at[r] + size[r]);
-        }
-        let mut members = spares.u32s(*starts.last().expect("a start") as usize, 0);
-        for i in 0..m {
-            let r = root[i] as usize;
-            if size[r] > 0 {
-                members[at[r] as usize] = among.id(i);
-                at[r] += 1;
-            }
-        }
-        spares.keep_u32s(size);
+        starts.push(m0);
         spares.keep_u32s(at);
+        spares.keep_u32s(count);
         Groups {
             starts,
             members,
@@ -112,7 +191,7 @@ impl Act<'_> {
         (sc, spares): (&mut MoveScratch, &mut Spares),
         rep: &mut StepReport,
     ) -> (Vec<Mover>, Vec<(u32, u32)>) {
-        let groups = Groups::of(among, root, spares);
+        let groups = Groups::of(among, root, spares, self.threads);
         // The groups' offsets, in the order of their roots, per chunk of groups (on the
         // pool when there are threads): a group whose members ask for different moves
         // stays (noted), as does a group whose move would take an agent out of the
