@@ -27,6 +27,10 @@ fn joined<T: Copy>(mut parts: Vec<Vec<T>>) -> Vec<T> {
     }
 }
 
+/// A chunk's part of [`Groups::of`]: its groups' starts, and the members (root, agent)
+/// of groups whose roots lie in earlier chunks.
+type Placed = (Vec<u32>, Vec<(u32, u32)>);
+
 /// A mover, its target and the target's slot code.
 pub(super) type Mover = (u32, [i32; 3], u32);
 
@@ -109,33 +113,32 @@ impl Groups {
             .zip(slices.into_iter().zip(bases))
             .enumerate()
             .collect();
-        let placed: Vec<(Vec<u32>, Vec<(u32, u32)>)> =
-            map_on(par, items, |(c, ((group, at), (slots, (g0, m0))))| {
-                let lo = c * size;
-                let mut starts = Vec::new();
-                let (mut g, mut next) = (g0, m0);
-                for (k, &n) in counts[lo..lo + group.len()].iter().enumerate() {
-                    group[k] = NONE;
-                    if n > 0 {
-                        group[k] = g;
-                        at[k] = next;
-                        starts.push(next);
-                        (g, next) = (g + 1, next + n);
-                    }
+        let placed: Vec<Placed> = map_on(par, items, |(c, ((group, at), (slots, (g0, m0))))| {
+            let lo = c * size;
+            let mut starts = Vec::new();
+            let (mut g, mut next) = (g0, m0);
+            for (k, &n) in counts[lo..lo + group.len()].iter().enumerate() {
+                group[k] = NONE;
+                if n > 0 {
+                    group[k] = g;
+                    at[k] = next;
+                    starts.push(next);
+                    (g, next) = (g + 1, next + n);
                 }
-                let mut across = Vec::new();
-                for i in lo..lo + group.len() {
-                    match root[i] as usize {
-                        r if counts[r] == 0 => {}
-                        r if r >= lo => {
-                            slots[(at[r - lo] - m0) as usize] = among.id(i);
-                            at[r - lo] += 1;
-                        }
-                        r => across.push((r as u32, among.id(i))),
+            }
+            let mut across = Vec::new();
+            for i in lo..lo + group.len() {
+                match root[i] as usize {
+                    r if counts[r] == 0 => {}
+                    r if r >= lo => {
+                        slots[(at[r - lo] - m0) as usize] = among.id(i);
+                        at[r - lo] += 1;
                     }
+                    r => across.push((r as u32, among.id(i))),
                 }
-                (starts, across)
-            });
+            }
+            (starts, across)
+        });
         let mut starts = Vec::with_capacity(g0 as usize + 1);
         for (s, across) in &placed {
             starts.extend_from_slice(s);
