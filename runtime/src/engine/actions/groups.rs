@@ -19,12 +19,14 @@ struct Groups {
 
 const NONE: u32 = u32::MAX;
 
-/// The chunks' lists as one, in order (one chunk's list as it is).
-fn joined<T: Copy>(mut parts: Vec<Vec<T>>) -> Vec<T> {
-    match parts.len() {
-        1 => parts.pop().expect("one part"),
-        _ => parts.concat(),
+/// The chunks' lists as one, in order, in the first one's allocation.
+fn joined<T: Copy>(parts: Vec<Vec<T>>) -> Vec<T> {
+    let mut parts = parts.into_iter();
+    let mut all = parts.next().unwrap_or_default();
+    for p in parts {
+        all.extend_from_slice(&p);
     }
+    all
 }
 
 /// A chunk's part of [`Groups::of`]: its groups' starts, and the members (root, agent)
@@ -258,11 +260,26 @@ impl Act<'_> {
         let (par, size, chunks) = self.threads.chunks(all.len());
         let shared = par.is_some();
         let (lat, marks, offsets) = (&*self.lat, &*sc, &off[..]);
-        let parts: Vec<Vec<Mover>> = map_on(par, (0..chunks).collect(), |c| {
+        // (The first chunk's list in the allocation of the last step's movers.)
+        let items = (0..chunks)
+            .map(|c| {
+                (
+                    c,
+                    if c == 0 {
+                        std::mem::take(&mut spares.movers)
+                    } else {
+                        Vec::new()
+                    },
+                )
+            })
+            .collect();
+        let parts: Vec<(Vec<Mover>, Vec<[i32; 3]>)> = map_on(par, items, |(c, mut live)| {
             let (lo, hi) = (c * size, ((c + 1) * size).min(all.len()));
             // (The group of the member at `lo`, then of each in turn.)
             let mut g = groups.starts.partition_point(|&s| s as usize <= lo) - 1;
-            let mut live = Vec::with_capacity(hi - lo);
+            live.clear();
+            live.reserve(hi - lo);
+            let mut outside = Vec::new();
             for (i, &a) in all.iter().enumerate().take(hi).skip(lo) {
                 while groups.starts[g + 1] as usize <= i {
                     g += 1;
@@ -273,17 +290,20 @@ impl Act<'_> {
                     let code = lat.cells.code(t);
                     marks.claim(a, slot(code), shared);
                     live.push((a, t, code));
+                    if code == NO_SLOT {
+                        outside.push(t);
+                    }
                 }
             }
-            live
+            (live, outside)
         });
-        // Collisions: the first round over every mover, per chunk.
+        // Collisions: the first round over every mover, per chunk (movers per target off
+        // the grid counted first).
         let mut count: FxHashMap<[i32; 3], u32> = FxHashMap::default();
-        for &(_, t, c) in parts.iter().flatten() {
-            if c == NO_SLOT {
-                *count.entry(t).or_insert(0) += 1;
-            }
+        for &t in parts.iter().flat_map(|p| &p.1) {
+            *count.entry(t).or_insert(0) += 1;
         }
+        let parts: Vec<Vec<Mover>> = parts.into_iter().map(|p| p.0).collect();
         let collides = |&(_, t, c): &Mover| match slot(c) {
             Some(s) => {
                 marks.claimed_twice(s)

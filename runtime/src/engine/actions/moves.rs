@@ -481,6 +481,8 @@ impl Among {
 pub(super) struct Spares {
     u32s: Vec<Vec<u32>>,
     u8s: Vec<Vec<u8>>,
+    /// The last step's moves.
+    pub(super) movers: Vec<groups::Mover>,
 }
 
 impl Spares {
@@ -594,6 +596,7 @@ impl Act<'_> {
             sc.unclaim(a, alone::slot(c));
         }
         self.bufs.scratch = sc;
+        spares.movers = moves;
         self.attach_after_moves(&among, (&old, &rigid, &partners), rep);
         spares.keep_u8s(old);
         spares.keep_u8s(rigid);
