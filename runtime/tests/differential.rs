@@ -1038,6 +1038,13 @@ fn threads_join_chunks_in_order() {
     let apart = "push\n1\nSB****\nP1,0 A+***\n\nhold\n1\nSC****\nA+**+\n\n\
                  pull\n1\nSD****\nP-1,0 A***+\n";
     let bars_apart = bars_scrambled.replace("SC0000 A0001", "SD0000 A0001");
+    // Bonds made by one side, read by the other: agents in state L attach west, those in
+    // state R, which change nothing themselves, then see the bond (every agent among the
+    // bonds' agents: the bonds written per chunk, the agents whose bonds changed woken).
+    let linking = "link\n1\nSL****\nSM0000 A*1**\n\nseen\n1\nSR**** A**1*\nSD0000\n";
+    let columns = block(64, 64, |x, _, _| {
+        [" SR0000", " SL0000"][x as usize % 2].into()
+    });
     let cases = [
         cases[0].clone(),
         cases[1].clone(),
@@ -1053,6 +1060,7 @@ fn threads_join_chunks_in_order() {
         (toggle, toggling),
         (bars, many_bars),
         (apart, bars_apart),
+        (linking, columns),
     ];
     for (i, (rules, agents)) in cases.iter().enumerate() {
         // Unoptimised (`cargo test`), the four largest cases are left out (this test took
@@ -1123,6 +1131,11 @@ fn threads_join_chunks_in_order() {
             i != 11 || one.stats.moves > 8 * 4096,
             "case {i}: {} moves",
             one.stats.moves
+        );
+        assert!(
+            i != 14 || one.stats.firings == [2048, 2048],
+            "case {i}: {:?}",
+            one.stats.firings
         );
         assert!(
             i != 13 || (kinds.contains("group-conflict") && one.stats.moves == 0),

@@ -579,8 +579,11 @@ impl Act<'_> {
         let mut sc = std::mem::take(&mut self.bufs.scratch);
         let (moves, cancelled) = self.move_groups(&among, &root, (&mut sc, &mut spares), rep);
         spares.keep_u32s(root);
-        let carried = moves.iter().filter(|m| among.intent(m.0).mv.is_none());
-        self.stats.carried += carried.count() as u64;
+        let carried = |lo: usize, hi: usize| {
+            let ms = moves[lo..hi].iter();
+            ms.filter(|m| among.intent(m.0).mv.is_none()).count() as u64
+        };
+        self.stats.carried += th.par_chunks(moves.len(), &carried).iter().sum::<u64>();
         // The moves (no two share a target; a mover's old cell is emptied only when no
         // mover targets it, as the claims left tell), per chunk of movers on the pool
         // from `GROUP_MOVES_ON_POOL` movers a step, else on this thread.
@@ -769,12 +772,38 @@ impl Act<'_> {
                 }
             }
         }
-        for (i, (&o, &new)) in old.iter().zip(&new_attach).enumerate() {
-            let a = among.id(i);
-            if o != new {
-                self.bufs.changes.bonds(a);
+        if among.len() == self.lat.len() {
+            // Every agent among them (index = id): written per chunk (on the pool when
+            // there are threads), the agents whose bonds changed listed in order.
+            let noting = self.bufs.changes.on;
+            let (par, size, _) = self.threads.chunks(among.len());
+            let items: Vec<_> = (self.lat.attach.chunks_mut(size))
+                .zip(old.chunks(size).zip(new_attach.chunks(size)))
+                .enumerate()
+                .collect();
+            let changed = map_on(par, items, |(c, (attach, (old, new)))| {
+                attach.copy_from_slice(new);
+                let differ = (old.iter().zip(new))
+                    .enumerate()
+                    .filter(|(_, (o, n))| o != n);
+                let ids = differ.map(|(k, _)| (c * size + k) as u32);
+                match noting {
+                    true => ids.collect(),
+                    false => Vec::new(),
+                }
+            });
+            changed
+                .iter()
+                .flatten()
+                .for_each(|&a| self.bufs.changes.bonds(a));
+        } else {
+            for (i, (&o, &new)) in old.iter().zip(&new_attach).enumerate() {
+                let a = among.id(i);
+                if o != new {
+                    self.bufs.changes.bonds(a);
+                }
+                self.lat.attach[a as usize] = new;
             }
-            self.lat.attach[a as usize] = new;
         }
         for (b, bit) in outside {
             self.lat.attach[b as usize] |= bit;
