@@ -13,7 +13,7 @@
 //! on it ([`Lattice::set_width`]).
 
 use crate::bits::{all_bits, no_bits, run_of, sequence_len, set_bits};
-pub(crate) use crate::cells::{BitLog, Bits};
+pub(crate) use crate::cells::{BitLog, Bits, Words};
 use crate::cells::{CellIndex, Grid, AHEAD, EMPTY, NO_SLOT, RIM};
 use latticesim_vm::column::Value;
 use latticesim_vm::eval::Cell;
@@ -1284,10 +1284,28 @@ unsafe impl Sync for Shift<'_> {}
 unsafe impl Send for Shift<'_> {}
 
 impl Shift<'_> {
+    /// How the parts' [`Words`] split the words of occupancy (into at most `most`
+    /// buckets).
+    pub(crate) fn buckets(&self, most: usize) -> (u32, usize) {
+        self.cells.buckets(most)
+    }
+
+    /// Writes the bits of occupancy of bucket `b` of `logs` (every part's).
+    ///
+    /// # Safety
+    /// After every part of [`Shift::in_place`]; no other thread writes the words of bucket
+    /// `b` meanwhile (threads writing distinct buckets may run at once).
+    pub(crate) unsafe fn apply(&self, logs: &[&Words], b: usize) {
+        // SAFETY: the caller's promise.
+        unsafe { self.cells.apply_words(logs, b) }
+    }
+
     /// Moves the agents of `movers`, in turn, one step each, as [`Lattice::shift_alone`]
     /// does: those that stand on the grid's rim (or off it) or find their target filled now
     /// are pushed to `deferred`; stops at the first that is bonded. Returns how many it
     /// went through, and how many stood on the rim (`None` when it stopped at a bonded one).
+    /// The bits of occupancy its moves change are noted in `words` (made ready for this
+    /// shift's buckets), for [`Shift::apply`] after every part.
     ///
     /// # Safety
     /// Across all parts made at once, the agents are distinct; no other thread reads or
@@ -1296,6 +1314,7 @@ impl Shift<'_> {
         &self,
         movers: &[u32],
         deferred: &mut Vec<u32>,
+        words: &mut Words,
     ) -> (usize, Option<usize>) {
         let mut rim = 0;
         // (Copies, kept in registers: the fields of `self` were read again after every
@@ -1324,7 +1343,7 @@ impl Shift<'_> {
                     continue;
                 }
                 let (from, to) = (c as usize, Grid::along(c, step));
-                if !cells.take(a as u32, from, to) {
+                if !cells.take(a as u32, (from, to), words) {
                     deferred.push(a as u32);
                     continue;
                 }

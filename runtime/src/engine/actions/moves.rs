@@ -17,6 +17,8 @@ fn scattered(lat: &Lattice, movers: &[u32]) -> bool {
 pub(super) struct FusedPart {
     movers: Vec<u32>,
     deferred: Vec<u32>,
+    /// The words of occupancy its moves touch (moved on the pool).
+    words: crate::lattice::Words,
 }
 
 impl FusedPart {
@@ -261,6 +263,7 @@ impl Act<'_> {
         let mut parts = std::mem::take(&mut self.bufs.fused);
         parts.resize_with(chunks, FusedPart::default);
         let mut shift = self.lat.shift((off, d)).expect("a grid");
+        let split = shift.buckets(chunks);
         // Scattered movers are asked for ahead (judged on the first chunk's agents).
         // SAFETY: only codes are read, and no thread moves yet.
         shift.ahead = unsafe { shift.scattered(&src.first()) };
@@ -279,7 +282,9 @@ impl Act<'_> {
                     (a, p, code)
                 }));
             }
-            let made = unsafe { shift.in_place(&part.movers, &mut part.deferred) };
+            part.words.ready(split);
+            let made = unsafe { shift.in_place(&part.movers, &mut part.deferred, &mut part.words) };
+            part.words.flush();
             if noting {
                 unnote(notes, &part.deferred);
             }
@@ -287,6 +292,12 @@ impl Act<'_> {
         };
         let items = parts.iter_mut().zip(&mut changes.moved_parts);
         let made: Vec<(usize, Option<usize>)> = pool.map(items.enumerate().collect(), moves);
+        // The bits of occupancy the moves changed: a range of words per bucket, each bucket
+        // on one thread (before any undoing).
+        let logs: Vec<&crate::lattice::Words> = parts.iter().map(|p| &p.words).collect();
+        // SAFETY: after every part; bucket `b`'s words are written here alone.
+        pool.map((0..split.1).collect(), |b| unsafe { shift.apply(&logs, b) });
+        drop(logs);
         let movers: usize = parts.iter().map(|p| p.movers.len()).sum();
         if made.iter().any(|m| m.1.is_none()) {
             // Those moved: each part's movers it went through, but those it left.
