@@ -302,8 +302,8 @@ pub(crate) enum Bits<'l> {
     Write,
     /// Noted in a log, written after ([`SharedCells::apply`]): threads move agents at once
     /// and share words of bits. (Written by locked instructions, each waited for the
-    /// writes before it: the moves of 25,000 carried bars on two threads took 3x their
-    /// time on one.)
+    /// writes before it: the moves of 25,000 carried bars on two threads took three times
+    /// the processor time of one thread's.)
     Log(&'l mut BitLog),
     /// Left as they are: every cell written stays filled (agents swapping cells).
     Keep,
@@ -504,8 +504,9 @@ impl SharedCells<'_> {
         }
     }
 
-    /// How the occupancy words split into at most `most` buckets of a [`BitLog`] (whole
-    /// ranges of words): the shift from a word to its bucket, and how many there are.
+    /// How the occupancy words split into at most `most` buckets of a [`BitLog`] or of
+    /// [`Words`] (whole ranges of words): the shift from a word to its bucket, and how
+    /// many there are.
     pub(crate) fn buckets(&self, most: usize) -> (u32, usize) {
         let last = self.len.div_ceil(64).max(1) - 1;
         let mut shift = 0;
@@ -515,7 +516,8 @@ impl SharedCells<'_> {
         (shift, (last >> shift) + 1)
     }
 
-    /// Sets and clears the occupancy bits of bucket `b` of `log`, by loads and stores.
+    /// Sets and clears the occupancy bits of bucket `b` of `log`, by loads and stores (the
+    /// parts' logs in any order: a relocation empties no cell that a mover enters).
     ///
     /// # Safety
     /// No other thread writes the words of bucket `b` meanwhile (each bucket's words are

@@ -945,17 +945,7 @@ fn threads_join_chunks_in_order() {
     // Rigid bars of four carried east into a wall (groups, collisions cancelled round
     // after round as the bars close up), and lines sorted by swaps (odd-even sort).
     let bars = "push\n1\nSB****\nP1,0 A+***\n\nhold\n1\nSC****\nA+**+\n";
-    let mut barred = String::new();
-    for row in 0..40 {
-        for b in 0..10 {
-            let (x, y) = (2 * b, 5 * row);
-            barred += &format!("{x},{y} SB0000 A1000\n{x},{} SC0000 A1001\n", y + 1);
-            barred += &format!("{x},{} SC0000 A1001\n{x},{} SC0000 A0001\n", y + 2, y + 3);
-        }
-        for y in 5 * row..5 * row + 5 {
-            barred += &format!("24,{y} SW0000\n");
-        }
-    }
+    let barred = bar_rows(40, 10, 24);
     // The same bars listed in no order: groups whose members lie in different chunks.
     let mut bars_scrambled: Vec<&str> = barred.lines().collect();
     for k in (1..bars_scrambled.len()).rev() {
@@ -1021,17 +1011,7 @@ fn threads_join_chunks_in_order() {
     });
     // Bars as above, 280,000 agents, more than 2^18 of them moving every step (the groups'
     // moves on the pool), against walls from the second step.
-    let mut many_bars = String::new();
-    for row in 0..280 {
-        for b in 0..250 {
-            let (x, y) = (2 * b, 5 * row);
-            many_bars += &format!("{x},{y} SB0000 A1000\n{x},{} SC0000 A1001\n", y + 1);
-            many_bars += &format!("{x},{} SC0000 A1001\n{x},{} SC0000 A0001\n", y + 2, y + 3);
-        }
-        for y in 5 * row..5 * row + 5 {
-            many_bars += &format!("500,{y} SW0000\n");
-        }
-    }
+    let many_bars = bar_rows(280, 250, 500);
     // The scrambled bars pulled apart, bottom east and top west: every group's members
     // disagree (a record naming them, in order), members in other chunks than their
     // roots'.
@@ -1165,6 +1145,24 @@ fn block(w: i32, h: i32, extra: impl Fn(i32, i32, usize) -> String) -> String {
         for y in 0..h {
             s += &format!("{x},{y}{}\n", extra(x, y, k));
             k += 1;
+        }
+    }
+    s
+}
+
+/// `rows` rows of `per_row` rigid bars of four (bonded north-south, a bar every second
+/// column, a row every five cells: B at the bottom, C above), each row ending at a wall of
+/// `SW0000` agents in column `wall`.
+fn bar_rows(rows: i32, per_row: i32, wall: i32) -> String {
+    let mut s = String::new();
+    for row in 0..rows {
+        for b in 0..per_row {
+            let (x, y) = (2 * b, 5 * row);
+            s += &format!("{x},{y} SB0000 A1000\n{x},{} SC0000 A1001\n", y + 1);
+            s += &format!("{x},{} SC0000 A1001\n{x},{} SC0000 A0001\n", y + 2, y + 3);
+        }
+        for y in 5 * row..5 * row + 5 {
+            s += &format!("{wall},{y} SW0000\n");
         }
     }
     s
