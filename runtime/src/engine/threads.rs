@@ -132,7 +132,15 @@ pub(super) fn map_on<I: Send, T: Send>(
 pub(super) struct Workers {
     pub(super) pool: rayon::ThreadPool,
     pub(super) threads: usize,
+    /// Counts the calls of [`Workers::map`]: a worker kept awake after one
+    /// ([`Workers::keep_awake`]) stops waiting when it changes.
+    calls: std::sync::Arc<std::sync::atomic::AtomicU64>,
 }
+
+/// How long a worker stays awake after a call of [`Workers::map`], waiting for the next
+/// (a step's phases follow each other within tens of microseconds; a worker asleep takes
+/// about as long to wake).
+const AWAKE: std::time::Duration = std::time::Duration::from_micros(200);
 
 impl Workers {
     /// `threads` threads in all (at least two), or `None` when the system cannot start
@@ -142,7 +150,11 @@ impl Workers {
             .num_threads(threads - 1)
             .build()
             .ok()?;
-        Some(Workers { pool, threads })
+        Some(Workers {
+            pool,
+            threads,
+            calls: Default::default(),
+        })
     }
 
     /// `f` of each item, the results in the items' order. The items are cut into as many
@@ -161,6 +173,9 @@ impl Workers {
         fn lock<X>(m: &Mutex<X>) -> MutexGuard<'_, X> {
             m.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
         }
+        use std::sync::atomic::Ordering::Relaxed;
+        // (The workers kept awake after the last call stop waiting.)
+        self.calls.fetch_add(1, Relaxed);
         let n = items.len();
         let blocks = Blocks::new(n, self.threads);
         let todo: Vec<Mutex<Option<I>>> = items.into_iter().map(|i| Mutex::new(Some(i))).collect();
@@ -183,9 +198,26 @@ impl Workers {
             }
             block(0);
         });
+        self.keep_awake();
         (done.iter())
             .map(|m| lock(m).take().expect("every item ran"))
             .collect()
+    }
+
+    /// Keeps the workers awake for [`AWAKE`] or until the next call of [`Workers::map`],
+    /// whichever comes first, so that the next phase of a step finds them awake: asleep,
+    /// each took a wake-up by the system (21.7 us for a round trip between two processes
+    /// on the machine of docs/performance.md's stop 56).
+    fn keep_awake(&self) {
+        use std::sync::atomic::Ordering::Relaxed;
+        let calls = std::sync::Arc::clone(&self.calls);
+        let now = calls.load(Relaxed);
+        self.pool.spawn_broadcast(move |_| {
+            let start = std::time::Instant::now();
+            while calls.load(Relaxed) == now && start.elapsed() < AWAKE {
+                std::hint::spin_loop();
+            }
+        });
     }
 }
 
