@@ -318,23 +318,43 @@ const FILL: u32 = 1 << 31;
 /// bucket can be written by one thread while others write theirs.
 #[derive(Default)]
 pub(crate) struct BitLog {
-    shift: u32,
-    buckets: Vec<Vec<u32>>,
+    buckets: Buckets<u32>,
 }
 
 impl BitLog {
     /// Empties the log, for buckets as [`SharedCells::buckets`] gives them.
-    pub(crate) fn ready(&mut self, (shift, count): (u32, usize)) {
-        self.shift = shift;
-        self.buckets.resize_with(count, Vec::new);
-        self.buckets.truncate(count);
-        self.buckets.iter_mut().for_each(Vec::clear);
+    pub(crate) fn ready(&mut self, split: (u32, usize)) {
+        self.buckets.ready(split);
     }
 
     #[inline]
     fn push(&mut self, i: usize, fill: bool) {
         let e = i as u32 | if fill { FILL } else { 0 };
-        self.buckets[(i / 64) >> self.shift].push(e);
+        self.buckets.push(i / 64, e);
+    }
+}
+
+/// Entries of a log of bits of occupancy, in buckets by ranges of words (bucket `b`: the
+/// words whose index shifted right by `shift` is `b`), for [`BitLog`] and [`Words`].
+#[derive(Default)]
+struct Buckets<T> {
+    shift: u32,
+    lists: Vec<Vec<T>>,
+}
+
+impl<T> Buckets<T> {
+    /// Empties the buckets, for a split as [`SharedCells::buckets`] gives it.
+    fn ready(&mut self, (shift, count): (u32, usize)) {
+        self.shift = shift;
+        self.lists.resize_with(count, Vec::new);
+        self.lists.truncate(count);
+        self.lists.iter_mut().for_each(Vec::clear);
+    }
+
+    /// Adds entry `e` of word `w`.
+    #[inline]
+    fn push(&mut self, w: usize, e: T) {
+        self.lists[w >> self.shift].push(e);
     }
 }
 
@@ -346,20 +366,16 @@ impl BitLog {
 /// it waiting on them).
 #[derive(Default)]
 pub(crate) struct Words {
-    shift: u32,
     /// The word being changed: its index, the bits cleared, the bits set.
     now: (u32, u64, u64),
-    buckets: Vec<Vec<(u32, u64, u64)>>,
+    buckets: Buckets<(u32, u64, u64)>,
 }
 
 impl Words {
     /// Empties the log, for buckets as [`SharedCells::buckets`] gives them.
-    pub(crate) fn ready(&mut self, (shift, count): (u32, usize)) {
-        self.shift = shift;
+    pub(crate) fn ready(&mut self, split: (u32, usize)) {
         self.now = (u32::MAX, 0, 0);
-        self.buckets.resize_with(count, Vec::new);
-        self.buckets.truncate(count);
-        self.buckets.iter_mut().for_each(Vec::clear);
+        self.buckets.ready(split);
     }
 
     /// Notes that cell `i` is emptied (or filled, `fill`).
@@ -380,7 +396,7 @@ impl Words {
     pub(crate) fn flush(&mut self) {
         let (w, clear, set) = self.now;
         if w != u32::MAX {
-            self.buckets[w as usize >> self.shift].push((w, clear, set));
+            self.buckets.push(w as usize, (w, clear, set));
             self.now = (u32::MAX, 0, 0);
         }
     }
@@ -448,7 +464,7 @@ impl SharedCells<'_> {
     pub(crate) unsafe fn apply_words(&self, logs: &[&Words], b: usize) {
         use std::sync::atomic::Ordering::Relaxed;
         for set in [false, true] {
-            for &(w, c, s) in logs.iter().flat_map(|l| &l.buckets[b]) {
+            for &(w, c, s) in logs.iter().flat_map(|l| &l.buckets.lists[b]) {
                 let w = w as usize;
                 assert!(w < self.len.div_ceil(64), "a word of the grid");
                 // SAFETY: in bounds (checked); atomics; the bucket's words are this
@@ -524,7 +540,7 @@ impl SharedCells<'_> {
     /// its own: threads that write distinct buckets may run at once).
     pub(crate) unsafe fn apply(&self, log: &BitLog, b: usize) {
         use std::sync::atomic::Ordering::Relaxed;
-        for &e in &log.buckets[b] {
+        for &e in &log.buckets.lists[b] {
             let i = (e & !FILL) as usize;
             assert!(i < self.len, "a cell of the grid");
             // SAFETY: in bounds (checked); atomics; the bucket's words are this thread's
