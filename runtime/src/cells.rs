@@ -532,15 +532,15 @@ impl SharedCells<'_> {
         (shift, (last >> shift) + 1)
     }
 
-    /// Sets and clears the occupancy bits of bucket `b` of `log`, by loads and stores (the
+    /// Sets and clears the occupancy bits of bucket `b` of `logs`, by loads and stores (the
     /// parts' logs in any order: a relocation empties no cell that a mover enters).
     ///
     /// # Safety
     /// No other thread writes the words of bucket `b` meanwhile (each bucket's words are
     /// its own: threads that write distinct buckets may run at once).
-    pub(crate) unsafe fn apply(&self, log: &BitLog, b: usize) {
+    pub(crate) unsafe fn apply(&self, logs: &[&BitLog], b: usize) {
         use std::sync::atomic::Ordering::Relaxed;
-        for &e in &log.buckets.lists[b] {
+        for &e in logs.iter().flat_map(|l| &l.buckets.lists[b]) {
             let i = (e & !FILL) as usize;
             assert!(i < self.len, "a cell of the grid");
             // SAFETY: in bounds (checked); atomics; the bucket's words are this thread's

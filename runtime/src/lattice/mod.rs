@@ -1135,9 +1135,8 @@ impl Lattice {
     }
 
     /// Movers to their targets on a grid, in parts that threads make at once
-    /// ([`Relocation::part`]; `shared`: more than one thread), then
-    /// [`Lattice::relocated`]; `None` without a grid.
-    pub(crate) fn relocation(&mut self, shared: bool) -> Option<Relocation<'_>> {
+    /// ([`Relocation::part`]), then [`Lattice::relocated`]; `None` without a grid.
+    pub(crate) fn relocation(&mut self) -> Option<Relocation<'_>> {
         let n = self.pos.len();
         let (pos, code) = (self.pos.as_mut_ptr(), self.code.as_mut_ptr());
         let g = self.cells.grid_mut()?;
@@ -1146,7 +1145,6 @@ impl Lattice {
             pos,
             code,
             n,
-            shared,
         })
     }
 
@@ -1178,7 +1176,6 @@ pub(crate) struct Relocation<'a> {
     pos: *mut [i32; 3],
     code: *mut u32,
     n: usize,
-    shared: bool,
 }
 
 // SAFETY: written only through `Relocation::part`, whose callers give each thread movers
@@ -1200,7 +1197,8 @@ impl Relocation<'_> {
     /// # Safety
     /// Across all parts made at once, the movers are distinct, and so are the targets; no
     /// other thread reads or writes the lattice meanwhile but through this relocation;
-    /// with one thread (not `shared`), one part at a time.
+    /// with [`Bits::Write`], one part at a time (one thread moves agents: the bits are
+    /// written without locks).
     pub(crate) unsafe fn part(
         &self,
         (moves, codes): (&[(u32, [i32; 3])], &[u32]),
@@ -1208,10 +1206,6 @@ impl Relocation<'_> {
         (outside, leaving): (&mut Vec<Placed>, &mut Vec<Placed>),
         mut bits: Bits<'_>,
     ) {
-        assert!(
-            !(self.shared && matches!(bits, Bits::Write)),
-            "threads at once log the bits"
-        );
         // (Copies, kept in registers, as in `Shift::in_place`.)
         let (cells, n, pos, code) = (self.cells, self.n, self.pos, self.code);
         for (k, (&(a, p), &c)) in moves.iter().zip(codes).enumerate() {
@@ -1252,15 +1246,15 @@ impl Relocation<'_> {
         self.cells.buckets(most)
     }
 
-    /// Writes the occupancy bits of bucket `b` of `log`, a part's.
+    /// Writes the occupancy bits of bucket `b` of `logs`, every part's.
     ///
     /// # Safety
     /// After every part; no other thread writes the bits of bucket `b` meanwhile (threads
     /// writing distinct buckets may run at once), nor uses the lattice but through this
     /// relocation.
-    pub(crate) unsafe fn apply(&self, log: &BitLog, b: usize) {
+    pub(crate) unsafe fn apply(&self, logs: &[&BitLog], b: usize) {
         // SAFETY: the caller's promise.
-        unsafe { self.cells.apply(log, b) }
+        unsafe { self.cells.apply(logs, b) }
     }
 }
 

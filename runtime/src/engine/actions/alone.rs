@@ -422,7 +422,7 @@ impl Act<'_> {
             self.stats.moves += part.live.len() as u64;
         }
         let shared = par.is_some();
-        match self.lat.relocation(shared) {
+        match self.lat.relocation() {
             Some(r) => {
                 let (r, targeted) = (&r, &targeted);
                 let split = r.buckets(parts.len());
@@ -453,13 +453,11 @@ impl Act<'_> {
                 if shared {
                     // The occupancy bits, a range of words per bucket, each bucket on
                     // one thread from every part's log.
-                    let parts = &*parts;
-                    map_on(par, (0..split.1).collect(), |b| {
-                        for part in parts {
-                            // SAFETY: after every part; bucket `b`'s words are written
-                            // here alone; nothing else uses the lattice meanwhile.
-                            unsafe { r.apply(&part.bits, b) };
-                        }
+                    let logs: Vec<&BitLog> = parts.iter().map(|p| &p.bits).collect();
+                    // SAFETY: after every part; bucket `b`'s words are written here alone;
+                    // nothing else uses the lattice meanwhile.
+                    map_on(par, (0..split.1).collect(), |b| unsafe {
+                        r.apply(&logs, b)
                     });
                 }
                 let outside = parts.iter().flat_map(|p| &p.outside);

@@ -297,7 +297,6 @@ impl Act<'_> {
         let logs: Vec<&crate::lattice::Words> = parts.iter().map(|p| &p.words).collect();
         // SAFETY: after every part; bucket `b`'s words are written here alone.
         pool.map((0..split.1).collect(), |b| unsafe { shift.apply(&logs, b) });
-        drop(logs);
         let movers: usize = parts.iter().map(|p| p.movers.len()).sum();
         if made.iter().any(|m| m.1.is_none()) {
             // Those moved: each part's movers it went through, but those it left.

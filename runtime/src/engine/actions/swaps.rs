@@ -168,7 +168,7 @@ impl Act<'_> {
                 self.bufs.changes.moved.append(&mut part.left);
             }
             self.stats.swaps += moved as u64 / 2;
-            match self.lat.relocation(shared) {
+            match self.lat.relocation() {
                 Some(r) => {
                     let r = &r;
                     map_on(par, parts.iter_mut().collect(), |part| {
