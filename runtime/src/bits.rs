@@ -81,12 +81,18 @@ pub(crate) fn extend_kept<T: Copy>(
 /// How many of the first values of `s` equal `v` (compared in blocks, which vectorises).
 #[inline]
 pub(crate) fn run_of<T: Copy + PartialEq>(s: &[T], v: T) -> usize {
+    run_while(s, |x| x == v)
+}
+
+/// How many of the first values of `s` pass `test` (tested in blocks, which vectorises).
+#[inline]
+pub(crate) fn run_while<T: Copy>(s: &[T], test: impl Fn(T) -> bool) -> usize {
     let mut n = 0;
     for block in s.chunks(32) {
-        if block.iter().fold(true, |ok, &x| ok & (x == v)) {
+        if block.iter().fold(true, |ok, &x| ok & test(x)) {
             n += block.len();
         } else {
-            return n + block.iter().take_while(|&&x| x == v).count();
+            return n + block.iter().take_while(|&&x| test(x)).count();
         }
     }
     n

@@ -353,7 +353,9 @@ impl Dispatch {
             let mut j = 0;
             while j < of.len() {
                 if of[j] != ListId::NONE {
-                    j += 1;
+                    // (The agents already listed, passed over in blocks: one by one, the
+                    // second pass over 10^7 agents of a known state took 11-14 ms.)
+                    j += crate::bits::run_while(&of[j..], |c| c != ListId::NONE);
                     continue;
                 }
                 let st = &states[j];
