@@ -97,11 +97,21 @@ impl Selection {
     /// Adds to `counts` how many agents of `list` (a part of the list) execute each rule;
     /// returns how many execute any.
     pub(super) fn count_listed(&self, list: &[u32], counts: &mut [u64]) -> u64 {
+        // Runs of agents executing the same rule counted at once (a count per agent in
+        // memory waited for the last one's store: 4 ns an agent for 1,000 walkers).
+        let mut run = (NO_RULE, 0u64);
         for &a in list {
             let r = self.one[a as usize];
-            if r & MANY == 0 {
-                counts[r as usize] += 1;
+            if r != run.0 {
+                if run.0 & MANY == 0 {
+                    counts[run.0 as usize] += run.1;
+                }
+                run = (r, 0);
             }
+            run.1 += 1;
+        }
+        if run.0 & MANY == 0 {
+            counts[run.0 as usize] += run.1;
         }
         list.len() as u64
     }
