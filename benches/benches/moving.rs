@@ -273,6 +273,21 @@ fn run_latticesim(
     }
 }
 
+/// The fastest of `reps` runs each of `latticesim run` on one and on two threads (taken in
+/// turn, compared by `key`), writing `outs`.
+fn one_and_two(
+    (exe, files): (&Path, (&Path, &Path)),
+    (outs, args): ((&Path, &Path), &[&str]),
+    reps: usize,
+    key: fn(&Run) -> f64,
+) -> (Run, Run) {
+    let mut one = || run_latticesim(exe, files, 1, outs.0, args);
+    let mut two = || run_latticesim(exe, files, 2, outs.1, args);
+    let mut runs = best_of(reps, &mut [&mut one, &mut two], key);
+    let two = runs.pop().unwrap();
+    (runs.pop().unwrap(), two)
+}
+
 /// The fastest of `reps` runs of each of `jobs` (run in turn, `reps` rounds).
 fn best_of<T>(reps: usize, jobs: &mut [&mut dyn FnMut() -> T], key: impl Fn(&T) -> f64) -> Vec<T> {
     let mut best: Vec<Option<T>> = jobs.iter().map(|_| None).collect();
@@ -343,10 +358,13 @@ fn main() {
             measure(Command::new(&native).arg(&input).arg(&o0))
         };
         let nat = best_of(reps, &mut [&mut nat], |r| r.0.as_secs_f64()).remove(0);
-        let mut one = || run_latticesim(&exe, (&b2r, &input), 1, &o1, &[]);
-        let mut two = || run_latticesim(&exe, (&b2r, &input), 2, &o2, &[]);
-        let mut runs = best_of(reps, &mut [&mut one, &mut two], |r| r.wall.as_secs_f64());
-        let (two, one) = (runs.pop().unwrap(), runs.pop().unwrap());
+        let files = (b2r.as_path(), input.as_path());
+        let (one, two) = one_and_two(
+            (&exe, files),
+            ((o1.as_path(), o2.as_path()), &[]),
+            reps,
+            |r| r.wall.as_secs_f64(),
+        );
         assert!(
             same_files(&o0, &o1) && same_files(&o0, &o2),
             "B2F W = {w}: the outputs differ"
@@ -388,10 +406,13 @@ fn main() {
     for &r in rs {
         let input = walkers_file(&dir, r);
         let (o1, o2) = (dir.join("walk-1.txt"), dir.join("walk-2.txt"));
-        let mut one = || run_latticesim(&exe, (&walkr, &input), 1, &o1, &[]);
-        let mut two = || run_latticesim(&exe, (&walkr, &input), 2, &o2, &[]);
-        let mut runs = best_of(reps, &mut [&mut one, &mut two], |r| r.steps_s);
-        let (two, one) = (runs.pop().unwrap(), runs.pop().unwrap());
+        let files = (walkr.as_path(), input.as_path());
+        let (one, two) = one_and_two(
+            (&exe, files),
+            ((o1.as_path(), o2.as_path()), &[]),
+            reps,
+            |r| r.steps_s,
+        );
         // Every walker 1,000 cells east, every resting agent in place: computed apart.
         let rest: u64 = (0..r)
             .flat_map(|x| (0..r).map(move |y| x * 100003 + y))
@@ -429,10 +450,13 @@ fn main() {
         let r: u64 = if quick { 46 } else { 100 };
         let (input, walk3r) = (walkers_3d_file(&dir, r), rules("walk3d.txt", WALK3D_RULES));
         let (o1, o2) = (dir.join("walk3d-1.txt"), dir.join("walk3d-2.txt"));
-        let mut one = || run_latticesim(&exe, (&walk3r, &input), 1, &o1, &[]);
-        let mut two = || run_latticesim(&exe, (&walk3r, &input), 2, &o2, &[]);
-        let mut runs = best_of(reps, &mut [&mut one, &mut two], |r| r.steps_s);
-        let (two, one) = (runs.pop().unwrap(), runs.pop().unwrap());
+        let files = (walk3r.as_path(), input.as_path());
+        let (one, two) = one_and_two(
+            (&exe, files),
+            ((o1.as_path(), o2.as_path()), &[]),
+            reps,
+            |r| r.steps_s,
+        );
         // Every walker 1,000 cells east, every resting agent in place: computed apart.
         let key = |x: u64, y: u64, z: u64| (x * 100003 + y) * 100003 + z;
         let rest: u64 = (0..r * r * r)
@@ -486,10 +510,13 @@ fn main() {
         let l = if quick { 316 } else { 1000 };
         let input = b1f_file(&dir, l, 1);
         let (o1, o2) = (dir.join("b1f-1.txt"), dir.join("b1f-2.txt"));
-        let mut one = || run_latticesim(&exe, (&b1r, &input), 1, &o1, &["--max-steps", "50"]);
-        let mut two = || run_latticesim(&exe, (&b1r, &input), 2, &o2, &["--max-steps", "50"]);
-        let mut runs = best_of(reps, &mut [&mut one, &mut two], |r| r.steps_s);
-        let (two, one) = (runs.pop().unwrap(), runs.pop().unwrap());
+        let files = (b1r.as_path(), input.as_path());
+        let (one, two) = one_and_two(
+            (&exe, files),
+            ((o1.as_path(), o2.as_path()), &["--max-steps", "50"]),
+            reps,
+            |r| r.steps_s,
+        );
         assert!(same_files(&o1, &o2), "B1F: one and two threads differ");
         threads.push((format!("B1F L = {l}, 50 steps"), one.steps_s, two.steps_s));
     }
@@ -498,10 +525,13 @@ fn main() {
         let (o1, o2) = (dir.join("general-1.txt"), dir.join("general-2.txt"));
         let max = ["--max-steps".to_string(), steps.to_string()];
         let max: Vec<&str> = max.iter().map(String::as_str).collect();
-        let mut one = || run_latticesim(&exe, (&rules, &input), 1, &o1, &max);
-        let mut two = || run_latticesim(&exe, (&rules, &input), 2, &o2, &max);
-        let mut runs = best_of(reps, &mut [&mut one, &mut two], |r| r.steps_s);
-        let (two, one) = (runs.pop().unwrap(), runs.pop().unwrap());
+        let files = (rules.as_path(), input.as_path());
+        let (one, two) = one_and_two(
+            (&exe, files),
+            ((o1.as_path(), o2.as_path()), &max),
+            reps,
+            |r| r.steps_s,
+        );
         assert!(same_files(&o1, &o2), "{name}: one and two threads differ");
         if rules.ends_with("toggle-rules.txt") {
             // The same moves as B2's: WORKLOADS.md's checksum of the positions.
@@ -521,10 +551,13 @@ fn main() {
         let input = cloud_file(&exe, &dir);
         let (o1, o2) = (dir.join("cloud-1.txt"), dir.join("cloud-2.txt"));
         // The fastest of three each, taken in turn, as the other figures.
-        let mut one = || run_latticesim(&exe, (&b2r, &input), 1, &o1, &[]);
-        let mut two = || run_latticesim(&exe, (&b2r, &input), 2, &o2, &[]);
-        let mut runs = best_of(reps, &mut [&mut one, &mut two], |r| r.steps_s);
-        let (two, one) = (runs.pop().unwrap(), runs.pop().unwrap());
+        let files = (b2r.as_path(), input.as_path());
+        let (one, two) = one_and_two(
+            (&exe, files),
+            ((o1.as_path(), o2.as_path()), &[]),
+            reps,
+            |r| r.steps_s,
+        );
         assert!(
             same_files(&o1, &o2),
             "the cloud: one and two threads differ"
