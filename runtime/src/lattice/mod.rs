@@ -1011,16 +1011,16 @@ impl Lattice {
     /// Before `movers` agents move by `off` from the grid's rim: the grid made again with
     /// room on the sides `off` points to, when that pays and gives a grid other than this
     /// one (a universe's walls may keep it as it is). Says whether it did. It pays at once
-    /// when the movers' steps through the room (a quarter of the grid's extent along `off`),
-    /// each weighed as [`SLOW_STEP`] agents or cells, reach what the new grid and its
-    /// agents cost to make ([`Lattice::room_pays`]), unless a try since the grid was made
-    /// gave none; so many movers get room at once, and 1,000 walkers beside 10^5 agents at
-    /// rest too. Else a refusal counts the moves as
-    /// [`SLOW_MOVES`] agent-steps done the slow way (`off_work`, as agents outside the
-    /// grid are), and it pays once that work reaches the cost: 1,000 walkers beside 10^7
-    /// agents at rest go the general way, through the side box, rather than have a grid of
-    /// 10^7 cells made again every few dozen steps (in 3D 1.6-1.8 s for their 1,000 steps,
-    /// against 0.06-0.08 s now; in 2D, walking west or north, 0.5-0.6 s against 0.04-0.08 s).
+    /// when the movers' steps through the room (about a quarter of the grid's extent along
+    /// `off`), each weighed as [`SLOW_STEP`] agents or cells, reach what the new grid and
+    /// its agents cost to make ([`Lattice::room_pays`]), unless a try since the grid was
+    /// made gave none; so many movers get room at once, and 1,000 walkers beside 10^5
+    /// agents at rest too. Else a refusal counts the moves as [`SLOW_MOVES`] agent-steps
+    /// done the slow way (`off_work`, as agents outside the grid are), and it pays once
+    /// that work reaches the cost: 1,000 walkers beside 10^7 agents at rest go the general
+    /// way, through the side box, rather than have a grid of 10^7 cells made again every
+    /// few dozen steps (in 3D 1.6-1.8 s for their 1,000 steps, against 0.06-0.08 s now; in
+    /// 2D, walking west or north, 0.5-0.6 s against 0.04-0.08 s).
     pub(crate) fn grow_toward(&mut self, off: [i32; 3], movers: usize) -> bool {
         let Some(old) = self.cells.grid_box() else {
             return false;
@@ -1044,10 +1044,11 @@ impl Lattice {
     }
 
     /// Whether `movers` agents moving by `off` across the room a new grid would give them
-    /// (a quarter of the extent of the grid `(lo, size)` along each axis `off` moves on, as
-    /// [`CellIndex::regrow`] gives) pay for that grid at once: their steps through it,
-    /// weighed as [`SLOW_STEP`] each, against the agents and the cells of the grid grown
-    /// by the room.
+    /// pay for that grid at once: their steps through it, weighed as [`SLOW_STEP`] each,
+    /// against the agents and the cells of the grid `(lo, size)` grown by the room. The
+    /// room is taken as a quarter of the grid's extent along each axis `off` moves on
+    /// ([`CellIndex::regrow`] gives a quarter of the agents' extent, which the grid's
+    /// exceeds by its margins; less where that is over its budget).
     fn room_pays(&self, (_, size): ([i32; 3], [i64; 3]), off: [i32; 3], movers: usize) -> bool {
         let volume = size.iter().product::<i64>() as u64;
         let (mut room, mut grown) = (u64::MAX, volume);
