@@ -288,6 +288,17 @@ fn one_and_two(
     (runs.pop().unwrap(), two)
 }
 
+/// The checks of a run of the walkers: the positions' checksum and count of `outs.0` as
+/// computed apart (`want`), the same output on two threads, and the 1,001 steps to the end.
+fn walkers_ran(outs: (&Path, &Path), want: (u64, u64), one: &Run, name: &str) {
+    assert_eq!(positions_checksum(outs.0), want, "{name}");
+    assert!(
+        same_files(outs.0, outs.1),
+        "{name}: one and two threads differ"
+    );
+    assert_eq!(one.steps, 1001, "{name}");
+}
+
 /// The fastest of `reps` runs of each of `jobs` (run in turn, `reps` rounds).
 fn best_of<T>(reps: usize, jobs: &mut [&mut dyn FnMut() -> T], key: impl Fn(&T) -> f64) -> Vec<T> {
     let mut best: Vec<Option<T>> = jobs.iter().map(|_| None).collect();
@@ -418,16 +429,12 @@ fn main() {
             .flat_map(|x| (0..r).map(move |y| x * 100003 + y))
             .sum();
         let walkers: u64 = (0..1000).map(|i| (2 * i + 1000) * 100003 + r + 1).sum();
-        assert_eq!(
-            positions_checksum(&o1),
+        walkers_ran(
+            (&o1, &o2),
             (rest + walkers, r * r + 1000),
-            "walkers R = {r}"
+            &one,
+            &format!("walkers R = {r}"),
         );
-        assert!(
-            same_files(&o1, &o2),
-            "walkers R = {r}: one and two threads differ"
-        );
-        assert_eq!(one.steps, 1001);
         eprintln!(
             "walkers beside {} resting: stepping {:.3} s one thread, {:.3} s two; whole {:.3} s, {:.1} MB",
             r * r,
@@ -465,16 +472,8 @@ fn main() {
         let walkers: u64 = (0..1000)
             .map(|i| key(2 * (i % 100) + 1000, r + 1, 2 * (i / 100)))
             .fold(0, u64::wrapping_add);
-        assert_eq!(
-            positions_checksum(&o1),
-            (rest.wrapping_add(walkers), r * r * r + 1000),
-            "3D walkers, r = {r}"
-        );
-        assert!(
-            same_files(&o1, &o2),
-            "3D walkers: one and two threads differ"
-        );
-        assert_eq!(one.steps, 1001);
+        let want = (rest.wrapping_add(walkers), r * r * r + 1000);
+        walkers_ran((&o1, &o2), want, &one, &format!("3D walkers, r = {r}"));
         eprintln!(
             "3D walkers beside {} resting: stepping {:.3} s one thread, {:.3} s two; {:.1} MB",
             r * r * r,
