@@ -32,6 +32,7 @@ mod activity;
 mod batch;
 mod calc;
 mod chunk;
+mod crew;
 mod dispatch;
 mod plan;
 mod post;

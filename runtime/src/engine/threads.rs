@@ -130,30 +130,17 @@ pub(super) fn map_on<I: Send, T: Send>(
 /// of two cores, a pool of two workers woken by the stepping thread often shared one
 /// core for many steps).
 pub(super) struct Workers {
-    pub(super) pool: rayon::ThreadPool,
+    crew: super::crew::Crew,
     pub(super) threads: usize,
-    /// Counts the calls of [`Workers::map`]: a worker kept awake after one
-    /// ([`Workers::keep_awake`]) stops waiting when it changes.
-    calls: std::sync::Arc<std::sync::atomic::AtomicU64>,
 }
-
-/// How long a worker stays awake after a call of [`Workers::map`], waiting for the next
-/// (a step's phases follow each other within tens of microseconds; a worker asleep takes
-/// about as long to wake).
-const AWAKE: std::time::Duration = std::time::Duration::from_micros(200);
 
 impl Workers {
     /// `threads` threads in all (at least two), or `None` when the system cannot start
     /// them.
     pub(super) fn new(threads: usize) -> Option<Workers> {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads - 1)
-            .build()
-            .ok()?;
         Some(Workers {
-            pool,
+            crew: super::crew::Crew::new(threads - 1)?,
             threads,
-            calls: Default::default(),
         })
     }
 
@@ -169,55 +156,27 @@ impl Workers {
     /// build before).
     pub(super) fn map<I: Send, T: Send>(&self, items: Vec<I>, f: impl Fn(I) -> T + Sync) -> Vec<T> {
         use std::sync::{Mutex, MutexGuard};
-        // (A panic in `f` reaches the caller when the scope ends; the slots stay usable.)
+        // (A panic in `f` reaches the caller when every thread is done; the slots stay
+        // usable.)
         fn lock<X>(m: &Mutex<X>) -> MutexGuard<'_, X> {
             m.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
         }
-        use std::sync::atomic::Ordering::Relaxed;
-        // (The workers kept awake after the last call stop waiting.)
-        self.calls.fetch_add(1, Relaxed);
         let n = items.len();
         let blocks = Blocks::new(n, self.threads);
         let todo: Vec<Mutex<Option<I>>> = items.into_iter().map(|i| Mutex::new(Some(i))).collect();
         let done: Vec<Mutex<Option<T>>> = (0..n).map(|_| Mutex::new(None)).collect();
-        let block = |b: usize| {
-            for k in blocks.taken_by(b) {
-                let r = f(lock(&todo[k]).take().expect("each item is taken once"));
-                *lock(&done[k]) = Some(r);
+        let count = blocks.count();
+        self.crew.run(&|b| {
+            if b < count {
+                for k in blocks.taken_by(b) {
+                    let r = f(lock(&todo[k]).take().expect("each item is taken once"));
+                    *lock(&done[k]) = Some(r);
+                }
             }
-        };
-        let (block, count) = (&block, blocks.count());
-        self.pool.in_place_scope(|s| {
-            if count > 1 {
-                s.spawn_broadcast(move |_, ctx| {
-                    let b = ctx.index() + 1;
-                    if b < count {
-                        block(b);
-                    }
-                });
-            }
-            block(0);
         });
-        self.keep_awake();
         (done.iter())
             .map(|m| lock(m).take().expect("every item ran"))
             .collect()
-    }
-
-    /// Keeps the workers awake for [`AWAKE`] or until the next call of [`Workers::map`],
-    /// whichever comes first, so that the next phase of a step finds them awake: asleep,
-    /// each took a wake-up by the system (21.7 us for a round trip between two processes
-    /// on the machine of docs/performance.md's stop 56).
-    fn keep_awake(&self) {
-        use std::sync::atomic::Ordering::Relaxed;
-        let calls = std::sync::Arc::clone(&self.calls);
-        let now = calls.load(Relaxed);
-        self.pool.spawn_broadcast(move |_| {
-            let start = std::time::Instant::now();
-            while calls.load(Relaxed) == now && start.elapsed() < AWAKE {
-                std::hint::spin_loop();
-            }
-        });
     }
 }
 
