@@ -695,18 +695,25 @@ fn masked_add_in<V: Lane>(
     let m = V::WIDTH.max() as i64;
     let bound = |b: i64| V::of(b.clamp(-m, m) as i32);
     let (lo, hi) = (bound(-m - v as i64), bound(m - v as i64));
-    // Every agent's result checked first, then added.
-    let all = (col.iter().zip(one)).fold(true, |ok, (&t, &e)| {
-        ok & (!adds(e) | ((t >= lo) & (t <= hi)))
-    });
-    if !all {
-        return false;
-    }
-    for (t, &e) in col.iter_mut().zip(one) {
+    // Every agent's result checked and added (wrapping) in one pass; when one would
+    // saturate, every add is taken back (wrapping back), and nothing has changed. (Checked
+    // in a pass of its own before the adds, the column and the selection's entries were
+    // read twice: B2 on one thread 1.02-1.03x the time.)
+    let add = |t: &mut V, e: u32, by: i32| {
         let x: i32 = (*t).into();
-        *t = V::of(x + adds(e) as i32 * v);
+        *t = V::of(x.wrapping_add(adds(e) as i32 * by));
+    };
+    let mut all = true;
+    for (t, &e) in col.iter_mut().zip(one) {
+        all &= !adds(e) | ((*t >= lo) & (*t <= hi));
+        add(t, e, v);
     }
-    true
+    if !all {
+        for (t, &e) in col.iter_mut().zip(one) {
+            add(t, e, v.wrapping_neg());
+        }
+    }
+    all
 }
 
 /// Runs rule `r`'s calculations and sends for the chunk's agents `range` (all of which
