@@ -34,9 +34,9 @@ struct Shared {
     job: std::cell::UnsafeCell<Option<Job>>,
     /// Workers done with the job of `job_no`.
     done: AtomicUsize,
-    /// The thread that called [`Crew::run`] (written as `job`), and whether it sleeps
-    /// until the workers are done.
-    caller: std::cell::UnsafeCell<Option<std::thread::Thread>>,
+    /// The thread that called [`Crew::run`] when it sleeps until the workers are done
+    /// (set before it sleeps), and whether it does.
+    caller: Mutex<Option<std::thread::Thread>>,
     waiting: AtomicBool,
     /// Per worker: asleep, or about to be (the caller then wakes it).
     asleep: Vec<AtomicBool>,
@@ -77,7 +77,7 @@ impl Crew {
             job_no: AtomicU64::new(0),
             job: std::cell::UnsafeCell::new(None),
             done: AtomicUsize::new(0),
-            caller: std::cell::UnsafeCell::new(None),
+            caller: Mutex::new(None),
             waiting: AtomicBool::new(false),
             asleep: (0..workers).map(|_| AtomicBool::new(false)).collect(),
             stop: AtomicBool::new(false),
@@ -118,14 +118,13 @@ impl Crew {
         unsafe {
             let f: Job = std::mem::transmute::<&(dyn Fn(usize) + Sync), Job>(f);
             *s.job.get() = Some(f);
-            *s.caller.get() = Some(std::thread::current());
         }
         s.job_no.fetch_add(1, SeqCst);
         self.wake();
         let join = Join(s, self.handles.len());
         f(0);
         drop(join);
-        let panic = s.panic.lock().unwrap_or_else(|p| p.into_inner()).take();
+        let panic = lock(&s.panic).take();
         if let Some(p) = panic {
             std::panic::resume_unwind(p);
         }
@@ -152,6 +151,12 @@ impl Drop for Crew {
     }
 }
 
+/// Locks `m`, whether or not a thread panicked while holding it (what it holds stays
+/// whole: a handle, a panic's payload).
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
 /// Clears the flag that a job runs, when dropped (also by a panic).
 struct Free<'a>(&'a AtomicBool);
 
@@ -173,6 +178,7 @@ impl Drop for Join<'_> {
             if spins.is_multiple_of(64) && since.elapsed() > s.spin.1 {
                 // Asleep until the last worker is done (as a worker sleeps: each worker
                 // reads `waiting` after counting itself done).
+                *lock(&s.caller) = Some(std::thread::current());
                 s.waiting.store(true, SeqCst);
                 if s.done.load(SeqCst) < self.1 {
                     std::thread::park();
@@ -220,13 +226,11 @@ fn work(s: &Shared, w: usize) {
         // SAFETY: the caller of `run` waits for this worker before the job ends.
         let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| unsafe { (*job)(w + 1) }));
         if let Err(p) = r {
-            let mut first = s.panic.lock().unwrap_or_else(|p| p.into_inner());
-            first.get_or_insert(p);
+            lock(&s.panic).get_or_insert(p);
         }
         s.done.fetch_add(1, SeqCst);
         if s.waiting.load(SeqCst) {
-            // SAFETY: written before `job_no` changed, as the job.
-            if let Some(caller) = unsafe { &*s.caller.get() } {
+            if let Some(caller) = &*lock(&s.caller) {
                 caller.unpark();
             }
         }
