@@ -244,16 +244,27 @@ mod tests {
 
     #[test]
     fn every_thread_runs_each_job_once() {
-        let crew = Crew::new(3).expect("threads");
-        for round in 0..2000 {
-            let runs: Vec<AtomicUsize> = (0..4).map(|_| AtomicUsize::new(0)).collect();
-            crew.run(&|w| {
-                runs[w].fetch_add(1, Relaxed);
-            });
-            assert!(runs.iter().all(|r| r.load(Relaxed) == 1), "round {round}");
-            if round % 500 == 0 {
-                // Long enough for the workers to sleep.
-                std::thread::sleep(std::time::Duration::from_millis(2));
+        // One worker spins while it waits on a machine of two cores or more; three, on a
+        // machine of fewer than four, sleep at once.
+        for workers in [1, 3] {
+            let crew = Crew::new(workers).expect("threads");
+            for round in 0..2000 {
+                let runs: Vec<AtomicUsize> = (0..=workers).map(|_| AtomicUsize::new(0)).collect();
+                crew.run(&|w| {
+                    runs[w].fetch_add(1, Relaxed);
+                    if round % 400 == 1 && w == workers {
+                        // The calling thread, done first, sleeps until this one ends.
+                        std::thread::sleep(std::time::Duration::from_millis(1));
+                    }
+                });
+                assert!(
+                    runs.iter().all(|r| r.load(Relaxed) == 1),
+                    "{workers} workers, round {round}"
+                );
+                if round % 500 == 0 {
+                    // Long enough for the workers to sleep.
+                    std::thread::sleep(std::time::Duration::from_millis(2));
+                }
             }
         }
     }
