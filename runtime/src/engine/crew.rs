@@ -151,9 +151,9 @@ impl Drop for Crew {
     }
 }
 
-/// Locks `m`, whether or not a thread panicked while holding it (what it holds stays
-/// whole: a handle, a panic's payload).
-fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+/// Locks `m`, whether or not a thread panicked while holding it (for what stays whole
+/// through a panic: a handle, a panic's payload, a slot taken or filled at once).
+pub(super) fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
 }
 

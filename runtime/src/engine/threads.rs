@@ -155,12 +155,10 @@ impl Workers {
     /// the gravity cloud 13 % faster (twelve and four pairs of runs, alternating with the
     /// build before).
     pub(super) fn map<I: Send, T: Send>(&self, items: Vec<I>, f: impl Fn(I) -> T + Sync) -> Vec<T> {
-        use std::sync::{Mutex, MutexGuard};
+        use super::crew::lock;
+        use std::sync::Mutex;
         // (A panic in `f` reaches the caller when every thread is done; the slots stay
-        // usable.)
-        fn lock<X>(m: &Mutex<X>) -> MutexGuard<'_, X> {
-            m.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
-        }
+        // usable: `lock`.)
         let n = items.len();
         let blocks = Blocks::new(n, self.threads);
         let todo: Vec<Mutex<Option<I>>> = items.into_iter().map(|i| Mutex::new(Some(i))).collect();
