@@ -171,22 +171,35 @@ struct Join<'a>(&'a Shared, usize);
 
 impl Drop for Join<'_> {
     fn drop(&mut self) {
-        let (s, since) = (self.0, Instant::now());
-        let mut spins = 0u32;
-        while s.done.load(Acquire) < self.1 {
-            spins = spins.wrapping_add(1);
-            if spins.is_multiple_of(64) && since.elapsed() > s.spin.1 {
-                // Asleep until the last worker is done (as a worker sleeps: each worker
-                // reads `waiting` after counting itself done).
-                *lock(&s.caller) = Some(std::thread::current());
-                s.waiting.store(true, SeqCst);
-                if s.done.load(SeqCst) < self.1 {
-                    std::thread::park();
-                }
-                s.waiting.store(false, SeqCst);
+        let s = self.0;
+        let done = || s.done.load(SeqCst) >= self.1;
+        // (Each worker reads `waiting` after counting itself done, and wakes the thread
+        // set here.)
+        let before = || *lock(&s.caller) = Some(std::thread::current());
+        wait(done, (s.spin.1, &s.waiting), before);
+    }
+}
+
+/// Returns once `ready()`: spinning for up to `spin`, then asleep until woken (and again
+/// so, when woken early). `asleep` is set while it may sleep (after `before()`), and
+/// whoever makes it ready reads `asleep` after doing so and then wakes it: both this and
+/// they store and then load sequentially consistent, so one of them sees the other (an
+/// unpark before the park makes the park return at once).
+fn wait(ready: impl Fn() -> bool, (spin, asleep): (Duration, &AtomicBool), before: impl Fn()) {
+    let mut since = Instant::now();
+    let mut spins = 0u32;
+    while !ready() {
+        spins = spins.wrapping_add(1);
+        if spins.is_multiple_of(64) && since.elapsed() > spin {
+            before();
+            asleep.store(true, SeqCst);
+            if !ready() {
+                std::thread::park();
             }
-            std::hint::spin_loop();
+            asleep.store(false, SeqCst);
+            since = Instant::now();
         }
+        std::hint::spin_loop();
     }
 }
 
@@ -194,29 +207,13 @@ impl Drop for Join<'_> {
 fn work(s: &Shared, w: usize) {
     let mut seen = 0;
     loop {
-        let mut since = Instant::now();
-        let mut spins = 0u32;
-        loop {
-            let now = s.job_no.load(Acquire);
-            if now != seen {
-                seen = now;
-                break;
-            }
-            spins = spins.wrapping_add(1);
-            if spins.is_multiple_of(64) && since.elapsed() > s.spin.0 {
-                // Asleep until woken: the caller reads `asleep` after changing `job_no`,
-                // and this reads `job_no` after setting `asleep` (both sequentially
-                // consistent), so one of them sees the other (an unpark before the park
-                // makes it return at once).
-                s.asleep[w].store(true, SeqCst);
-                if s.job_no.load(SeqCst) == seen {
-                    std::thread::park();
-                }
-                s.asleep[w].store(false, SeqCst);
-                since = Instant::now();
-            }
-            std::hint::spin_loop();
-        }
+        // (The caller reads `asleep` after changing `job_no`.)
+        wait(
+            || s.job_no.load(SeqCst) != seen,
+            (s.spin.0, &s.asleep[w]),
+            || {},
+        );
+        seen = s.job_no.load(Acquire);
         if s.stop.load(SeqCst) {
             return;
         }
