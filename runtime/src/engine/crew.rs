@@ -175,9 +175,32 @@ impl Drop for Join<'_> {
         let done = || s.done.load(SeqCst) >= self.1;
         // (Each worker reads `waiting` after counting itself done, and wakes the thread
         // set here.)
-        let before = || *lock(&s.caller) = Some(std::thread::current());
+        let before = || {
+            point(s, Side::Caller);
+            *lock(&s.caller) = Some(std::thread::current());
+        };
         wait(done, (s.spin.1, &s.waiting), before);
     }
+}
+
+/// Who waits in [`wait`]: a worker for the next job, or the calling thread for the
+/// workers' end.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Side {
+    Worker,
+    Caller,
+}
+
+/// The point where a thread of crew `s` about to sleep in [`wait`] (on `side`) has found
+/// it not ready and not yet said that it sleeps: where a wake-up would be lost if it did
+/// not look again. The tests hold a thread here while the other makes it ready; nothing
+/// happens here outside tests.
+#[inline(always)]
+fn point(s: &Shared, side: Side) {
+    #[cfg(test)]
+    tests::held_here(s, side);
+    #[cfg(not(test))]
+    let _ = (s, side);
 }
 
 /// Returns once `ready()`: spinning for up to `spin`, then asleep until woken (and again
@@ -211,7 +234,7 @@ fn work(s: &Shared, w: usize) {
         wait(
             || s.job_no.load(SeqCst) != seen,
             (s.spin.0, &s.asleep[w]),
-            || {},
+            || point(s, Side::Worker),
         );
         seen = s.job_no.load(Acquire);
         if s.stop.load(SeqCst) {
@@ -236,8 +259,127 @@ fn work(s: &Shared, w: usize) {
 
 #[cfg(test)]
 mod tests {
-    use super::Crew;
-    use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
+    use super::{lock, Crew, Shared, Side};
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering::Relaxed, Ordering::SeqCst};
+    use std::sync::mpsc::{channel, Receiver, Sender};
+    use std::sync::{Arc, Mutex};
+    use std::time::Duration;
+
+    /// A thread to hold at [`super::point`]: of the crew whose shared part is at this
+    /// address, on this side; it says when it is there, and goes on when told.
+    struct Hold {
+        crew: usize,
+        side: Side,
+        there: Sender<()>,
+        go: Receiver<()>,
+    }
+
+    /// The holds asked for (by tests that may run at once).
+    static HOLDS: Mutex<Vec<Hold>> = Mutex::new(Vec::new());
+
+    /// At [`super::point`]: holds the thread when a test asked for it (once).
+    pub(super) fn held_here(s: &Shared, side: Side) {
+        let mut holds = lock(&HOLDS);
+        let crew = s as *const Shared as usize;
+        if let Some(k) = holds.iter().position(|h| h.crew == crew && h.side == side) {
+            let h = holds.swap_remove(k);
+            drop(holds);
+            let _ = h.there.send(());
+            let _ = h.go.recv();
+        }
+    }
+
+    /// Asks to hold crew `crew`'s thread on `side` at [`super::point`]: a receiver told
+    /// when it is there, and a sender that lets it go on.
+    fn hold(crew: &Crew, side: Side) -> (Receiver<()>, Sender<()>) {
+        let ((there, is_there), (go, on_go)) = (channel(), channel());
+        lock(&HOLDS).push(Hold {
+            crew: Arc::as_ptr(&crew.shared) as usize,
+            side,
+            there,
+            go: on_go,
+        });
+        (is_there, go)
+    }
+
+    /// Long enough for anything but a thread that sleeps for good.
+    const BOUND: Duration = Duration::from_secs(20);
+
+    /// A worker found no job and is about to sleep when the job comes and the caller,
+    /// seeing it awake, does not wake it: it must see the job before it sleeps (else the
+    /// call never returns).
+    #[test]
+    fn a_worker_about_to_sleep_sees_the_job_that_came_meanwhile() {
+        let crew = Arc::new(Crew::new(1).expect("threads"));
+        // (Asked for from the worker's part of a job: it then waits for the next one.)
+        let asked = Mutex::new(None);
+        crew.run(&|w| {
+            if w == 1 {
+                *lock(&asked) = Some(hold(&crew, Side::Worker));
+            }
+        });
+        let (there, go) = lock(&asked).take().expect("asked for");
+        there
+            .recv_timeout(BOUND)
+            .expect("the worker looks for a job, then would sleep");
+        let (started, is_started) = channel();
+        let (returned, has_returned) = channel();
+        let runs = Arc::new(AtomicUsize::new(0));
+        let (c, r) = (Arc::clone(&crew), Arc::clone(&runs));
+        std::thread::spawn(move || {
+            c.run(&|w| {
+                if w == 0 {
+                    // (After the job's number changed and the sleepers were woken.)
+                    let _ = started.send(());
+                }
+                r.fetch_add(1, Relaxed);
+            });
+            let _ = returned.send(());
+        });
+        is_started
+            .recv_timeout(BOUND)
+            .expect("the caller runs its part");
+        go.send(()).expect("the worker held");
+        has_returned
+            .recv_timeout(BOUND)
+            .expect("the call returns: the worker ran the job that came as it went to sleep");
+        assert_eq!(runs.load(Relaxed), 2);
+    }
+
+    /// The caller is about to sleep until the workers are done when the last one ends and,
+    /// seeing the caller awake, does not wake it: it must see them done before it sleeps.
+    #[test]
+    fn a_caller_about_to_sleep_sees_the_workers_that_ended_meanwhile() {
+        let crew = Arc::new(Crew::new(1).expect("threads"));
+        let (there, go) = hold(&crew, Side::Caller);
+        let end = Arc::new(AtomicBool::new(false));
+        let (returned, has_returned) = channel();
+        let (c, e) = (Arc::clone(&crew), Arc::clone(&end));
+        std::thread::spawn(move || {
+            c.run(&|w| {
+                while w == 1 && !e.load(SeqCst) {
+                    std::thread::sleep(Duration::from_millis(1));
+                }
+            });
+            let _ = returned.send(());
+        });
+        there
+            .recv_timeout(BOUND)
+            .expect("the caller waits for the worker, then would sleep");
+        end.store(true, SeqCst);
+        // The worker is done, has looked whether the caller sleeps (it does not yet) and
+        // waits for the next job: it says so before it sleeps.
+        let s = &crew.shared;
+        let t = std::time::Instant::now();
+        while !(s.done.load(SeqCst) == 1 && s.asleep[0].load(SeqCst)) {
+            assert!(t.elapsed() < BOUND, "the worker ends its part");
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        go.send(()).expect("the caller held");
+        has_returned
+            .recv_timeout(BOUND)
+            .expect("the call returns: the caller saw the worker done as it went to sleep");
+    }
 
     #[test]
     fn every_thread_runs_each_job_once() {
