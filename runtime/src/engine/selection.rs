@@ -97,32 +97,23 @@ impl Selection {
     /// Adds to `counts` how many agents of `list` (a part of the list) execute each rule;
     /// returns how many execute any.
     pub(super) fn count_listed(&self, list: &[u32], counts: &mut [u64]) -> u64 {
-        // Runs of agents executing the same rule counted at once (a count per agent in
-        // memory waited for the last one's store: 4 ns an agent for 1,000 walkers).
-        let mut run = (NO_RULE, 0u64);
-        for &a in list {
-            let r = self.one[a as usize];
-            if r != run.0 {
-                if run.0 & MANY == 0 {
-                    counts[run.0 as usize] += run.1;
-                }
-                run = (r, 0);
-            }
-            run.1 += 1;
-        }
-        if run.0 & MANY == 0 {
-            counts[run.0 as usize] += run.1;
-        }
-        list.len() as u64
+        count_runs_of(list.iter().map(|&a| self.one[a as usize]), counts)
     }
 }
 
 /// Adds to `counts` how many agents of the selection `one` execute each single rule,
 /// counting runs of equal entries at once, and returns how many execute any rule.
 pub(super) fn count_runs(one: &[u32], counts: &mut [u64]) -> u64 {
+    count_runs_of(one.iter().copied(), counts)
+}
+
+/// [`count_runs`] of the selection's `entries`, in any order: a run of equal entries (the
+/// agents of a list executing the same rule, in id order) is counted at once (a count per
+/// agent in memory waited for the last one's store: 4 ns an agent for 1,000 walkers).
+fn count_runs_of(entries: impl Iterator<Item = u32>, counts: &mut [u64]) -> u64 {
     let mut active = 0;
     let mut run = (NO_RULE, 0u64);
-    for &v in one.iter().chain([&NO_RULE]) {
+    for v in entries.chain([NO_RULE]) {
         if v != run.0 {
             if run.0 != NO_RULE {
                 active += run.1;
