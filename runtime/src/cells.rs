@@ -240,6 +240,32 @@ impl Grid {
         self.occ[i / 64] >> (i % 64) & 1 != 0
     }
 
+    /// For interior slots `codes` (each a [`CellIndex::code`] below [`RIM`]), clears
+    /// `out[j]` unless the cell `step` away from `codes[j]` (a step between neighbours,
+    /// [`Grid::step`]) is filled (`want`) or empty: the same as [`Grid::filled`] cell by
+    /// cell, four cells at a time where the processor gathers words (AVX2).
+    pub(crate) fn keep_next_filled(
+        &self,
+        codes: &[u32],
+        step: isize,
+        want: bool,
+        out: &mut [bool],
+    ) {
+        assert_eq!(codes.len(), out.len(), "an entry per slot");
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: AVX2 is there (checked).
+        if std::arch::is_x86_feature_detected!("avx2")
+            && unsafe {
+                keep_next_filled_avx2((&self.occ, self.cells.len()), codes, step, want, out)
+            }
+        {
+            return;
+        }
+        for (t, &s) in out.iter_mut().zip(codes) {
+            *t &= self.filled(Grid::along(s, step)) == want;
+        }
+    }
+
     /// Asks for the occupancy bit of cell `i` ahead of [`Grid::filled`] (any `i`).
     #[inline]
     pub(crate) fn prefetch_filled(&self, i: usize) {
@@ -284,6 +310,77 @@ impl Grid {
     pub(crate) fn slot(&self, p: [i32; 3]) -> Option<usize> {
         box_slot((self.lo, self.size), p)
     }
+}
+
+/// [`Grid::keep_next_filled`] with AVX2: the words of four cells gathered at once, their
+/// bits made into four bytes of 0 or 1 and and-ed into `out` together (B2's test of the
+/// cell below took 16 % of its time cell by cell).
+///
+/// Returns false, having done nothing, when some cell `step` away from a slot of `codes`
+/// lies outside the grid of `len` cells whose bits `occ` holds (in this function, the
+/// check takes an instruction per eight slots, where the baseline's took several per
+/// four).
+///
+/// # Safety
+/// The processor has AVX2; `codes` and `out` have one length.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn keep_next_filled_avx2(
+    (occ, len): (&[u64], usize),
+    codes: &[u32],
+    step: isize,
+    want: bool,
+    out: &mut [bool],
+) -> bool {
+    use std::arch::x86_64::*;
+    // Every cell read lies in the grid (and so below 2^31, as slots are). (A loop, not a
+    // fold: a closure is not compiled for AVX2, and was called per slot.)
+    let (mut lo, mut hi) = (u32::MAX, 0);
+    for &s in codes {
+        (lo, hi) = (lo.min(s), hi.max(s));
+    }
+    let inside = hi < RIM && lo as isize + step >= 0 && (hi as isize + step) < len as isize;
+    if !inside || occ.len() < len.div_ceil(64) || codes.is_empty() {
+        return codes.is_empty();
+    }
+    /// Per mask of four lanes, the four bytes 0 or 1 it spreads to (lane 0 the lowest).
+    const SPREAD: [u32; 16] = {
+        let mut t = [0u32; 16];
+        let mut m = 0;
+        while m < 16 {
+            let mut l = 0;
+            while l < 4 {
+                t[m] |= ((m as u32 >> l) & 1) << (8 * l);
+                l += 1;
+            }
+            m += 1;
+        }
+        t
+    };
+    let flip = if want { 0 } else { 0x0101_0101 };
+    let four = codes.len() / 4 * 4;
+    let (vstep, low) = (_mm_set1_epi32(step as i32), _mm256_set1_epi64x(63));
+    let (codes_at, out_at) = (codes.as_ptr(), out.as_mut_ptr());
+    for j in (0..four).step_by(4) {
+        // SAFETY: `j + 4 <= four <= codes.len() == out.len()`; every word gathered is in
+        // `occ` (checked above); `bool` bytes are written 0 or 1 only.
+        unsafe {
+            let cell = _mm_add_epi32(_mm_loadu_si128(codes_at.add(j).cast()), vstep);
+            let words = _mm256_i32gather_epi64::<8>(occ.as_ptr().cast(), _mm_srli_epi32::<6>(cell));
+            let shift = _mm256_and_si256(_mm256_cvtepu32_epi64(cell), low);
+            // The bit of each cell moved to its lane's sign, read as a mask.
+            let top = _mm256_sllv_epi64(words, _mm256_sub_epi64(low, shift));
+            let mask = _mm256_movemask_pd(_mm256_castsi256_pd(top)) as usize;
+            let keep = SPREAD[mask] ^ flip;
+            let t = out_at.add(j).cast::<u32>();
+            t.write_unaligned(t.read_unaligned() & keep);
+        }
+    }
+    for j in four..codes.len() {
+        let i = (codes[j] as isize + step) as usize;
+        out[j] &= (occ[i / 64] >> (i % 64) & 1 != 0) == want;
+    }
+    true
 }
 
 /// The index of cell `p` in a box of cells of `size` from `lo` (x-major, z fastest), if
@@ -1126,6 +1223,50 @@ impl CellIndex {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The cells next to slots, tested several at a time (`Grid::keep_next_filled`, four
+    /// at a time with AVX2), answer as `Grid::filled` does cell by cell: in 2D and 3D, in
+    /// every direction, for both answers wanted, any number of slots (and a remainder).
+    #[test]
+    fn cells_next_to_slots_tested_together_answer_as_one_by_one() {
+        let mut x = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        for size in [[19i64, 23, 1], [7, 6, 5]] {
+            let mut g = Grid::empty([-3, 2, 0], size);
+            let volume = g.cells.len();
+            for i in 0..volume {
+                if next() % 3 == 0 {
+                    g.put(i, i as u32);
+                }
+            }
+            g.ready_rim();
+            let interior: Vec<u32> = (0..volume)
+                .map(|i| g.cells_mut().code_of(i))
+                .filter(|&c| c < RIM)
+                .collect();
+            for d in 0..if size[2] > 1 { 6 } else { 4 } {
+                let step = g.step(d);
+                for len in 0..=37 {
+                    let pick = |_| interior[next() as usize % interior.len()];
+                    let codes: Vec<u32> = (0..len).map(pick).collect();
+                    for want in [false, true] {
+                        let before: Vec<bool> = (0..len).map(|_| next() % 4 != 0).collect();
+                        let mut got = before.clone();
+                        g.keep_next_filled(&codes, step, want, &mut got);
+                        let one_by_one: Vec<bool> = (before.iter().zip(&codes))
+                            .map(|(&t, &s)| t && g.filled(Grid::along(s, step)) == want)
+                            .collect();
+                        assert_eq!(got, one_by_one, "{size:?}, direction {d}, want {want}");
+                    }
+                }
+            }
+        }
+    }
 
     /// A block beside a long line (a box over both over budget) gets a grid over the block
     /// and a side box over the line, and every agent is found; a cloud with no core within

@@ -747,9 +747,7 @@ impl Lattice {
                             *t &= g.filled(Grid::along(s, step)) == want;
                         }
                     } else {
-                        for (t, &s) in out.iter_mut().zip(codes) {
-                            *t &= g.filled(Grid::along(s, step)) == want;
-                        }
+                        g.keep_next_filled(codes, step, want, out);
                     }
                     return;
                 }
