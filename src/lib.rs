@@ -21,6 +21,7 @@ pub mod merge;
 pub mod output;
 pub mod palette;
 mod plot;
+pub mod processor;
 mod render;
 pub mod run;
 pub mod series;
@@ -404,6 +405,10 @@ pub(crate) const RECORDS_SHOWN_PER_KIND: u64 = 5;
 
 /// The command line: parses the arguments, runs the command, gives its exit status.
 pub fn main() -> ExitCode {
+    if let Some(text) = processor::refusal(&processor::missing()) {
+        eprintln!("latticesim: {text}");
+        return ExitCode::from(2);
+    }
     output::on_interrupt();
     let cli = Cli::parse();
     let code = match cli.command {

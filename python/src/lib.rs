@@ -41,6 +41,9 @@ pub(crate) fn lints(
 
 #[pymodule]
 fn _latticesim(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    if let Some(text) = latticesim::processor::refusal(&latticesim::processor::missing()) {
+        return Err(pyo3::exceptions::PyImportError::new_err(text));
+    }
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("CheckError", m.py().get_type::<check::CheckError>())?;
     m.add("CheckWarning", m.py().get_type::<check::CheckWarning>())?;
