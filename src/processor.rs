@@ -142,4 +142,13 @@ mod tests {
         );
         assert_eq!(super::refusal(&[]), None);
     }
+
+    /// docs/running.md shows the message as the command line prints it.
+    #[test]
+    fn the_docs_show_the_message() {
+        let doc = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/running.md"))
+            .expect("docs/running.md");
+        let text = super::refusal(&["avx2", "bmi2"]).expect("a message");
+        assert!(doc.contains(&format!("latticesim: {text}\n")), "{text}");
+    }
 }
