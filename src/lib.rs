@@ -405,7 +405,7 @@ pub(crate) const RECORDS_SHOWN_PER_KIND: u64 = 5;
 
 /// The command line: parses the arguments, runs the command, gives its exit status.
 pub fn main() -> ExitCode {
-    if let Some(text) = processor::refusal(&processor::missing()) {
+    if let Some(text) = processor::check() {
         eprintln!("latticesim: {text}");
         return ExitCode::from(2);
     }

@@ -51,9 +51,16 @@ const FEATURES: [Feature; 9] = [
     ),
 ];
 
+/// What to tell the user when this processor (or its operating system, for the AVX
+/// registers) lacks a feature the build assumes; `None` when it lacks none. The command
+/// line and the Python package call this first.
+pub fn check() -> Option<String> {
+    refusal(&missing())
+}
+
 /// The features the build assumes that this processor (or its operating system, for the
 /// AVX registers) lacks: none on other architectures, or for a build that assumes none.
-pub fn missing() -> Vec<&'static str> {
+fn missing() -> Vec<&'static str> {
     #[cfg(target_arch = "x86_64")]
     {
         missing_of(cpu_has)
@@ -107,7 +114,7 @@ fn os_keeps_avx() -> bool {
 
 /// The message for a processor that lacks the features `missing` (None when it lacks
 /// none).
-pub fn refusal(missing: &[&str]) -> Option<String> {
+fn refusal(missing: &[&str]) -> Option<String> {
     (!missing.is_empty()).then(|| {
         format!(
             "this build of latticesim needs an x86-64-v3 processor, and this one lacks {}; \

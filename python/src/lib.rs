@@ -41,7 +41,7 @@ pub(crate) fn lints(
 
 #[pymodule]
 fn _latticesim(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    if let Some(text) = latticesim::processor::refusal(&latticesim::processor::missing()) {
+    if let Some(text) = latticesim::processor::check() {
         return Err(pyo3::exceptions::PyImportError::new_err(text));
     }
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
