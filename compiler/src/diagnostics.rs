@@ -405,27 +405,59 @@ fn fix_note(f: &Fix, sources: &Sources) -> String {
         edits,
     };
     let fixed = local.apply(text, file);
-    // The lines the edits touch, found in the fixed text by how far the edits shifted them.
+    // The lines the edits touch, found in the fixed text by how far the edits shifted them,
+    // each with the part the edits wrote (from the first's start to the last's end).
     let mut shift: isize = 0;
-    let mut shown: Vec<usize> = Vec::new();
+    let mut shown: Vec<(usize, usize, usize)> = Vec::new();
     for e in &local.edits {
-        let at = (e.span.start as isize + shift).max(0) as usize;
+        let at = ((e.span.start as isize + shift).max(0) as usize).min(fixed.len());
         shift += e.replacement.len() as isize - e.span.len() as isize;
-        let start = fixed[..at.min(fixed.len())]
-            .rfind('\n')
-            .map_or(0, |i| i + 1);
-        if !shown.contains(&start) {
-            shown.push(start);
+        let end = (at + e.replacement.len()).min(fixed.len());
+        let start = fixed[..at].rfind('\n').map_or(0, |i| i + 1);
+        match shown.iter_mut().find(|s| s.0 == start) {
+            Some(s) => s.2 = s.2.max(end),
+            None => shown.push((start, at, end)),
         }
     }
     note += ":";
-    for start in shown {
+    for (start, from, to) in shown {
         let line = fixed[start..].split('\n').next().unwrap_or("");
+        let line = line.trim_end_matches('\r');
         let index = fixed[..start].matches('\n').count();
         let number = (sources.files.line_number(file.0 as usize, index)).unwrap_or(index + 1);
-        note += &format!("\n{number} | {}", visible(line.trim_end_matches('\r')));
+        let part = window(line, from - start, to - start);
+        note += &format!("\n{number} | {}", visible(&part));
     }
     note
+}
+
+/// A fix's note quotes a line of at most this many characters whole.
+const FIX_LINE: usize = 160;
+
+/// Of a longer line, it quotes at most this many characters on each side of what the fix
+/// wrote.
+const FIX_CONTEXT: usize = 60;
+
+/// The part of a long line around `from..to` (byte offsets in it), with `…` where it is cut;
+/// a line of at most [`FIX_LINE`] characters is whole.
+fn window(line: &str, from: usize, to: usize) -> std::borrow::Cow<'_, str> {
+    if line.len() <= FIX_LINE || line.chars().nth(FIX_LINE).is_none() {
+        return line.into();
+    }
+    let from = from.min(line.len());
+    let to = to.clamp(from, line.len());
+    let before: usize = (line[..from].chars().rev().take(FIX_CONTEXT))
+        .map(char::len_utf8)
+        .sum();
+    let after: usize = (line[to..].chars().take(FIX_CONTEXT))
+        .map(char::len_utf8)
+        .sum();
+    let (a, b) = (from - before, to + after);
+    if a == 0 && b == line.len() {
+        return line.into();
+    }
+    let cut = |yes: bool| if yes { "…" } else { "" };
+    format!("{}{}{}", cut(a > 0), &line[a..b], cut(b < line.len())).into()
 }
 
 /// Renders diagnostics as plain text, as the golden files hold them.
@@ -646,6 +678,42 @@ mod tests {
         assert_eq!(s.line_col(id, 5), (2, 1));
         assert_eq!(s.line_col(id, 7), (2, 3));
         assert_eq!(visible("x\x1b[2J\ry"), "x\\u{1b}[2J\\ry");
+    }
+
+    /// A fix's note quotes a line of up to FIX_LINE characters whole, and of a longer line
+    /// the part the fix wrote with FIX_CONTEXT characters each side, cut where `…` shows.
+    #[test]
+    fn fix_notes_quote_long_lines_around_the_fix() {
+        let short = "C00 A C00 #N01 C00 A C00 #W01 C00 A C00 #E01 C00 A C00 #S01";
+        assert_eq!(window(short, 10, 14), short);
+        let long = format!("{}XY{}", "é".repeat(500), "b".repeat(500));
+        let from = "é".len() * 500;
+        let w = window(&long, from, from + 2);
+        assert_eq!(w, format!("…{}XY{}…", "é".repeat(60), "b".repeat(60)));
+        assert_eq!(window(&long, 0, 2), format!("{}…", "é".repeat(61)));
+        let end = long.len();
+        assert_eq!(window(&long, end, end), format!("…{}", "b".repeat(60)));
+
+        // Through the renderer: a fix on a line of 10^5 characters quotes about 130 of them.
+        let mut s = Sources::new();
+        let text = format!("r\n1\n{} q\n", "N ".repeat(50_000));
+        let id = s.add("rules.txt", text.clone());
+        let at = text.find(" q").unwrap() as u32 + 1;
+        let span = latticesim_grammar::Span {
+            start: at,
+            end: at + 1,
+        };
+        let d = Diagnostic::new(Code::E102, "no term", Label::new(id, span, "here"))
+            .with_fix(Fix::replace("write `Q`", id, span, "Q"));
+        let out = render_plain(&[d], &s);
+        let note = out.lines().find(|l| l.contains("3 | ")).unwrap();
+        let fixed = text.replace(" q", " Q");
+        let line = fixed.lines().nth(2).unwrap();
+        assert!(
+            note.ends_with(&format!(" | …{}", &line[line.len() - 61..])),
+            "{note}"
+        );
+        assert!(out.len() < 2 * text.len() + 1_000, "{} bytes", out.len());
     }
 
     /// A file held in part: labels in offsets of the whole file, shown on their own lines
