@@ -186,6 +186,9 @@ pub(super) struct ActionBufs {
     /// and its parts (for their allocations).
     pub(super) fused_pause: u32,
     fused: Vec<moves::FusedPart>,
+    /// Steps for which the parts of plain moves on the pool note their bits rather than
+    /// own words (more than an eighth of the movers crossed between parts lately).
+    owned_pause: u32,
     /// The chunks' parts of [`Act::collect`] (for their allocations).
     collect: Vec<CollectPart>,
     /// The chunks' parts of [`Act::move_alone`] (for their allocations).

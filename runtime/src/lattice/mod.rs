@@ -1334,55 +1334,98 @@ impl Shift<'_> {
     /// does: those that stand on the grid's rim (or off it) or find their target filled now
     /// are pushed to `deferred`; stops at the first that is bonded. Returns how many it
     /// went through, and how many stood on the rim (`None` when it stopped at a bonded one).
-    /// The bits of occupancy its moves change are noted in `words` (made ready for this
-    /// shift's buckets), for [`Shift::apply`] after every part.
+    /// The bits of occupancy are written as `writes` says: noted in [`Words`] (made ready
+    /// for this shift's buckets), for [`Shift::apply`] after every part; or, for a part
+    /// that owns a range of words (and their cells), written at once, its movers from or
+    /// into a cell outside the range pushed to `crossing` instead (for [`Lattice::shift_alone`]
+    /// after every part).
     ///
     /// # Safety
-    /// Across all parts made at once, the agents are distinct; no other thread reads or
-    /// writes the lattice but through this `Shift`.
+    /// Across all parts made at once, the agents are distinct, and the ranges owned are
+    /// apart and only written with [`OccWrites::Owned`]; no other thread reads or writes the
+    /// lattice but through this `Shift`.
     pub(crate) unsafe fn in_place(
         &self,
         movers: &[u32],
         deferred: &mut Vec<u32>,
-        words: &mut Words,
+        writes: OccWrites<'_>,
     ) -> (usize, Option<usize>) {
+        match writes {
+            OccWrites::Log(words) => {
+                let logged = Logged {
+                    cells: self.cells,
+                    words,
+                };
+                // SAFETY: the caller's promise.
+                unsafe { self.moves(movers, (deferred, &mut Vec::new()), logged).0 }
+            }
+            OccWrites::Owned { words, crossing } => {
+                // SAFETY: the caller's promise: these words and their cells are this part's.
+                let cells = unsafe { self.cells.owned(words) };
+                // SAFETY: as above.
+                let (made, mut cells) = unsafe { self.moves(movers, (deferred, crossing), cells) };
+                cells.put_back();
+                made
+            }
+        }
+    }
+
+    /// [`Shift::in_place`]'s loop, moving agents between cells by `cells` (taken and given
+    /// back by value, so that a word it holds stays in a register); movers that `cells`
+    /// says are not its to move go to the second list.
+    ///
+    /// # Safety
+    /// As for [`Shift::in_place`].
+    #[inline(always)]
+    unsafe fn moves<R: Relocate>(
+        &self,
+        movers: &[u32],
+        (deferred, crossing): (&mut Vec<u32>, &mut Vec<u32>),
+        mut cells: R,
+    ) -> ((usize, Option<usize>), R) {
         let mut rim = 0;
         // (Copies, kept in registers: the fields of `self` were read again after every
         // write through the pointers.)
-        let (cells, n, step, off) = (self.cells, self.n, self.step, self.off);
+        let (shared, n, step, off) = (self.cells, self.n, self.step, self.off);
         let (codes, positions, attach, ahead) = (self.code, self.pos, self.attach, self.ahead);
         for (k, &a) in movers.iter().enumerate() {
             let a = a as usize;
             assert!(a < n, "an agent of the lattice");
             // SAFETY: in bounds (checked); agent `a` belongs to this part alone (the
             // caller's promise), and its target's cell only it may fill (one offset from
-            // distinct cells); cells are atomics.
+            // distinct cells).
             unsafe {
-                if let Some(&b) = movers.get(k + AHEAD).filter(|_| ahead) {
+                if let Some(&b) = movers.get(k + AHEAD).filter(|_| R::AHEAD && ahead) {
                     let c = *codes.add((b as usize).min(n - 1));
-                    cells.prefetch_cell((c & !RIM) as usize);
+                    shared.prefetch_cell((c & !RIM) as usize);
                 }
                 let code = &mut *codes.add(a);
                 let c = *code;
                 if *attach.add(a) != 0 {
-                    return (k, None);
+                    return ((k, None), cells);
                 }
                 if c >= RIM {
                     rim += 1;
                     deferred.push(a as u32);
                     continue;
                 }
-                let (from, to) = (c as usize, Grid::along(c, step));
-                if !cells.take(a as u32, (from, to), words) {
-                    deferred.push(a as u32);
-                    continue;
-                }
-                *code = cells.code_of_slot(to);
+                let to = Grid::along(c, step);
+                *code = match cells.relocate(a as u32, (c as usize, to)) {
+                    Some(Ok(code)) => code,
+                    Some(Err(())) => {
+                        deferred.push(a as u32);
+                        continue;
+                    }
+                    None => {
+                        crossing.push(a as u32);
+                        continue;
+                    }
+                };
                 let pos = &mut *positions.add(a);
                 *pos = [pos[0] + off[0], pos[1] + off[1], pos[2] + off[2]];
             }
         }
-        (movers.len(), Some(rim))
+        ((movers.len(), Some(rim)), cells)
     }
 
     /// Where agent `a` stands: its position, and its slot code as [`Lattice::code_of`].
@@ -1407,6 +1450,60 @@ impl Shift<'_> {
         let code = |a: usize| unsafe { *self.code.add(a.min(self.n - 1)) };
         crate::cells::scattered(agents.iter().map(|&a| code(a)))
     }
+}
+
+/// How a part of [`Shift::in_place`] moves agents between cells.
+trait Relocate {
+    /// Whether the loop asks for the cells of movers ahead when they lie scattered.
+    const AHEAD: bool;
+    /// Moves agent `a` from cell `from` into cell `to` when `to` is empty now, and says
+    /// whether it did with `to`'s slot code; `None`, having done nothing, when the move is
+    /// not this part's.
+    fn relocate(&mut self, a: u32, from_to: (usize, usize)) -> Option<Result<u32, ()>>;
+}
+
+/// Moves whose bits of occupancy are noted, for [`Shift::apply`] after every part.
+struct Logged<'a, 'w> {
+    cells: crate::cells::SharedCells<'a>,
+    words: &'w mut Words,
+}
+
+impl Relocate for Logged<'_, '_> {
+    const AHEAD: bool = true;
+
+    #[inline]
+    fn relocate(&mut self, a: u32, (from, to): (usize, usize)) -> Option<Result<u32, ()>> {
+        // SAFETY: made only by `Shift::in_place`, whose caller promises that no other
+        // thread moves an agent from or into these cells (one offset from distinct cells).
+        Some(
+            match unsafe { self.cells.take(a, (from, to), self.words) } {
+                true => Ok(self.cells.code_of_slot(to)),
+                false => Err(()),
+            },
+        )
+    }
+}
+
+impl Relocate for crate::cells::OwnedCells {
+    // (Owned only by parts of agents in cell order.)
+    const AHEAD: bool = false;
+
+    #[inline]
+    fn relocate(&mut self, a: u32, from_to: (usize, usize)) -> Option<Result<u32, ()>> {
+        crate::cells::OwnedCells::relocate(self, a, from_to)
+    }
+}
+
+/// How [`Shift::in_place`] writes the bits of occupancy of a part's moves.
+pub(crate) enum OccWrites<'w> {
+    /// Noted, for [`Shift::apply`] after every part.
+    Log(&'w mut Words),
+    /// Written at once: the part owns the words `words` (a range) and their cells, and its
+    /// movers from or into a cell outside them go to `crossing`.
+    Owned {
+        words: (usize, usize),
+        crossing: &'w mut Vec<u32>,
+    },
 }
 
 /// Drops from `items` (entries of some agents, in their order; `agent`: an entry's agent)

@@ -4,7 +4,7 @@
 //! again (`detach_move_attach`).
 
 use super::*;
-use crate::lattice::drop_agents;
+use crate::lattice::{drop_agents, OccWrites};
 
 /// Whether the cells of `movers` lie scattered over the grid (see `cells::scattered`).
 fn scattered(lat: &Lattice, movers: &[u32]) -> bool {
@@ -17,8 +17,11 @@ fn scattered(lat: &Lattice, movers: &[u32]) -> bool {
 pub(super) struct FusedPart {
     movers: Vec<u32>,
     deferred: Vec<u32>,
-    /// The words of occupancy its moves touch (moved on the pool).
+    /// The words of occupancy its moves touch (moved on the pool, noted).
     words: crate::lattice::Words,
+    /// Its movers from or into a cell outside the words it owns (moved on the pool, the
+    /// bits written at once), for one thread after the parts.
+    crossing: Vec<u32>,
 }
 
 impl FusedPart {
@@ -104,6 +107,15 @@ impl Movers<'_> {
                 part.movers.extend(moves[lo..hi].iter().map(|m| m.0));
                 part.deferred.clear();
             }
+        }
+    }
+
+    /// The agent of item `i` (below [`Movers::len`]).
+    fn agent(self, i: usize) -> u32 {
+        match self {
+            Movers::Selected(sel) if sel.listed => sel.list[i],
+            Movers::Selected(_) => i as u32,
+            Movers::Listed(moves) => moves[i].0,
         }
     }
 
@@ -259,14 +271,25 @@ impl Act<'_> {
         };
         // On the pool: each block of chunks finds its movers and moves them in place,
         // each checked as it goes (as on one thread); when one of them is bonded, every
-        // move is undone.
+        // move is undone. With agents in the order of their cells, each chunk owns the
+        // words of occupancy (and their cells) from its first agent's to the next chunk's
+        // and writes them at once; its movers from or into another's go after the parts,
+        // on this thread. Otherwise the parts note their bits, written after them.
         let mut parts = std::mem::take(&mut self.bufs.fused);
         parts.resize_with(chunks, FusedPart::default);
+        let owned = match self.bufs.owned_pause {
+            0 => owned_words(self.lat, src, (size, chunks)),
+            _ => {
+                self.bufs.owned_pause -= 1;
+                None
+            }
+        };
         let mut shift = self.lat.shift((off, d)).expect("a grid");
         let split = shift.buckets(chunks);
         // Scattered movers are asked for ahead (judged on the first chunk's agents).
         // SAFETY: only codes are read, and no thread moves yet.
         shift.ahead = unsafe { shift.scattered(&src.first()) };
+        let owned = owned.filter(|_| !shift.ahead);
         // The cells the movers leave, for the activity: a list per chunk, made with it.
         let changes = &mut self.bufs.changes;
         let noting = changes.on;
@@ -274,7 +297,8 @@ impl Act<'_> {
         let moves = |(c, (part, notes)): (usize, (&mut FusedPart, &mut Vec<Moved>))| {
             src.collect(part, (c * size, ((c + 1) * size).min(len)), mover);
             // SAFETY (both): every chunk's movers are its own agents (each agent in one
-            // chunk), and no other thread uses the lattice but through `shift`.
+            // chunk), the words owned by chunks lie apart (they rise with the chunks), and
+            // no other thread uses the lattice but through `shift`.
             if noting {
                 notes.clear();
                 notes.extend((part.movers.iter()).map(|&a| {
@@ -282,11 +306,24 @@ impl Act<'_> {
                     (a, p, code)
                 }));
             }
-            part.words.ready(split);
-            let made = unsafe { shift.in_place(&part.movers, &mut part.deferred, &mut part.words) };
-            part.words.flush();
+            part.crossing.clear();
+            let writes = match &owned {
+                Some(o) => OccWrites::Owned {
+                    words: (o[c], o[c + 1]),
+                    crossing: &mut part.crossing,
+                },
+                None => {
+                    part.words.ready(split);
+                    OccWrites::Log(&mut part.words)
+                }
+            };
+            let made = unsafe { shift.in_place(&part.movers, &mut part.deferred, writes) };
+            if owned.is_none() {
+                part.words.flush();
+            }
             if noting {
                 unnote(notes, &part.deferred);
+                unnote(notes, &part.crossing);
             }
             made
         };
@@ -294,16 +331,35 @@ impl Act<'_> {
         let made: Vec<(usize, Option<usize>)> = pool.map(items.enumerate().collect(), moves);
         // The bits of occupancy the moves changed: a range of words per bucket, each bucket
         // on one thread (before any undoing).
-        let logs: Vec<&crate::lattice::Words> = parts.iter().map(|p| &p.words).collect();
-        // SAFETY: after every part; bucket `b`'s words are written here alone.
-        pool.map((0..split.1).collect(), |b| unsafe { shift.apply(&logs, b) });
+        if owned.is_none() {
+            let logs: Vec<&crate::lattice::Words> = parts.iter().map(|p| &p.words).collect();
+            // SAFETY: after every part; bucket `b`'s words are written here alone.
+            pool.map((0..split.1).collect(), |b| unsafe { shift.apply(&logs, b) });
+        }
         let movers: usize = parts.iter().map(|p| p.movers.len()).sum();
-        if made.iter().any(|m| m.1.is_none()) {
+        // The movers that crossed from one part's words into another's, on this thread.
+        let crossing: Vec<u32> = parts.iter().flat_map(|p| &p.crossing).copied().collect();
+        let failed = made.iter().any(|m| m.1.is_none());
+        let mut left_over = Vec::new();
+        if crossing.len() * 8 > movers {
+            // (Agents far from the order of their cells: one thread makes these moves.)
+            self.bufs.owned_pause = 16;
+        }
+        if !failed && !crossing.is_empty() {
+            changes.moved_all(self.lat, crossing.iter().copied());
+            let tried = (self.lat).shift_alone(&crossing, (off, d), false, &mut left_over);
+            // (None is bonded: a part stops at a bonded mover before it asks whose the
+            // move is.)
+            debug_assert!(tried.is_some());
+            unnote(&mut changes.moved, &left_over);
+        }
+        if failed {
             // Those moved: each part's movers it went through, but those it left.
             let undo: Vec<Vec<u32>> = (parts.iter().zip(&made))
                 .map(|(p, m)| {
                     let mut moved = p.movers[..m.0].to_vec();
                     drop_agents(&mut moved, &p.deferred, |&a| a);
+                    drop_agents(&mut moved, &p.crossing, |&a| a);
                     moved
                 })
                 .collect();
@@ -312,12 +368,50 @@ impl Act<'_> {
             self.bufs.fused = parts;
             return AtOnce::Failed;
         }
+        if !left_over.is_empty() {
+            // Those left to the general way, in agent order, as one part's.
+            let mut all: Vec<u32> = parts
+                .iter_mut()
+                .flat_map(|p| p.deferred.drain(..))
+                .collect();
+            all.extend_from_slice(&left_over);
+            all.sort_unstable();
+            parts[0].deferred = all;
+        }
         let rim = made.iter().map(|m| m.1.unwrap_or(0)).sum();
         let left: usize = parts.iter().map(|p| p.deferred.len()).sum();
         self.bufs.fused = parts;
         self.stats.moves += (movers - left) as u64;
         AtOnce::Done { rim, movers }
     }
+}
+
+/// The words of occupancy each chunk's part owns for [`Shift::in_place`]'s
+/// [`OccWrites::Owned`] (`size` items a chunk, `chunks` of them): chunk `c` the words
+/// `o[c]..o[c + 1]`, cut at the word of each chunk's first agent. `None` when those words
+/// do not rise with the chunks (agents not in the order of their cells: the parts note
+/// their bits instead), or the first agent of a chunk is off the grid.
+fn owned_words(
+    lat: &Lattice,
+    src: Movers<'_>,
+    (size, chunks): (usize, usize),
+) -> Option<Vec<usize>> {
+    let words = lat.cells.grid().map(|_| lat.cells.slots().div_ceil(64))?;
+    let mut o = Vec::with_capacity(chunks + 1);
+    o.push(0);
+    for c in 1..chunks {
+        let code = lat.code_of(src.agent(c * size));
+        if code == crate::cells::NO_SLOT {
+            return None;
+        }
+        let w = (code & !RIM) as usize / 64;
+        if w < *o.last()? || w > words {
+            return None;
+        }
+        o.push(w);
+    }
+    o.push(words);
+    Some(o)
 }
 
 /// How the plain moves of a step at once went.
