@@ -3,8 +3,9 @@
 //! - Standard output: a closed pipe (`latticesim ... | head`) ends it quietly, the rest of
 //!   the command goes on (files requested are still written) and the exit status is not
 //!   changed; any other failure (a full disk) is reported once and makes the exit status 2.
-//! - Standard error: written through [`say!`], never panicking; a failure to write it makes
-//!   the exit status 2.
+//! - Standard error: written through [`say!`], never panicking; a closed pipe ends it
+//!   quietly as it ends standard output, any other failure to write it makes the exit
+//!   status 2.
 //! - Files: written whole or not at all. [`AtomicFile`] writes into a new temporary file
 //!   beside the target (never following a symbolic link) and renames it over the target
 //!   when committed, so a reader, a crash or a kill sees the old file or the new one, never
@@ -23,6 +24,8 @@ use std::sync::Mutex;
 
 /// Standard output was closed by its reader.
 static STDOUT_CLOSED: AtomicBool = AtomicBool::new(false);
+/// Standard error was closed by its reader.
+static STDERR_CLOSED: AtomicBool = AtomicBool::new(false);
 /// Writing standard output or standard error failed for another reason.
 static FAILED: AtomicBool = AtomicBool::new(false);
 /// Ctrl-C was pressed.
@@ -42,10 +45,17 @@ macro_rules! say {
 }
 pub(crate) use say;
 
-/// Writes to standard error; a failure is remembered for the exit status.
+/// Writes to standard error; a closed pipe ends it quietly (`latticesim ... 2>&1 | head`,
+/// as standard output), another failure is remembered for the exit status.
 pub(crate) fn stderr(text: &str) {
-    if std::io::stderr().lock().write_all(text.as_bytes()).is_err() {
-        FAILED.store(true, Ordering::SeqCst);
+    if STDERR_CLOSED.load(Ordering::SeqCst) {
+        return;
+    }
+    if let Err(e) = std::io::stderr().lock().write_all(text.as_bytes()) {
+        match e.kind() {
+            ErrorKind::BrokenPipe => STDERR_CLOSED.store(true, Ordering::SeqCst),
+            _ => FAILED.store(true, Ordering::SeqCst),
+        }
     }
 }
 

@@ -934,6 +934,26 @@ fn a_closed_pipe_ends_quietly_and_files_are_still_written() {
     assert!(!err.contains("panicked"), "{err}");
     let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
     assert_eq!(v["steps"], 3);
+    // Standard error into the same pipe: its summary line meets the closed pipe too.
+    std::fs::remove_file(&stats).unwrap();
+    let line = format!(
+        "set -o pipefail; '{}' run examples/maxflood/rules.txt '{}' --max-steps 3 --stats '{}' 2>&1 | head -1 > /dev/null",
+        env!("CARGO_BIN_EXE_latticesim"),
+        agents.display(),
+        stats.display()
+    );
+    let o = std::process::Command::new("bash")
+        .args(["-c", &line])
+        .output()
+        .unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
+    assert_eq!(v["steps"], 3);
 }
 
 #[cfg(target_os = "linux")]
