@@ -519,7 +519,8 @@ impl Words {
 /// per thread: moves at once (in order, a word changed several times in a row) note words
 /// ([`Words`]), other moves (scattered: a word per move) note cells ([`BitLog`], a fifth
 /// of the bytes per move; the bouncing example on two threads 1.09x the time with
-/// [`Words`]); one thread writes them at once ([`Bits::Write`]).
+/// [`Words`]); one thread writes them at once ([`Bits::Write`]). Threads that each own a
+/// range of words write them at once too ([`SharedCells::owned`]).
 #[derive(Clone, Copy)]
 pub(crate) struct SharedCells<'a> {
     cells: *const std::sync::atomic::AtomicU32,

@@ -386,7 +386,7 @@ impl Act<'_> {
     }
 }
 
-/// The words of occupancy each chunk's part owns for [`Shift::in_place`]'s
+/// The words of occupancy each chunk's part owns for [`crate::lattice::Shift::in_place`]'s
 /// [`OccWrites::Owned`] (`size` items a chunk, `chunks` of them): chunk `c` the words
 /// `o[c]..o[c + 1]`, cut at the word of each chunk's first agent. `None` when those words
 /// do not rise with the chunks (agents not in the order of their cells: the parts note
