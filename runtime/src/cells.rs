@@ -570,15 +570,23 @@ impl SharedCells<'_> {
     /// # Safety
     /// While the result lives, no other thread reads or writes those cells or words (the
     /// ranges of threads at once lie apart), and nothing writes the rim bits.
-    pub(crate) unsafe fn owned(&self, words: (usize, usize)) -> OwnedCells {
-        assert!(words.1 <= self.len.div_ceil(64), "words of the grid");
-        OwnedCells {
-            cells: self.cells as *mut u32,
-            occ: self.occ as *mut u64,
-            rim: self.rim,
-            len: self.len,
-            words,
-            held: Held::default(),
+    pub(crate) unsafe fn owned(&self, (lo, hi): (usize, usize)) -> OwnedCells<'_> {
+        let words = self.len.div_ceil(64);
+        assert!(lo <= hi && hi <= words, "words of the grid");
+        let (first, end) = ((64 * lo).min(self.len), (64 * hi).min(self.len));
+        // SAFETY: in bounds (checked); these cells and words are the caller's alone while
+        // the slices live (its promise); the rim bits are only read.
+        unsafe {
+            OwnedCells {
+                cells: std::slice::from_raw_parts_mut(
+                    (self.cells as *mut u32).add(first),
+                    end - first,
+                ),
+                occ: std::slice::from_raw_parts_mut((self.occ as *mut u64).add(lo), hi - lo),
+                rim: std::slice::from_raw_parts(self.rim, words),
+                first,
+                held: Held::default(),
+            }
         }
     }
 
@@ -715,16 +723,17 @@ impl SharedCells<'_> {
 /// a register), with no log of bits to write after. Threads that move agents in cell
 /// order each own the words their agents stand on (B2 on two threads, its moves logged and
 /// the bits written after, spent 1.1-1.3x the time one thread spends per move).
-pub(crate) struct OwnedCells {
-    cells: *mut u32,
-    occ: *mut u64,
-    rim: *const u64,
-    len: usize,
-    words: (usize, usize),
+pub(crate) struct OwnedCells<'a> {
+    /// The cells owned, from cell `first`, and their words of occupancy bits.
+    cells: &'a mut [u32],
+    occ: &'a mut [u64],
+    /// Every word of rim bits.
+    rim: &'a [u64],
+    first: usize,
     held: Held,
 }
 
-impl OwnedCells {
+impl OwnedCells<'_> {
     /// Moves agent `a` from cell `from` into cell `to` when `to` is empty, and says
     /// whether it did, with `to`'s slot code; `None`, having done nothing, when either cell
     /// is not of this range.
@@ -734,48 +743,25 @@ impl OwnedCells {
         a: u32,
         (from, to): (usize, usize),
     ) -> Option<Result<u32, ()>> {
-        let (wf, wt) = (from / 64, to / 64);
-        let (lo, hi) = self.words;
-        if wf < lo || wf >= hi || wt < lo || wt >= hi || from >= self.len || to >= self.len {
+        let (f, t) = (from.wrapping_sub(self.first), to.wrapping_sub(self.first));
+        if f >= self.cells.len() || t >= self.cells.len() {
             return None;
         }
-        // SAFETY: in bounds (checked: the words are the grid's, `SharedCells::owned`); the
-        // cells and words of the range are this thread's alone (its caller's promise).
-        unsafe {
-            if wt != self.held.word {
-                self.put_back();
-                self.held = Held {
-                    word: wt,
-                    bits: *self.occ.add(wt),
-                };
-            }
-            let bt = 1u64 << (to % 64);
-            if self.held.bits & bt != 0 {
-                return Some(Err(()));
-            }
-            let bf = 1u64 << (from % 64);
-            if wf == wt {
-                self.held.bits ^= bf | bt;
-            } else {
-                self.held.bits |= bt;
-                *self.occ.add(wf) &= !bf;
-            }
-            *self.cells.add(from) = EMPTY;
-            *self.cells.add(to) = a;
-            let rim = *self.rim.add(wt);
-            Some(Ok(to as u32 | ((rim >> (to % 64) & 1) as u32) << 31))
+        if !self.held.shift_bits(self.occ, f, t) {
+            return Some(Err(()));
         }
+        self.cells[f] = EMPTY;
+        self.cells[t] = a;
+        Some(Ok(
+            to as u32 | ((self.rim[to / 64] >> (to % 64) & 1) as u32) << 31
+        ))
     }
 
     /// Writes back the word of occupancy bits held, if any: before the bits are read any
     /// other way.
     #[inline]
     pub(crate) fn put_back(&mut self) {
-        if self.held.word != usize::MAX {
-            // SAFETY: a word of this range (`relocate` took it).
-            unsafe { *self.occ.add(self.held.word) = self.held.bits };
-            self.held.word = usize::MAX;
-        }
+        self.held.put_back(self.occ);
     }
 }
 
@@ -841,24 +827,8 @@ impl CellsMut<'_> {
     /// come before the bits are read any other way.
     #[inline]
     pub(crate) fn relocate(&mut self, held: &mut Held, a: u32, from: usize, to: usize) -> bool {
-        let (wf, wt) = (from / 64, to / 64);
-        if wt != held.word {
-            self.put_back(held);
-            *held = Held {
-                word: wt,
-                bits: self.occ[wt],
-            };
-        }
-        let bt = 1u64 << (to % 64);
-        if held.bits & bt != 0 {
+        if !held.shift_bits(self.occ, from, to) {
             return false;
-        }
-        let bf = 1u64 << (from % 64);
-        if wf == wt {
-            held.bits ^= bf | bt;
-        } else {
-            held.bits |= bt;
-            self.occ[wf] &= !bf;
         }
         self.cells[from] = EMPTY;
         self.cells[to] = a;
@@ -868,10 +838,7 @@ impl CellsMut<'_> {
     /// Writes back the word of occupancy bits `held` holds, if any.
     #[inline]
     pub(crate) fn put_back(&mut self, held: &mut Held) {
-        if held.word != usize::MAX {
-            self.occ[held.word] = held.bits;
-            held.word = usize::MAX;
-        }
+        held.put_back(self.occ);
     }
 }
 
@@ -880,6 +847,45 @@ impl CellsMut<'_> {
 pub(crate) struct Held {
     word: usize,
     bits: u64,
+}
+
+impl Held {
+    /// The bits of a move from cell `from` into cell `to`, counted from the first word of
+    /// `occ` (the words of occupancy): `to`'s word is held here (the last held written
+    /// back first). False, having changed no bit, when `to` is filled.
+    #[inline(always)]
+    fn shift_bits(&mut self, occ: &mut [u64], from: usize, to: usize) -> bool {
+        let (wf, wt) = (from / 64, to / 64);
+        if wt != self.word {
+            self.put_back(occ);
+            *self = Held {
+                word: wt,
+                bits: occ[wt],
+            };
+        }
+        let bt = 1u64 << (to % 64);
+        if self.bits & bt != 0 {
+            return false;
+        }
+        let bf = 1u64 << (from % 64);
+        if wf == wt {
+            self.bits ^= bf | bt;
+        } else {
+            self.bits |= bt;
+            occ[wf] &= !bf;
+        }
+        true
+    }
+
+    /// Writes back the word held, if any, into `occ` (whose words [`Held::shift_bits`]
+    /// counts from).
+    #[inline]
+    fn put_back(&mut self, occ: &mut [u64]) {
+        if self.word != usize::MAX {
+            occ[self.word] = self.bits;
+            self.word = usize::MAX;
+        }
+    }
 }
 
 impl Default for Held {
@@ -1326,9 +1332,6 @@ impl CellIndex {
 mod tests {
     use super::*;
 
-    /// The cells next to slots, tested several at a time (`Grid::keep_next_filled`, four
-    /// at a time with AVX2), answer as `Grid::filled` does cell by cell: in 2D and 3D, in
-    /// every direction, for both answers wanted, any number of slots (and a remainder).
     /// Moves between the cells of a range of words owned by one thread: made at once, as
     /// `CellsMut::relocate` makes them, into a filled cell refused, from or into a cell of
     /// a word outside the range left to the caller; the bits all written back after.
@@ -1379,6 +1382,9 @@ mod tests {
         assert!(g.filled(72) && g.filled(63) && !g.filled(64) && g.filled(189));
     }
 
+    /// The cells next to slots, tested several at a time (`Grid::keep_next_filled`, four
+    /// at a time with AVX2), answer as `Grid::filled` does cell by cell: in 2D and 3D, in
+    /// every direction, for both answers wanted, any number of slots (and a remainder).
     #[test]
     fn cells_next_to_slots_tested_together_answer_as_one_by_one() {
         let mut x = 0x9e37_79b9_7f4a_7c15u64;

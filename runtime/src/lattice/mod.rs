@@ -1484,7 +1484,7 @@ impl Relocate for Logged<'_, '_> {
     }
 }
 
-impl Relocate for crate::cells::OwnedCells {
+impl Relocate for crate::cells::OwnedCells<'_> {
     // (Owned only by parts of agents in cell order.)
     const AHEAD: bool = false;
 

@@ -121,13 +121,9 @@ impl Movers<'_> {
 
     /// The first agents (up to 65), to judge whether the movers lie scattered.
     fn first(self) -> Vec<usize> {
-        match self {
-            Movers::Selected(sel) if sel.listed => {
-                sel.list.iter().take(65).map(|&a| a as usize).collect()
-            }
-            Movers::Selected(sel) => (0..sel.one.len().min(65)).collect(),
-            Movers::Listed(moves) => moves.iter().take(65).map(|m| m.0 as usize).collect(),
-        }
+        (0..self.len().min(65))
+            .map(|i| self.agent(i) as usize)
+            .collect()
     }
 }
 
