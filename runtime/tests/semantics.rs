@@ -934,3 +934,48 @@ fn a_cap_on_records_keeps_the_first_of_each_kind() {
         }
     }
 }
+
+/// States first met after the first 1,024 agents (whose lists are made one by one), in
+/// blocks far apart and on several threads: every agent evaluates its own state's rules,
+/// those before and after it in a state listed at once (the dispatch's second pass visits
+/// only the blocks the first left unlisted).
+#[test]
+fn states_first_met_late_get_their_rules_in_every_block() {
+    let rules =
+        "rest\n1\nSR**** >C00 0000\nSQ****\n\na\n1\nSA****\nSX****\n\nb\n1\nSB****\nSY****\n";
+    let late = |x: i32| match x {
+        1024 | 1500 | 1501 | 20_000 | 39_999 => 'A',
+        2047 | 2048 | 5000 | 20_001 | 30_000 => 'B',
+        _ => 'R',
+    };
+    let agents: String = (0..40_000)
+        .map(|x| format!("{x},0 S{}0000\n", late(x)))
+        .collect();
+    for threads in [1, 2, 3, 8] {
+        for skip in [
+            latticesim_runtime::Skip::Off,
+            latticesim_runtime::Skip::Eager,
+        ] {
+            let opts = Options {
+                threads,
+                skip,
+                ..Options::default()
+            };
+            let mut e = engine_with(rules, &agents, opts);
+            e.step();
+            for a in 0..e.lat.len() {
+                let want = match late(xy(&e, a).0) {
+                    'A' => "X0000",
+                    'B' => "Y0000",
+                    _ => "R0000",
+                };
+                assert_eq!(
+                    state(&e, a),
+                    want,
+                    "{threads} threads, {skip:?}, {:?}",
+                    xy(&e, a)
+                );
+            }
+        }
+    }
+}
