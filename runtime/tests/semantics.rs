@@ -938,7 +938,8 @@ fn a_cap_on_records_keeps_the_first_of_each_kind() {
 /// States first met after the first 1,024 agents (whose lists are made one by one), in
 /// blocks far apart and on several threads: every agent evaluates its own state's rules,
 /// those before and after it in a state listed at once (the dispatch's second pass visits
-/// only the blocks the first left unlisted).
+/// only the blocks the first left unlisted; the selection evaluates the long runs it found
+/// without reading their lists again).
 #[test]
 fn states_first_met_late_get_their_rules_in_every_block() {
     let rules =

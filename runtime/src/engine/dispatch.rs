@@ -144,7 +144,13 @@ struct Unlisted {
     /// of them, rising: the second pass visits only these (it read every agent's list again:
     /// 5 ms of the first step beside 10^7 agents at rest).
     blocks: Vec<u32>,
+    /// The runs of at least [`LONG_RUN`] agents the pass gave one list (see
+    /// [`Dispatch::runs`]).
+    runs: Vec<(u32, u32)>,
 }
+
+/// The shortest run of agents of one list that [`Dispatch::runs`] keeps.
+const LONG_RUN: usize = 1024;
 
 /// Agents in a block of [`Unlisted::blocks`].
 const UNLISTED_BLOCK: usize = 1024;
@@ -181,6 +187,10 @@ pub(super) struct Dispatch {
     pub(super) hopped: Vec<u64>,
     /// Per agent: its candidate list ([`ListId::NONE`] after its state changed).
     pub(super) of: Vec<ListId>,
+    /// Runs of at least [`LONG_RUN`] agents given one list at once by the last
+    /// [`Dispatch::update`] (first and past-the-last agent, rising), valid until the lists
+    /// change: the selection after it need not read their lists again.
+    runs: Vec<(u32, u32)>,
     /// Some agent's state changed since the lists were looked up, and it has no list yet.
     dirty: bool,
 }
@@ -216,6 +226,7 @@ impl Dispatch {
             hops: Vec::new(),
             hopped: Vec::new(),
             of: vec![ListId::NONE; n],
+            runs: Vec::new(),
             dirty: true,
         }
     }
@@ -237,6 +248,23 @@ impl Dispatch {
                 .any(|&r| unbounded[r as usize])
     }
 
+    /// When agent `a` is in one of [`Dispatch::runs`], the run's end (past its last
+    /// agent); `at`: a place in the runs, moved forward (agents asked for in rising order).
+    #[inline]
+    pub(super) fn run_end(&self, at: &mut usize, a: usize) -> Option<usize> {
+        while self.runs.get(*at).is_some_and(|r| r.1 as usize <= a) {
+            *at += 1;
+        }
+        let &(first, end) = self.runs.get(*at)?;
+        (first as usize <= a).then_some(end as usize)
+    }
+
+    /// Where the runs after agent `lo` start in [`Dispatch::runs`] (see
+    /// [`Dispatch::run_end`]).
+    pub(super) fn runs_from(&self, lo: usize) -> usize {
+        self.runs.partition_point(|r| r.1 as usize <= lo)
+    }
+
     /// Some agents' states changed to states whose lists were not known (`lookups`):
     /// they are looked up at the next [`Dispatch::update`].
     pub(super) fn lookups(&mut self, lookups: bool) {
@@ -249,6 +277,7 @@ impl Dispatch {
     /// `rules`: per rule, whether it is state-only, and its column program.
     pub(super) fn update(&mut self, prog: &Program, rules: Facts<'_>, lat: &Lattice, th: &Threads) {
         let n = lat.len();
+        self.runs.clear();
         if self.lists.len() > 1 << 16 {
             self.candidates.clear();
             self.cache.fill((0, ListId(0)));
@@ -277,12 +306,16 @@ impl Dispatch {
             }
         }
         let unlisted = self.known_states(&lat.state, th, None);
+        let mut runs: Vec<_> = unlisted.iter().flat_map(|u| &u.runs).copied().collect();
         if unlisted.iter().any(|u| !u.firsts.is_empty()) {
             for &a in unlisted.iter().flat_map(|u| &u.firsts) {
                 self.list_state_of(prog, rules, &lat.state, a as usize);
             }
-            self.known_states(&lat.state, th, Some(&unlisted));
+            let more = self.known_states(&lat.state, th, Some(&unlisted));
+            runs.extend(more.iter().flat_map(|u| &u.runs));
+            runs.sort_unstable();
         }
+        self.runs = runs;
         debug_assert!(
             self.of.iter().all(|&c| c != ListId::NONE),
             "every agent has its candidate list"
@@ -401,7 +434,12 @@ impl Dispatch {
                     };
                     // The agents after it in the same state have the same list (an agent's
                     // list is none or its state's): a run of them is given it at once.
-                    j = same_state_run(states, j, of, idx);
+                    let end = same_state_run(states, j, of, idx);
+                    if end - j >= LONG_RUN {
+                        out.runs
+                            .push(((c * size + j) as u32, (c * size + end) as u32));
+                    }
+                    j = end;
                 }
             };
             match again {

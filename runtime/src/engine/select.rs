@@ -398,6 +398,7 @@ impl Selector {
             let cap = if few { one.len() / SPARSE_SHARE } else { 0 };
             let mut tally = (rules <= TALLIED).then(|| Tally::new(rules, cap));
             let (mut k, mut tallied) = (0, 0);
+            let mut at = dispatch.runs_from(lo);
             while k < one.len() {
                 if k - tallied >= TALLY_PART {
                     if let Some(t) = &mut tally {
@@ -433,7 +434,11 @@ impl Selector {
                         // several states mixed in any order still go together).
                         let class = one_rule[idx].0;
                         let next = &of[a..(a + BATCH).min(hi)];
-                        let same = run_of(next, of[a]);
+                        // (A run the dispatch gave one list this step is not read again.)
+                        let same = match dispatch.run_end(&mut at, a) {
+                            Some(end) => (end - a).min(next.len()),
+                            None => run_of(next, of[a]),
+                        };
                         let m = same
                             + (next[same..].iter())
                                 .take_while(|&&o| one_rule[o.index()].0 == class)
