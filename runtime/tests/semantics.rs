@@ -939,7 +939,9 @@ fn a_cap_on_records_keeps_the_first_of_each_kind() {
 /// blocks far apart and on several threads: every agent evaluates its own state's rules,
 /// those before and after it in a state listed at once (the dispatch's second pass visits
 /// only the blocks the first left unlisted; the selection evaluates the long runs it found
-/// without reading their lists again).
+/// without reading their lists again). A few agents at rest fire in the middle of their
+/// runs: the first selection writes only the entries of agents that execute a rule, and
+/// counts those.
 #[test]
 fn states_first_met_late_get_their_rules_in_every_block() {
     let rules =
@@ -947,11 +949,16 @@ fn states_first_met_late_get_their_rules_in_every_block() {
     let late = |x: i32| match x {
         1024 | 1500 | 1501 | 20_000 | 39_999 => 'A',
         2047 | 2048 | 5000 | 20_001 | 30_000 => 'B',
+        _ if x % 4099 == 7 => 'Q',
         _ => 'R',
     };
     let agents: String = (0..40_000)
-        .map(|x| format!("{x},0 S{}0000\n", late(x)))
+        .map(|x| match late(x) {
+            'Q' => format!("{x},0 SR0000 C00 1\n"),
+            c => format!("{x},0 S{c}0000\n"),
+        })
         .collect();
+    let fired = (0..40_000).filter(|&x| late(x) == 'Q').count() as u64;
     for threads in [1, 2, 3, 8] {
         for skip in [
             latticesim_runtime::Skip::Off,
@@ -963,19 +970,18 @@ fn states_first_met_late_get_their_rules_in_every_block() {
                 ..Options::default()
             };
             let mut e = engine_with(rules, &agents, opts);
-            e.step();
+            let r = e.step();
+            let at = format!("{threads} threads, {skip:?}");
+            assert_eq!(e.stats.firings, vec![fired, 5, 5], "{at}");
+            assert_eq!(r.executing, fired + 10, "{at}");
             for a in 0..e.lat.len() {
                 let want = match late(xy(&e, a).0) {
                     'A' => "X0000",
                     'B' => "Y0000",
+                    'Q' => "Q0000",
                     _ => "R0000",
                 };
-                assert_eq!(
-                    state(&e, a),
-                    want,
-                    "{threads} threads, {skip:?}, {:?}",
-                    xy(&e, a)
-                );
+                assert_eq!(state(&e, a), want, "{at}, {:?}", xy(&e, a));
             }
         }
     }

@@ -76,7 +76,7 @@ impl Selector {
         }
         let dispatch = &*dispatch;
         let listed = listed.filter(|_| self.sel.one.len() == lat.len());
-        threads.tuned(Phase::Select, |th| {
+        let out = threads.tuned(Phase::Select, |th| {
             if plan.any_prio {
                 let view = Prio { prog, plan, lat };
                 view.select(&mut self.sel, dispatch, th)
@@ -87,7 +87,10 @@ impl Selector {
                 self.select_plain((prog, plan, lat), dispatch, th);
                 Vec::new()
             }
-        })
+        });
+        // (A selection over priorities starts from a reset column, and writes it.)
+        self.sel.fresh = false;
+        out
     }
 
     /// Whether the last selection was kept from the step before.
@@ -370,7 +373,10 @@ impl Selector {
         let n = lat.len();
         let mut one = std::mem::take(&mut self.sel.one);
         // Every entry is written below (a new column is zeroed lazily by the system, and
-        // its pages are touched by the chunks, in parallel).
+        // its pages are touched by the chunks, in parallel), but those of a fresh
+        // selection that stay `NO_RULE`: the first step over many agents at rest does not
+        // write their entries back to memory.
+        let fresh = std::mem::take(&mut self.sel.fresh) && one.len() == n;
         if one.len() != n {
             one = vec![0; n];
         }
@@ -399,25 +405,40 @@ impl Selector {
             let mut tally = (rules <= TALLIED).then(|| Tally::new(rules, cap));
             let (mut k, mut tallied) = (0, 0);
             let mut at = dispatch.runs_from(lo);
+            // Whether an entry of the part not yet tallied may not be `NO_RULE` (a fresh
+            // selection's part of none is not read to be tallied).
+            let mut touched = !fresh;
             while k < one.len() {
                 if k - tallied >= TALLY_PART {
-                    if let Some(t) = &mut tally {
+                    if let Some(t) = tally.as_mut().filter(|_| touched) {
                         t.add((&one[tallied..k], lo + tallied), !multi.is_empty());
                     }
-                    tallied = k;
+                    (tallied, touched) = (k, !fresh);
                 }
                 // The agents whose candidate list decides alone, in a tight loop up to
                 // the next agent to evaluate (or the next part to tally).
                 let limit = (tallied + 2 * TALLY_PART).min(one.len());
-                let decided = (one[k..limit].iter_mut().zip(&of[lo + k..lo + limit])).position(
-                    |(slot, &idx)| match single[idx.index()] {
-                        EVALUATE => true,
-                        r => {
-                            *slot = r;
-                            false
-                        }
-                    },
-                );
+                let run = one[k..limit].iter_mut().zip(&of[lo + k..lo + limit]);
+                let decided = if fresh {
+                    run.into_iter()
+                        .position(|(slot, &idx)| match single[idx.index()] {
+                            EVALUATE => true,
+                            NO_RULE => false,
+                            r => {
+                                (*slot, touched) = (r, true);
+                                false
+                            }
+                        })
+                } else {
+                    run.into_iter()
+                        .position(|(slot, &idx)| match single[idx.index()] {
+                            EVALUATE => true,
+                            r => {
+                                *slot = r;
+                                false
+                            }
+                        })
+                };
                 let Some(skip) = decided else {
                     k = limit;
                     continue;
@@ -449,12 +470,16 @@ impl Selector {
                             let rows = (&pre[..], Rows::Run(a));
                             batch_pre(prog, rows, lat, &mut bufs, &mut truth[..m]);
                             let run = one[k..k + m].iter_mut().zip(&truth[..m]);
-                            if same == m {
+                            if fresh && !truth[..m].contains(&true) {
+                                // (Entries that stay `NO_RULE`.)
+                            } else if same == m {
+                                touched = true;
                                 // (One list: a loop the compiler vectorises.)
                                 for (slot, &t) in run {
                                     *slot = if t { r } else { NO_RULE };
                                 }
                             } else {
+                                touched = true;
                                 for ((slot, &t), &o) in run.zip(next) {
                                     *slot = if t { one_rule[o.index()].1 } else { NO_RULE };
                                 }
@@ -472,14 +497,17 @@ impl Selector {
                     let end = (hi - lo).min(k + BATCH);
                     let at = (&of[lo..hi], lo, k, end);
                     k = eval_window(view, cols, lat, at, one, (&mut bufs, &mut win), &mut multi);
+                    touched = true;
                     continue;
                 }
                 one[k] = eval_one(prog, (trivial, &lists[idx]), lat, a, (&mut buf, &mut multi));
-                k += 1;
+                (k, touched) = (k + 1, true);
             }
             let (counted, chosen) = match tally {
                 Some(mut t) => {
-                    t.add((&one[tallied..], lo + tallied), !multi.is_empty());
+                    if touched {
+                        t.add((&one[tallied..], lo + tallied), !multi.is_empty());
+                    }
                     (Some(((t.active, t.counts), t.listing)), t.chosen)
                 }
                 None => (None, Vec::new()),

@@ -24,6 +24,10 @@ pub(super) struct Selection {
     /// record of the actions names such an agent, and records of calculations name
     /// agents that calculate, which never hop.)
     pub(super) replaced: Vec<(u32, u32)>,
+    /// Every entry is [`NO_RULE`]: the column was reset and no selection made since (the
+    /// selection over all agents then writes only the entries of agents that execute a
+    /// rule).
+    pub(super) fresh: bool,
 }
 
 pub(super) const NO_RULE: u32 = u32::MAX;
@@ -80,6 +84,7 @@ impl Selection {
         self.many.clear();
         self.listed = false;
         self.found = false;
+        self.fresh = true;
     }
 
     /// Lists the agents that execute a rule (`listed`), from the entries.
