@@ -939,16 +939,19 @@ fn a_cap_on_records_keeps_the_first_of_each_kind() {
 /// blocks far apart and on several threads: every agent evaluates its own state's rules,
 /// those before and after it in a state listed at once (the dispatch's second pass visits
 /// only the blocks the first left unlisted; the selection evaluates the long runs it found
-/// without reading their lists again). A few agents at rest fire in the middle of their
-/// runs: the first selection writes only the entries of agents that execute a rule, and
-/// counts those.
+/// without reading their lists again, and gives those decided by their list alone their
+/// entries at once: a state no rule tests, a state whose rule only sets the state). A few
+/// agents at rest fire in the middle of their runs: the first selection writes only the
+/// entries of agents that execute a rule, and counts those.
 #[test]
 fn states_first_met_late_get_their_rules_in_every_block() {
-    let rules =
-        "rest\n1\nSR**** >C00 0000\nSQ****\n\na\n1\nSA****\nSX****\n\nb\n1\nSB****\nSY****\n";
+    let rules = "rest\n1\nSR**** >C00 0000\nSQ****\n\na\n1\nSA****\nSX****\n\n\
+        b\n1\nSB****\nSY****\n\nc\n1\nSC****\nSZ****\n";
     let late = |x: i32| match x {
         1024 | 1500 | 1501 | 20_000 | 39_999 => 'A',
         2047 | 2048 | 5000 | 20_001 | 30_000 => 'B',
+        8000..10_000 => 'W',
+        12_000..14_500 => 'C',
         _ if x % 4099 == 7 => 'Q',
         _ => 'R',
     };
@@ -972,13 +975,15 @@ fn states_first_met_late_get_their_rules_in_every_block() {
             let mut e = engine_with(rules, &agents, opts);
             let r = e.step();
             let at = format!("{threads} threads, {skip:?}");
-            assert_eq!(e.stats.firings, vec![fired, 5, 5], "{at}");
-            assert_eq!(r.executing, fired + 10, "{at}");
+            assert_eq!(e.stats.firings, vec![fired, 5, 5, 2500], "{at}");
+            assert_eq!(r.executing, fired + 2510, "{at}");
             for a in 0..e.lat.len() {
                 let want = match late(xy(&e, a).0) {
                     'A' => "X0000",
                     'B' => "Y0000",
                     'Q' => "Q0000",
+                    'W' => "W0000",
+                    'C' => "Z0000",
                     _ => "R0000",
                 };
                 assert_eq!(state(&e, a), want, "{at}, {:?}", xy(&e, a));

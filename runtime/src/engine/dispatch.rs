@@ -248,19 +248,20 @@ impl Dispatch {
                 .any(|&r| unbounded[r as usize])
     }
 
-    /// When agent `a` is in one of [`Dispatch::runs`], the run's end (past its last
-    /// agent); `at`: a place in the runs, moved forward (agents asked for in rising order).
+    /// The first of [`Dispatch::runs`] that ends after agent `a` (it holds `a` when its
+    /// first agent is `a` or before); `at`: a place in the runs, moved forward (agents
+    /// asked for in rising order).
     #[inline]
-    pub(super) fn run_end(&self, at: &mut usize, a: usize) -> Option<usize> {
+    pub(super) fn run_from(&self, at: &mut usize, a: usize) -> Option<(usize, usize)> {
         while self.runs.get(*at).is_some_and(|r| r.1 as usize <= a) {
             *at += 1;
         }
         let &(first, end) = self.runs.get(*at)?;
-        (first as usize <= a).then_some(end as usize)
+        Some((first as usize, end as usize))
     }
 
     /// Where the runs after agent `lo` start in [`Dispatch::runs`] (see
-    /// [`Dispatch::run_end`]).
+    /// [`Dispatch::run_from`]).
     pub(super) fn runs_from(&self, lo: usize) -> usize {
         self.runs.partition_point(|r| r.1 as usize <= lo)
     }

@@ -417,7 +417,26 @@ impl Selector {
                 }
                 // The agents whose candidate list decides alone, in a tight loop up to
                 // the next agent to evaluate (or the next part to tally).
-                let limit = (tallied + 2 * TALLY_PART).min(one.len());
+                let mut limit = (tallied + 2 * TALLY_PART).min(one.len());
+                // A run the dispatch gave one list this step, decided by it alone: its
+                // entries at once, its lists not read again (agents in a state no rule
+                // tests, beside others); the loop below stops where the next run starts.
+                match dispatch.run_from(&mut at, lo + k) {
+                    Some((first, end)) if first <= lo + k => {
+                        let r = single[of[lo + k].index()];
+                        if r != EVALUATE {
+                            let end = (end - lo).min(limit);
+                            if !fresh || r != NO_RULE {
+                                one[k..end].fill(r);
+                                touched = true;
+                            }
+                            k = end;
+                            continue;
+                        }
+                    }
+                    Some((first, _)) => limit = limit.min(first - lo),
+                    None => {}
+                }
                 let run = one[k..limit].iter_mut().zip(&of[lo + k..lo + limit]);
                 let decided = if fresh {
                     run.into_iter()
@@ -456,9 +475,9 @@ impl Selector {
                         let class = one_rule[idx].0;
                         let next = &of[a..(a + BATCH).min(hi)];
                         // (A run the dispatch gave one list this step is not read again.)
-                        let same = match dispatch.run_end(&mut at, a) {
-                            Some(end) => (end - a).min(next.len()),
-                            None => run_of(next, of[a]),
+                        let same = match dispatch.run_from(&mut at, a) {
+                            Some((first, end)) if first <= a => (end - a).min(next.len()),
+                            _ => run_of(next, of[a]),
                         };
                         let m = same
                             + (next[same..].iter())
