@@ -8,7 +8,6 @@
 
 use latticesim_vm::model::{Bounds, Dir};
 use rustc_hash::FxHashMap;
-use std::collections::hash_map::Entry;
 
 /// In the grid and in neighbour lists: no agent.
 pub const EMPTY: u32 = u32::MAX;
@@ -1303,10 +1302,8 @@ impl CellIndex {
                 return;
             }
         }
-        if let Entry::Occupied(e) = self.map.entry(p) {
-            if *e.get() == a {
-                e.remove();
-            }
+        if self.map.get(&p) == Some(&a) {
+            self.map.remove(&p);
         }
     }
 
