@@ -14,6 +14,30 @@ fn engine(rules: &str, agents: &str) -> Engine {
     engine_with(rules, agents, Options::default())
 }
 
+/// An engine per number of `threads` and per way of skipping (off, eager), with a label
+/// naming both.
+fn engines<'a>(
+    rules: &'a str,
+    agents: &'a str,
+    threads: &'a [usize],
+) -> impl Iterator<Item = (String, Engine)> + 'a {
+    let skips = [
+        latticesim_runtime::Skip::Off,
+        latticesim_runtime::Skip::Eager,
+    ];
+    threads.iter().flat_map(move |&threads| {
+        skips.into_iter().map(move |skip| {
+            let opts = Options {
+                threads,
+                skip,
+                ..Options::default()
+            };
+            let at = format!("{threads} threads, {skip:?}");
+            (at, engine_with(rules, agents, opts))
+        })
+    })
+}
+
 fn pos(e: &Engine, a: usize) -> [i32; 3] {
     e.lat.pos[a]
 }
@@ -383,33 +407,17 @@ fn records_name_the_rules_executed_when_a_stayer_changes_state() {
         .map(|y| format!("0,{y} SA0000\n1,{y} SB0000\n"))
         .collect();
     agents += "9,-9 SC0000\n";
-    for threads in [1, 2] {
-        for skip in [
-            latticesim_runtime::Skip::Off,
-            latticesim_runtime::Skip::Eager,
-        ] {
-            let opts = Options {
-                threads,
-                skip,
-                ..Options::default()
-            };
-            let mut e = engine_with(rules, &agents, opts);
-            let r = e.step();
-            assert_eq!(r.records.len(), 1500, "{threads} threads, {skip:?}");
-            for rec in &r.records {
-                assert_eq!(rec.kind.name(), "move-collision");
-                assert_eq!(
-                    rec.rules,
-                    vec![0, 1],
-                    "{threads} threads, {skip:?}: {}",
-                    rec.message
-                );
-            }
-            assert_eq!(
-                (state(&e, 0), state(&e, 1)),
-                ("B0000".into(), "C0000".into())
-            );
+    for (at, mut e) in engines(rules, &agents, &[1, 2]) {
+        let r = e.step();
+        assert_eq!(r.records.len(), 1500, "{at}");
+        for rec in &r.records {
+            assert_eq!(rec.kind.name(), "move-collision");
+            assert_eq!(rec.rules, vec![0, 1], "{at}: {}", rec.message);
         }
+        assert_eq!(
+            (state(&e, 0), state(&e, 1)),
+            ("B0000".into(), "C0000".into())
+        );
     }
 }
 
@@ -962,32 +970,20 @@ fn states_first_met_late_get_their_rules_in_every_block() {
         })
         .collect();
     let fired = (0..40_000).filter(|&x| late(x) == 'Q').count() as u64;
-    for threads in [1, 2, 3, 8] {
-        for skip in [
-            latticesim_runtime::Skip::Off,
-            latticesim_runtime::Skip::Eager,
-        ] {
-            let opts = Options {
-                threads,
-                skip,
-                ..Options::default()
+    for (at, mut e) in engines(rules, &agents, &[1, 2, 3, 8]) {
+        let r = e.step();
+        assert_eq!(e.stats.firings, vec![fired, 5, 5, 2500], "{at}");
+        assert_eq!(r.executing, fired + 2510, "{at}");
+        for a in 0..e.lat.len() {
+            let want = match late(xy(&e, a).0) {
+                'A' => "X0000",
+                'B' => "Y0000",
+                'Q' => "Q0000",
+                'W' => "W0000",
+                'C' => "Z0000",
+                _ => "R0000",
             };
-            let mut e = engine_with(rules, &agents, opts);
-            let r = e.step();
-            let at = format!("{threads} threads, {skip:?}");
-            assert_eq!(e.stats.firings, vec![fired, 5, 5, 2500], "{at}");
-            assert_eq!(r.executing, fired + 2510, "{at}");
-            for a in 0..e.lat.len() {
-                let want = match late(xy(&e, a).0) {
-                    'A' => "X0000",
-                    'B' => "Y0000",
-                    'Q' => "Q0000",
-                    'W' => "W0000",
-                    'C' => "Z0000",
-                    _ => "R0000",
-                };
-                assert_eq!(state(&e, a), want, "{at}, {:?}", xy(&e, a));
-            }
+            assert_eq!(state(&e, a), want, "{at}, {:?}", xy(&e, a));
         }
     }
 }
