@@ -1,6 +1,7 @@
 //! Times the first step of a run from files, for profilers: `profile_first RULES AGENTS
 //! [repeats] [steps]` makes the engine once, then per repeat a fresh engine from it, and
-//! prints the fastest first step and the fastest mean of the steps after it.
+//! prints the fastest first step and (with `steps` above 1) the fastest mean of the steps
+//! after it.
 use latticesim_benches::{arg, engine, fresh};
 
 fn main() {
@@ -20,9 +21,9 @@ fn main() {
         }
         after = after.min(t.elapsed().as_secs_f64() / (steps - 1).max(1) as f64);
     }
-    eprintln!(
-        "first step {:.3} ms, after it {:.3} µs a step",
-        first * 1e3,
-        after * 1e6
-    );
+    eprint!("first step {:.3} ms", first * 1e3);
+    if steps > 1 {
+        eprint!(", after it {:.3} µs a step", after * 1e6);
+    }
+    eprintln!();
 }

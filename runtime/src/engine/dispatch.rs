@@ -260,12 +260,6 @@ impl Dispatch {
         Some((first as usize, end as usize))
     }
 
-    /// Where the runs after agent `lo` start in [`Dispatch::runs`] (see
-    /// [`Dispatch::run_from`]).
-    pub(super) fn runs_from(&self, lo: usize) -> usize {
-        self.runs.partition_point(|r| r.1 as usize <= lo)
-    }
-
     /// Some agents' states changed to states whose lists were not known (`lookups`):
     /// they are looked up at the next [`Dispatch::update`].
     pub(super) fn lookups(&mut self, lookups: bool) {

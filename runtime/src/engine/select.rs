@@ -88,7 +88,8 @@ impl Selector {
                 Vec::new()
             }
         });
-        // (A selection over priorities starts from a reset column, and writes it.)
+        // (Whichever way it was made: a selection over priorities starts from a reset
+        // column too, and writes it.)
         self.sel.fresh = false;
         out
     }
@@ -376,7 +377,7 @@ impl Selector {
         // its pages are touched by the chunks, in parallel), but those of a fresh
         // selection that stay `NO_RULE`: the first step over many agents at rest does not
         // write their entries back to memory.
-        let fresh = std::mem::take(&mut self.sel.fresh) && one.len() == n;
+        let fresh = self.sel.fresh && one.len() == n;
         if one.len() != n {
             one = vec![0; n];
         }
@@ -404,7 +405,7 @@ impl Selector {
             let cap = if few { one.len() / SPARSE_SHARE } else { 0 };
             let mut tally = (rules <= TALLIED).then(|| Tally::new(rules, cap));
             let (mut k, mut tallied) = (0, 0);
-            let mut at = dispatch.runs_from(lo);
+            let mut at = 0;
             // Whether an entry of the part not yet tallied may not be `NO_RULE` (a fresh
             // selection's part of none is not read to be tallied).
             let mut touched = !fresh;
