@@ -7,7 +7,9 @@
 //! huge universe costs memory in proportion to the agents.
 
 use latticesim_vm::model::{Bounds, Dir};
-use rustc_hash::FxHashMap;
+
+mod sparse;
+use sparse::Sparse;
 
 /// In the grid and in neighbour lists: no agent.
 pub const EMPTY: u32 = u32::MAX;
@@ -111,13 +113,53 @@ pub struct CellIndex {
     grid: Option<Grid>,
     /// Beside a grid: a box of cells over the agents outside it (a line that walks away
     /// while the grid over it and the others would be over budget), made from the hash map
-    /// by [`CellIndex::gather_outside`]; agents outside both are in the hash map.
+    /// by [`CellIndex::gather_outside`]; agents outside both are in tiles of cells
+    /// allocated where they stand.
     side: Option<Side>,
-    map: FxHashMap<[i32; 3], u32>,
+    map: Sparse,
+    /// How long [`CellIndex::gather_outside`] waits after a box over budget.
+    refused: Backoff,
     /// The universe's bounds, when it is bounded (the grid stays inside them), and the
     /// axes of the dimension.
     walls: Option<Bounds>,
     coords: usize,
+}
+
+/// After [`CellIndex::gather_outside`] found the agents outside the grid over budget: how
+/// many calls to let pass before it tries again, and how many after the next refusal
+/// (doubling to 1,024): a try costs a pass over those agents, and walkers far from a
+/// block tried it every step.
+#[derive(Debug, Clone, Copy)]
+struct Backoff {
+    left: u32,
+    next: u32,
+}
+
+impl Default for Backoff {
+    fn default() -> Backoff {
+        Backoff { left: 0, next: 1 }
+    }
+}
+
+impl PartialEq for Backoff {
+    /// Always: when to look again is not what an index holds.
+    fn eq(&self, _: &Backoff) -> bool {
+        true
+    }
+}
+
+impl Backoff {
+    /// Whether to let this call pass (counting it).
+    fn wait(&mut self) -> bool {
+        let wait = self.left > 0;
+        self.left = self.left.saturating_sub(1);
+        wait
+    }
+
+    fn refused(&mut self) {
+        self.left = self.next;
+        self.next = (self.next * 2).min(1024);
+    }
 }
 
 /// The side box of the index: cells, each an agent id or [`EMPTY`], from `lo`, with how
@@ -911,10 +953,19 @@ impl CellIndex {
     /// when it has few enough cells per agent.
     /// (The agents' box as [`bounds`] gives it, and their number.)
     fn grid_for(
+        agents: (([i32; 3], [i32; 3]), usize),
+        shape: Shape,
+        margin: [[i32; 2]; 3],
+    ) -> Option<Grid> {
+        CellIndex::box_for(agents, shape, margin).map(|(lo, size)| Grid::empty(lo, size))
+    }
+
+    /// The low corner and size of [`CellIndex::grid_for`]'s grid.
+    fn box_for(
         ((lo, hi), n): (([i32; 3], [i32; 3]), usize),
         (three_d, universe): Shape,
         margin: [[i32; 2]; 3],
-    ) -> Option<Grid> {
+    ) -> Option<([i32; 3], [i64; 3])> {
         let coords = if three_d { 3 } else { 2 };
         if n == 0 {
             return None;
@@ -949,7 +1000,7 @@ impl CellIndex {
         if volume > budget || size.iter().any(|&s| s < 1) {
             return None;
         }
-        Some(Grid::empty(lo, size))
+        Some((lo, size))
     }
 
     /// [`CellIndex::new`], whether every agent has a cell of its own (false when a later
@@ -960,13 +1011,27 @@ impl CellIndex {
     /// of them (the agents between the 1st and 99th percentile of each axis, or the 5th
     /// and 95th, judged on a sample), if that is within it, and the others are gathered
     /// beside it ([`CellIndex::gather_outside`]): a block beside a line of walkers in 3D
-    /// (a box of 2,003 x 52 x 50 cells for 10^5 agents) was all in the hash map.
+    /// (a box of 2,003 x 52 x 50 cells for 10^5 agents) was all in the hash map. That box
+    /// is widened, side by side, to the agents' own bounds where the grid stays within
+    /// the budget: cut at the percentiles, a block's outer rows were left out of its grid
+    /// (and with walkers far away, gathered with them each step into a box over budget).
     pub fn new_coded(pos: &[[i32; 3]], shape: Shape) -> (CellIndex, bool, Vec<u32>) {
         let margin = [[MARGIN; 2]; 3];
-        let grid = CellIndex::grid_for((bounds(pos), pos.len()), shape, margin).or_else(|| {
+        let all = bounds(pos);
+        let grid = CellIndex::grid_for((all, pos.len()), shape, margin).or_else(|| {
             [100, 20].iter().find_map(|&q| {
-                let core = core_bounds(pos, q)?;
-                CellIndex::grid_for((core, pos.len()), shape, margin)
+                let (mut lo, mut hi) = core_bounds(pos, q)?;
+                let fits = |b| CellIndex::box_for((b, pos.len()), shape, margin).is_some();
+                fits((lo, hi)).then_some(())?;
+                for k in 0..3 {
+                    if fits(([0, 1, 2].map(|j| if j == k { all.0[k] } else { lo[j] }), hi)) {
+                        lo[k] = all.0[k];
+                    }
+                    if fits((lo, [0, 1, 2].map(|j| if j == k { all.1[k] } else { hi[j] }))) {
+                        hi[k] = all.1[k];
+                    }
+                }
+                CellIndex::grid_for(((lo, hi), pos.len()), shape, margin)
             })
         });
         let (mut idx, one_each, code) = CellIndex::made(grid, pos, shape);
@@ -984,7 +1049,8 @@ impl CellIndex {
         let mut idx = CellIndex {
             grid,
             side: None,
-            map: FxHashMap::default(),
+            map: Sparse::new(three_d),
+            refused: Backoff::default(),
             walls,
             coords: if three_d { 3 } else { 2 },
         };
@@ -1015,14 +1081,16 @@ impl CellIndex {
     /// grid, with room around them (a quarter of their extent per axis, halved until
     /// within a budget of cells per agent as the grid's, and at last none); none when even
     /// their box is over it. Costs what those agents are; a look-up in the side box costs
-    /// what one in the grid costs, about a tenth of the hash map's.
+    /// what one in the grid costs, about a tenth of the hash map's. First frees the tiles
+    /// of cells left empty outside both ([`Sparse::sweep`]).
     pub fn gather_outside(&mut self) {
+        self.map.sweep();
         let side = self.side.as_ref().map_or(0, |s| s.count);
-        if self.grid.is_none() || self.map.len() < 8.max(side / 8) {
+        if self.grid.is_none() || self.map.len() < 8.max(side / 8) || self.refused.wait() {
             return;
         }
-        let mut all: Vec<([i32; 3], u32)> = self.map.drain().collect();
-        if let Some(s) = self.side.take() {
+        let mut all: Vec<([i32; 3], u32)> = self.map.agents().collect();
+        if let Some(s) = &self.side {
             all.extend(s.agents());
         }
         let (lo, hi) = bounds(all.iter().map(|(p, _)| p));
@@ -1053,13 +1121,15 @@ impl CellIndex {
                     let i = side.slot(p).expect("inside the side box");
                     side.cells[i] = a;
                 }
+                self.map = Sparse::new(self.coords == 3);
                 self.side = Some(side);
+                self.refused = Backoff::default();
                 return;
             }
             // (Room down to the margin, then none: the box needs no margin, as nothing
             // reads a neighbour's cell from a cell of it.)
             if room.iter().all(|&r| r == 0) {
-                self.map.extend(all);
+                self.refused.refused();
                 return;
             }
             room = room.map(|r| match r <= MARGIN as i64 {
@@ -1131,7 +1201,48 @@ impl CellIndex {
                 return (a != EMPTY).then_some(a);
             }
         }
-        self.map.get(&p).copied()
+        self.map.get(p)
+    }
+
+    /// The agents on the cells next to `p`, where agent `a` stands, in the first `nd`
+    /// directions (`Dir::ALL`'s order), as [`CellIndex::get`] answers each (an id, or
+    /// [`EMPTY`]; cells past `i32`'s range wrap: the caller knows them outside the
+    /// universe); where they are all outside the grid and the side box, those in `p`'s
+    /// tile with no look-up.
+    #[inline]
+    pub fn around(&self, p: [i32; 3], a: u32, nd: usize, out: &mut [u32; 6]) {
+        let near = |(lo, size): ([i32; 3], [i64; 3])| {
+            (0..3).all(|k| {
+                let o = p[k] as i64 - lo[k] as i64;
+                (-1..=size[k]).contains(&o)
+            })
+        };
+        let boxes = [
+            self.grid.as_ref().map(|g| (g.lo, g.size)),
+            self.side.as_ref().map(|s| (s.lo, s.size)),
+        ];
+        if boxes.iter().flatten().all(|&b| !near(b)) {
+            return self.map.around(p, a, nd, out);
+        }
+        for (d, o) in out.iter_mut().enumerate().take(nd) {
+            let off = Dir::ALL[d].offset();
+            *o = (self.get([0, 1, 2].map(|k| p[k].wrapping_add(off[k])))).unwrap_or(EMPTY);
+        }
+    }
+
+    /// Moves agent `a` from `old` (if it still stands there: another mover may have taken
+    /// the cell already) to `new`, as [`CellIndex::remove`] then [`CellIndex::insert`].
+    #[inline]
+    pub fn shift(&mut self, old: [i32; 3], new: [i32; 3], a: u32) {
+        let outside = |p| {
+            self.grid.as_ref().is_none_or(|g| g.slot(p).is_none())
+                && self.side.as_ref().is_none_or(|s| s.slot(p).is_none())
+        };
+        if outside(old) && outside(new) {
+            return self.map.shift(old, new, a);
+        }
+        self.remove(old, a);
+        self.insert(new, a);
     }
 
     /// The agent next to `p` in direction index `d`, when `p` lies inside the grid with a
@@ -1280,7 +1391,7 @@ impl CellIndex {
                 return free;
             }
         }
-        self.map.insert(p, a).is_none()
+        self.map.insert(p, a)
     }
 
     /// Empties a cell if agent `a` stands there.
@@ -1302,9 +1413,7 @@ impl CellIndex {
                 return;
             }
         }
-        if self.map.get(&p) == Some(&a) {
-            self.map.remove(&p);
-        }
+        self.map.remove(p, a);
     }
 
     /// The grid's low corner and size, if there is a grid.
@@ -1317,14 +1426,14 @@ impl CellIndex {
         self.grid.is_some()
     }
 
-    /// Bytes held (the hash map counted at its capacity, with its control bytes).
+    /// Bytes held (hash maps counted at their capacity, with their control bytes).
     pub fn bytes(&self) -> usize {
         let grid = self
             .grid
             .as_ref()
             .map_or(0, |g| g.cells.capacity() * 4 + g.occ.capacity() * 8);
         let side = self.side.as_ref().map_or(0, |s| s.cells.capacity() * 4);
-        grid + side + self.map.capacity() * (std::mem::size_of::<([i32; 3], u32)>() + 1)
+        grid + side + self.map.bytes()
     }
 }
 
@@ -1443,8 +1552,14 @@ mod tests {
             "{lo:?} {size:?}"
         );
         assert!(idx.map.is_empty() && idx.side.is_some());
-        // (The line runs five cells above the block: past the grid's margin.)
-        assert_eq!(idx.outside(), 300);
+        // (The line runs five cells above the block: past the grid's margin. The grid
+        // over the block's core widened to the block's sides takes in the line's first
+        // agents, within the budget.)
+        let in_grid =
+            |p: &[i32; 3]| (0..3).all(|k| (0..size[k]).contains(&(p[k] as i64 - lo[k] as i64)));
+        let out = pos.iter().filter(|p| !in_grid(p)).count();
+        assert!((250..=300).contains(&out) && pos[..8000].iter().all(in_grid));
+        assert_eq!(idx.outside(), out);
         for (i, p) in pos.iter().enumerate() {
             assert_eq!(idx.get(*p), Some(i as u32), "{p:?}");
         }
@@ -1507,12 +1622,19 @@ mod tests {
         // The grid still answers for its own cells, and the side box is no part of it.
         assert_eq!(idx.get([3, 4, 0]), Some(43));
         assert!(idx.bytes() > idx.grid.as_ref().unwrap().cells.len() * 4);
-        // Made again with one in the hash map and far ones: over budget, all stay found.
+        // Made again with one in the hash map and far ones: over budget, the side box
+        // and the tiles stay as they were, all found; the next try waits a call, the one
+        // after two.
         for i in 0..8 {
             idx.insert([i * 1_000_000, -9, 0], 200 + i as u32);
         }
         idx.gather_outside();
-        assert!(idx.side.is_none());
+        assert!(idx.side.as_ref().is_some_and(|s| s.count == 7) && idx.map.len() == 9);
+        assert_eq!((idx.refused.left, idx.refused.next), (1, 2));
+        idx.gather_outside();
+        assert_eq!((idx.refused.left, idx.refused.next), (0, 2));
+        idx.gather_outside();
+        assert_eq!((idx.refused.left, idx.refused.next), (2, 4));
         assert_eq!(idx.get([7_000_000, -9, 0]), Some(207));
         assert_eq!(idx.get([-50_000, 7, 0]), Some(101));
         assert_eq!(idx.get([1001, 5, 0]), Some(100));

@@ -1360,6 +1360,17 @@ fn the_cell_index_follows_the_agents() {
             block(30, 0, 2, 2, "J0000", 1),
         ]
         .concat(),
+        // Clusters far apart at the ends of i32's range (tiles of cells whose
+        // neighbours lie past it): walkers that reach the end, fallers and jumpers.
+        [
+            block(i32::MAX - 8, 0, 3, 3, "E0000", 12),
+            row(i32::MAX - 9, -1, 10, "R0000"),
+            block(i32::MIN, 5, 2, 2, "F0000", 6),
+            row(i32::MIN, -2, 3, "R0000"),
+            block(i32::MIN + 2000, i32::MAX - 3000, 2, 2, "J0000", 3),
+            block(-7, i32::MIN + 1, 3, 1, "F0000", 4),
+        ]
+        .concat(),
     ];
     let bounded = [
         // A universe small enough for a grid over all of it.

@@ -648,6 +648,28 @@ impl Lattice {
         }
     }
 
+    /// Agent `a`'s row of the neighbour table when it stands on `p`: per direction of the
+    /// dimension (`Dir::ALL`'s order), the agent there, [`NO_AGENT`] or [`BLOCKED`] (the
+    /// rest [`BLOCKED`]), as [`Lattice::cell_at`] answers each, in one look-up of the cells
+    /// around it ([`CellIndex::around`]).
+    #[inline]
+    fn table_row(&self, a: u32, p: [i32; 3]) -> [u32; 6] {
+        let nd = self.dim.dirs();
+        let mut row = [BLOCKED; 6];
+        self.cells.around(p, a, nd, &mut row);
+        // (Unbounded, a cell not at the end of i32's range has every neighbour inside.)
+        let clear = self.universe.is_none() && p.iter().all(|&c| c > i32::MIN && c < i32::MAX);
+        if !clear {
+            for (d, o) in row.iter_mut().enumerate().take(nd) {
+                let off = Dir::ALL[d].offset();
+                if !self.inside([0, 1, 2].map(|k| p[k] as i64 + off[k] as i64)) {
+                    *o = BLOCKED;
+                }
+            }
+        }
+        row
+    }
+
     /// The agent at a cell, if any.
     pub fn agent_at(&self, p: [i32; 3]) -> Option<u32> {
         self.cells.get(p)
@@ -681,6 +703,22 @@ impl Lattice {
             Cell::Agent(b) => Some(b),
             _ => None,
         }
+    }
+
+    /// The agent on cell `t`, `off` away from agent `a`: from the neighbour table when
+    /// it is kept and `off` is one step (agents in tiles of cells, [`CellIndex::around`],
+    /// look their targets up there), else from the cell index.
+    #[inline]
+    pub(crate) fn agent_beside(&self, a: u32, off: [i32; 3], t: [i32; 3]) -> Option<u32> {
+        if self.nbr_valid {
+            if let Some(d) = Dir::from_offset(off) {
+                return match self.nbr[d.index()][a as usize] {
+                    NO_AGENT | BLOCKED => None,
+                    b => Some(b),
+                };
+            }
+        }
+        self.cells.get(t)
     }
 
     /// The neighbour of agent `a` in direction `d`, if any.
@@ -894,15 +932,14 @@ impl Lattice {
         let nd = self.dim.dirs();
         let mut nbr = std::mem::take(&mut self.nbr);
         nbr.resize(nd, Vec::new());
-        for (d, col) in nbr.iter_mut().enumerate() {
+        for col in &mut nbr {
             col.clear();
             col.reserve(self.len());
-            let off = Dir::ALL[d].offset();
-            col.extend(self.pos.iter().map(|&p| match self.cell_at(p, off) {
-                Cell::Agent(b) => b,
-                Cell::Empty => NO_AGENT,
-                Cell::Blocked => BLOCKED,
-            }));
+        }
+        for (a, &p) in self.pos.iter().enumerate() {
+            for (col, b) in nbr.iter_mut().zip(self.table_row(a as u32, p)) {
+                col.push(b);
+            }
         }
         self.nbr = nbr;
         self.nbr_valid = true;
@@ -910,10 +947,6 @@ impl Lattice {
 
     /// Moves agents to new positions all at once (the caller guarantees no two share a cell).
     pub fn relocate(&mut self, moves: &[(u32, [i32; 3])]) {
-        for &(a, _) in moves {
-            let old = self.pos[a as usize];
-            self.cells.remove(old, a);
-        }
         let nd = self.dim.dirs();
         if self.nbr_valid {
             // What stood next to the cells left sees them empty (or a mover, below): the
@@ -928,24 +961,23 @@ impl Lattice {
                 }
             }
         }
+        // Each mover leaves its cell and takes its target. (One mover may take the cell
+        // of another not yet moved: that one then finds its old cell not its own, and
+        // leaves it as it is.)
         for &(a, p) in moves {
-            self.pos[a as usize] = p;
-            self.cells.insert(p, a);
+            let old = std::mem::replace(&mut self.pos[a as usize], p);
+            self.cells.shift(old, p, a);
             self.code[a as usize] = self.cells.code(p);
         }
         if self.nbr_valid {
-            // Each mover's row, and its new neighbours seeing it: one look-up per direction.
+            // Each mover's row, and its new neighbours seeing it: a look-up of the cells
+            // around it.
             for &(a, p) in moves {
-                for d in 0..nd {
-                    let c = self.cell_at(p, Dir::ALL[d].offset());
-                    self.nbr[d][a as usize] = match c {
-                        Cell::Agent(b) => {
-                            self.nbr[Dir::ALL[d].opposite().index()][b as usize] = a;
-                            b
-                        }
-                        Cell::Empty => NO_AGENT,
-                        Cell::Blocked => BLOCKED,
-                    };
+                for (d, b) in self.table_row(a, p).into_iter().enumerate().take(nd) {
+                    self.nbr[d][a as usize] = b;
+                    if b != NO_AGENT && b != BLOCKED {
+                        self.nbr[Dir::ALL[d].opposite().index()][b as usize] = a;
+                    }
                 }
             }
         }

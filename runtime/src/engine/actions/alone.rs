@@ -246,7 +246,7 @@ impl AlonePart {
                     self.empty = self.empty
                         && match slot(c) {
                             Some(s) => !lat.cells.filled_slot(s),
-                            None => lat.cells.get(t).is_none(),
+                            None => lat.agent_beside(a, o, t).is_none(),
                         };
                     self.live[kept] = (a, t);
                     self.codes.push(c);

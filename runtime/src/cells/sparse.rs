@@ -1,0 +1,375 @@
+//! The cells outside the grid and its side box: small tiles of cells, allocated where
+//! agents stand and freed when the last leaves, found through a hash map of tiles.
+//!
+//! A hash map of cells costs a look-up for every cell asked about; the tiles answer a
+//! cell and its neighbours inside the same tile with one ([`Sparse::around`]), and a
+//! tile's key hashes with two multiplications where a position hashed as twelve bytes
+//! took many more. Agents scattered over more cells than any grid's budget (1,000
+//! walkers spread over 10^6 x 37,000 cells) stand here.
+
+use std::hash::{Hash, Hasher};
+
+use latticesim_vm::model::Dir;
+use rustc_hash::FxHashMap;
+
+use super::EMPTY;
+
+/// No tile.
+const NONE: u32 = u32::MAX;
+/// The key of a free tile: no cell's (every axis of a tile is at least two cells long but
+/// z in 2D, where every key's z is 0).
+const FREED: Key = Key([i32::MIN; 3]);
+
+/// A tile's position: a cell's coordinates shifted right by the tile's size per axis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Key([i32; 3]);
+
+impl Hash for Key {
+    #[inline]
+    fn hash<H: Hasher>(&self, state: &mut H) {
+        let [x, y, z] = self.0.map(|c| c as u32 as u64);
+        state.write_u64((x | y << 32) ^ z.wrapping_mul(0x9e37_79b9_7f4a_7c15));
+    }
+}
+
+/// The cells of agents outside the grid and its side box.
+#[derive(Debug, Clone)]
+pub(crate) struct Sparse {
+    /// Per axis, log2 of the tile's side: 4 x 4 cells in 2D, 4 x 4 x 2 in 3D (64 and
+    /// 128 bytes of cells, so that agents each alone in a tile cost little more than in
+    /// a hash map of cells).
+    shift: [u32; 3],
+    /// Tile index by key.
+    tiles: FxHashMap<Key, u32>,
+    /// Tile `t` from `t * stride`: its key's three coordinates, how many agents stand on
+    /// it (0: free, on `free`), then its cells, each an agent or [`EMPTY`], x outermost.
+    /// (Together, so that finding an agent's tile and its cells reads one place.)
+    data: Vec<u32>,
+    stride: usize,
+    free: Vec<u32>,
+    /// Tiles whose last agent left since the last [`Sparse::sweep`].
+    emptied: Vec<u32>,
+    /// Per agent (by id, up to the largest held), the tile it last entered (or [`NONE`]):
+    /// an agent that moves is removed from it, put back near it, and asks about the cells
+    /// around it, each without a look-up when the tile is still the one of that key.
+    at: Vec<u32>,
+    len: usize,
+}
+
+/// Words before a tile's cells in [`Sparse::data`]: its key, and its count.
+const HEAD: usize = 4;
+const COUNT: usize = 3;
+
+impl PartialEq for Sparse {
+    /// The same agents on the same cells (however the tiles were allocated).
+    fn eq(&self, other: &Sparse) -> bool {
+        self.len == other.len && self.agents().all(|(p, a)| other.get(p) == Some(a))
+    }
+}
+
+impl Sparse {
+    /// An empty set of cells for a 3D lattice or a 2D one.
+    pub(crate) fn new(three_d: bool) -> Sparse {
+        let shift: [u32; 3] = if three_d { [2, 2, 1] } else { [2, 2, 0] };
+        Sparse {
+            shift,
+            tiles: FxHashMap::default(),
+            data: Vec::new(),
+            stride: HEAD + (1 << shift.iter().sum::<u32>()),
+            free: Vec::new(),
+            emptied: Vec::new(),
+            at: Vec::new(),
+            len: 0,
+        }
+    }
+
+    /// The agents held.
+    #[inline]
+    pub(crate) fn len(&self) -> usize {
+        self.len
+    }
+
+    #[cfg(test)]
+    pub(crate) fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// The tile of `p` and the index of `p`'s cell in a tile's words.
+    #[inline]
+    fn split(&self, p: [i32; 3]) -> (Key, usize) {
+        let s = self.shift;
+        let key = Key([0, 1, 2].map(|k| p[k] >> s[k]));
+        let o = [0, 1, 2].map(|k| (p[k] & ((1 << s[k]) - 1)) as usize);
+        (key, HEAD + ((o[0] << s[1] | o[1]) << s[2] | o[2]))
+    }
+
+    /// Where tile `t`'s words start.
+    #[inline]
+    fn base(&self, t: u32) -> usize {
+        t as usize * self.stride
+    }
+
+    /// Tile `t`'s key.
+    #[inline]
+    fn key_of(&self, t: u32) -> Key {
+        let b = self.base(t);
+        Key([0, 1, 2].map(|k| self.data[b + k] as i32))
+    }
+
+    /// The start of the tile of `key`, looked for first where agent `a` last entered one.
+    #[inline]
+    fn tile(&self, key: Key, a: u32) -> Option<u32> {
+        match self.at.get(a as usize) {
+            Some(&t) if t != NONE && self.key_of(t) == key => Some(t),
+            _ => self.tiles.get(&key).copied(),
+        }
+    }
+
+    /// The agent on `p`.
+    #[inline]
+    pub(crate) fn get(&self, p: [i32; 3]) -> Option<u32> {
+        let (key, o) = self.split(p);
+        let t = *self.tiles.get(&key)?;
+        let a = self.data[self.base(t) + o];
+        (a != EMPTY).then_some(a)
+    }
+
+    /// The agents on the cells next to `p`, where agent `a` stands, in the first `nd`
+    /// directions (`Dir::ALL`'s order; an id, or [`EMPTY`]): `p`'s tile found through
+    /// `a`, and a look-up for each neighbour in another tile.
+    #[inline]
+    pub(crate) fn around(&self, p: [i32; 3], a: u32, nd: usize, out: &mut [u32; 6]) {
+        let (key, o) = self.split(p);
+        let tile = self.tile(key, a).map(|t| self.base(t) + o);
+        let s = self.shift;
+        // Per axis: the step between neighbouring cells in a tile's words.
+        let step = [1 << (s[1] + s[2]), 1 << s[2], 1];
+        for (d, slot) in out.iter_mut().enumerate().take(nd) {
+            let off = Dir::ALL[d].offset();
+            let k = (0..3)
+                .find(|&k| off[k] != 0)
+                .expect("a direction moves along an axis");
+            let inner = p[k] & ((1 << s[k]) - 1);
+            let within = if off[k] > 0 {
+                inner < (1 << s[k]) - 1
+            } else {
+                inner > 0
+            };
+            *slot = match tile {
+                Some(c) if within => self.data[(c as isize + off[k] as isize * step[k]) as usize],
+                // (A neighbour past i32's range is outside the universe: the caller asks.)
+                _ if within => EMPTY,
+                _ => (self.get([0, 1, 2].map(|k| p[k].wrapping_add(off[k])))).unwrap_or(EMPTY),
+            };
+        }
+    }
+
+    /// Moves agent `a` from `old` (if it still stands there) to `new`: one tile found
+    /// when both are in it.
+    #[inline]
+    pub(crate) fn shift(&mut self, old: [i32; 3], new: [i32; 3], a: u32) {
+        let (key, o) = self.split(old);
+        let (nkey, no) = self.split(new);
+        match self.tile(key, a) {
+            Some(t) if key == nkey && self.data[self.base(t) + o] == a => {
+                let b = self.base(t);
+                self.data[b + o] = EMPTY;
+                let free = self.data[b + no] == EMPTY;
+                self.data[b + no] = a;
+                if !free {
+                    // (It took the cell of an agent still to move.)
+                    self.data[b + COUNT] -= 1;
+                    self.len -= 1;
+                }
+            }
+            _ => {
+                self.remove(old, a);
+                self.insert(new, a);
+            }
+        }
+    }
+
+    /// Puts agent `a` on `p`: false when another stood there (it is no longer found).
+    pub(crate) fn insert(&mut self, p: [i32; 3], a: u32) -> bool {
+        let (key, o) = self.split(p);
+        let t = match self.tile(key, a) {
+            Some(t) => t,
+            None => self.new_tile(key),
+        };
+        if self.at.len() <= a as usize {
+            self.at.resize(a as usize + 1, NONE);
+        }
+        self.at[a as usize] = t;
+        let b = self.base(t);
+        let free = self.data[b + o] == EMPTY;
+        self.data[b + o] = a;
+        if free {
+            self.data[b + COUNT] += 1;
+            self.len += 1;
+        }
+        free
+    }
+
+    /// Empties `p` if agent `a` stands there (its tile freed at the next sweep if that
+    /// was the last).
+    pub(crate) fn remove(&mut self, p: [i32; 3], a: u32) {
+        let (key, o) = self.split(p);
+        let Some(t) = self.tile(key, a) else {
+            return;
+        };
+        let b = self.base(t);
+        if self.data[b + o] != a {
+            return;
+        }
+        self.data[b + o] = EMPTY;
+        self.len -= 1;
+        self.data[b + COUNT] -= 1;
+        if self.data[b + COUNT] == 0 {
+            // (Swept here too when no sweep came for long: the list stays bounded.)
+            if self.emptied.len() > 2 * self.tiles.len() + 64 {
+                self.sweep();
+            }
+            self.emptied.push(t);
+        }
+    }
+
+    /// Frees the tiles left empty since the last sweep and still empty (an agent alone in
+    /// its tile that moves within it leaves and enters it in the same step).
+    pub(crate) fn sweep(&mut self) {
+        for t in std::mem::take(&mut self.emptied) {
+            let (key, b) = (self.key_of(t), self.base(t));
+            // (A tile emptied twice is listed twice: freed once.)
+            if self.data[b + COUNT] == 0 && self.tiles.get(&key) == Some(&t) {
+                self.tiles.remove(&key);
+                self.data[b..b + COUNT].copy_from_slice(&FREED.0.map(|c| c as u32));
+                self.free.push(t);
+            }
+        }
+    }
+
+    /// A tile for `key`, all empty: a freed one, or a new one.
+    fn new_tile(&mut self, key: Key) -> u32 {
+        let t = match self.free.pop() {
+            Some(t) => t,
+            None => {
+                let t = (self.data.len() / self.stride) as u32;
+                self.data.resize(self.data.len() + self.stride, EMPTY);
+                let b = self.base(t);
+                self.data[b + COUNT] = 0;
+                t
+            }
+        };
+        let b = self.base(t);
+        self.data[b..b + COUNT].copy_from_slice(&key.0.map(|c| c as u32));
+        self.tiles.insert(key, t);
+        t
+    }
+
+    /// The agents held, with their cells (in no particular order).
+    pub(crate) fn agents(&self) -> impl Iterator<Item = ([i32; 3], u32)> + '_ {
+        let s = self.shift;
+        self.tiles.iter().flat_map(move |(key, &t)| {
+            let b = self.base(t);
+            let cells = &self.data[b + HEAD..b + self.stride];
+            cells
+                .iter()
+                .enumerate()
+                .filter(|c| *c.1 != EMPTY)
+                .map(move |(o, &a)| {
+                    let off = [
+                        o >> (s[1] + s[2]),
+                        o >> s[2] & ((1 << s[1]) - 1),
+                        o & ((1 << s[2]) - 1),
+                    ];
+                    ([0, 1, 2].map(|k| key.0[k] << s[k] | off[k] as i32), a)
+                })
+        })
+    }
+
+    /// Bytes held (the hash map of tiles counted at its capacity, with its control bytes).
+    pub(crate) fn bytes(&self) -> usize {
+        (self.data.capacity() + self.free.capacity() + self.emptied.capacity()) * 4
+            + self.at.capacity() * 4
+            + self.tiles.capacity() * (std::mem::size_of::<(Key, u32)>() + 1)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::HashMap;
+
+    /// Inserts, removals and look-ups (of cells and their neighbours) over negative and
+    /// far coordinates, tiles freed and reused, answer as a plain map of cells does.
+    #[test]
+    fn tiles_answer_as_a_map_of_cells() {
+        for three_d in [false, true] {
+            let nd = if three_d { 6 } else { 4 };
+            let mut s = Sparse::new(three_d);
+            let mut m: HashMap<[i32; 3], u32> = HashMap::new();
+            let mut x: u64 = 12345;
+            let mut rnd = |n: u64| {
+                x = x
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                (x >> 33) % n
+            };
+            let far = [i32::MIN, -1_000_000, -5, 0, 3, 1_000_000, i32::MAX - 8];
+            for i in 0..20_000u32 {
+                let base = far[rnd(far.len() as u64) as usize];
+                let p = [0, 1, 2].map(|k| {
+                    if k == 2 && !three_d {
+                        0
+                    } else {
+                        base.saturating_add(rnd(9) as i32)
+                    }
+                });
+                let a = (rnd(50)) as u32;
+                let r = rnd(4);
+                if r == 0 {
+                    s.remove(p, a);
+                    if m.get(&p) == Some(&a) {
+                        m.remove(&p);
+                    }
+                } else if r == 1 {
+                    // A move by a step, or to a cell of another tile.
+                    let q = [0, 1, 2].map(|k| match (k, rnd(3)) {
+                        (2, _) if !three_d => 0,
+                        (_, 0) => p[k].wrapping_add(rnd(3) as i32 - 1),
+                        (_, 1) => p[k].wrapping_add(rnd(20) as i32 - 10),
+                        _ => p[k],
+                    });
+                    s.shift(p, q, a);
+                    if m.get(&p) == Some(&a) {
+                        m.remove(&p);
+                    }
+                    m.insert(q, a);
+                } else {
+                    assert_eq!(s.insert(p, a), m.insert(p, a).is_none(), "step {i}");
+                }
+                assert_eq!(s.len(), m.len());
+                assert_eq!(s.get(p), m.get(&p).copied());
+                let mut out = [0; 6];
+                s.around(p, a, nd, &mut out);
+                for (d, got) in out.iter().enumerate().take(nd) {
+                    let off = Dir::ALL[d].offset();
+                    let q = [0, 1, 2].map(|k| p[k].wrapping_add(off[k]));
+                    let want = m.get(&q).copied().unwrap_or(EMPTY);
+                    assert_eq!(*got, want, "around {p:?} in {d}");
+                }
+            }
+            let mut all = s.agents().collect::<Vec<_>>();
+            let mut want = m.iter().map(|(&p, &a)| (p, a)).collect::<Vec<_>>();
+            all.sort_unstable();
+            want.sort_unstable();
+            assert_eq!(all, want);
+            s.sweep();
+            assert!(s.tiles.len() <= s.len(), "no empty tile is kept");
+            for &(p, a) in &want {
+                s.remove(p, a);
+            }
+            s.sweep();
+            assert!(s.is_empty() && s.tiles.is_empty() && s.free.len() * s.stride == s.data.len());
+        }
+    }
+}
