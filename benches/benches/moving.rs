@@ -11,6 +11,9 @@
 //!   tests), one and two threads; the figure is the stepping time
 //!   (`--stats`' `steps_s`); every walker must end 1,000 cells east, every resting agent
 //!   where it was.
+//! - **Walkers with no grid around them**: 1,000 walkers scattered over 10^6 x 37,000
+//!   cells, and 1,000 in a row 10^6 cells from a block of 10^5 at rest, one and two
+//!   threads, against the walkers alone; every walker must end 1,000 cells east.
 //! - **3D walkers** that leave the box of a block of 100^3 agents at rest (1,000 in a slab
 //!   beside it walking east), one and two threads; every walker must end 1,000 cells
 //!   east, every resting agent where it was.
@@ -69,6 +72,35 @@ fn walkers_file(dir: &Path, r: u64, walls: bool) -> PathBuf {
         for i in 0..1000 {
             writeln!(out, "{},{} SWALK0 C01 1000", 2 * i, r + 1).unwrap();
         }
+    })
+}
+
+/// 1,000 walkers with no grid around them: scattered 1,000 cells apart over 10^6 x
+/// 37,000 cells (no grid at all), or in a row 10^6 cells north of a 316 x 316 block of
+/// resting agents (`beside_block`: the block in a grid, the row not).
+fn scattered_file(dir: &Path, beside_block: bool) -> PathBuf {
+    let name = if beside_block {
+        "far_316.txt"
+    } else {
+        "scattered.txt"
+    };
+    once(&dir.join(name), |out| {
+        for x in (0..316).filter(|_| beside_block) {
+            for y in 0..316 {
+                writeln!(out, "{x},{y} SREST0").unwrap();
+            }
+        }
+        for (x, y) in scattered_walkers(beside_block) {
+            writeln!(out, "{x},{y} SWALK0 C01 1000").unwrap();
+        }
+    })
+}
+
+/// Where [`scattered_file`]'s walkers start.
+fn scattered_walkers(beside_block: bool) -> impl Iterator<Item = (u64, u64)> {
+    (0..1000).map(move |i| match beside_block {
+        true => (2 * i, 1_000_000),
+        false => (1000 * i, 37 * i),
     })
 }
 
@@ -466,6 +498,44 @@ fn main() {
     // Beside as many obstacles, agents in a state no rule tests (their lists were read
     // where those of agents whose rule never applies were not: 1.4x their time).
     let walls = walkers(*rs.last().expect("sizes"), true);
+    // Walkers with no grid around them (once a hash map of cells, 18x and 20x the
+    // walkers alone; now tiles of cells).
+    let scattered: Vec<(&str, WalkRow)> = [false, true]
+        .into_iter()
+        .map(|beside_block| {
+            let input = scattered_file(&dir, beside_block);
+            let (o1, o2) = (dir.join("walk-1.txt"), dir.join("walk-2.txt"));
+            let files = (walkr.as_path(), input.as_path());
+            let (one, two) = one_and_two(
+                (&exe, files),
+                ((o1.as_path(), o2.as_path()), &[]),
+                reps,
+                |r| r.steps_s,
+            );
+            let r: u64 = if beside_block { 316 } else { 0 };
+            let rest: u64 = (0..r)
+                .flat_map(|x| (0..r).map(move |y| x * 100003 + y))
+                .sum();
+            let walkers: u64 = scattered_walkers(beside_block)
+                .map(|(x, y)| (x + 1000) * 100003 + y)
+                .sum();
+            let name = match beside_block {
+                true => "1,000 walkers 10^6 cells from a block of 316^2 at rest",
+                false => "1,000 walkers scattered over 10^6 x 37,000 cells",
+            };
+            walkers_ran((&o1, &o2), (rest + walkers, r * r + 1000), &one, name);
+            eprintln!(
+                "{name}: stepping {:.3} s one thread, {:.3} s two",
+                one.steps_s, two.steps_s
+            );
+            let row = WalkRow {
+                resting: r * r,
+                one,
+                two,
+            };
+            (name, row)
+        })
+        .collect();
 
     // Walkers that leave the box of a 3D block: the grid is not made again over the
     // block's whole cross-section every few dozen steps (it was: 0.25 s against 0.065 s
@@ -530,6 +600,9 @@ fn main() {
         walls.two.steps_s,
     ));
     threads.push((walk3d.0, walk3d.1.steps_s, walk3d.2.steps_s));
+    for (name, row) in &scattered {
+        threads.push((name.to_string(), row.one.steps_s, row.two.steps_s));
+    }
     {
         let l = if quick { 316 } else { 1000 };
         let input = b1f_file(&dir, l, 1);
@@ -596,11 +669,15 @@ fn main() {
             two.steps_s,
         ));
     }
-    report(&b2f, (&walk, &walls), &threads);
+    report(&b2f, (&walk, &walls, &scattered), &threads);
 }
 
 /// The CSV in docs/data, the plots in docs/img, and the tables of docs/performance.md.
-fn report(b2f: &[B2fRow], (walk, walls): (&[WalkRow], &WalkRow), threads: &[(String, f64, f64)]) {
+fn report(
+    b2f: &[B2fRow],
+    (walk, walls, scattered): (&[WalkRow], &WalkRow, &[(&str, WalkRow)]),
+    threads: &[(String, f64, f64)],
+) {
     let (data, img) = (root().join("docs/data"), root().join("docs/img"));
     std::fs::create_dir_all(&data).unwrap();
     std::fs::create_dir_all(&img).unwrap();
@@ -619,11 +696,17 @@ fn report(b2f: &[B2fRow], (walk, walls): (&[WalkRow], &WalkRow), threads: &[(Str
             r.one.peak
         );
     }
-    // (`walls`: the walkers beside obstacles, agents in a state no rule tests.)
+    // (`walls`: the walkers beside obstacles, agents in a state no rule tests;
+    // `scattered` and `far`: the walkers with no grid around them.)
     for (name, r) in walk
         .iter()
         .map(|r| ("walkers", r))
         .chain([("walls", walls)])
+        .chain(
+            ["scattered", "far"]
+                .into_iter()
+                .zip(scattered.iter().map(|s| &s.1)),
+        )
     {
         csv += &format!(
             "{name},{},{},{},,{:.4},{:.4},{:.4},{:.4},{}\n",
@@ -720,6 +803,17 @@ fn report(b2f: &[B2fRow], (walk, walls): (&[WalkRow], &WalkRow), threads: &[(Str
             r.one.steps_s / alone,
             r.two.steps_s,
             r.one.wall.as_secs_f64(),
+            r.one.peak as f64 / 1e6
+        );
+    }
+    println!("\n| walkers with no grid around them | stepping, 1 thread | / walkers alone | stepping, 2 threads | peak |");
+    println!("|---|---:|---:|---:|---:|");
+    for (name, r) in scattered {
+        println!(
+            "| {name} | {:.3} s | {:.2} | {:.3} s | {:.1} MB |",
+            r.one.steps_s,
+            r.one.steps_s / alone,
+            r.two.steps_s,
             r.one.peak as f64 / 1e6
         );
     }
