@@ -32,21 +32,35 @@ impl Hash for Key {
     }
 }
 
+/// Words per tile in [`Sparse::head`]: its key's three coordinates, [`META`], and
+/// [`HELD`].
+const HEAD: usize = 5;
+/// How many agents stand on the tile (the low 16 bits) and, when one does, its cell in
+/// the tile (the high 16).
+const META: usize = 3;
+/// The agent, when one stands on the tile; its block of cells in [`Sparse::blocks`] when
+/// more do.
+const HELD: usize = 4;
+
 /// The cells of agents outside the grid and its side box.
 #[derive(Debug, Clone)]
 pub(crate) struct Sparse {
-    /// Per axis, log2 of the tile's side: 4 x 4 cells in 2D, 4 x 4 x 2 in 3D (64 and
-    /// 128 bytes of cells, so that agents each alone in a tile cost little more than in
-    /// a hash map of cells).
+    /// Per axis, log2 of the tile's side: 4 x 4 cells in 2D, 4 x 4 x 2 in 3D.
     shift: [u32; 3],
+    /// log2 of the cells per tile.
+    bits: u32,
     /// Tile index by key.
     tiles: FxHashMap<Key, u32>,
-    /// Tile `t` from `t * stride`: its key's three coordinates, how many agents stand on
-    /// it (0: free, on `free`), then its cells, each an agent or [`EMPTY`], x outermost.
-    /// (Together, so that finding an agent's tile and its cells reads one place.)
-    data: Vec<u32>,
-    stride: usize,
+    /// Tile `t` from `t * HEAD` (see [`HEAD`]). A tile with one agent holds it there,
+    /// with no block of cells: agents scattered one to a tile cost 20 bytes each, as in
+    /// a hash map of cells, and a lone mover's tile is one place in memory.
+    head: Vec<u32>,
+    /// Blocks of cells (each an agent or [`EMPTY`], x outermost) of the tiles that hold
+    /// two agents or more; block `b` from `b << bits`.
+    blocks: Vec<u32>,
+    /// Free tiles, and free blocks (all [`EMPTY`]).
     free: Vec<u32>,
+    free_blocks: Vec<u32>,
     /// Tiles whose last agent left since the last [`Sparse::sweep`].
     emptied: Vec<u32>,
     /// Per agent (by id, up to the largest held), the tile it last entered (or [`NONE`]):
@@ -55,10 +69,6 @@ pub(crate) struct Sparse {
     at: Vec<u32>,
     len: usize,
 }
-
-/// Words before a tile's cells in [`Sparse::data`]: its key, and its count.
-const HEAD: usize = 4;
-const COUNT: usize = 3;
 
 impl PartialEq for Sparse {
     /// The same agents on the same cells (however the tiles were allocated).
@@ -73,10 +83,12 @@ impl Sparse {
         let shift: [u32; 3] = if three_d { [2, 2, 1] } else { [2, 2, 0] };
         Sparse {
             shift,
+            bits: shift.iter().sum(),
             tiles: FxHashMap::default(),
-            data: Vec::new(),
-            stride: HEAD + (1 << shift.iter().sum::<u32>()),
+            head: Vec::new(),
+            blocks: Vec::new(),
             free: Vec::new(),
+            free_blocks: Vec::new(),
             emptied: Vec::new(),
             at: Vec::new(),
             len: 0,
@@ -94,29 +106,41 @@ impl Sparse {
         self.len == 0
     }
 
-    /// The tile of `p` and the index of `p`'s cell in a tile's words.
+    /// The tile of `p` and `p`'s cell in it.
     #[inline]
     fn split(&self, p: [i32; 3]) -> (Key, usize) {
         let s = self.shift;
         let key = Key([0, 1, 2].map(|k| p[k] >> s[k]));
         let o = [0, 1, 2].map(|k| (p[k] & ((1 << s[k]) - 1)) as usize);
-        (key, HEAD + ((o[0] << s[1] | o[1]) << s[2] | o[2]))
+        (key, (o[0] << s[1] | o[1]) << s[2] | o[2])
     }
 
-    /// Where tile `t`'s words start.
+    /// Where tile `t`'s words start in `head`.
     #[inline]
-    fn base(&self, t: u32) -> usize {
-        t as usize * self.stride
+    fn base(t: u32) -> usize {
+        t as usize * HEAD
     }
 
     /// Tile `t`'s key.
     #[inline]
     fn key_of(&self, t: u32) -> Key {
-        let b = self.base(t);
-        Key([0, 1, 2].map(|k| self.data[b + k] as i32))
+        let b = Sparse::base(t);
+        Key([0, 1, 2].map(|k| self.head[b + k] as i32))
     }
 
-    /// The start of the tile of `key`, looked for first where agent `a` last entered one.
+    /// Tile `t`'s count of agents, and the cell of its one agent (when it has one).
+    #[inline]
+    fn meta(&self, t: u32) -> (u32, usize) {
+        let m = self.head[Sparse::base(t) + META];
+        (m & 0xffff, (m >> 16) as usize)
+    }
+
+    #[inline]
+    fn set_meta(&mut self, t: u32, count: u32, cell: usize) {
+        self.head[Sparse::base(t) + META] = count | (cell as u32) << 16;
+    }
+
+    /// The tile of `key`, looked for first where agent `a` last entered one.
     #[inline]
     fn tile(&self, key: Key, a: u32) -> Option<u32> {
         match self.at.get(a as usize) {
@@ -125,12 +149,104 @@ impl Sparse {
         }
     }
 
+    /// The agent on cell `o` of tile `t`, or [`EMPTY`].
+    #[inline]
+    fn cell(&self, t: u32, o: usize) -> u32 {
+        let held = self.head[Sparse::base(t) + HELD];
+        match self.meta(t) {
+            (0, _) => EMPTY,
+            (1, c) => [EMPTY, held][(c == o) as usize],
+            _ => self.blocks[((held as usize) << self.bits) + o],
+        }
+    }
+
+    /// Puts agent `a` on cell `o` of tile `t`: false when another stood there (it is no
+    /// longer found). A second agent gives the tile a block of cells.
+    fn put(&mut self, t: u32, o: usize, a: u32) -> bool {
+        let h = Sparse::base(t) + HELD;
+        let free = match self.meta(t) {
+            (0, _) => {
+                self.set_meta(t, 1, o);
+                self.head[h] = a;
+                true
+            }
+            (1, c) if c == o => {
+                self.head[h] = a;
+                false
+            }
+            (1, c) => {
+                let b = match self.free_blocks.pop() {
+                    Some(b) => b,
+                    None => {
+                        let b = (self.blocks.len() >> self.bits) as u32;
+                        self.blocks
+                            .resize(self.blocks.len() + (1 << self.bits), EMPTY);
+                        b
+                    }
+                };
+                let at = (b as usize) << self.bits;
+                self.blocks[at + c] = self.head[h];
+                self.blocks[at + o] = a;
+                self.head[h] = b;
+                self.set_meta(t, 2, 0);
+                true
+            }
+            (n, _) => {
+                let cell = &mut self.blocks[((self.head[h] as usize) << self.bits) + o];
+                let free = *cell == EMPTY;
+                *cell = a;
+                if free {
+                    self.set_meta(t, n + 1, 0);
+                }
+                free
+            }
+        };
+        self.len += free as usize;
+        free
+    }
+
+    /// Empties cell `o` of tile `t` if agent `a` stands there (and says whether it did).
+    /// A tile left with one agent gives back its block; one left with none is listed for
+    /// the next sweep.
+    fn take(&mut self, t: u32, o: usize, a: u32) -> bool {
+        let h = Sparse::base(t) + HELD;
+        match self.meta(t) {
+            (1, c) if c == o && self.head[h] == a => self.set_meta(t, 0, 0),
+            (0 | 1, _) => return false,
+            (n, _) => {
+                let at = (self.head[h] as usize) << self.bits;
+                if self.blocks[at + o] != a {
+                    return false;
+                }
+                self.blocks[at + o] = EMPTY;
+                if n > 2 {
+                    self.set_meta(t, n - 1, 0);
+                } else {
+                    // (The block's other agent, alone now: held in the tile.)
+                    let block = &mut self.blocks[at..at + (1 << self.bits)];
+                    let c = block.iter().position(|&b| b != EMPTY).expect("one left");
+                    self.head[h] = std::mem::replace(&mut block[c], EMPTY);
+                    self.free_blocks.push((at >> self.bits) as u32);
+                    self.set_meta(t, 1, c);
+                }
+            }
+        }
+        self.len -= 1;
+        if self.meta(t).0 == 0 {
+            // (Swept here too when no sweep came for long: the list stays bounded.)
+            if self.emptied.len() > 2 * self.tiles.len() + 64 {
+                self.sweep();
+            }
+            self.emptied.push(t);
+        }
+        true
+    }
+
     /// The agent on `p`.
     #[inline]
     pub(crate) fn get(&self, p: [i32; 3]) -> Option<u32> {
         let (key, o) = self.split(p);
-        let t = *self.tiles.get(&key)?;
-        let a = self.data[self.base(t) + o];
+        let a = self.cell(*self.tiles.get(&key)?, o);
         (a != EMPTY).then_some(a)
     }
 
@@ -140,9 +256,9 @@ impl Sparse {
     #[inline]
     pub(crate) fn around(&self, p: [i32; 3], a: u32, nd: usize, out: &mut [u32; 6]) {
         let (key, o) = self.split(p);
-        let tile = self.tile(key, a).map(|t| self.base(t) + o);
+        let tile = self.tile(key, a);
         let s = self.shift;
-        // Per axis: the step between neighbouring cells in a tile's words.
+        // Per axis: the step between neighbouring cells in a tile.
         let step = [1 << (s[1] + s[2]), 1 << s[2], 1];
         for (d, slot) in out.iter_mut().enumerate().take(nd) {
             let off = Dir::ALL[d].offset();
@@ -156,7 +272,9 @@ impl Sparse {
                 inner > 0
             };
             *slot = match tile {
-                Some(c) if within => self.data[(c as isize + off[k] as isize * step[k]) as usize],
+                Some(t) if within => {
+                    self.cell(t, (o as isize + off[k] as isize * step[k]) as usize)
+                }
                 // (A neighbour past i32's range is outside the universe: the caller asks.)
                 _ if within => EMPTY,
                 _ => (self.get([0, 1, 2].map(|k| p[k].wrapping_add(off[k])))).unwrap_or(EMPTY),
@@ -170,23 +288,28 @@ impl Sparse {
     pub(crate) fn shift(&mut self, old: [i32; 3], new: [i32; 3], a: u32) {
         let (key, o) = self.split(old);
         let (nkey, no) = self.split(new);
-        match self.tile(key, a) {
-            Some(t) if key == nkey && self.data[self.base(t) + o] == a => {
-                let b = self.base(t);
-                self.data[b + o] = EMPTY;
-                let free = self.data[b + no] == EMPTY;
-                self.data[b + no] = a;
-                if !free {
-                    // (It took the cell of an agent still to move.)
-                    self.data[b + COUNT] -= 1;
-                    self.len -= 1;
+        let Some(t) = self.tile(key, a) else {
+            self.insert(new, a);
+            return;
+        };
+        if key == nkey {
+            match self.meta(t) {
+                (1, c) if c == o && self.head[Sparse::base(t) + HELD] == a => {
+                    return self.set_meta(t, 1, no);
                 }
-            }
-            _ => {
-                self.remove(old, a);
-                self.insert(new, a);
+                (n, _) if n > 1 => {
+                    let at = (self.head[Sparse::base(t) + HELD] as usize) << self.bits;
+                    if self.blocks[at + o] == a && self.blocks[at + no] == EMPTY {
+                        self.blocks[at + o] = EMPTY;
+                        self.blocks[at + no] = a;
+                        return;
+                    }
+                }
+                _ => {}
             }
         }
+        self.take(t, o, a);
+        self.insert(new, a);
     }
 
     /// Puts agent `a` on `p`: false when another stood there (it is no longer found).
@@ -200,36 +323,15 @@ impl Sparse {
             self.at.resize(a as usize + 1, NONE);
         }
         self.at[a as usize] = t;
-        let b = self.base(t);
-        let free = self.data[b + o] == EMPTY;
-        self.data[b + o] = a;
-        if free {
-            self.data[b + COUNT] += 1;
-            self.len += 1;
-        }
-        free
+        self.put(t, o, a)
     }
 
     /// Empties `p` if agent `a` stands there (its tile freed at the next sweep if that
     /// was the last).
     pub(crate) fn remove(&mut self, p: [i32; 3], a: u32) {
         let (key, o) = self.split(p);
-        let Some(t) = self.tile(key, a) else {
-            return;
-        };
-        let b = self.base(t);
-        if self.data[b + o] != a {
-            return;
-        }
-        self.data[b + o] = EMPTY;
-        self.len -= 1;
-        self.data[b + COUNT] -= 1;
-        if self.data[b + COUNT] == 0 {
-            // (Swept here too when no sweep came for long: the list stays bounded.)
-            if self.emptied.len() > 2 * self.tiles.len() + 64 {
-                self.sweep();
-            }
-            self.emptied.push(t);
+        if let Some(t) = self.tile(key, a) {
+            self.take(t, o, a);
         }
     }
 
@@ -237,30 +339,30 @@ impl Sparse {
     /// its tile that moves within it leaves and enters it in the same step).
     pub(crate) fn sweep(&mut self) {
         for t in std::mem::take(&mut self.emptied) {
-            let (key, b) = (self.key_of(t), self.base(t));
+            let key = self.key_of(t);
             // (A tile emptied twice is listed twice: freed once.)
-            if self.data[b + COUNT] == 0 && self.tiles.get(&key) == Some(&t) {
+            if self.meta(t).0 == 0 && self.tiles.get(&key) == Some(&t) {
                 self.tiles.remove(&key);
-                self.data[b..b + COUNT].copy_from_slice(&FREED.0.map(|c| c as u32));
+                let b = Sparse::base(t);
+                self.head[b..b + 3].copy_from_slice(&FREED.0.map(|c| c as u32));
                 self.free.push(t);
             }
         }
     }
 
-    /// A tile for `key`, all empty: a freed one, or a new one.
+    /// A tile for `key`, with no agent: a freed one, or a new one.
     fn new_tile(&mut self, key: Key) -> u32 {
         let t = match self.free.pop() {
             Some(t) => t,
             None => {
-                let t = (self.data.len() / self.stride) as u32;
-                self.data.resize(self.data.len() + self.stride, EMPTY);
-                let b = self.base(t);
-                self.data[b + COUNT] = 0;
+                let t = (self.head.len() / HEAD) as u32;
+                self.head.resize(self.head.len() + HEAD, 0);
                 t
             }
         };
-        let b = self.base(t);
-        self.data[b..b + COUNT].copy_from_slice(&key.0.map(|c| c as u32));
+        let b = Sparse::base(t);
+        self.head[b..b + 3].copy_from_slice(&key.0.map(|c| c as u32));
+        self.set_meta(t, 0, 0);
         self.tiles.insert(key, t);
         t
     }
@@ -269,13 +371,10 @@ impl Sparse {
     pub(crate) fn agents(&self) -> impl Iterator<Item = ([i32; 3], u32)> + '_ {
         let s = self.shift;
         self.tiles.iter().flat_map(move |(key, &t)| {
-            let b = self.base(t);
-            let cells = &self.data[b + HEAD..b + self.stride];
-            cells
-                .iter()
-                .enumerate()
-                .filter(|c| *c.1 != EMPTY)
-                .map(move |(o, &a)| {
+            (0..1 << self.bits)
+                .map(move |o| (o, self.cell(t, o)))
+                .filter(|c| c.1 != EMPTY)
+                .map(move |(o, a)| {
                     let off = [
                         o >> (s[1] + s[2]),
                         o >> s[2] & ((1 << s[1]) - 1),
@@ -288,8 +387,9 @@ impl Sparse {
 
     /// Bytes held (the hash map of tiles counted at its capacity, with its control bytes).
     pub(crate) fn bytes(&self) -> usize {
-        (self.data.capacity() + self.free.capacity() + self.emptied.capacity()) * 4
-            + self.at.capacity() * 4
+        (self.head.capacity() + self.blocks.capacity()) * 4
+            + (self.free.capacity() + self.free_blocks.capacity()) * 4
+            + (self.emptied.capacity() + self.at.capacity()) * 4
             + self.tiles.capacity() * (std::mem::size_of::<(Key, u32)>() + 1)
     }
 }
@@ -349,6 +449,15 @@ mod tests {
                 }
                 assert_eq!(s.len(), m.len());
                 assert_eq!(s.get(p), m.get(&p).copied());
+                if i % 500 == 0 {
+                    // Each tile's count is its agents; a block for each tile of two or more.
+                    for &t in s.tiles.values() {
+                        let held = (0..1 << s.bits).filter(|&o| s.cell(t, o) != EMPTY).count();
+                        assert_eq!(s.meta(t).0 as usize, held);
+                    }
+                    let multi = s.tiles.values().filter(|&&t| s.meta(t).0 > 1).count();
+                    assert_eq!((multi + s.free_blocks.len()) << s.bits, s.blocks.len());
+                }
                 let mut out = [0; 6];
                 s.around(p, a, nd, &mut out);
                 for (d, got) in out.iter().enumerate().take(nd) {
@@ -369,7 +478,12 @@ mod tests {
                 s.remove(p, a);
             }
             s.sweep();
-            assert!(s.is_empty() && s.tiles.is_empty() && s.free.len() * s.stride == s.data.len());
+            assert!(s.is_empty() && s.tiles.is_empty() && s.free.len() * HEAD == s.head.len());
+            assert_eq!(s.free_blocks.len() << s.bits, s.blocks.len());
+            assert!(
+                s.blocks.iter().all(|&c| c == EMPTY),
+                "free blocks are empty"
+            );
         }
     }
 }
