@@ -2,10 +2,13 @@
 //! agents stand and freed when the last leaves, found through a hash map of tiles.
 //!
 //! A hash map of cells costs a look-up for every cell asked about; the tiles answer a
-//! cell and its neighbours inside the same tile with one ([`Sparse::around`]), and a
+//! cell and its neighbours inside the same tile with one ([`Sparse::around`]), an agent
+//! that moves finds its tile again without one (where it last entered a tile), and a
 //! tile's key hashes with two multiplications where a position hashed as twelve bytes
-//! took many more. Agents scattered over more cells than any grid's budget (1,000
-//! walkers spread over 10^6 x 37,000 cells) stand here.
+//! took many more. A tile with one agent holds it in the tile itself, with no cells: a
+//! cloud of agents each alone in its tile costs about what a hash map of cells did.
+//! Agents scattered over more cells than any grid's budget (1,000 walkers spread over
+//! 10^6 x 37,000 cells) and walkers gone far from the others stand here.
 
 use std::hash::{Hash, Hasher};
 
