@@ -1121,7 +1121,7 @@ impl CellIndex {
                     let i = side.slot(p).expect("inside the side box");
                     side.cells[i] = a;
                 }
-                self.map = Sparse::new(self.coords == 3);
+                self.map.clear();
                 self.side = Some(side);
                 self.refused = Backoff::default();
                 return;
