@@ -96,6 +96,14 @@ fn scattered_file(dir: &Path, beside_block: bool) -> PathBuf {
     })
 }
 
+/// The checksum of an `r` x `r` block of agents from the origin (the sum of
+/// `x * 100003 + y`).
+fn block_sum(r: u64) -> u64 {
+    (0..r)
+        .flat_map(|x| (0..r).map(move |y| x * 100003 + y))
+        .sum()
+}
+
 /// Where [`scattered_file`]'s walkers start.
 fn scattered_walkers(beside_block: bool) -> impl Iterator<Item = (u64, u64)> {
     (0..1000).map(move |i| match beside_block {
@@ -458,25 +466,26 @@ fn main() {
     } else {
         &[0, 10, 316, 3162]
     };
-    let walkers = |r: u64, walls: bool| {
-        let input = walkers_file(&dir, r, walls);
+    // The walkers' rules on `input` on one and two threads, the outputs' positions
+    // checked against `want` (their checksum and count, computed apart).
+    let run_walkers = |input: &Path, want: (u64, u64), name: &str| {
         let (o1, o2) = (dir.join("walk-1.txt"), dir.join("walk-2.txt"));
-        let files = (walkr.as_path(), input.as_path());
         let (one, two) = one_and_two(
-            (&exe, files),
+            (&exe, (walkr.as_path(), input)),
             ((o1.as_path(), o2.as_path()), &[]),
             reps,
             |r| r.steps_s,
         );
-        // Every walker 1,000 cells east, every resting agent in place: computed apart.
-        let rest: u64 = (0..r)
-            .flat_map(|x| (0..r).map(move |y| x * 100003 + y))
-            .sum();
+        walkers_ran((&o1, &o2), want, &one, name);
+        (one, two)
+    };
+    let walkers = |r: u64, walls: bool| {
+        let input = walkers_file(&dir, r, walls);
+        // Every walker 1,000 cells east, every resting agent in place.
         let walkers: u64 = (0..1000).map(|i| (2 * i + 1000) * 100003 + r + 1).sum();
-        walkers_ran(
-            (&o1, &o2),
-            (rest + walkers, r * r + 1000),
-            &one,
+        let (one, two) = run_walkers(
+            &input,
+            (block_sum(r) + walkers, r * r + 1000),
             &format!("walkers R = {r}, walls {walls}"),
         );
         eprintln!(
@@ -504,18 +513,7 @@ fn main() {
         .into_iter()
         .map(|beside_block| {
             let input = scattered_file(&dir, beside_block);
-            let (o1, o2) = (dir.join("walk-1.txt"), dir.join("walk-2.txt"));
-            let files = (walkr.as_path(), input.as_path());
-            let (one, two) = one_and_two(
-                (&exe, files),
-                ((o1.as_path(), o2.as_path()), &[]),
-                reps,
-                |r| r.steps_s,
-            );
             let r: u64 = if beside_block { 316 } else { 0 };
-            let rest: u64 = (0..r)
-                .flat_map(|x| (0..r).map(move |y| x * 100003 + y))
-                .sum();
             let walkers: u64 = scattered_walkers(beside_block)
                 .map(|(x, y)| (x + 1000) * 100003 + y)
                 .sum();
@@ -523,7 +521,7 @@ fn main() {
                 true => "1,000 walkers 10^6 cells from a block of 316^2 at rest",
                 false => "1,000 walkers scattered over 10^6 x 37,000 cells",
             };
-            walkers_ran((&o1, &o2), (rest + walkers, r * r + 1000), &one, name);
+            let (one, two) = run_walkers(&input, (block_sum(r) + walkers, r * r + 1000), name);
             eprintln!(
                 "{name}: stepping {:.3} s one thread, {:.3} s two",
                 one.steps_s, two.steps_s
