@@ -1,7 +1,7 @@
-//! The cell-to-agent index: a flat grid where the agents are dense, a hash map where they
-//! are sparse. The grid covers the agents' bounding box (with a margin), or a bounded
+//! The cell-to-agent index: a flat grid where the agents are dense, tiles of cells
+//! allocated where they stand where they are sparse (`sparse.rs`). The grid covers the agents' bounding box (with a margin), or a bounded
 //! universe when it is small enough, when that box has at most a few cells per agent;
-//! cells outside it fall back to a hash map, so agents may go anywhere. When many agents
+//! cells outside it fall back to the tiles, so agents may go anywhere. When many agents
 //! have left the grid, it is made again over where the agents are now, with room to grow
 //! ([`CellIndex::regrow`]), when that box is within the same budget. A sparse set in a
 //! huge universe costs memory in proportion to the agents.
@@ -18,8 +18,8 @@ pub const NO_SLOT: u32 = u32::MAX;
 /// The flag of a slot code for a cell on the grid's rim (some of its neighbours are
 /// outside the grid).
 pub const RIM: u32 = 1 << 31;
-/// Grid cells allowed per agent before the index is a hash map (a grid of eight cells per
-/// agent holds about what a hash map and a neighbour table hold, and answers faster); see
+/// Grid cells allowed per agent before the index is tiles (a grid of eight cells per
+/// agent holds about what a hash map of cells and a neighbour table held, and answers faster); see
 /// [`budget`].
 const CELLS_PER_AGENT: i64 = 8;
 /// Grid cells allowed whatever the agents' number (4 MiB of cells): a few agents spread
@@ -112,7 +112,7 @@ fn core_bounds(pos: &[[i32; 3]], q: usize) -> Option<([i32; 3], [i32; 3])> {
 pub struct CellIndex {
     grid: Option<Grid>,
     /// Beside a grid: a box of cells over the agents outside it (a line that walks away
-    /// while the grid over it and the others would be over budget), made from the hash map
+    /// while the grid over it and the others would be over budget), made from the tiles
     /// by [`CellIndex::gather_outside`]; agents outside both are in tiles of cells
     /// allocated where they stand.
     side: Option<Side>,
@@ -1076,12 +1076,12 @@ impl CellIndex {
         self.map.len() + self.side.as_ref().map_or(0, |s| s.count)
     }
 
-    /// Beside a grid, when the hash map holds 8 agents or more (and more than an eighth
+    /// Beside a grid, when the tiles hold 8 agents or more (and more than an eighth
     /// of those in the side box): the side box made again over every agent outside the
     /// grid, with room around them (a quarter of their extent per axis, halved until
     /// within a budget of cells per agent as the grid's, and at last none); none when even
     /// their box is over it. Costs what those agents are; a look-up in the side box costs
-    /// what one in the grid costs, about a tenth of the hash map's. First frees the tiles
+    /// what one in the grid costs, less than one in the tiles. First frees the tiles
     /// of cells left empty outside both ([`Sparse::sweep`]).
     pub fn gather_outside(&mut self) {
         self.map.sweep();
@@ -1537,7 +1537,7 @@ mod tests {
 
     /// A block beside a long line (a box over both over budget) gets a grid over the block
     /// and a side box over the line, and every agent is found; a cloud with no core within
-    /// budget is all in the hash map.
+    /// budget is all in tiles.
     #[test]
     fn a_block_beside_a_line_gets_a_grid_and_a_side_box() {
         let mut pos: Vec<[i32; 3]> = (0..20 * 20 * 20)
@@ -1584,7 +1584,7 @@ mod tests {
 
     /// Agents outside the grid are gathered into a side box when 8 or more are in the hash
     /// map (not before), and answer alike there: found, moved within it, out of it into the
-    /// hash map and back, counted as outside.
+    /// tiles and back, counted as outside.
     #[test]
     fn agents_outside_the_grid_are_gathered_beside_it() {
         let block: Vec<[i32; 3]> = (0..100).map(|i| [i % 10, i / 10, 0]).collect();
@@ -1595,7 +1595,7 @@ mod tests {
             idx.insert(line(i), 100 + i as u32);
         }
         idx.gather_outside();
-        assert!(idx.side.is_none(), "seven are left in the hash map");
+        assert!(idx.side.is_none(), "seven are left in the tiles");
         idx.insert(line(7), 107);
         idx.gather_outside();
         let side = idx.side.as_ref().expect("a side box");
@@ -1622,7 +1622,7 @@ mod tests {
         // The grid still answers for its own cells, and the side box is no part of it.
         assert_eq!(idx.get([3, 4, 0]), Some(43));
         assert!(idx.bytes() > idx.grid.as_ref().unwrap().cells.len() * 4);
-        // Made again with one in the hash map and far ones: over budget, the side box
+        // Made again with one in the tiles and far ones: over budget, the side box
         // and the tiles stay as they were, all found; the next try waits a call, the one
         // after two.
         for i in 0..8 {

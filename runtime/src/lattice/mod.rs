@@ -71,7 +71,7 @@ pub struct Lattice {
     /// Per agent, its cell's slot code in the grid ([`CellIndex::code`]): an agent away
     /// from the grid's rim finds its neighbours without reading its position.
     code: Vec<u32>,
-    /// What stands next to each agent when the cell index is a hash map: one column per
+    /// What stands next to each agent when the cell index has no grid: one column per
     /// direction ([`NO_AGENT`], [`BLOCKED`] or an id), valid while `nbr_valid`: made at
     /// the first step, and then changed only where agents move. A grid answers as fast
     /// without it.
@@ -81,7 +81,7 @@ pub struct Lattice {
     /// agents are ([`CellIndex::regrow`]).
     regrow_at: usize,
     /// The agents outside the grid summed over the steps with moves since the grid was
-    /// made (or last tried): a few agents that walk away cost a look-up in the hash map
+    /// made (or last tried): a few agents that walk away cost a look-up in the tiles
     /// each step, which adds up to the cost of a grid over them (see `after_moves`).
     off_work: u64,
     /// After grids over budget: the work before the next try is doubled this many times.
@@ -141,7 +141,7 @@ const BLOCKED: u32 = u32::MAX - 1;
 const SLOW_STEP: u64 = 4;
 
 /// A move refused at the grid's rim counts as this many agent-steps done the slow way
-/// (it goes the general way: a look-up and a write in the hash map or the side box, and
+/// (it goes the general way: a look-up and a write in the tiles or the side box, and
 /// the activity's look-ups around it by position).
 const SLOW_MOVES: u64 = 4;
 
@@ -408,8 +408,8 @@ impl Lattice {
         (self.len() / 64).max(64)
     }
 
-    /// The agents on cells the cell index's grid does not cover (they are found through a
-    /// hash map, the slow way).
+    /// The agents on cells the cell index's grid does not cover (they are found in the side
+    /// box or the tiles, the slow way).
     pub fn off_grid(&self) -> usize {
         if self.cells.is_grid() {
             self.cells.outside()
@@ -924,7 +924,7 @@ impl Lattice {
     }
 
     /// Rebuilds the neighbour table if a move or swap made it stale (only when the cell
-    /// index is a hash map; a grid answers directly).
+    /// index has no grid; a grid answers directly).
     pub fn refresh_neighbours(&mut self) {
         if self.nbr_valid || self.cells.is_grid() {
             return;
@@ -985,7 +985,7 @@ impl Lattice {
     }
 
     /// After moves: when many agents have left the grid, or a few have been outside it for
-    /// long enough that their look-ups in the hash map cost what a grid over all agents
+    /// long enough that their look-ups in the tiles cost what a grid over all agents
     /// costs to make (each agent outside counted once per step with moves, weighed as
     /// [`SLOW_STEP`] agents or cells of a new grid, as in [`Lattice::grow_toward`]), the
     /// cell index is made again over where they are (within its budget of cells; after a
@@ -1217,8 +1217,8 @@ impl Lattice {
     }
 
     /// After the parts of a [`Relocation`]: the movers that came from outside the grid
-    /// leave the hash map (`outside`: their old positions), then those that went outside
-    /// it enter it (`leaving`: their new positions).
+    /// leave the side box or the tiles (`outside`: their old positions), then those that
+    /// went outside it enter them (`leaving`: their new positions).
     pub(crate) fn relocated<'m>(
         &mut self,
         outside: impl Iterator<Item = &'m Placed>,
@@ -1737,7 +1737,7 @@ mod tests {
 
     /// A block that walks out of its grid is given a grid again where it is, a few times
     /// over a long walk (the room to grow amortises it); agents that jump far away stay in
-    /// the hash map (a box over both places is over budget), and every neighbour still
+    /// the tiles (a box over both places is over budget), and every neighbour still
     /// answers as the cells do.
     #[test]
     fn the_grid_follows_a_block_that_walks_away() {
@@ -1764,7 +1764,7 @@ mod tests {
         for a in 0..n {
             assert_eq!(lat.agent_at(lat.pos[a as usize]), Some(a));
         }
-        // Far away: the hash map, with its table of neighbours kept as agents move.
+        // Far away: tiles, with the table of neighbours kept as agents move.
         let moves: Vec<(u32, [i32; 3])> = (0..n)
             .map(|a| {
                 (
