@@ -948,11 +948,14 @@ impl Lattice {
     /// Moves agents to new positions all at once (the caller guarantees no two share a cell).
     pub fn relocate(&mut self, moves: &[(u32, [i32; 3])]) {
         let nd = self.dim.dirs();
-        if self.nbr_valid {
-            // What stood next to the cells left sees them empty (or a mover, below): the
-            // movers' own rows of the table, as they were, tell who without a look-up. (A
-            // neighbour that moved too gets a row of its own below.)
-            for &(a, _) in moves {
+        // Each mover leaves its cell and takes its target. (One mover may take the cell
+        // of another not yet moved: that one then finds its old cell not its own, and
+        // leaves it as it is.)
+        for &(a, p) in moves {
+            if self.nbr_valid {
+                // What stood next to the cell left sees it empty (or a mover, below): the
+                // mover's own row of the table, as it was, tells who without a look-up.
+                // (A neighbour that moved too gets a row of its own below.)
                 for d in 0..nd {
                     let b = self.nbr[d][a as usize];
                     if b != NO_AGENT && b != BLOCKED {
@@ -960,11 +963,6 @@ impl Lattice {
                     }
                 }
             }
-        }
-        // Each mover leaves its cell and takes its target. (One mover may take the cell
-        // of another not yet moved: that one then finds its old cell not its own, and
-        // leaves it as it is.)
-        for &(a, p) in moves {
             let old = std::mem::replace(&mut self.pos[a as usize], p);
             self.cells.shift(old, p, a);
             self.code[a as usize] = self.cells.code(p);
