@@ -1405,6 +1405,65 @@ fn the_cell_index_follows_the_agents() {
     }
 }
 
+/// `agents` laid out three times, about 10^6 cells apart along x and 7 x 10^5 along y
+/// (and 5 x 10^5 along z): a box over any grid's budget with no dense core, so that
+/// every agent stands in tiles of cells and keeps a table of neighbours. `None` for a
+/// file with a bounded universe (the copies would fall outside it).
+fn far_apart(agents: &str) -> Option<String> {
+    if agents.lines().any(|l| l.trim_start().starts_with('U')) {
+        return None;
+    }
+    let mut out = String::new();
+    for k in 0..3i64 {
+        for l in agents.lines().map(str::trim) {
+            if l.is_empty() || l.starts_with("//") {
+                continue;
+            }
+            let (coords, rest) = l.split_once(' ').unwrap_or((l, ""));
+            let shifted: Vec<String> = (coords.split(','))
+                .zip([1_000_003, -700_001, 500_009])
+                .map(|(c, d)| (c.parse::<i64>().expect("a coordinate") + k * d).to_string())
+                .collect();
+            out += &format!("{} {rest}\n", shifted.join(","));
+        }
+    }
+    Some(out)
+}
+
+/// The shaped cases of moves, of waking quiet agents (swaps, bonds, carried groups,
+/// walkers leaving in every direction) and of counters and messages, each laid out three
+/// times far apart ([`far_apart`]: no grid, every agent in tiles of cells), against the
+/// reference evaluator under both orders and `--static-first`.
+#[test]
+fn cases_far_apart_agree_with_reference() {
+    let cases = [move_cases(), skipping_cases(), counter_and_message_cases()].concat();
+    let mut ran = 0;
+    for (i, (rules, agents)) in cases.iter().enumerate() {
+        let Some(agents) = far_apart(agents) else {
+            continue;
+        };
+        ran += 1;
+        for order in [Order::ActionsFirst, Order::MessagesFirst] {
+            for static_first in [false, true] {
+                // (Unoptimised, one combination of the options: `.ci/run` runs this file
+                // optimised, with all of them.)
+                let first = (order, static_first) == (Order::ActionsFirst, false);
+                if cfg!(debug_assertions) && !first {
+                    continue;
+                }
+                if let Err(e) = differential(rules, &agents, order, static_first) {
+                    panic!("far case {i}, {order:?}, static-first {static_first}: {e}");
+                }
+            }
+        }
+    }
+    assert!(
+        ran * 2 > cases.len(),
+        "most cases run ({ran} of {})",
+        cases.len()
+    );
+}
+
 /// Moves made at once (every acting rule moves one step east, `plain_step`): a row that
 /// moves as a chain, listed west to east and east to west (made in place only when each
 /// target is empty when its mover comes to it; else undone and made the general way), a
