@@ -1020,18 +1020,22 @@ impl CellIndex {
         let all = bounds(pos);
         let grid = CellIndex::grid_for((all, pos.len()), shape, margin).or_else(|| {
             [100, 20].iter().find_map(|&q| {
-                let (mut lo, mut hi) = core_bounds(pos, q)?;
+                let mut core = core_bounds(pos, q)?;
                 let fits = |b| CellIndex::box_for((b, pos.len()), shape, margin).is_some();
-                fits((lo, hi)).then_some(())?;
+                fits(core).then_some(())?;
                 for k in 0..3 {
-                    if fits(([0, 1, 2].map(|j| if j == k { all.0[k] } else { lo[j] }), hi)) {
-                        lo[k] = all.0[k];
+                    let mut wide = core;
+                    wide.0[k] = all.0[k];
+                    if fits(wide) {
+                        core = wide;
                     }
-                    if fits((lo, [0, 1, 2].map(|j| if j == k { all.1[k] } else { hi[j] }))) {
-                        hi[k] = all.1[k];
+                    let mut wide = core;
+                    wide.1[k] = all.1[k];
+                    if fits(wide) {
+                        core = wide;
                     }
                 }
-                CellIndex::grid_for(((lo, hi), pos.len()), shape, margin)
+                CellIndex::grid_for((core, pos.len()), shape, margin)
             })
         });
         let (mut idx, one_each, code) = CellIndex::made(grid, pos, shape);

@@ -353,7 +353,9 @@ impl Sparse {
         }
     }
 
-    /// Takes out every agent (what it holds per agent kept, for those that come again).
+    /// Takes out every agent (what it holds per agent kept, for those that come again, and
+    /// its lists' room: made anew instead, walkers that a side box gathers now and then
+    /// took 1.07x the time).
     pub(crate) fn clear(&mut self) {
         self.tiles.clear();
         self.head.clear();

@@ -661,8 +661,7 @@ impl Lattice {
         let clear = self.universe.is_none() && p.iter().all(|&c| c > i32::MIN && c < i32::MAX);
         if !clear {
             for (d, o) in row.iter_mut().enumerate().take(nd) {
-                let off = Dir::ALL[d].offset();
-                if !self.inside([0, 1, 2].map(|k| p[k] as i64 + off[k] as i64)) {
+                if self.moved(p, Dir::ALL[d].offset()).is_none() {
                     *o = BLOCKED;
                 }
             }
