@@ -78,6 +78,41 @@ pub(crate) fn extend_kept<T: Copy>(
     m
 }
 
+/// Appends to `out` the numbers `first + i` of the bits `i` set in `mask`, in rising
+/// order: a write per number appended, none per bit clear (where [`extend_kept`] writes
+/// one per value).
+#[inline]
+pub(crate) fn extend_ones(out: &mut Vec<u32>, first: u32, mut mask: u64) {
+    let (start, n) = (out.len(), mask.count_ones() as usize);
+    out.reserve(n);
+    let room = &mut out.spare_capacity_mut()[..n];
+    for slot in room.iter_mut() {
+        slot.write(first + mask.trailing_zeros());
+        mask &= mask - 1;
+    }
+    // SAFETY: the first `n` slots of the spare room were written, within the capacity
+    // reserved.
+    unsafe { out.set_len(start + n) };
+}
+
+/// The bits of the values of `block` (at most 64) that differ from `v`: bit `i` for
+/// `block[i]`. (Built eight values at a time, which vectorises.)
+#[inline]
+pub(crate) fn mask_ne(block: &[u32], v: u32) -> u64 {
+    assert!(block.len() <= 64, "at most 64 values");
+    let mut mask = 0u64;
+    let mut eights = block.chunks_exact(8);
+    for (k, c) in eights.by_ref().enumerate() {
+        let byte = (0..8).fold(0u64, |b, j| b | ((c[j] != v) as u64) << j);
+        mask |= byte << (8 * k);
+    }
+    let done = block.len() / 8 * 8;
+    for (j, &x) in eights.remainder().iter().enumerate() {
+        mask |= ((x != v) as u64) << (done + j);
+    }
+    mask
+}
+
 /// How many of the first values of `s` equal `v` (compared in blocks, which vectorises).
 #[inline]
 pub(crate) fn run_of<T: Copy + PartialEq>(s: &[T], v: T) -> usize {
@@ -190,6 +225,43 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The mask of the values that differ from one, and the numbers of its bits appended,
+    /// against a filter, for blocks of every length up to 64 (whole eights and a rest) and
+    /// values of every kind.
+    #[test]
+    fn masks_and_their_numbers_agree_with_a_filter() {
+        let mut seed = 7u64;
+        let mut next = move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            seed >> 33
+        };
+        for len in 0..=64usize {
+            for odds in [0, 1, 2, 4] {
+                let block: Vec<u32> = (0..len)
+                    .map(|_| match odds > 0 && next() % odds == 0 {
+                        true => next() as u32 % 3,
+                        false => u32::MAX,
+                    })
+                    .collect();
+                let mask = mask_ne(&block, u32::MAX);
+                let want: Vec<u32> = (0..len as u32)
+                    .filter(|&i| block[i as usize] != u32::MAX)
+                    .map(|i| 1000 + i)
+                    .collect();
+                assert_eq!(mask.count_ones() as usize, want.len(), "{block:?}");
+                let mut out = vec![5];
+                extend_ones(&mut out, 1000, mask);
+                assert_eq!(out[1..], want[..], "{block:?}");
+                assert_eq!(out[0], 5);
+            }
+        }
+        let mut out = Vec::new();
+        extend_ones(&mut out, u32::MAX - 64, u64::MAX);
+        assert_eq!(out, (u32::MAX - 64..u32::MAX).collect::<Vec<u32>>());
     }
 
     /// Setting and clearing ranges of bits against single bits, on every range across

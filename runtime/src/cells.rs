@@ -295,17 +295,21 @@ impl Grid {
         self.occ[i / 64] >> (i % 64) & 1 != 0
     }
 
-    /// For interior slots `codes` (each a [`CellIndex::code`] below [`RIM`]), clears
-    /// `out[j]` unless the cell `step` away from `codes[j]` (a step between neighbours,
-    /// [`Grid::step`]) is filled (`want`) or empty: the same as [`Grid::filled`] cell by
-    /// cell, four cells at a time where the processor gathers words (AVX2).
+    /// For slots `codes` that are all interior (each a [`CellIndex::code`] below [`RIM`]),
+    /// clears `out[j]` unless the cell `step` away from `codes[j]` (a step between
+    /// neighbours, [`Grid::step`]) is filled (`want`) or empty, and returns true: the same
+    /// as [`Grid::filled`] cell by cell, four cells at a time where the processor gathers
+    /// words (AVX2). Returns false, having done nothing, when some slot is on the rim (its
+    /// neighbour may lie off the grid): the test of the rim comes with the first pass over
+    /// the codes (a pass of its own before it took a quarter of B2's tests of the cell
+    /// below).
     pub(crate) fn keep_next_filled(
         &self,
         codes: &[u32],
         step: isize,
         want: bool,
         out: &mut [bool],
-    ) {
+    ) -> bool {
         assert_eq!(codes.len(), out.len(), "an entry per slot");
         #[cfg(target_arch = "x86_64")]
         // SAFETY: AVX2 is there (checked).
@@ -314,11 +318,15 @@ impl Grid {
                 keep_next_filled_avx2((&self.occ, self.cells.len()), codes, step, want, out)
             }
         {
-            return;
+            return true;
+        }
+        if !codes.iter().fold(true, |ok, &s| ok & (s < RIM)) {
+            return false;
         }
         for (t, &s) in out.iter_mut().zip(codes) {
             *t &= self.filled(Grid::along(s, step)) == want;
         }
+        true
     }
 
     /// Asks for the occupancy bit of cell `i` ahead of [`Grid::filled`] (any `i`).
@@ -371,10 +379,10 @@ impl Grid {
 /// bits made into four bytes of 0 or 1 and and-ed into `out` together (B2's test of the
 /// cell below took 16 % of its time cell by cell).
 ///
-/// Returns false, having done nothing, when some cell `step` away from a slot of `codes`
-/// lies outside the grid of `len` cells whose bits `occ` holds (in this function, the
-/// check takes an instruction per eight slots, where the baseline's took several per
-/// four).
+/// Returns false, having done nothing, when some slot of `codes` is on the rim, or some
+/// cell `step` away from one lies outside the grid of `len` cells whose bits `occ` holds
+/// (in this function, the check takes an instruction per eight slots, where the
+/// baseline's took several per four).
 ///
 /// # Safety
 /// The processor has AVX2; `codes` and `out` have one length.
@@ -1497,7 +1505,8 @@ mod tests {
 
     /// The cells next to slots, tested several at a time (`Grid::keep_next_filled`, four
     /// at a time with AVX2), answer as `Grid::filled` does cell by cell: in 2D and 3D, in
-    /// every direction, for both answers wanted, any number of slots (and a remainder).
+    /// every direction, for both answers wanted, any number of slots (and a remainder); with
+    /// a slot on the rim among them, they do nothing and say so.
     #[test]
     fn cells_next_to_slots_tested_together_answer_as_one_by_one() {
         let mut x = 0x9e37_79b9_7f4a_7c15u64;
@@ -1520,6 +1529,10 @@ mod tests {
                 .map(|i| g.cells_mut().code_of(i))
                 .filter(|&c| c < RIM)
                 .collect();
+            let rim: Vec<u32> = (0..volume)
+                .map(|i| g.cells_mut().code_of(i))
+                .filter(|&c| c >= RIM)
+                .collect();
             for d in 0..if size[2] > 1 { 6 } else { 4 } {
                 let step = g.step(d);
                 for len in 0..=37 {
@@ -1528,11 +1541,19 @@ mod tests {
                     for want in [false, true] {
                         let before: Vec<bool> = (0..len).map(|_| next() % 4 != 0).collect();
                         let mut got = before.clone();
-                        g.keep_next_filled(&codes, step, want, &mut got);
+                        assert!(g.keep_next_filled(&codes, step, want, &mut got));
                         let one_by_one: Vec<bool> = (before.iter().zip(&codes))
                             .map(|(&t, &s)| t && g.filled(Grid::along(s, step)) == want)
                             .collect();
                         assert_eq!(got, one_by_one, "{size:?}, direction {d}, want {want}");
+                        // One slot on the rim among them, anywhere: nothing is done.
+                        if len > 0 {
+                            let mut rimmed = codes.clone();
+                            rimmed[next() as usize % len] = rim[next() as usize % rim.len()];
+                            let mut untouched = before.clone();
+                            assert!(!g.keep_next_filled(&rimmed, step, want, &mut untouched));
+                            assert_eq!(untouched, before, "{size:?}, direction {d}");
+                        }
                     }
                 }
             }

@@ -10,7 +10,8 @@
 #![allow(clippy::needless_range_loop)]
 
 use crate::bits::{
-    all_bits, bit, clear_bits, extend_kept, is_sequence, no_bits, ones, run_of, set_bits,
+    all_bits, bit, clear_bits, extend_kept, extend_ones, is_sequence, mask_ne, no_bits, ones,
+    run_of, set_bits,
 };
 use crate::cells::{NO_SLOT, RIM};
 use crate::lattice::Lattice;

@@ -775,16 +775,16 @@ impl Lattice {
             Some(g) if !self.nbr_valid => {
                 let step = g.step(d);
                 // Away from the grid's rim (the common case): one bit read per agent.
-                if codes.iter().fold(true, |ok, &s| ok & (s < RIM)) {
-                    if crate::cells::scattered(codes.iter().copied()) {
-                        for (j, (t, &s)) in out.iter_mut().zip(codes).enumerate() {
-                            if let Some(&ahead) = codes.get(j + AHEAD) {
-                                g.prefetch_filled(Grid::along(ahead, step));
-                            }
-                            *t &= g.filled(Grid::along(s, step)) == want;
+                if !crate::cells::scattered(codes.iter().copied()) {
+                    if g.keep_next_filled(codes, step, want, out) {
+                        return;
+                    }
+                } else if codes.iter().fold(true, |ok, &s| ok & (s < RIM)) {
+                    for (j, (t, &s)) in out.iter_mut().zip(codes).enumerate() {
+                        if let Some(&ahead) = codes.get(j + AHEAD) {
+                            g.prefetch_filled(Grid::along(ahead, step));
                         }
-                    } else {
-                        g.keep_next_filled(codes, step, want, out);
+                        *t &= g.filled(Grid::along(s, step)) == want;
                     }
                     return;
                 }
@@ -1092,14 +1092,15 @@ impl Lattice {
     }
 
     /// The moves of agents by one offset `off`, one step of direction index `d`, between
-    /// cells of the grid (`None` without a grid), made in parts from any thread.
-    pub(crate) fn shift(&mut self, (off, d): ([i32; 3], usize)) -> Option<Shift<'_>> {
+    /// cells of the grid (`None` without a grid), made in parts from any thread. Without
+    /// `bonds` (the caller knows that no agent holds one), the parts do not look.
+    pub(crate) fn shift(&mut self, (off, d): ([i32; 3], usize), bonds: bool) -> Option<Shift<'_>> {
         let n = self.pos.len();
-        let (pos, code, attach) = (
-            self.pos.as_mut_ptr(),
-            self.code.as_mut_ptr(),
-            self.attach.as_ptr(),
-        );
+        let (pos, code) = (self.pos.as_mut_ptr(), self.code.as_mut_ptr());
+        let attach = match bonds {
+            true => self.attach.as_ptr(),
+            false => std::ptr::null(),
+        };
         let g = self.cells.grid_mut()?;
         g.ready_rim();
         let step = g.step(d);
@@ -1331,6 +1332,7 @@ pub(crate) struct Shift<'a> {
     pub(crate) ahead: bool,
     pos: *mut [i32; 3],
     code: *mut u32,
+    /// The agents' bonds; null when no agent holds one.
     attach: *const u8,
     n: usize,
     off: [i32; 3],
@@ -1430,7 +1432,7 @@ impl Shift<'_> {
                 }
                 let code = &mut *codes.add(a);
                 let c = *code;
-                if *attach.add(a) != 0 {
+                if !attach.is_null() && *attach.add(a) != 0 {
                     return ((k, None), cells);
                 }
                 if c >= RIM {

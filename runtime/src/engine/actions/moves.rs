@@ -62,8 +62,7 @@ impl FusedPart {
                 self.movers.extend(first..first + block.len() as u32);
                 continue;
             }
-            let kept = (block.iter().enumerate()).map(|(i, &v)| (first + i as u32, v != NO_RULE));
-            extend_kept(&mut self.movers, kept);
+            extend_ones(&mut self.movers, first, mask_ne(block, NO_RULE));
         }
     }
 }
@@ -280,7 +279,10 @@ impl Act<'_> {
                 None
             }
         };
-        let mut shift = self.lat.shift((off, d)).expect("a grid");
+        let lat = &*self.lat;
+        let bondless = self.plan.acting == Acting::PlainMoves
+            && *(self.bufs.bondless).get_or_insert_with(|| lat.attach.iter().all(|&b| b == 0));
+        let mut shift = self.lat.shift((off, d), !bondless).expect("a grid");
         let split = shift.buckets(chunks);
         // Scattered movers are asked for ahead (judged on the first chunk's agents).
         // SAFETY: only codes are read, and no thread moves yet.
