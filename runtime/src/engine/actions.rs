@@ -189,11 +189,13 @@ pub(super) struct ActionBufs {
     /// Steps for which the parts of plain moves on the pool note their bits rather than
     /// own words (more than an eighth of the movers crossed between parts lately).
     owned_pause: u32,
-    /// When every rule with an action only moves (`Acting::PlainMoves`): whether no agent
-    /// holds a bond, found at the first step of plain moves on the pool. No step makes one
-    /// then (nor does going back to an earlier step of the run), so the moves need not
-    /// look for bonded movers (B2 on two threads: 2 % of its time).
-    bondless: Option<bool>,
+    /// Every rule with an action only moves (`Acting::PlainMoves`), and no agent held a
+    /// bond when the engine was made ([`ActionBufs::new`]): no step makes one (a bond
+    /// forms only where an `A` action asks, or again where one was), nor does going back
+    /// to an earlier step of the run, so the moves need not look for bonded movers (B2 on
+    /// two threads: 2 % of its time). (Bonds may go during such a run, so this is found
+    /// before its first step, not at a later one.)
+    pub(super) bondless: bool,
     /// The chunks' parts of [`Act::collect`] (for their allocations).
     collect: Vec<CollectPart>,
     /// The chunks' parts of [`Act::move_alone`] (for their allocations).
@@ -202,6 +204,16 @@ pub(super) struct ActionBufs {
     intents: Vec<Intent>,
     partners: Vec<moves::Partners>,
     spares: moves::Spares,
+}
+
+impl ActionBufs {
+    /// The buffers of an engine whose rules act as `acting` says, on `lat` as it is made.
+    pub(super) fn new(acting: Acting, lat: &Lattice) -> ActionBufs {
+        ActionBufs {
+            bondless: acting == Acting::PlainMoves && lat.attach.iter().all(|&b| b == 0),
+            ..ActionBufs::default()
+        }
+    }
 }
 
 /// The actions phase (paper step 2) with the parts of the engine it borrows: it reads the

@@ -285,7 +285,7 @@ impl Engine {
             },
             dispatch: Dispatch::new(&prog, n),
             selection: Selector::new(prog.rules.len(), n),
-            actions: ActionBufs::default(),
+            actions: ActionBufs::new(plan.acting, &lat),
             post: Post::new(&prog, &lat, plan.defer, uses.texts),
             threads: Threads::new(opts.threads, n),
             activity: Activity::new(opts.skip, n),

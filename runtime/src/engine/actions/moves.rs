@@ -279,10 +279,9 @@ impl Act<'_> {
                 None
             }
         };
-        let lat = &*self.lat;
-        let bondless = self.plan.acting == Acting::PlainMoves
-            && *(self.bufs.bondless).get_or_insert_with(|| lat.attach.iter().all(|&b| b == 0));
-        let mut shift = self.lat.shift((off, d), !bondless).expect("a grid");
+        let mut shift = (self.lat)
+            .shift((off, d), !self.bufs.bondless)
+            .expect("a grid");
         let split = shift.buckets(chunks);
         // Scattered movers are asked for ahead (judged on the first chunk's agents).
         // SAFETY: only codes are read, and no thread moves yet.
