@@ -1185,7 +1185,7 @@ impl Lattice {
                 deferred.push(a as u32);
                 continue;
             }
-            code[a] = cells.code_of(to);
+            code[a] = held.code_of(to);
             let p = pos[a];
             pos[a] = [p[0] + off[0], p[1] + off[1], p[2] + off[2]];
         }
