@@ -76,7 +76,7 @@ impl Post {
             }
             let mut issues: Vec<(u32, u32, CalcIssue)> = Vec::new();
             let mut events = Vec::new();
-            let mut bufs = CalcBufs::new();
+            let mut bufs = Kept::<CalcBufs>::take();
             // The runs of agents to visit: from the selection's list when it has one (the
             // others execute nothing), else found in the entries.
             let mine = sel.listed.then(|| {

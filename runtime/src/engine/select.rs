@@ -396,7 +396,7 @@ impl Selector {
             let mut buf: Vec<u32> = Vec::new();
             let mut evaluated = false;
             let mut truth = [false; BATCH];
-            let mut bufs = PreBufs::new();
+            let mut bufs = Kept::<PreBufs>::take();
             let mut win = Window::default();
             let hi = lo + one.len();
             // The chunk's firings, counted part by part, and its agents that execute a
@@ -814,7 +814,7 @@ impl Selector {
             let mut chosen: Vec<u32> = Vec::new();
             let mut buf: Vec<u32> = Vec::new();
             let mut truth = [false; BATCH];
-            let mut bufs = PreBufs::new();
+            let mut bufs = Kept::<PreBufs>::take();
             let mut k = 0;
             // SAFETY (every `set` below): the agents of `list` are distinct, and each
             // chunk writes only its own agents' entries.
