@@ -1038,7 +1038,7 @@ impl Lattice {
     /// Before `movers` agents move by `off` from the grid's rim: the grid made again with
     /// room on the sides `off` points to, when that pays and gives a grid other than this
     /// one (a universe's walls may keep it as it is). Says whether it did. It pays at once
-    /// when the movers' steps through the room (about a quarter of the grid's extent along
+    /// when the movers' steps through the room (about half the grid's extent along
     /// `off`), each weighed as [`SLOW_STEP`] agents or cells, reach what the new grid and
     /// its agents cost to make ([`Lattice::room_pays`]), unless a try since the grid was
     /// made gave none; so many movers get room at once, and 1,000 walkers beside 10^5
@@ -1073,14 +1073,14 @@ impl Lattice {
     /// Whether `movers` agents moving by `off` across the room a new grid would give them
     /// pay for that grid at once: their steps through it, weighed as [`SLOW_STEP`] each,
     /// against the agents and the cells of the grid `(lo, size)` grown by the room. The
-    /// room is taken as a quarter of the grid's extent along each axis `off` moves on
-    /// ([`CellIndex::regrow`] gives a quarter of the agents' extent, which the grid's
+    /// room is taken as half the grid's extent along each axis `off` moves on
+    /// ([`CellIndex::regrow`] gives half the agents' extent, which the grid's
     /// exceeds by its margins; less where that is over its budget).
     fn room_pays(&self, (_, size): ([i32; 3], [i64; 3]), off: [i32; 3], movers: usize) -> bool {
         let volume = size.iter().product::<i64>() as u64;
         let (mut room, mut grown) = (u64::MAX, volume);
         for k in (0..3).filter(|&k| off[k] != 0) {
-            let r = (size[k] / 4).max(1) as u64;
+            let r = (size[k] / crate::cells::ROOM_SHARE).max(1) as u64;
             room = room.min(r / off[k].unsigned_abs().max(1) as u64);
             grown = grown.saturating_add(volume / size[k].max(1) as u64 * r);
         }
@@ -1652,8 +1652,8 @@ mod tests {
         let mut lat = LatticeBuilder::block(100, 100).finish();
         let old = lat.cells.grid_box().expect("a grid");
         let east = [1, 0, 0];
-        // 10,000 agents and about 10,800 cells, grown by a quarter: 10 movers through a
-        // room of 26 cells weigh 1,040, 1,000 movers 104,000.
+        // 10,000 agents and about 10,800 cells, grown by a half: 10 movers through a room
+        // of 52 cells weigh 2,080, 1,000 movers 208,000.
         assert!(!lat.room_pays(old, east, 10));
         assert!(lat.room_pays(old, east, 1000));
         assert!(!lat.grow_toward(east, 10), "a few movers wait");
