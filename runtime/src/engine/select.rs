@@ -837,26 +837,36 @@ impl Selector {
                 if let [r] = lists[idx][..] {
                     if let Some(pre) = &pre_columns[r as usize] {
                         let next = &ids[k..(k + BATCH).min(ids.len())];
-                        // (With the lists of one rule that tests the same.)
+                        // Consecutive ids of one list (a row of walkers): one entry for all,
+                        // found without reading each agent's list (the list is in id order
+                        // without repeats). Else, with the lists of one rule that tests the
+                        // same, agent by agent.
+                        let last = next.len() - 1;
+                        let list = of[a].0;
+                        let same = next[last] as usize - a == last
+                            && of[a..=a + last].iter().fold(true, |s, l| s & (l.0 == list));
                         let class = one_rule[idx].0;
-                        let m = (next.iter())
-                            .take_while(|&&b| one_rule[of[b as usize].index()].0 == class)
-                            .count();
-                        // (The list is in id order without repeats: agents of consecutive
-                        // ids, a row of walkers, are read as a run, without gathering.)
+                        let m = match same {
+                            true => next.len(),
+                            false => (next.iter())
+                                .take_while(|&&b| one_rule[of[b as usize].index()].0 == class)
+                                .count(),
+                        };
+                        // (Agents of consecutive ids are read as a run, without gathering.)
                         let rows = if next[m - 1] as usize - a == m - 1 {
                             Rows::Run(a)
                         } else {
                             Rows::Ids(&next[..m])
                         };
                         batch_pre(prog, (pre, rows), lat, &mut bufs, &mut truth[..m]);
+                        let entry = one_rule[idx].1;
                         let valid = next[..m].iter().zip(&truth[..m]).map(|(&b, &t)| {
                             // (Without a branch on the agent's list: states mixed one by one
                             // would mislead its prediction.)
-                            let e = if t {
-                                one_rule[of[b as usize].index()].1
-                            } else {
-                                NO_RULE
+                            let e = match (t, same) {
+                                (false, _) => NO_RULE,
+                                (true, true) => entry,
+                                (true, false) => one_rule[of[b as usize].index()].1,
                             };
                             unsafe { one.set(b as usize, e) };
                             (b, t)
