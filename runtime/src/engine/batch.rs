@@ -9,9 +9,9 @@ use super::*;
 /// Stack depth of [`batch_pre`].
 pub(super) const PRE_STACK: usize = 6;
 
-/// The working space of [`batch_pre`], made once for a chunk of agents rather than at
-/// each call (a call may evaluate a run of a few agents): its stack of truth values and
-/// its two operands.
+/// The working space of [`batch_pre`], taken once for a chunk of agents rather than at
+/// each call (a call may evaluate a run of a few agents), and kept by its thread between
+/// steps ([`Kept`]): its stack of truth values and its two operands.
 pub(super) struct PreBufs {
     pub(super) stack: [[bool; BATCH]; PRE_STACK],
     pub(super) x: [i32; BATCH],
@@ -685,10 +685,12 @@ impl Lane for i32 {
     }
 }
 
-/// The working space of [`run_batch`], made once for a chunk of agents rather than at each
-/// call (a call may run a few agents): the two operands, whether each agent's result
-/// stands (all true between instructions), and the messages read with the post office's
-/// hints (see [`Lattice::inbox_run`]).
+/// The working space of [`run_batch`], taken once for a chunk of agents rather than at
+/// each call (a call may run a few agents), and kept by its thread between steps
+/// ([`Kept`]): the two operands, whether each agent's result stands (all true between
+/// instructions), and the messages read with the post office's hints (see
+/// [`Lattice::inbox_run`]; a hint is checked before it is used, so one kept from another
+/// step only costs a search).
 pub(super) struct CalcBufs {
     pub(super) x: [i32; BATCH],
     pub(super) y: [i32; BATCH],

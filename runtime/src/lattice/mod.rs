@@ -779,7 +779,7 @@ impl Lattice {
                     if g.keep_next_filled(codes, step, want, out) {
                         return;
                     }
-                } else if codes.iter().fold(true, |ok, &s| ok & (s < RIM)) {
+                } else if crate::cells::all_interior(codes) {
                     for (j, (t, &s)) in out.iter_mut().zip(codes).enumerate() {
                         if let Some(&ahead) = codes.get(j + AHEAD) {
                             g.prefetch_filled(Grid::along(ahead, step));
