@@ -15,6 +15,16 @@ fn edges(range: std::ops::Range<usize>) -> Option<(usize, usize, u64, u64)> {
     Some((first, last, head, tail))
 }
 
+/// The words a range of bits touches, each with the mask of the range in it.
+#[inline]
+pub(crate) fn range_words(range: std::ops::Range<usize>) -> impl Iterator<Item = (usize, u64)> {
+    let (first, last, head, tail) = edges(range).unwrap_or((1, 0, 0, 0));
+    (first..=last).map(move |w| {
+        let head = if w == first { head } else { u64::MAX };
+        (w, head & if w == last { tail } else { u64::MAX })
+    })
+}
+
 /// Sets every bit of `range` as in `word` (all zeros or all ones).
 #[inline]
 fn put_bits(bits: &mut [u64], range: std::ops::Range<usize>, word: u64) {
@@ -313,6 +323,24 @@ mod tests {
                     !(start..end).any(bit),
                     "{start}..{end}"
                 );
+            }
+        }
+    }
+
+    /// The words of a range and their masks hold exactly the range's bits, on every
+    /// range across four words.
+    #[test]
+    fn range_words_cover_the_range() {
+        for start in 0..256 {
+            for end in start..=256 {
+                let mut bits = vec![0u64; 4];
+                for (w, mask) in range_words(start..end) {
+                    assert_eq!(bits[w] & mask, 0, "{start}..{end}: word {w} twice");
+                    bits[w] |= mask;
+                }
+                let mut want = vec![0u64; 4];
+                set_bits(&mut want, start..end);
+                assert_eq!(bits, want, "{start}..{end}");
             }
         }
     }

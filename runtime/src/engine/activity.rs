@@ -21,7 +21,8 @@
 //! without skipping: its dense paths are faster than a list that long.
 
 use super::*;
-use crate::cells::EMPTY;
+use crate::cells::{Grid, EMPTY};
+use crate::lattice::drop_agents;
 
 /// Whether quiet agents are skipped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -120,6 +121,23 @@ impl WakeSet {
         self.add_word(w, bits);
     }
 
+    /// Adds agents `ids` (a slice): [`WakeSet::add_all`], but a block of 64 that are
+    /// consecutive ids (a row of walkers, in id order) is added as a range, a word or two
+    /// at a time, without a look at each id after the test (which vectorises).
+    pub(super) fn add_ids(&mut self, ids: &[u32]) {
+        for block in ids.chunks(64) {
+            let first = block[0];
+            if is_sequence(block, first) {
+                let lo = first as usize;
+                for (w, bits) in range_words(lo..lo + block.len()) {
+                    self.add_word(w, bits);
+                }
+            } else {
+                self.add_all(block.iter().copied());
+            }
+        }
+    }
+
     /// Adds the agents of word `w` whose bits `bits` has (none when `w` is `usize::MAX`).
     #[inline]
     fn add_word(&mut self, w: usize, bits: u64) {
@@ -182,6 +200,15 @@ impl WakeSet {
                 tb &= tb - 1;
                 let mut bits = std::mem::take(&mut self.words[w]);
                 out.resize(k + bits.count_ones() as usize, 0);
+                if bits == u64::MAX {
+                    // A full word (a row of agents): written as a sequence.
+                    let base = (w * 64) as u32;
+                    for (j, o) in out[k..k + 64].iter_mut().enumerate() {
+                        *o = base + j as u32;
+                    }
+                    k += 64;
+                    continue;
+                }
                 while bits != 0 {
                     out[k] = (w * 64) as u32 + bits.trailing_zeros();
                     k += 1;
@@ -209,9 +236,14 @@ pub(super) struct Changes {
     pub(super) grid: Option<([i32; 3], [i64; 3])>,
     pub(super) moved: Vec<Moved>,
     pub(super) moved_parts: Vec<Vec<Moved>>,
-    /// Every agent in `moved` and `moved_parts` moved by this offset (a step of plain
-    /// moves), when known.
+    /// Every agent in `moved`, `moved_parts` and `shifted` moved by this offset (a step
+    /// of plain moves), when known.
     pub(super) one_offset: Option<[i32; 3]>,
+    /// Agents that moved by `one_offset` from cells of the grid away from its rim, by id
+    /// alone: the cell each left is its cell less the offset (on the grid of `grid`, its
+    /// slot code less the offset's step). A row of walkers noted its movers' positions
+    /// and codes before they moved: a tenth of its step.
+    pub(super) shifted: Vec<u32>,
     pub(super) states: Vec<u32>,
     pub(super) bonds: Vec<u32>,
 }
@@ -231,6 +263,20 @@ impl Changes {
         if self.on {
             let pos = &lat.pos;
             (self.moved).extend(agents.map(|a| (a, pos[a as usize], lat.code_of(a))));
+        }
+    }
+
+    /// Notes that `movers` less `stayed` (both in agent order) moved by `one_offset` from
+    /// cells of the grid away from its rim (see `shifted`).
+    pub(super) fn shifted(&mut self, movers: &[u32], stayed: &[u32]) {
+        if self.on {
+            let first = self.shifted.len();
+            self.shifted.extend_from_slice(movers);
+            if !stayed.is_empty() {
+                let mut moved = self.shifted.split_off(first);
+                drop_agents(&mut moved, stayed, |&a| a);
+                self.shifted.append(&mut moved);
+            }
         }
     }
 
@@ -254,6 +300,7 @@ impl Changes {
         self.one_offset = None;
         self.moved.clear();
         self.moved_parts.iter_mut().for_each(Vec::clear);
+        self.shifted.clear();
         self.states.clear();
         self.bonds.clear();
     }
@@ -407,34 +454,23 @@ impl Activity {
             moved.extend(changes.moved_parts.iter().map(|l| &l[..]));
             // A grid made again during the moves lays its cells out anew.
             let same_grid = changes.grid == lat.cells.grid_box();
-            // Every mover moved by one offset, on the grid the codes are for: the short
-            // way, when the readers are all one step away.
-            let one_offset = changes.one_offset.filter(|_| same_grid);
+            let how = Shifted {
+                off: changes.one_offset.unwrap_or_default(),
+                same_grid,
+                step: (changes.one_offset)
+                    .filter(|_| same_grid)
+                    .and_then(|off| Some(lat.cells.grid()?.step(dir_of(off)?))),
+            };
+            let occupancy = &back.occupancy[..];
             self.wake_each(th, &moved, |run, next| {
-                // The grid cells of readers, looked at together after the loop: their
-                // loads overlap, where one at a time each waited on the last (the movers'
-                // cells lie apart).
-                let mut cells = Vec::new();
-                next.add_all(run.iter().flat_map(|l| l.iter().map(|m| m.0)));
-                // (Every offset read for a state or counter is read for occupancy too.)
-                if let Some(off) = one_offset {
-                    if readers_of_shift(next, lat, (run, off), &back.occupancy, &mut cells) {
-                        wake_cells(next, lat, &cells);
-                        return;
-                    }
-                }
-                for &(a, from, code) in run.iter().flat_map(|l| l.iter()) {
-                    let code = if same_grid {
-                        code
-                    } else {
-                        lat.cells.code(from)
-                    };
-                    let to = (lat.pos[a as usize], lat.code_of(a));
-                    // (Every offset read for a state or counter is read for occupancy too.)
-                    readers_of_move(next, lat, ((from, code), to), &back.occupancy, &mut cells);
-                }
-                wake_cells(next, lat, &cells);
+                wake_movers(next, lat, (run, how), occupancy)
             });
+            if !changes.shifted.is_empty() {
+                let shifted = &changes.shifted[..];
+                self.wake_each(th, &[shifted], |run, next| {
+                    wake_movers(next, lat, (run, how), occupancy)
+                });
+            }
             // (An agent whose state changed executed a rule: it is woken as such.)
             for &a in &changes.states {
                 let at = (lat.pos[a as usize], lat.code_of(a));
@@ -493,7 +529,7 @@ impl Activity {
             self.wake_each(th, &[&sel.list[..]], |run, next| {
                 let agents = run.iter().flat_map(|l| l.iter().copied());
                 match offs.is_empty() {
-                    true => next.add_all(agents),
+                    true => run.iter().for_each(|l| next.add_ids(l)),
                     false => agents.for_each(|a| each(a, next)),
                 }
             });
@@ -581,6 +617,96 @@ impl Activity {
     }
 }
 
+/// The direction index of a one-step offset.
+fn dir_of(off: [i32; 3]) -> Option<usize> {
+    Dir::ALL.iter().position(|d| d.offset() == off)
+}
+
+/// How the movers of a step moved, for [`Mover::left`]: the offset every one moved by when
+/// one did (`Changes::one_offset`; else unused), whether the grid is the one the moves
+/// began on (the slot codes noted are those of now), and then the offset's step on it.
+#[derive(Clone, Copy)]
+struct Shifted {
+    off: [i32; 3],
+    same_grid: bool,
+    step: Option<isize>,
+}
+
+/// A mover as the activity notes it: a [`Moved`], or the id of an agent of
+/// `Changes::shifted`.
+trait Mover: Copy + Sync {
+    fn id(self) -> u32;
+    /// The cell it left, its position and slot code (that of the grid now).
+    fn left(self, lat: &Lattice, how: Shifted) -> ([i32; 3], u32);
+    /// Adds the agents of `movers` to `next`.
+    fn add(next: &mut WakeSet, movers: &[Self]);
+}
+
+impl Mover for Moved {
+    fn id(self) -> u32 {
+        self.0
+    }
+
+    fn left(self, lat: &Lattice, how: Shifted) -> ([i32; 3], u32) {
+        let (_, from, code) = self;
+        match how.same_grid {
+            true => (from, code),
+            false => (from, lat.cells.code(from)),
+        }
+    }
+
+    fn add(next: &mut WakeSet, movers: &[Moved]) {
+        next.add_all(movers.iter().map(|m| m.0));
+    }
+}
+
+impl Mover for u32 {
+    fn id(self) -> u32 {
+        self
+    }
+
+    fn left(self, lat: &Lattice, how: Shifted) -> ([i32; 3], u32) {
+        let p = lat.pos[self as usize];
+        let from = [0, 1, 2].map(|k| p[k] - how.off[k]);
+        match how.step {
+            // (It left a cell away from the rim: its code is its slot.)
+            Some(step) => (from, Grid::along(lat.code_of(self) & !RIM, -step) as u32),
+            None => (from, lat.cells.code(from)),
+        }
+    }
+
+    fn add(next: &mut WakeSet, movers: &[u32]) {
+        next.add_ids(movers);
+    }
+}
+
+/// Wakes the movers of `run` and the agents that read the cells they left and entered
+/// (`how`: how they moved; `occupancy`: the offsets back from a cell to its readers).
+fn wake_movers<M: Mover>(
+    next: &mut WakeSet,
+    lat: &Lattice,
+    (run, how): (&[&[M]], Shifted),
+    occupancy: &[Back],
+) {
+    // The grid cells of readers, looked at together after the loop: their loads overlap,
+    // where one at a time each waited on the last (the movers' cells lie apart).
+    let mut cells = Vec::new();
+    for l in run {
+        M::add(next, l);
+    }
+    // (Every offset read for a state or counter is read for occupancy too.)
+    if how.step.is_some() && readers_of_shift(next, lat, (run, how), occupancy, &mut cells) {
+        wake_cells(next, lat, &cells);
+        return;
+    }
+    for &m in run.iter().flat_map(|l| l.iter()) {
+        let a = m.id();
+        let to = (lat.pos[a as usize], lat.code_of(a));
+        readers_of_move(next, lat, (m.left(lat, how), to), occupancy, &mut cells);
+    }
+    wake_cells(next, lat, &cells);
+}
+
 /// Wakes the agents that read the cells a mover left and entered (`from`, `to`: position
 /// and slot code), those at each cell plus each of `offsets`; a reader's grid cell away
 /// from the rim is pushed to `cells` instead, for the caller to look at. Two readers are
@@ -616,15 +742,15 @@ fn readers_of_move(
     }
 }
 
-/// [`readers_of_move`] for agents `moved` that all moved by one offset `off`, the slot
-/// codes in `moved` those of the grid now: which readers are known without looking (the
-/// mover itself, what stands on the cell it left) is then the same for every mover, and
-/// only codes are read. Does nothing and returns false unless every offset is one step
-/// and there is a grid.
-fn readers_of_shift(
+/// [`readers_of_move`] for agents `moved` that all moved by one offset (`how`), on the
+/// grid the codes are for: which readers are known without looking (the mover itself,
+/// what stands on the cell it left) is then the same for every mover, and only codes are
+/// read. Does nothing and returns false unless every offset is one step and there is a
+/// grid.
+fn readers_of_shift<M: Mover>(
     next: &mut WakeSet,
     lat: &Lattice,
-    (moved, off): (&[&[Moved]], [i32; 3]),
+    (moved, how): (&[&[M]], Shifted),
     offsets: &[Back],
     cells: &mut Vec<usize>,
 ) -> bool {
@@ -638,24 +764,25 @@ fn readers_of_shift(
     else {
         return false;
     };
+    let off = how.off;
     let back = [-off[0], -off[1], -off[2]];
     for (o, d) in offsets.iter().zip(dirs) {
         let (from_known, to_known) = (o.off == off, o.off == back);
         for &l in moved {
             if !from_known {
-                let codes = l.iter().map(|m| m.2);
+                let codes = l.iter().map(|m| m.left(lat, how).1);
                 if !interior_next(cells, g, d, codes) {
-                    for &(_, from, code) in l.iter().filter(|m| m.2 >= RIM) {
-                        if let Some(b) = lat.agent_near((from, code), o.off, o.dir) {
+                    for at in l.iter().map(|m| m.left(lat, how)).filter(|at| at.1 >= RIM) {
+                        if let Some(b) = lat.agent_near(at, o.off, o.dir) {
                             next.add(b);
                         }
                     }
                 }
             }
             if !to_known {
-                let codes = l.iter().map(|m| lat.code_of(m.0));
+                let codes = l.iter().map(|m| lat.code_of(m.id()));
                 if !interior_next(cells, g, d, codes) {
-                    for &(a, ..) in l.iter().filter(|m| lat.code_of(m.0) >= RIM) {
+                    for a in l.iter().map(|m| m.id()).filter(|&a| lat.code_of(a) >= RIM) {
                         let at = (lat.pos[a as usize], lat.code_of(a));
                         if let Some(b) = lat.agent_near(at, o.off, o.dir) {
                             next.add(b);
@@ -681,14 +808,18 @@ fn interior_next(
     extend_kept(cells, codes.map(|c| (g.next(c & !RIM, d), c < RIM))) == len
 }
 
-/// Wakes the agents on grid cells `cells` (slots).
+/// Wakes the agents on grid cells `cells` (slots), found first and then added together
+/// (a mover's reader is often the mover before it: their ids follow each other).
 fn wake_cells(next: &mut WakeSet, lat: &Lattice, cells: &[usize]) {
-    for &c in cells {
-        let b = lat.cells.at_slot(c);
-        if b != EMPTY {
-            next.add(b);
-        }
-    }
+    let mut found = Vec::with_capacity(cells.len());
+    extend_kept(
+        &mut found,
+        cells.iter().map(|&c| {
+            let b = lat.cells.at_slot(c);
+            (b, b != EMPTY)
+        }),
+    );
+    next.add_ids(&found);
 }
 
 /// Wakes the agents that read cell `at` (its position and slot code): those at `at` minus
@@ -706,8 +837,10 @@ fn wake_readers(next: &mut WakeSet, lat: &Lattice, at: ([i32; 3], u32), offsets:
 mod tests {
     use super::*;
 
-    /// Adding agents a word at a time ([`WakeSet::add_all`]) gives the set adding them one
-    /// by one gives: in order or not, with repeats, past the limit or not.
+    /// Adding agents a word at a time ([`WakeSet::add_all`]), or runs of consecutive ids
+    /// as ranges ([`WakeSet::add_ids`]), gives the set adding them one by one gives: in
+    /// order or not, with repeats and runs, past the limit or not; taken out in order
+    /// (full words at once).
     #[test]
     fn adding_all_at_once_is_adding_each() {
         let mut rng = crate::shapes::Rng::new(0x2545_F491_4F6C_DD1Du64);
@@ -719,23 +852,34 @@ mod tests {
             if case % 2 == 0 {
                 ids.sort_unstable();
             }
+            if case % 3 == 0 {
+                // Runs of consecutive ids (a row of walkers), at any start.
+                let start = (next() % n) as u32;
+                let run = (next() as usize % 300).min((n - start as u64) as usize);
+                ids.splice(len / 2..len / 2, (0..run as u32).map(|j| start + j));
+            }
             let limit = next() as usize % 500;
             let (mut one, mut all) = (WakeSet::new(limit), WakeSet::new(limit));
-            for s in [&mut one, &mut all] {
+            let mut slice = WakeSet::new(limit);
+            for s in [&mut one, &mut all, &mut slice] {
                 s.all = false;
                 s.ready(n as usize);
                 s.add(7);
             }
             ids.iter().for_each(|&a| one.add(a));
             all.add_all(ids.iter().copied());
+            slice.add_ids(&ids);
             assert_eq!(one.all, all.all, "case {case}");
+            assert_eq!(one.all, slice.all, "case {case}");
             // (Past the limit the set is everyone, whatever its bits.)
             let everyone = one.all;
-            let (mut a, mut b) = (Vec::new(), Vec::new());
+            let (mut a, mut b, mut c) = (Vec::new(), Vec::new(), Vec::new());
             one.take(&mut a);
             all.take(&mut b);
+            slice.take(&mut c);
             if !everyone {
                 assert_eq!(a, b, "case {case}");
+                assert_eq!(a, c, "case {case}");
             }
         }
     }

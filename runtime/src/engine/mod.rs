@@ -11,7 +11,7 @@
 
 use crate::bits::{
     all_bits, bit, clear_bits, extend_kept, extend_ones, is_sequence, mask_ne, no_bits, ones,
-    run_of, set_bits,
+    range_words, run_of, set_bits,
 };
 use crate::cells::{NO_SLOT, RIM};
 use crate::lattice::Lattice;

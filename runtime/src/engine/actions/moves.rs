@@ -195,14 +195,13 @@ impl Act<'_> {
             // On the new grid, those at the rim are away from it: tried again.
             let part = &mut parts[0];
             std::mem::swap(&mut part.movers, &mut deferred);
-            (self.bufs.changes).moved_all(self.lat, part.movers.iter().copied());
             part.deferred.clear();
             let tried = self
                 .lat
                 .shift_alone(&part.movers, (off, d), false, &mut part.deferred);
             // (No mover is bonded: all were tried.)
             debug_assert!(tried.is_some());
-            unnote(&mut self.bufs.changes.moved, &part.deferred);
+            (self.bufs.changes).shifted(&part.movers, &part.deferred);
             self.stats.moves += (part.movers.len() - part.deferred.len()) as u64;
             deferred.clear();
             deferred.extend_from_slice(&part.deferred);
@@ -246,18 +245,16 @@ impl Act<'_> {
             }
             let part = &mut self.bufs.fused[0];
             src.collect(part, (0, len), mover);
-            let changes = &mut self.bufs.changes;
-            changes.moved_all(self.lat, part.movers.iter().copied());
             let ahead = scattered(self.lat, &part.movers);
             let movers = part.movers.len();
             let Some(rim) = self
                 .lat
                 .shift_alone(&part.movers, (off, d), ahead, &mut part.deferred)
             else {
-                changes.moved.clear();
                 return AtOnce::Failed;
             };
-            unnote(&mut changes.moved, &part.deferred);
+            // (Those that moved left cells away from the rim.)
+            (self.bufs.changes).shifted(&part.movers, &part.deferred);
             self.stats.moves += (movers - part.deferred.len()) as u64;
             return AtOnce::Done { rim, movers };
         }
