@@ -12,7 +12,6 @@
 
 use std::hash::{Hash, Hasher};
 
-use latticesim_vm::model::Dir;
 use rustc_hash::FxHashMap;
 
 use super::EMPTY;
@@ -37,6 +36,16 @@ impl Hash for Key {
     }
 }
 
+/// Per direction index (`Dir::ALL`'s order): the axis it goes along, and whether up it.
+const AXES: [(usize, bool); 6] = [
+    (1, true),
+    (0, false),
+    (0, true),
+    (1, false),
+    (2, true),
+    (2, false),
+];
+
 /// Words per tile in [`Sparse::head`]: its key's three coordinates, [`META`], and
 /// [`HELD`].
 const HEAD: usize = 5;
@@ -50,7 +59,9 @@ const HELD: usize = 4;
 /// The cells of agents outside the grid and its side box.
 #[derive(Debug, Clone)]
 pub(crate) struct Sparse {
-    /// Per axis, log2 of the tile's side: 4 x 4 cells in 2D, 4 x 4 x 2 in 3D.
+    /// Per axis, log2 of the tile's side: 8 x 8 cells in 2D, 4 x 4 x 2 in 3D. (Walkers
+    /// scattered one to a tile change tiles at every eighth step, and look into another
+    /// tile for a fourth of their neighbours: with tiles of 4 x 4, twice as often.)
     shift: [u32; 3],
     /// log2 of the cells per tile.
     bits: u32,
@@ -89,7 +100,7 @@ impl PartialEq for Sparse {
 impl Sparse {
     /// An empty set of cells for a 3D lattice or a 2D one.
     pub(crate) fn new(three_d: bool) -> Sparse {
-        let shift: [u32; 3] = if three_d { [2, 2, 1] } else { [2, 2, 0] };
+        let shift: [u32; 3] = if three_d { [2, 2, 1] } else { [3, 3, 0] };
         Sparse {
             shift,
             bits: shift.iter().sum(),
@@ -278,23 +289,26 @@ impl Sparse {
         // Per axis: the step between neighbouring cells in a tile.
         let step = [1 << (s[1] + s[2]), 1 << s[2], 1];
         for (d, slot) in out.iter_mut().enumerate().take(nd) {
-            let off = Dir::ALL[d].offset();
-            let k = (0..3)
-                .find(|&k| off[k] != 0)
-                .expect("a direction moves along an axis");
+            let (k, up) = AXES[d];
             let inner = p[k] & ((1 << s[k]) - 1);
-            let within = if off[k] > 0 {
+            let within = if up {
                 inner < (1 << s[k]) - 1
             } else {
                 inner > 0
             };
             *slot = match tile {
-                Some(t) if within => {
-                    self.cell(t, (o as isize + off[k] as isize * step[k]) as usize)
-                }
+                Some(t) if within => self.cell(t, if up { o + step[k] } else { o - step[k] }),
                 // (A neighbour past i32's range is outside the universe: the caller asks.)
                 _ if within => EMPTY,
-                _ => (self.get([0, 1, 2].map(|k| p[k].wrapping_add(off[k])))).unwrap_or(EMPTY),
+                _ => {
+                    let mut q = p;
+                    q[k] = if up {
+                        q[k].wrapping_add(1)
+                    } else {
+                        q[k].wrapping_sub(1)
+                    };
+                    self.get(q).unwrap_or(EMPTY)
+                }
             };
         }
     }
@@ -430,6 +444,7 @@ impl Sparse {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use latticesim_vm::model::Dir;
     use std::collections::HashMap;
 
     /// Inserts, removals and look-ups (of cells and their neighbours) over negative and
