@@ -1,6 +1,7 @@
 //! Agents that move, for docs/performance.md ("Agents that move"), through the command a
 //! user runs (`latticesim run RULES AGENTS --out OUT --stats STATS`), each figure the
-//! fastest of three runs (five for B2F), alternating the programs:
+//! fastest of three runs (five for B2F, nine for the walkers beside at most 10^5 agents),
+//! alternating the programs:
 //!
 //! - **B2F** (shared/bench/WORKLOADS.md): gravity from file to file, whole process, by
 //!   `latticesim run` on one and on two threads and by the plain hand-written program
@@ -476,13 +477,15 @@ fn main() {
         &[0, 10, 316, 3162]
     };
     // The walkers' rules on `input` on one and two threads, the outputs' positions
-    // checked against `want` (their checksum and count, computed apart).
-    let run_walkers = |input: &Path, want: (u64, u64), name: &str| {
+    // checked against `want` (their checksum and count, computed apart), `resting` agents
+    // beside them. (Nine runs each, where a run takes a few hundredths of a second: the
+    // fastest of three of the walkers alone, 6 ms of stepping, was once 9 ms.)
+    let run_walkers = |input: &Path, want: (u64, u64), name: &str, resting: u64| {
         let (o1, o2) = (dir.join("walk-1.txt"), dir.join("walk-2.txt"));
         let (one, two) = one_and_two(
             (&exe, (walkr.as_path(), input)),
             ((o1.as_path(), o2.as_path()), &[]),
-            reps,
+            if resting > 1_000_000 { reps } else { 3 * reps },
             |r| r.steps_s,
         );
         walkers_ran((&o1, &o2), want, &one, name);
@@ -496,6 +499,7 @@ fn main() {
             &input,
             (block_sum(r) + walkers, r * r + 1000),
             &format!("walkers R = {r}, walls {walls}"),
+            r * r,
         );
         eprintln!(
             "walkers beside {} {}: stepping {:.3} s one thread, {:.3} s two; whole {:.3} s, {:.1} MB",
@@ -530,7 +534,8 @@ fn main() {
                 true => "1,000 walkers 10^6 cells from a block of 316^2 at rest",
                 false => "1,000 walkers scattered over 10^6 x 37,000 cells",
             };
-            let (one, two) = run_walkers(&input, (block_sum(r) + walkers, r * r + 1000), name);
+            let want = (block_sum(r) + walkers, r * r + 1000);
+            let (one, two) = run_walkers(&input, want, name, r * r);
             eprintln!(
                 "{name}: stepping {:.3} s one thread, {:.3} s two",
                 one.steps_s, two.steps_s
