@@ -193,6 +193,59 @@ struct Side {
 }
 
 impl Side {
+    /// A side box over `agents` (each with its cell), with room around them on the axes
+    /// of a lattice of `coords` dimensions when `roomy` (a quarter of their extent, halved
+    /// down to none while the box is over the budget of their count), and whether each had
+    /// a cell of its own (a later agent on an earlier one's cell takes it); `None` when even
+    /// their own box is over the budget.
+    fn over<'p>(
+        agents: impl Iterator<Item = (&'p [i32; 3], u32)> + Clone,
+        (coords, roomy): (usize, bool),
+    ) -> Option<(Side, bool)> {
+        let (lo, hi) = bounds(agents.clone().map(|(p, _)| p));
+        let len = agents.clone().count();
+        let budget = budget(len);
+        let mut room = [0, 1, 2].map(|k| match k >= coords || !roomy {
+            true => 0,
+            false => ((hi[k] as i64 - lo[k] as i64) / 4).clamp(MARGIN as i64, 1 << 20),
+        });
+        loop {
+            let (slo, size) = (
+                [0, 1, 2].map(|k| (lo[k] as i64 - room[k]).max(i32::MIN as i64) as i32),
+                [0, 1, 2].map(|k| {
+                    (hi[k] as i64 + room[k]).min(i32::MAX as i64)
+                        - (lo[k] as i64 - room[k]).max(i32::MIN as i64)
+                        + 1
+                }),
+            );
+            let volume = size.iter().fold(1i64, |v, &s| v.saturating_mul(s));
+            if volume <= budget {
+                let mut side = Side {
+                    lo: slo,
+                    size,
+                    cells: vec![EMPTY; volume as usize],
+                    count: 0,
+                };
+                for (&p, a) in agents {
+                    let i = side.slot(p).expect("inside the side box");
+                    side.count += (side.cells[i] == EMPTY) as usize;
+                    side.cells[i] = a;
+                }
+                let own = side.count == len;
+                return Some((side, own));
+            }
+            // (Room down to the margin, then none: the box needs no margin, as nothing
+            // reads a neighbour's cell from a cell of it.)
+            if room.iter().all(|&r| r == 0) {
+                return None;
+            }
+            room = room.map(|r| match r <= MARGIN as i64 {
+                true => 0,
+                false => (r / 2).max(MARGIN as i64),
+            });
+        }
+    }
+
     #[inline]
     fn slot(&self, p: [i32; 3]) -> Option<usize> {
         box_slot((self.lo, self.size), p)
@@ -1078,7 +1131,7 @@ impl CellIndex {
                 CellIndex::grid_for((core, pos.len()), shape, margin)
             })
         });
-        let (mut idx, one_each, code) = CellIndex::made(grid, pos, shape);
+        let (mut idx, one_each, code) = CellIndex::made(grid, pos, shape, true);
         idx.gather_outside();
         (idx, one_each, code)
     }
@@ -1089,6 +1142,7 @@ impl CellIndex {
         grid: Option<Grid>,
         pos: &[[i32; 3]],
         (three_d, walls): Shape,
+        roomy: bool,
     ) -> (CellIndex, bool, Vec<u32>) {
         let mut idx = CellIndex {
             grid,
@@ -1100,6 +1154,7 @@ impl CellIndex {
         };
         let mut one_each = true;
         let mut code = Vec::with_capacity(pos.len());
+        let mut outside = Vec::new();
         for (i, &p) in pos.iter().enumerate() {
             let c = idx.code(p);
             code.push(c);
@@ -1109,7 +1164,32 @@ impl CellIndex {
                     one_each &= g.cells[s] == EMPTY;
                     g.occupy(s, i as u32);
                 }
-                _ => one_each &= idx.insert(p, i as u32),
+                _ => outside.push(i as u32),
+            }
+        }
+        // Beside a grid, the agents outside it go into a side box of cells at once when
+        // [`CellIndex::gather_outside`] would gather them there (with its room when
+        // `roomy`): a grid over walkers beside 10^6 agents at rest put those in tiles one
+        // by one first (50 ms). Else in tiles.
+        let side = match idx.grid.is_some() && outside.len() >= 8 {
+            true => {
+                let agents = outside.iter().map(|&a| (&pos[a as usize], a));
+                Side::over(agents, (idx.coords, roomy))
+            }
+            false => None,
+        };
+        match side {
+            Some((side, own)) => {
+                one_each &= own;
+                idx.side = Some(side);
+            }
+            None => {
+                if idx.grid.is_some() && outside.len() >= 8 {
+                    idx.refused.refused();
+                }
+                for a in outside {
+                    one_each &= idx.insert(pos[a as usize], a);
+                }
             }
         }
         (idx, one_each, code)
@@ -1137,49 +1217,13 @@ impl CellIndex {
         if let Some(s) = &self.side {
             all.extend(s.agents());
         }
-        let (lo, hi) = bounds(all.iter().map(|(p, _)| p));
-        let budget = budget(all.len());
-        let flat = |k: usize| k >= self.coords;
-        let mut room = [0, 1, 2].map(|k| match flat(k) {
-            true => 0,
-            false => ((hi[k] as i64 - lo[k] as i64) / 4).clamp(MARGIN as i64, 1 << 20),
-        });
-        loop {
-            let (slo, size) = (
-                [0, 1, 2].map(|k| (lo[k] as i64 - room[k]).max(i32::MIN as i64) as i32),
-                [0, 1, 2].map(|k| {
-                    (hi[k] as i64 + room[k]).min(i32::MAX as i64)
-                        - (lo[k] as i64 - room[k]).max(i32::MIN as i64)
-                        + 1
-                }),
-            );
-            let volume = size.iter().fold(1i64, |v, &s| v.saturating_mul(s));
-            if volume <= budget {
-                let mut side = Side {
-                    lo: slo,
-                    size,
-                    cells: vec![EMPTY; volume as usize],
-                    count: all.len(),
-                };
-                for &(p, a) in &all {
-                    let i = side.slot(p).expect("inside the side box");
-                    side.cells[i] = a;
-                }
+        match Side::over(all.iter().map(|(p, a)| (p, *a)), (self.coords, true)) {
+            Some((side, _)) => {
                 self.map.clear();
                 self.side = Some(side);
                 self.refused = Backoff::default();
-                return;
             }
-            // (Room down to the margin, then none: the box needs no margin, as nothing
-            // reads a neighbour's cell from a cell of it.)
-            if room.iter().all(|&r| r == 0) {
-                self.refused.refused();
-                return;
-            }
-            room = room.map(|r| match r <= MARGIN as i64 {
-                true => 0,
-                false => (r / 2).max(MARGIN as i64),
-            });
+            None => self.refused.refused(),
         }
     }
 
@@ -1226,7 +1270,54 @@ impl CellIndex {
                 return None;
             }
         };
-        let (mut idx, _, code) = CellIndex::made(Some(grid), pos, shape);
+        let (mut idx, _, code) = CellIndex::made(Some(grid), pos, shape, true);
+        idx.gather_outside();
+        Some((idx, code))
+    }
+
+    /// The index made again with a grid over movers alone (`at`: their positions; agents
+    /// that all move one way, `toward` naming the sides per axis as in
+    /// [`CellIndex::regrow`]), for agents at `pos`: the others stand beside it (in a side
+    /// box when they fit one). The grid has room ahead of the movers (below), within a
+    /// quarter of the budget of cells over the movers' cross-section and 2^20 cells, and
+    /// the usual margin elsewhere; `None` when that room is under 64 cells or the grid
+    /// over budget. For
+    /// walkers that leave a block at rest by more than a grid over both can span: they
+    /// stay on a grid, the block's agents are not looked at.
+    pub fn regrow_over<'p>(
+        &self,
+        pos: &[[i32; 3]],
+        at: impl Iterator<Item = &'p [i32; 3]>,
+        toward: [[bool; 2]; 3],
+    ) -> Option<(CellIndex, Vec<u32>)> {
+        let shape = (self.coords == 3, self.walls);
+        let (mut movers, mut lo, mut hi) = (0usize, [i32::MAX; 3], [i32::MIN; 3]);
+        for p in at {
+            movers += 1;
+            lo = [0, 1, 2].map(|k| lo[k].min(p[k]));
+            hi = [0, 1, 2].map(|k| hi[k].max(p[k]));
+        }
+        if movers == 0 {
+            return None;
+        }
+        let cross: i64 = (0..self.coords)
+            .filter(|&k| !toward[k].contains(&true))
+            .map(|k| hi[k] as i64 - lo[k] as i64 + 1 + 2 * MARGIN as i64)
+            .product();
+        // Room for as many steps as there are agents per mover, sixteen times over (the
+        // grid is made again when they cross it, at the cost of a pass over every agent).
+        let movers = movers.max(1) as i64;
+        let room = (16 * pos.len() as i64 / movers)
+            .max(64)
+            .min(budget(pos.len()) / 4 / cross.max(1))
+            .min(1 << 20);
+        if room < 64 {
+            return None;
+        }
+        let margin = [0, 1, 2].map(|k| toward[k].map(|t| if t { room as i32 } else { MARGIN }));
+        let grid = CellIndex::grid_for(((lo, hi), pos.len()), shape, margin)?;
+        // (The agents beside it are at rest: a side box without room.)
+        let (mut idx, _, code) = CellIndex::made(Some(grid), pos, shape, false);
         idx.gather_outside();
         Some((idx, code))
     }

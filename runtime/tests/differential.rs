@@ -1644,6 +1644,93 @@ fn movers_at_the_rim_grow_the_grid() {
     }
 }
 
+/// Walkers far from a block at rest (farther than a grid over both can span) get a grid
+/// of their own, the block's agents beside it: in every direction of 2D and one of 3D,
+/// against the reference (with skipping and without in 2D), and on three threads as on
+/// one; in most steps every walker stands on the grid. (Only optimised, as .ci/run runs
+/// this file: the walkers must be under one agent in a hundred, so that the first grid is
+/// the block's, and the block large enough that their moves pay for a grid soon.)
+#[test]
+fn walkers_far_from_a_block_get_a_grid_of_their_own() {
+    if cfg!(debug_assertions) {
+        return;
+    }
+    let steps = 60;
+    for d3 in [false, true] {
+        let text = |p: [i32; 3]| match d3 {
+            true => format!("{},{},{}", p[0], p[1], p[2]),
+            false => format!("{},{}", p[0], p[1]),
+        };
+        let size = if d3 { [40, 40, 40] } else { [130, 130, 1] };
+        let mut block = String::new();
+        for x in 0..size[0] {
+            for y in 0..size[1] {
+                for z in 0..size[2] {
+                    block += &format!("{} SR0000 C00 0\n", text([x, y, z]));
+                }
+            }
+        }
+        let agents_at_rest = (size[0] * size[1] * size[2]) as usize;
+        // (In 3D one direction, down, and the reference with skipping only:
+        // it takes a minute a run there.)
+        let ks: &[usize] = if d3 { &[5] } else { &[0, 1, 2, 3] };
+        for &k in ks {
+            let mut off = [0; 3];
+            off[k / 2] = if k % 2 == 0 { 1 } else { -1 };
+            // A row of walkers along their way, 10^6 cells out that way.
+            let walkers = (agents_at_rest * 94 / 10_000) as i32;
+            let mut agents = block.clone();
+            for i in 0..walkers {
+                let mut p = [0; 3];
+                p[k / 2] = off[k / 2] * (1_000_000 + 2 * i);
+                agents += &format!("{} SE0000 C01 {}\n", text(p), steps + 10);
+            }
+            let nd = if d3 { 6 } else { 4 };
+            let ahead = (latticesim_compiler::checked::Dir::ALL.iter())
+                .position(|d| d.offset() == off)
+                .unwrap();
+            let pattern: String = (0..nd)
+                .map(|d| if d == ahead { '0' } else { '*' })
+                .collect();
+            let rules = format!(
+                "// steps {steps}\ngo\n1\nSE0000 N{pattern} >C01 0000\nP{} C01 - C01 0001\n\n\
+                 rest\n1\nSR0000 >C00 0000\nC00 - C00 0001\n",
+                text(off)
+            );
+            let skips: &[Skip] = if d3 {
+                &[Skip::Auto]
+            } else {
+                &[Skip::Auto, Skip::Off]
+            };
+            for &skip in skips {
+                let how = (Order::ActionsFirst, false, skip);
+                if let Err(e) = differential_on(&rules, &agents, how, 1) {
+                    panic!("3D {d3}, moving {off:?}, {skip:?}: {e}");
+                }
+            }
+            let engine = |threads| {
+                let (prog, lat) = common::compile(&rules, &agents);
+                let opts = Options {
+                    threads,
+                    ..Options::default()
+                };
+                Engine::new(prog, lat, opts)
+            };
+            let (mut one, mut three) = (engine(1), engine(3));
+            let mut own_grid = 0;
+            for step in 1..=steps {
+                assert_eq!(one.step(), three.step(), "moving {off:?}, step {step}");
+                own_grid += (one.lat.off_grid() == agents_at_rest) as usize;
+            }
+            assert!(one.lat == three.lat, "moving {off:?}");
+            assert!(
+                own_grid > steps / 2,
+                "3D {d3}, moving {off:?}: the walkers on a grid of their own in {own_grid} steps"
+            );
+        }
+    }
+}
+
 /// The cases of [`skipping_agrees_with_reference`]: `// steps N` first says how many steps
 /// each runs.
 fn skipping_cases() -> Vec<(String, String)> {

@@ -191,7 +191,11 @@ impl Act<'_> {
         self.bufs.changes.one_offset = Some(off);
         let mut parts = std::mem::take(&mut self.bufs.fused);
         let mut deferred: Vec<u32> = parts.iter().flat_map(|p| &p.deferred).copied().collect();
-        if rim > 0 && self.lat.grow_toward(off, movers) {
+        let grown = rim > 0 && {
+            let ids: Vec<&[u32]> = parts.iter().map(|p| &p.movers[..]).collect();
+            self.lat.grow_toward(off, (movers, &ids))
+        };
+        if grown {
             // On the new grid, those at the rim are away from it: tried again.
             let part = &mut parts[0];
             std::mem::swap(&mut part.movers, &mut deferred);
