@@ -1563,6 +1563,16 @@ fn moves_at_once_agree_with_reference() {
 /// more than two threads' share of agents), and no agent of the large blocks is ever off
 /// the grid (a grid made again for a score of movers would cost more than their moves
 /// the slow way: some go there).
+/// An engine of `rules` on `agents` with the default options on `threads` threads.
+fn engine_on(rules: &str, agents: &str, threads: usize) -> Engine {
+    let (prog, lat) = common::compile(rules, agents);
+    let opts = Options {
+        threads,
+        ..Options::default()
+    };
+    Engine::new(prog, lat, opts)
+}
+
 #[test]
 fn movers_at_the_rim_grow_the_grid() {
     let dirs: Vec<[i32; 3]> = (0..6)
@@ -1618,14 +1628,7 @@ fn movers_at_the_rim_grow_the_grid() {
             if !large {
                 continue;
             }
-            let engine = |threads| {
-                let (prog, lat) = common::compile(&rules, &agents);
-                let opts = Options {
-                    threads,
-                    ..Options::default()
-                };
-                Engine::new(prog, lat, opts)
-            };
+            let engine = |threads| engine_on(&rules, &agents, threads);
             let (mut one, mut three) = (engine(1), engine(3));
             for step in 1..=36 {
                 assert_eq!(
@@ -1708,14 +1711,7 @@ fn walkers_far_from_a_block_get_a_grid_of_their_own() {
                     panic!("3D {d3}, moving {off:?}, {skip:?}: {e}");
                 }
             }
-            let engine = |threads| {
-                let (prog, lat) = common::compile(&rules, &agents);
-                let opts = Options {
-                    threads,
-                    ..Options::default()
-                };
-                Engine::new(prog, lat, opts)
-            };
+            let engine = |threads| engine_on(&rules, &agents, threads);
             let (mut one, mut three) = (engine(1), engine(3));
             let mut own_grid = 0;
             for step in 1..=steps {
