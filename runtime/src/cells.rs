@@ -1281,9 +1281,8 @@ impl CellIndex {
     /// box when they fit one). The grid has room ahead of the movers (below), within a
     /// quarter of the budget of cells over the movers' cross-section and 2^20 cells, and
     /// the usual margin elsewhere; `None` when that room is under 64 cells or the grid
-    /// over budget. For
-    /// walkers that leave a block at rest by more than a grid over both can span: they
-    /// stay on a grid, the block's agents are not looked at.
+    /// over budget. For walkers that leave a block at rest by more than a grid over both
+    /// can span: they stay on a grid, and the block's agents are not looked at.
     pub fn regrow_over<'p>(
         &self,
         pos: &[[i32; 3]],
@@ -1306,8 +1305,7 @@ impl CellIndex {
             .product();
         // Room for as many steps as there are agents per mover, sixteen times over (the
         // grid is made again when they cross it, at the cost of a pass over every agent).
-        let movers = movers.max(1) as i64;
-        let room = (16 * pos.len() as i64 / movers)
+        let room = (16 * pos.len() as i64 / movers as i64)
             .max(64)
             .min(budget(pos.len()) / 4 / cross.max(1))
             .min(1 << 20);
