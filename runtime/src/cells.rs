@@ -36,6 +36,8 @@ fn budget(n: usize) -> i64 {
 }
 /// Cells added around the agents' bounding box.
 const MARGIN: i32 = 2;
+/// Agents outside a grid are put into a side box from this many on (fewer stay in tiles).
+const GATHER_FROM: usize = 8;
 /// Room ahead of agents that left the grid when it is made again for them
 /// ([`CellIndex::regrow`]): their extent along the axis over this. (A half: 1,000 walkers
 /// beside 10^5 agents at rest had the grid made again twice over their 1,000 steps with a
@@ -199,11 +201,11 @@ impl Side {
     /// a cell of its own (a later agent on an earlier one's cell takes it); `None` when even
     /// their own box is over the budget.
     fn over<'p>(
-        agents: impl Iterator<Item = (&'p [i32; 3], u32)> + Clone,
+        agents: impl ExactSizeIterator<Item = (&'p [i32; 3], u32)> + Clone,
         (coords, roomy): (usize, bool),
     ) -> Option<(Side, bool)> {
         let (lo, hi) = bounds(agents.clone().map(|(p, _)| p));
-        let len = agents.clone().count();
+        let len = agents.len();
         let budget = budget(len);
         let mut room = [0, 1, 2].map(|k| match k >= coords || !roomy {
             true => 0,
@@ -1171,7 +1173,8 @@ impl CellIndex {
         // [`CellIndex::gather_outside`] would gather them there (with its room when
         // `roomy`): a grid over walkers beside 10^6 agents at rest put those in tiles one
         // by one first (50 ms). Else in tiles.
-        let side = match idx.grid.is_some() && outside.len() >= 8 {
+        let gather = idx.grid.is_some() && outside.len() >= GATHER_FROM;
+        let side = match gather {
             true => {
                 let agents = outside.iter().map(|&a| (&pos[a as usize], a));
                 Side::over(agents, (idx.coords, roomy))
@@ -1184,7 +1187,7 @@ impl CellIndex {
                 idx.side = Some(side);
             }
             None => {
-                if idx.grid.is_some() && outside.len() >= 8 {
+                if gather {
                     idx.refused.refused();
                 }
                 for a in outside {
@@ -1210,7 +1213,8 @@ impl CellIndex {
     pub fn gather_outside(&mut self) {
         self.map.sweep();
         let side = self.side.as_ref().map_or(0, |s| s.count);
-        if self.grid.is_none() || self.map.len() < 8.max(side / 8) || self.refused.wait() {
+        let few = self.map.len() < GATHER_FROM.max(side / 8);
+        if self.grid.is_none() || few || self.refused.wait() {
             return;
         }
         let mut all: Vec<([i32; 3], u32)> = self.map.agents().collect();
@@ -1275,8 +1279,8 @@ impl CellIndex {
         Some((idx, code))
     }
 
-    /// The index made again with a grid over movers alone (`at`: their positions; agents
-    /// that all move one way, `toward` naming the sides per axis as in
+    /// The index made again with a grid over `movers` agents alone (`at`: their positions;
+    /// agents that all move one way, `toward` naming the sides per axis as in
     /// [`CellIndex::regrow`]), for agents at `pos`: the others stand beside it (in a side
     /// box when they fit one). The grid has room ahead of the movers (below), within a
     /// quarter of the budget of cells over the movers' cross-section and 2^20 cells, and
@@ -1286,17 +1290,12 @@ impl CellIndex {
     pub fn regrow_over<'p>(
         &self,
         pos: &[[i32; 3]],
-        at: impl Iterator<Item = &'p [i32; 3]>,
+        (movers, at): (usize, impl IntoIterator<Item = &'p [i32; 3]>),
         toward: [[bool; 2]; 3],
     ) -> Option<(CellIndex, Vec<u32>)> {
         let shape = (self.coords == 3, self.walls);
-        let (mut movers, mut lo, mut hi) = (0usize, [i32::MAX; 3], [i32::MIN; 3]);
-        for p in at {
-            movers += 1;
-            lo = [0, 1, 2].map(|k| lo[k].min(p[k]));
-            hi = [0, 1, 2].map(|k| hi[k].max(p[k]));
-        }
-        if movers == 0 {
+        let (lo, hi) = bounds(at);
+        if movers == 0 || lo[0] > hi[0] {
             return None;
         }
         let cross: i64 = (0..self.coords)

@@ -459,7 +459,7 @@ impl Activity {
                 same_grid,
                 step: (changes.one_offset)
                     .filter(|_| same_grid)
-                    .and_then(|off| Some(lat.cells.grid()?.step(dir_of(off)?))),
+                    .and_then(|off| Some(lat.cells.grid()?.step(Dir::from_offset(off)?.index()))),
             };
             let occupancy = &back.occupancy[..];
             self.wake_each(th, &moved, |run, next| {
@@ -615,11 +615,6 @@ impl Activity {
     pub(super) fn emptied(&self) -> &[u32] {
         &self.found
     }
-}
-
-/// The direction index of a one-step offset.
-fn dir_of(off: [i32; 3]) -> Option<usize> {
-    Dir::ALL.iter().position(|d| d.offset() == off)
 }
 
 /// How the movers of a step moved, for [`Mover::left`]: the offset every one moved by when

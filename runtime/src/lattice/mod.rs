@@ -1068,7 +1068,7 @@ impl Lattice {
             _ if movers * 8 <= self.len() => {
                 let pos = &self.pos;
                 let at = ids.iter().flat_map(|l| l.iter()).map(|&a| &pos[a as usize]);
-                self.cells.regrow_over(pos, at, toward)
+                self.cells.regrow_over(pos, (movers, at), toward)
             }
             _ => None,
         };
