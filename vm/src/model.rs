@@ -128,6 +128,11 @@ impl Dir {
         ][self.index()]
     }
 
+    /// The axis its offset moves along (0 = x, 1 = y, 2 = z) and by how much (1 or -1).
+    pub fn axis(self) -> (usize, i32) {
+        [(1, 1), (0, -1), (0, 1), (1, -1), (2, 1), (2, -1)][self.index()]
+    }
+
     /// The opposite direction (what `N` sends, the receiver reads from `S`).
     pub fn opposite(self) -> Dir {
         [Dir::S, Dir::E, Dir::W, Dir::N, Dir::B, Dir::A][self.index()]
@@ -349,6 +354,25 @@ impl Columns {
                 }
                 (false, false) => mine.append(theirs),
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Dir;
+
+    /// A direction's axis and sign are those of its offset, and its opposite's are the
+    /// same axis, the other way; `from_offset` finds each direction again.
+    #[test]
+    fn axis_is_the_offsets() {
+        for d in Dir::ALL {
+            let (axis, by) = d.axis();
+            let mut o = [0; 3];
+            o[axis] = by;
+            assert_eq!(o, d.offset(), "{}", d.letter());
+            assert_eq!(d.opposite().axis(), (axis, -by));
+            assert_eq!(Dir::from_offset(o), Some(d));
         }
     }
 }

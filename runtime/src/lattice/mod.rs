@@ -1105,10 +1105,10 @@ impl Lattice {
             >= cost
     }
 
-    /// The moves of agents by one offset `off`, one step of direction index `d`, between
-    /// cells of the grid (`None` without a grid), made in parts from any thread. Without
-    /// `bonds` (the caller knows that no agent holds one), the parts do not look.
-    pub(crate) fn shift(&mut self, (off, d): ([i32; 3], usize), bonds: bool) -> Option<Shift<'_>> {
+    /// The moves of agents one step in direction index `d`, between cells of the grid
+    /// (`None` without a grid), made in parts from any thread. Without `bonds` (the caller
+    /// knows that no agent holds one), the parts do not look.
+    pub(crate) fn shift(&mut self, d: usize, bonds: bool) -> Option<Shift<'_>> {
         let n = self.pos.len();
         let (pos, code) = (self.pos.as_mut_ptr(), self.code.as_mut_ptr());
         let attach = match bonds {
@@ -1125,7 +1125,7 @@ impl Lattice {
             code,
             attach,
             n,
-            off,
+            axis: Dir::ALL[d].axis(),
             step,
         })
     }
@@ -1178,6 +1178,8 @@ impl Lattice {
         // was read again after every write to the cells.)
         let (code, pos, attach) = (&mut self.code[..], &mut self.pos[..], &self.attach[..]);
         let (first, mut rim, mut bonded) = (deferred.len(), 0, None);
+        // (A move changes one coordinate: its other two were read and written again.)
+        let (axis, by) = Dir::ALL[d].axis();
         for (k, &a) in movers.iter().enumerate() {
             // The cells a dozen moves ahead (see `cells::prefetch`).
             if let Some(&b) = movers.get(k + AHEAD).filter(|_| ahead) {
@@ -1200,8 +1202,7 @@ impl Lattice {
                 continue;
             }
             code[a] = held.code_of(to);
-            let p = pos[a];
-            pos[a] = [p[0] + off[0], p[1] + off[1], p[2] + off[2]];
+            pos[a][axis] += by;
         }
         cells.put_back(&mut held);
         let Some(k) = bonded else {
@@ -1349,7 +1350,8 @@ pub(crate) struct Shift<'a> {
     /// The agents' bonds; null when no agent holds one.
     attach: *const u8,
     n: usize,
-    off: [i32; 3],
+    /// The axis the agents move along, and by how much ([`Dir::axis`]).
+    axis: (usize, i32),
     step: isize,
 }
 
@@ -1431,7 +1433,7 @@ impl Shift<'_> {
         let mut rim = 0;
         // (Copies, kept in registers: the fields of `self` were read again after every
         // write through the pointers.)
-        let (shared, n, step, off) = (self.cells, self.n, self.step, self.off);
+        let (shared, n, step, (axis, by)) = (self.cells, self.n, self.step, self.axis);
         let (codes, positions, attach, ahead) = (self.code, self.pos, self.attach, self.ahead);
         for (k, &a) in movers.iter().enumerate() {
             let a = a as usize;
@@ -1466,8 +1468,7 @@ impl Shift<'_> {
                         continue;
                     }
                 };
-                let pos = &mut *positions.add(a);
-                *pos = [pos[0] + off[0], pos[1] + off[1], pos[2] + off[2]];
+                (*positions.add(a))[axis] += by;
             }
         }
         ((movers.len(), Some(rim)), cells)

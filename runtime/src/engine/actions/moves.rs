@@ -280,9 +280,7 @@ impl Act<'_> {
                 None
             }
         };
-        let mut shift = (self.lat)
-            .shift((off, d), !self.bufs.bondless)
-            .expect("a grid");
+        let mut shift = (self.lat).shift(d, !self.bufs.bondless).expect("a grid");
         let split = shift.buckets(chunks);
         // Scattered movers are asked for ahead (judged on the first chunk's agents).
         // SAFETY: only codes are read, and no thread moves yet.
