@@ -32,7 +32,9 @@
 //! docs/performance.md. `MOVING_QUICK=1` leaves out the largest sizes and the cloud.
 
 use latticesim_benches::plot::*;
-use latticesim_benches::process::{b1f_file, fresh, latticesim, measure, once, root, same_files};
+use latticesim_benches::process::{
+    b1f_file, core_round_trip, fresh, latticesim, measure, once, root, same_files,
+};
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -403,9 +405,11 @@ fn main() {
     );
     let reps = 3;
 
-    // B2F beside the plain program.
+    // B2F beside the plain program, with how far apart the two cores were before and
+    // after (what the second thread gains depends on it).
     let sizes: &[u64] = if quick { &[316] } else { &[316, 1000] };
     let mut b2f = Vec::new();
+    let mut trips = vec![core_round_trip()];
     for &w in sizes {
         let input = b2f_file(&dir, w);
         let (o0, o1, o2) = (
@@ -468,6 +472,8 @@ fn main() {
             two,
         });
     }
+    trips.push(core_round_trip());
+    eprintln!("the cores' round trip: {trips:?} before and after B2F");
 
     // Walkers beside resting agents (and beside 100, whose box of 24 cells per agent was
     // once over the grid's budget: all in the hash map, 20x the walkers alone).
@@ -681,12 +687,12 @@ fn main() {
             two.steps_s,
         ));
     }
-    report(&b2f, (&walk, &walls, &scattered), &threads);
+    report((&b2f, &trips), (&walk, &walls, &scattered), &threads);
 }
 
 /// The CSV in docs/data, the plots in docs/img, and the tables of docs/performance.md.
 fn report(
-    b2f: &[B2fRow],
+    (b2f, trips): (&[B2fRow], &[Duration]),
     (walk, walls, scattered): (&[WalkRow], &WalkRow, &[(&str, WalkRow)]),
     threads: &[(String, f64, f64)],
 ) {
@@ -804,6 +810,14 @@ fn report(
             r.two.wall.as_secs_f64() / nat
         );
     }
+    let ns: Vec<String> = (trips.iter())
+        .map(|t| format!("{:.0} ns", t.as_secs_f64() * 1e9))
+        .collect();
+    println!(
+        "\nThe cores' round trip (a counter passed between two threads and back): {} before B2F, {} after.",
+        ns[0],
+        ns[ns.len() - 1]
+    );
     println!("\n| resting agents | stepping, 1 thread | / walkers alone | stepping, 2 threads | whole process, 1 thread | peak |");
     println!("|---:|---:|---:|---:|---:|---:|");
     let alone = walk.first().map_or(1.0, |r| r.one.steps_s);

@@ -61,6 +61,41 @@ pub fn measure_exit(cmd: &mut Command, code: i32) -> (Duration, u64) {
     (wall, ru.ru_maxrss as u64 * 1024)
 }
 
+/// The time two threads take to pass a counter to each other and back (the median of
+/// five runs of 100,000 round trips): how far apart the machine's cores are now. On a
+/// virtual machine it changes from hour to hour with where the host runs the two cores
+/// (120-350 ns on the machine of docs/performance.md), and with it what a second thread
+/// gains: phases that hand over data between threads wait on it.
+pub fn core_round_trip() -> Duration {
+    use std::sync::atomic::{AtomicU64, Ordering::*};
+    const TRIPS: u64 = 100_000;
+    let mut runs: Vec<Duration> = (0..5)
+        .map(|_| {
+            let ball = AtomicU64::new(0);
+            std::thread::scope(|s| {
+                s.spawn(|| {
+                    for i in 0..TRIPS {
+                        while ball.load(Acquire) != 2 * i + 1 {
+                            std::hint::spin_loop();
+                        }
+                        ball.store(2 * i + 2, Release);
+                    }
+                });
+                let t = Instant::now();
+                for i in 0..TRIPS {
+                    ball.store(2 * i + 1, Release);
+                    while ball.load(Acquire) != 2 * i + 2 {
+                        std::hint::spin_loop();
+                    }
+                }
+                t.elapsed() / TRIPS as u32
+            })
+        })
+        .collect();
+    runs.sort();
+    runs[2]
+}
+
 /// Removes `out` (a program's output of the last run) and writes every dirty page out, so
 /// that the next program timed neither pays for another's writing nor replaces a file.
 pub fn fresh(out: &Path) {
