@@ -1727,6 +1727,91 @@ fn walkers_far_from_a_block_get_a_grid_of_their_own() {
     }
 }
 
+/// Walkers in a row beside a block at rest (not far from it: a grid over both with room
+/// ahead is within the budget) get a grid of their own when they reach the grid's rim
+/// (made over them and their room, the block beside it: a grid over the block with room
+/// ahead of them cost the 3D walkers twice the time); once they turn back and reach that
+/// grid's other rim, the next grid is made over every agent (a grid of their own at every turn would cost a pass over
+/// every agent per turn). The same results as the reference (in 2D, with and without
+/// skipping) and on one and three threads.
+#[test]
+fn walkers_beside_a_block_get_a_grid_of_their_own_until_they_turn() {
+    if cfg!(debug_assertions) {
+        return;
+    }
+    // (In 3D the walkers go the slow way for a dozen steps before the grid pays.)
+    let (out, back) = (40, 45);
+    let steps = out + back + 5;
+    for d3 in [false, true] {
+        let text = |p: [i32; 3]| match d3 {
+            true => format!("{},{},{}", p[0], p[1], p[2]),
+            false => format!("{},{}", p[0], p[1]),
+        };
+        let size = if d3 { [40, 40, 40] } else { [130, 130, 1] };
+        let mut agents = String::new();
+        for x in 0..size[0] {
+            for y in 0..size[1] {
+                for z in 0..size[2] {
+                    agents += &format!("{} SR0000 C00 0\n", text([x, y, z]));
+                }
+            }
+        }
+        let agents_at_rest = (size[0] * size[1] * size[2]) as usize;
+        // Just above the block: in 2D a row along x from its west side to past its east
+        // side, in 3D a slab of rows 20 long over it (as the bench's 3D walkers).
+        let walkers = (agents_at_rest * 94 / 10_000) as i32;
+        for i in 0..walkers {
+            let p = match d3 {
+                true => [2 * (i % 20), size[1] + 1, i / 20],
+                false => [2 * i, size[1] + 1, 0],
+            };
+            agents += &format!("{} SE0000 C01 {out}\n", text(p));
+        }
+        let (east, west) = match d3 {
+            true => ("N**0***", "N*0****"),
+            false => ("N**0*", "N*0**"),
+        };
+        let rules = format!(
+            "// steps {steps}\neast\n1\nSE0000 {east} >C01 0000\nP{} C01 - C01 0001\n\n\
+             turn\n1\nSE0000 =C01 0000\nSW0000 C01 + C01 {back:04}\n\n\
+             west\n1\nSW0000 {west} >C01 0000\nP{} C01 - C01 0001\n\n\
+             rest\n1\nSR0000 >C00 0000\nC00 - C00 0001\n",
+            text([1, 0, 0]),
+            text([-1, 0, 0])
+        );
+        if !d3 {
+            for skip in [Skip::Auto, Skip::Off] {
+                let how = (Order::ActionsFirst, false, skip);
+                if let Err(e) = differential_on(&rules, &agents, how, 1) {
+                    panic!("{skip:?}: {e}");
+                }
+            }
+        }
+        let engine = |threads| engine_on(&rules, &agents, threads);
+        let (mut one, mut three) = (engine(1), engine(3));
+        let (mut own_grid, mut all_on_grid) = (0, 0);
+        for step in 1..=steps {
+            assert_eq!(one.step(), three.step(), "3D {d3}, step {step}");
+            let off = one.lat.off_grid();
+            match step <= out {
+                // (The grid over the walkers takes in the block's top row.)
+                true => own_grid += (off > agents_at_rest / 2) as usize,
+                false => all_on_grid += (off == 0) as usize,
+            }
+        }
+        assert!(one.lat == three.lat, "3D {d3}");
+        assert!(
+            own_grid > out as usize / 4,
+            "3D {d3}: the walkers on a grid of their own in {own_grid} of {out} steps east"
+        );
+        // (Back west, they walk the grid of their own to its west rim first.)
+        assert!(
+            all_on_grid > 0 && one.lat.off_grid() == 0,
+            "3D {d3}: every agent on the grid in {all_on_grid} steps after the turn, and not at the end"
+        );
+    }
+}
+
 /// The cases of [`skipping_agrees_with_reference`]: `// steps N` first says how many steps
 /// each runs.
 fn skipping_cases() -> Vec<(String, String)> {
