@@ -15,6 +15,9 @@
 //! - **Walkers with no grid around them**: 1,000 walkers scattered over 10^6 x 37,000
 //!   cells, and 1,000 in a row 10^6 cells from a block of 10^5 at rest, one and two
 //!   threads, against the walkers alone; every walker must end 1,000 cells east.
+//! - **Walkers that turn** every 20 steps (two rules per state), alone and beside 10^5
+//!   agents at rest, 1,000 steps, one and two threads; every walker must end 7 cells
+//!   east of where it started, every resting agent where it was.
 //! - **3D walkers** that leave the box of a block of 100^3 agents at rest (1,000 in a slab
 //!   beside it walking east), one and two threads; every walker must end 1,000 cells
 //!   east, every resting agent where it was.
@@ -25,6 +28,10 @@
 //!   must be B2's, by WORKLOADS.md's checksum), the bouncing example's rules on 200,000
 //!   dots, rigid bars carried, lines sorted by swaps (`general_files`; the outputs of both
 //!   runs must be the same).
+//!
+//! Before and after B2F it measures the cores' round trip (a counter passed between two
+//! threads and back), which on a virtual machine changes with where the host runs its
+//! cores, and with it what a second thread gains.
 //!
 //! `cargo bench -p latticesim-benches --bench moving` writes the files under
 //! target/moving/ (once), docs/data/performance-moving.csv and
@@ -53,6 +60,30 @@ fn b2f_file(dir: &Path, w: u64) -> PathBuf {
             } else {
                 writeln!(out, "{x},{y} C00 {y}").unwrap();
             }
+        }
+    })
+}
+
+/// Walkers that turn: east 20 steps, a step to turn, west 20 steps, a step to turn, and
+/// so on (two rules per state, as rule authors write them; beside agents at rest, the
+/// agents woken are evaluated in windows of each state's rules).
+const TURN_RULES: &str = "east\n1\nSWALK0 N**0* >C01 0000\nP1,0 C01 - C01 0001\n\n\
+turnw\n1\nSWALK0 =C01 0000\nSBACK0 C01 + C01 0020\n\n\
+west\n1\nSBACK0 N*0** >C01 0000\nP-1,0 C01 - C01 0001\n\n\
+turne\n1\nSBACK0 =C01 0000\nSWALK0 C01 + C01 0020\n\n\
+rest\n1\nSREST0 >C00 0000\nC00 - C00 0001\n";
+
+/// 1,000 walkers of [`TURN_RULES`] (at (2i, r + 1), as [`walkers_file`]'s, C01 = 20)
+/// above an `r` x `r` block at rest.
+fn turning_file(dir: &Path, r: u64) -> PathBuf {
+    once(&dir.join(format!("turning_{r}.txt")), |out| {
+        for x in 0..r {
+            for y in 0..r {
+                writeln!(out, "{x},{y} SREST0").unwrap();
+            }
+        }
+        for i in 0..1000 {
+            writeln!(out, "{},{} SWALK0 C01 20", 2 * i, r + 1).unwrap();
         }
     })
 }
@@ -381,6 +412,9 @@ struct WalkRow {
     two: Run,
 }
 
+/// A row of walkers with its name in the tables.
+type Named = (&'static str, WalkRow);
+
 fn main() {
     if std::env::args()
         .skip(1)
@@ -528,7 +562,7 @@ fn main() {
     let walls = walkers(*rs.last().expect("sizes"), true);
     // Walkers with no grid around them (once a hash map of cells, 18x and 20x the
     // walkers alone; now tiles of cells).
-    let scattered: Vec<(&str, WalkRow)> = [false, true]
+    let scattered: Vec<Named> = [false, true]
         .into_iter()
         .map(|beside_block| {
             let input = scattered_file(&dir, beside_block);
@@ -542,6 +576,46 @@ fn main() {
             };
             let want = (block_sum(r) + walkers, r * r + 1000);
             let (one, two) = run_walkers(&input, want, name, r * r);
+            eprintln!(
+                "{name}: stepping {:.3} s one thread, {:.3} s two",
+                one.steps_s, two.steps_s
+            );
+            let row = WalkRow {
+                resting: r * r,
+                one,
+                two,
+            };
+            (name, row)
+        })
+        .collect();
+
+    // Walkers that turn, alone and beside 10^5 agents at rest, for 1,000 steps: a period
+    // of 42 steps (20 east, a turn, 20 west, a turn), so each ends 7 cells east of where
+    // it started (966 steps back where it was, then 20 east, a turn and 13 west).
+    let turnr = rules("turn.txt", TURN_RULES);
+    let turning: Vec<Named> = [0, 316]
+        .into_iter()
+        .map(|r: u64| {
+            let input = turning_file(&dir, r);
+            let (o1, o2) = (dir.join("turn-1.txt"), dir.join("turn-2.txt"));
+            let (one, two) = one_and_two(
+                (&exe, (turnr.as_path(), input.as_path())),
+                ((o1.as_path(), o2.as_path()), &["--max-steps", "1000"]),
+                3 * reps,
+                |r| r.steps_s,
+            );
+            let walkers: u64 = (0..1000).map(|i| (2 * i + 7) * 100003 + r + 1).sum();
+            let name = match r {
+                0 => "1,000 walkers that turn, alone",
+                _ => "1,000 walkers that turn, beside 316^2 at rest",
+            };
+            assert_eq!(
+                positions_checksum(&o1),
+                (block_sum(r) + walkers, r * r + 1000),
+                "{name}"
+            );
+            assert!(same_files(&o1, &o2), "{name}: one and two threads differ");
+            assert_eq!(one.steps, 1000, "{name}");
             eprintln!(
                 "{name}: stepping {:.3} s one thread, {:.3} s two",
                 one.steps_s, two.steps_s
@@ -687,13 +761,17 @@ fn main() {
             two.steps_s,
         ));
     }
-    report((&b2f, &trips), (&walk, &walls, &scattered), &threads);
+    report(
+        (&b2f, &trips),
+        (&walk, &walls, &scattered, &turning),
+        &threads,
+    );
 }
 
 /// The CSV in docs/data, the plots in docs/img, and the tables of docs/performance.md.
 fn report(
     (b2f, trips): (&[B2fRow], &[Duration]),
-    (walk, walls, scattered): (&[WalkRow], &WalkRow, &[(&str, WalkRow)]),
+    (walk, walls, scattered, turning): (&[WalkRow], &WalkRow, &[Named], &[Named]),
     threads: &[(String, f64, f64)],
 ) {
     let (data, img) = (root().join("docs/data"), root().join("docs/img"));
@@ -715,7 +793,8 @@ fn report(
         );
     }
     // (`walls`: the walkers beside obstacles, agents in a state no rule tests;
-    // `scattered` and `far`: the walkers with no grid around them.)
+    // `scattered` and `far`: the walkers with no grid around them; `turning`: the walkers
+    // that turn.)
     for (name, r) in walk
         .iter()
         .map(|r| ("walkers", r))
@@ -725,6 +804,7 @@ fn report(
                 .into_iter()
                 .zip(scattered.iter().map(|s| &s.1)),
         )
+        .chain(turning.iter().map(|t| ("turning", &t.1)))
     {
         csv += &format!(
             "{name},{},{},{},,{:.4},{:.4},{:.4},{:.4},{}\n",
@@ -835,6 +915,18 @@ fn report(
     println!("\n| walkers with no grid around them | stepping, 1 thread | / walkers alone | stepping, 2 threads | peak |");
     println!("|---|---:|---:|---:|---:|");
     for (name, r) in scattered {
+        println!(
+            "| {name} | {:.3} s | {:.2} | {:.3} s | {:.1} MB |",
+            r.one.steps_s,
+            r.one.steps_s / alone,
+            r.two.steps_s,
+            r.one.peak as f64 / 1e6
+        );
+    }
+    println!("\n| walkers that turn every 20 steps (two rules per state) | stepping, 1 thread | / turning alone | stepping, 2 threads | peak |");
+    println!("|---|---:|---:|---:|---:|");
+    let alone = turning.first().map_or(1.0, |r| r.1.one.steps_s);
+    for (name, r) in turning {
         println!(
             "| {name} | {:.3} s | {:.2} | {:.3} s | {:.1} MB |",
             r.one.steps_s,

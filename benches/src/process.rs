@@ -62,7 +62,8 @@ pub fn measure_exit(cmd: &mut Command, code: i32) -> (Duration, u64) {
 }
 
 /// The time two threads take to pass a counter to each other and back (the median of
-/// five runs of 100,000 round trips): how far apart the machine's cores are now. On a
+/// five runs of 100,000 round trips, each thread spinning on a load without a pause): how
+/// far apart the machine's cores are now. On a
 /// virtual machine it changes from hour to hour with where the host runs the two cores
 /// (120-350 ns on the machine of docs/performance.md), and with it what a second thread
 /// gains: phases that hand over data between threads wait on it.
@@ -75,18 +76,14 @@ pub fn core_round_trip() -> Duration {
             std::thread::scope(|s| {
                 s.spawn(|| {
                     for i in 0..TRIPS {
-                        while ball.load(Acquire) != 2 * i + 1 {
-                            std::hint::spin_loop();
-                        }
+                        while ball.load(Acquire) != 2 * i + 1 {}
                         ball.store(2 * i + 2, Release);
                     }
                 });
                 let t = Instant::now();
                 for i in 0..TRIPS {
                     ball.store(2 * i + 1, Release);
-                    while ball.load(Acquire) != 2 * i + 2 {
-                        std::hint::spin_loop();
-                    }
+                    while ball.load(Acquire) != 2 * i + 2 {}
                 }
                 t.elapsed() / TRIPS as u32
             })
