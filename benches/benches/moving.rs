@@ -371,14 +371,25 @@ fn one_and_two(
 }
 
 /// The checks of a run of the walkers: the positions' checksum and count of `outs.0` as
-/// computed apart (`want`), the same output on two threads, and the 1,001 steps to the end.
-fn walkers_ran(outs: (&Path, &Path), want: (u64, u64), one: &Run, name: &str) {
+/// computed apart (`want`), the same output on two threads, and the steps to the end
+/// (1,001 for walkers that stop after 1,000 moves).
+fn walkers_ran(outs: (&Path, &Path), want: (u64, u64), (one, steps): (&Run, u64), name: &str) {
     assert_eq!(positions_checksum(outs.0), want, "{name}");
     assert!(
         same_files(outs.0, outs.1),
         "{name}: one and two threads differ"
     );
-    assert_eq!(one.steps, 1001, "{name}");
+    assert_eq!(one.steps, steps, "{name}");
+}
+
+/// A row of walkers beside `resting` agents at rest, its runs on one and two threads
+/// said as they end.
+fn named(name: &'static str, resting: u64, (one, two): (Run, Run)) -> Named {
+    eprintln!(
+        "{name}: stepping {:.3} s one thread, {:.3} s two",
+        one.steps_s, two.steps_s
+    );
+    (name, WalkRow { resting, one, two })
 }
 
 /// The fastest of `reps` runs of each of `jobs` (run in turn, `reps` rounds).
@@ -528,7 +539,7 @@ fn main() {
             if resting > 1_000_000 { reps } else { 3 * reps },
             |r| r.steps_s,
         );
-        walkers_ran((&o1, &o2), want, &one, name);
+        walkers_ran((&o1, &o2), want, (&one, 1001), name);
         (one, two)
     };
     let walkers = |r: u64, walls: bool| {
@@ -575,17 +586,7 @@ fn main() {
                 false => "1,000 walkers scattered over 10^6 x 37,000 cells",
             };
             let want = (block_sum(r) + walkers, r * r + 1000);
-            let (one, two) = run_walkers(&input, want, name, r * r);
-            eprintln!(
-                "{name}: stepping {:.3} s one thread, {:.3} s two",
-                one.steps_s, two.steps_s
-            );
-            let row = WalkRow {
-                resting: r * r,
-                one,
-                two,
-            };
-            (name, row)
+            named(name, r * r, run_walkers(&input, want, name, r * r))
         })
         .collect();
 
@@ -609,23 +610,9 @@ fn main() {
                 0 => "1,000 walkers that turn, alone",
                 _ => "1,000 walkers that turn, beside 316^2 at rest",
             };
-            assert_eq!(
-                positions_checksum(&o1),
-                (block_sum(r) + walkers, r * r + 1000),
-                "{name}"
-            );
-            assert!(same_files(&o1, &o2), "{name}: one and two threads differ");
-            assert_eq!(one.steps, 1000, "{name}");
-            eprintln!(
-                "{name}: stepping {:.3} s one thread, {:.3} s two",
-                one.steps_s, two.steps_s
-            );
-            let row = WalkRow {
-                resting: r * r,
-                one,
-                two,
-            };
-            (name, row)
+            let want = (block_sum(r) + walkers, r * r + 1000);
+            walkers_ran((&o1, &o2), want, (&one, 1000), name);
+            named(name, r * r, (one, two))
         })
         .collect();
 
@@ -652,7 +639,12 @@ fn main() {
             .map(|i| key(2 * (i % 100) + 1000, r + 1, 2 * (i / 100)))
             .fold(0, u64::wrapping_add);
         let want = (rest.wrapping_add(walkers), r * r * r + 1000);
-        walkers_ran((&o1, &o2), want, &one, &format!("3D walkers, r = {r}"));
+        walkers_ran(
+            (&o1, &o2),
+            want,
+            (&one, 1001),
+            &format!("3D walkers, r = {r}"),
+        );
         eprintln!(
             "3D walkers beside {} resting: stepping {:.3} s one thread, {:.3} s two; {:.1} MB",
             r * r * r,

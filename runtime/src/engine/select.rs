@@ -512,21 +512,11 @@ impl Selector {
                 // A window of agents whose lists of several rules the column interpreter
                 // runs (and agents decided alone among them): each list's agents together.
                 if columnar[idx] {
-                    let view = (prog, &lists[..], &trivial[..], &pre_columns[..]);
-                    let cols = (&single[..], &columnar[..]);
-                    let end = (hi - lo).min(k + BATCH);
-                    let agent = |j: usize| (lo + j) as u32;
+                    let rules = (prog, plan, dispatch);
+                    let agents = (|j: usize| (lo + j) as u32, k, (hi - lo).min(k + BATCH));
                     let set = |a: u32, e| one[a as usize - lo] = e;
                     let scratch = (&mut *bufs, &mut win);
-                    k = eval_window(
-                        view,
-                        cols,
-                        lat,
-                        (of, agent, k, end),
-                        set,
-                        scratch,
-                        &mut multi,
-                    );
+                    k = eval_window(rules, lat, agents, set, scratch, &mut multi);
                     touched = true;
                     continue;
                 }
@@ -579,15 +569,6 @@ impl Selector {
     }
 }
 
-/// The program, its candidate lists, and per rule whether it is state-only and its column
-/// program (for [`eval_window`]).
-type Rules<'a> = (
-    &'a Program,
-    &'a [Vec<u32>],
-    &'a [bool],
-    &'a [Option<ColumnPre>],
-);
-
 /// Scratch of [`eval_window`], kept for a chunk: per candidate list met, its agents; per
 /// agent of one list, its entry and which rules of a priority level are true.
 #[derive(Default)]
@@ -605,22 +586,27 @@ struct Window {
 }
 
 /// Evaluates the agents `agent(k)`, ..., `agent(end - 1)` (of a chunk of agents, or of a
-/// list of them; `of`: every agent's candidate list), each entry written by `set(agent,
-/// entry)`, from the first, as far as each is decided by its list alone (`single`) or has
-/// a `columnar` list: the agents of each list together, priority level by level (each
+/// list of them), each entry written by `set(agent, entry)`, from the first, as far as each
+/// is decided by its candidate list alone (the dispatch's `single`) or has a `columnar` list: the agents of each list together, priority level by level (each
 /// rule's precondition over them by [`batch_pre`], state-only rules true), each agent
 /// taking its true rules of the first level that has any, as [`eval_one`] does (agents of
 /// several states with several rules each, mixed in any order: the bouncing example's
 /// dots were evaluated one at a time). Returns where it stopped.
 fn eval_window(
-    (prog, lists, trivial, pre_columns): Rules<'_>,
-    (single, columnar): (&[u32], &[bool]),
+    (prog, plan, dispatch): (&Program, &Plan, &Dispatch),
     lat: &Lattice,
-    (of, agent, k, end): (&[ListId], impl Fn(usize) -> u32, usize, usize),
+    (agent, k, end): (impl Fn(usize) -> u32, usize, usize),
     mut set: impl FnMut(u32, u32),
     (bufs, w): (&mut PreBufs, &mut Window),
     multi: &mut Vec<(u32, Vec<u32>)>,
 ) -> usize {
+    let (lists, single, columnar, of) = (
+        &dispatch.lists,
+        &dispatch.single,
+        &dispatch.columnar,
+        &dispatch.of,
+    );
+    let (trivial, pre_columns) = (&plan.trivial, &plan.pre_columns);
     // (Lists are looked up among at most `GROUPS`: a window ends at one more.)
     const GROUPS: usize = 64;
     if w.groups.len() > GROUPS {
@@ -908,21 +894,11 @@ impl Selector {
                 // runs, as in `select_plain` (one by one, 29 ns an agent where a window
                 // of walkers took 6), and in id order into `chosen`.
                 if columnar[idx] {
-                    let view = (prog, &lists[..], &trivial[..], &pre_columns[..]);
-                    let end = ids.len().min(k + BATCH);
-                    let agent = |j: usize| ids[j];
+                    let rules = (prog, plan, dispatch);
+                    let agents = (|j: usize| ids[j], k, ids.len().min(k + BATCH));
                     let set = |b: u32, e| unsafe { one.set(b as usize, e) };
                     let scratch = (&mut *bufs, &mut win);
-                    let cols = (&single[..], &columnar[..]);
-                    let stop = eval_window(
-                        view,
-                        cols,
-                        lat,
-                        (of, agent, k, end),
-                        set,
-                        scratch,
-                        &mut multi,
-                    );
+                    let stop = eval_window(rules, lat, agents, set, scratch, &mut multi);
                     // SAFETY: this chunk's own agents, just written.
                     let chosen_now = ids[k..stop]
                         .iter()
