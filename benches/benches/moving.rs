@@ -76,16 +76,7 @@ rest\n1\nSREST0 >C00 0000\nC00 - C00 0001\n";
 /// 1,000 walkers of [`TURN_RULES`] (at (2i, r + 1), as [`walkers_file`]'s, C01 = 20)
 /// above an `r` x `r` block at rest.
 fn turning_file(dir: &Path, r: u64) -> PathBuf {
-    once(&dir.join(format!("turning_{r}.txt")), |out| {
-        for x in 0..r {
-            for y in 0..r {
-                writeln!(out, "{x},{y} SREST0").unwrap();
-            }
-        }
-        for i in 0..1000 {
-            writeln!(out, "{},{} SWALK0 C01 20", 2 * i, r + 1).unwrap();
-        }
-    })
+    block_and_walkers(&dir.join(format!("turning_{r}.txt")), (r, "SREST0"), 20)
 }
 
 /// B4's input: an `r` x `r` block of resting agents and 1,000 walkers above it. The
@@ -97,14 +88,20 @@ fn walkers_file(dir: &Path, r: u64, walls: bool) -> PathBuf {
     } else {
         ("walkers", "SREST0")
     };
-    once(&dir.join(format!("{name}_{r}.txt")), |out| {
+    block_and_walkers(&dir.join(format!("{name}_{r}.txt")), (r, state), 1000)
+}
+
+/// An `r` x `r` block of agents in `state` and 1,000 `SWALK0` agents at (2i, r + 1) with
+/// C01 = `c01`, written to `p` once.
+fn block_and_walkers(p: &Path, (r, state): (u64, &str), c01: u32) -> PathBuf {
+    once(p, |out| {
         for x in 0..r {
             for y in 0..r {
                 writeln!(out, "{x},{y} {state}").unwrap();
             }
         }
         for i in 0..1000 {
-            writeln!(out, "{},{} SWALK0 C01 1000", 2 * i, r + 1).unwrap();
+            writeln!(out, "{},{} SWALK0 C01 {c01}", 2 * i, r + 1).unwrap();
         }
     })
 }
@@ -904,28 +901,33 @@ fn report(
             r.one.peak as f64 / 1e6
         );
     }
-    println!("\n| walkers with no grid around them | stepping, 1 thread | / walkers alone | stepping, 2 threads | peak |");
-    println!("|---|---:|---:|---:|---:|");
-    for (name, r) in scattered {
-        println!(
-            "| {name} | {:.3} s | {:.2} | {:.3} s | {:.1} MB |",
-            r.one.steps_s,
-            r.one.steps_s / alone,
-            r.two.steps_s,
-            r.one.peak as f64 / 1e6
-        );
-    }
-    println!("\n| walkers that turn every 20 steps (two rules per state) | stepping, 1 thread | / turning alone | stepping, 2 threads | peak |");
-    println!("|---|---:|---:|---:|---:|");
-    let alone = turning.first().map_or(1.0, |r| r.1.one.steps_s);
-    for (name, r) in turning {
-        println!(
-            "| {name} | {:.3} s | {:.2} | {:.3} s | {:.1} MB |",
-            r.one.steps_s,
-            r.one.steps_s / alone,
-            r.two.steps_s,
-            r.one.peak as f64 / 1e6
-        );
+    let turning_alone = turning.first().map_or(1.0, |r| r.1.one.steps_s);
+    let tables = [
+        (
+            "walkers with no grid around them",
+            "walkers alone",
+            scattered,
+            alone,
+        ),
+        (
+            "walkers that turn every 20 steps (two rules per state)",
+            "turning alone",
+            turning,
+            turning_alone,
+        ),
+    ];
+    for (title, against, rows, base) in tables {
+        println!("\n| {title} | stepping, 1 thread | / {against} | stepping, 2 threads | peak |");
+        println!("|---|---:|---:|---:|---:|");
+        for (name, r) in rows {
+            println!(
+                "| {name} | {:.3} s | {:.2} | {:.3} s | {:.1} MB |",
+                r.one.steps_s,
+                r.one.steps_s / base,
+                r.two.steps_s,
+                r.one.peak as f64 / 1e6
+            );
+        }
     }
     println!("\n| workload | stepping, 1 thread | 2 threads | 1 / 2 |");
     println!("|---|---:|---:|---:|");

@@ -1647,6 +1647,29 @@ fn movers_at_the_rim_grow_the_grid() {
     }
 }
 
+/// A cell as agents.txt writes it, in 3D or 2D.
+fn cell_text(d3: bool, p: [i32; 3]) -> String {
+    match d3 {
+        true => format!("{},{},{}", p[0], p[1], p[2]),
+        false => format!("{},{}", p[0], p[1]),
+    }
+}
+
+/// A block of agents at rest (`SR0000`, C00 = 0) from the origin, 40^3 in 3D or 130^2 in
+/// 2D: its lines, its size and its number of agents.
+fn block_at_rest(d3: bool) -> (String, [i32; 3], usize) {
+    let size = if d3 { [40, 40, 40] } else { [130, 130, 1] };
+    let mut block = String::new();
+    for x in 0..size[0] {
+        for y in 0..size[1] {
+            for z in 0..size[2] {
+                block += &format!("{} SR0000 C00 0\n", cell_text(d3, [x, y, z]));
+            }
+        }
+    }
+    (block, size, (size[0] * size[1] * size[2]) as usize)
+}
+
 /// Walkers far from a block at rest (farther than a grid over both can span) get a grid
 /// of their own, the block's agents beside it: in every direction of 2D and one of 3D,
 /// against the reference (with skipping and without in 2D), and on three threads as on
@@ -1660,20 +1683,8 @@ fn walkers_far_from_a_block_get_a_grid_of_their_own() {
     }
     let steps = 60;
     for d3 in [false, true] {
-        let text = |p: [i32; 3]| match d3 {
-            true => format!("{},{},{}", p[0], p[1], p[2]),
-            false => format!("{},{}", p[0], p[1]),
-        };
-        let size = if d3 { [40, 40, 40] } else { [130, 130, 1] };
-        let mut block = String::new();
-        for x in 0..size[0] {
-            for y in 0..size[1] {
-                for z in 0..size[2] {
-                    block += &format!("{} SR0000 C00 0\n", text([x, y, z]));
-                }
-            }
-        }
-        let agents_at_rest = (size[0] * size[1] * size[2]) as usize;
+        let text = |p| cell_text(d3, p);
+        let (block, _, agents_at_rest) = block_at_rest(d3);
         // (In 3D one direction, down, and the reference with skipping only:
         // it takes a minute a run there.)
         let ks: &[usize] = if d3 { &[5] } else { &[0, 1, 2, 3] };
@@ -1743,20 +1754,8 @@ fn walkers_beside_a_block_get_a_grid_of_their_own_until_they_turn() {
     let (out, back) = (40, 45);
     let steps = out + back + 5;
     for d3 in [false, true] {
-        let text = |p: [i32; 3]| match d3 {
-            true => format!("{},{},{}", p[0], p[1], p[2]),
-            false => format!("{},{}", p[0], p[1]),
-        };
-        let size = if d3 { [40, 40, 40] } else { [130, 130, 1] };
-        let mut agents = String::new();
-        for x in 0..size[0] {
-            for y in 0..size[1] {
-                for z in 0..size[2] {
-                    agents += &format!("{} SR0000 C00 0\n", text([x, y, z]));
-                }
-            }
-        }
-        let agents_at_rest = (size[0] * size[1] * size[2]) as usize;
+        let text = |p| cell_text(d3, p);
+        let (mut agents, size, agents_at_rest) = block_at_rest(d3);
         // Just above the block: in 2D a row along x from its west side to past its east
         // side, in 3D a slab of rows 20 long over it (as the bench's 3D walkers).
         let walkers = (agents_at_rest * 94 / 10_000) as i32;
