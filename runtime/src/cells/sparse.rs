@@ -283,8 +283,14 @@ impl Sparse {
     /// `a`, and a look-up for each neighbour in another tile.
     #[inline]
     pub(crate) fn around(&self, p: [i32; 3], a: u32, nd: usize, out: &mut [u32; 6]) {
-        let (key, o) = self.split(p);
-        let tile = self.tile(key, a);
+        let (key, _) = self.split(p);
+        self.around_in(p, self.tile(key, a), nd, out);
+    }
+
+    /// [`Sparse::around`] for a `p` in tile `tile` (if any: as [`Sparse::shift`] says it).
+    #[inline]
+    pub(crate) fn around_in(&self, p: [i32; 3], tile: Option<u32>, nd: usize, out: &mut [u32; 6]) {
+        let (_, o) = self.split(p);
         let s = self.shift;
         // Per axis: the step between neighbouring cells in a tile.
         let step = [1 << (s[1] + s[2]), 1 << s[2], 1];
@@ -314,37 +320,43 @@ impl Sparse {
     }
 
     /// Moves agent `a` from `old` (if it still stands there) to `new`: one tile found
-    /// when both are in it.
+    /// when both are in it. Returns the tile of `new` (for [`Sparse::around_in`], until
+    /// the next [`Sparse::sweep`]).
     #[inline]
-    pub(crate) fn shift(&mut self, old: [i32; 3], new: [i32; 3], a: u32) {
+    pub(crate) fn shift(&mut self, old: [i32; 3], new: [i32; 3], a: u32) -> u32 {
         let (key, o) = self.split(old);
         let (nkey, no) = self.split(new);
         let Some(t) = self.tile(key, a) else {
-            self.insert(new, a);
-            return;
+            return self.insert_in(new, a).0;
         };
         if key == nkey {
             match self.meta(t) {
                 (1, c) if c == o && self.head[Sparse::base(t) + HELD] == a => {
-                    return self.set_meta(t, 1, no);
+                    self.set_meta(t, 1, no);
+                    return t;
                 }
                 (n, _) if n > 1 => {
                     let at = (self.head[Sparse::base(t) + HELD] as usize) << self.bits;
                     if self.blocks[at + o] == a && self.blocks[at + no] == EMPTY {
                         self.blocks[at + o] = EMPTY;
                         self.blocks[at + no] = a;
-                        return;
+                        return t;
                     }
                 }
                 _ => {}
             }
         }
         self.take(t, o, a);
-        self.insert(new, a);
+        self.insert_in(new, a).0
     }
 
     /// Puts agent `a` on `p`: false when another stood there (it is no longer found).
     pub(crate) fn insert(&mut self, p: [i32; 3], a: u32) -> bool {
+        self.insert_in(p, a).1
+    }
+
+    /// [`Sparse::insert`], and the tile of `p`.
+    fn insert_in(&mut self, p: [i32; 3], a: u32) -> (u32, bool) {
         let (key, o) = self.split(p);
         let t = match self.tile(key, a) {
             Some(t) => t,
@@ -355,7 +367,7 @@ impl Sparse {
             self.at.resize_with(page + 1, || None);
         }
         self.at[page].get_or_insert_with(|| Box::new([NONE; PAGE]))[a as usize % PAGE] = t;
-        self.put(t, o, a)
+        (t, self.put(t, o, a))
     }
 
     /// Empties `p` if agent `a` stands there (its tile freed at the next sweep if that

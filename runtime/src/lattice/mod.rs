@@ -667,12 +667,12 @@ impl Lattice {
     /// Agent `a`'s row of the neighbour table when it stands on `p`: per direction of the
     /// dimension (`Dir::ALL`'s order), the agent there, [`NO_AGENT`] or [`BLOCKED`] (the
     /// rest [`BLOCKED`]), as [`Lattice::cell_at`] answers each, in one look-up of the cells
-    /// around it ([`CellIndex::around`]).
+    /// around it ([`CellIndex::around_in`]; `tile`: its tile, when a move just gave it).
     #[inline]
-    fn table_row(&self, a: u32, p: [i32; 3]) -> [u32; 6] {
+    fn table_row(&self, a: u32, p: [i32; 3], tile: Option<u32>) -> [u32; 6] {
         let nd = self.dim.dirs();
         let mut row = [BLOCKED; 6];
-        self.cells.around(p, a, nd, &mut row);
+        self.cells.around_in(p, (a, tile), nd, &mut row);
         // (Unbounded, a cell not at the end of i32's range has every neighbour inside.)
         let clear = self.universe.is_none() && p.iter().all(|&c| c > i32::MIN && c < i32::MAX);
         if !clear {
@@ -721,7 +721,7 @@ impl Lattice {
     }
 
     /// The agent on cell `t`, `off` away from agent `a`: from the neighbour table when
-    /// it is kept and `off` is one step (agents in tiles of cells, [`CellIndex::around`],
+    /// it is kept and `off` is one step (agents in tiles of cells, [`CellIndex::around_in`],
     /// look their targets up there), else from the cell index.
     #[inline]
     pub(crate) fn agent_beside(&self, a: u32, off: [i32; 3], t: [i32; 3]) -> Option<u32> {
@@ -952,7 +952,7 @@ impl Lattice {
             col.reserve(self.len());
         }
         for (a, &p) in self.pos.iter().enumerate() {
-            for (col, b) in nbr.iter_mut().zip(self.table_row(a as u32, p)) {
+            for (col, b) in nbr.iter_mut().zip(self.table_row(a as u32, p, None)) {
                 col.push(b);
             }
         }
@@ -966,6 +966,7 @@ impl Lattice {
         // Each mover leaves its cell and takes its target. (One mover may take the cell
         // of another not yet moved: that one then finds its old cell not its own, and
         // leaves it as it is.)
+        let mut tiles = Vec::with_capacity(if self.nbr_valid { moves.len() } else { 0 });
         for &(a, p) in moves {
             if self.nbr_valid {
                 // What stood next to the cell left sees it empty (or a mover, below): the
@@ -979,14 +980,17 @@ impl Lattice {
                 }
             }
             let old = std::mem::replace(&mut self.pos[a as usize], p);
-            self.cells.shift(old, p, a);
+            let tile = self.cells.shift(old, p, a);
             self.code[a as usize] = self.cells.code(p);
+            if self.nbr_valid {
+                tiles.push(tile);
+            }
         }
         if self.nbr_valid {
             // Each mover's row, and its new neighbours seeing it: a look-up of the cells
-            // around it.
-            for &(a, p) in moves {
-                for (d, b) in self.table_row(a, p).into_iter().enumerate().take(nd) {
+            // around it (in the tile the move gave, when it is in the tiles).
+            for (&(a, p), &tile) in moves.iter().zip(&tiles) {
+                for (d, b) in self.table_row(a, p, tile).into_iter().enumerate().take(nd) {
                     self.nbr[d][a as usize] = b;
                     if b != NO_AGENT && b != BLOCKED {
                         self.nbr[Dir::ALL[d].opposite().index()][b as usize] = a;
