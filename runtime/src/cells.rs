@@ -1363,10 +1363,7 @@ impl CellIndex {
             self.side.as_ref().map(|s| (s.lo, s.size)),
         ];
         if boxes.iter().flatten().all(|&b| !near(b)) {
-            return match tile {
-                Some(t) => self.map.around_in(p, Some(t), nd, out),
-                None => self.map.around(p, a, nd, out),
-            };
+            return self.map.around(p, (a, tile), nd, out);
         }
         for (d, o) in out.iter_mut().enumerate().take(nd) {
             let off = Dir::ALL[d].offset();

@@ -279,18 +279,19 @@ impl Sparse {
     }
 
     /// The agents on the cells next to `p`, where agent `a` stands, in the first `nd`
-    /// directions (`Dir::ALL`'s order; an id, or [`EMPTY`]): `p`'s tile found through
-    /// `a`, and a look-up for each neighbour in another tile.
+    /// directions (`Dir::ALL`'s order; an id, or [`EMPTY`]): `p`'s tile (`known`, when
+    /// [`Sparse::shift`] just gave it, else found through `a`), and a look-up for each
+    /// neighbour in another tile.
     #[inline]
-    pub(crate) fn around(&self, p: [i32; 3], a: u32, nd: usize, out: &mut [u32; 6]) {
-        let (key, _) = self.split(p);
-        self.around_in(p, self.tile(key, a), nd, out);
-    }
-
-    /// [`Sparse::around`] for a `p` in tile `tile` (if any: as [`Sparse::shift`] says it).
-    #[inline]
-    pub(crate) fn around_in(&self, p: [i32; 3], tile: Option<u32>, nd: usize, out: &mut [u32; 6]) {
-        let (_, o) = self.split(p);
+    pub(crate) fn around(
+        &self,
+        p: [i32; 3],
+        (a, known): (u32, Option<u32>),
+        nd: usize,
+        out: &mut [u32; 6],
+    ) {
+        let (key, o) = self.split(p);
+        let tile = known.or_else(|| self.tile(key, a));
         let s = self.shift;
         // Per axis: the step between neighbouring cells in a tile.
         let step = [1 << (s[1] + s[2]), 1 << s[2], 1];
@@ -320,7 +321,7 @@ impl Sparse {
     }
 
     /// Moves agent `a` from `old` (if it still stands there) to `new`: one tile found
-    /// when both are in it. Returns the tile of `new` (for [`Sparse::around_in`], until
+    /// when both are in it. Returns the tile of `new` (for [`Sparse::around`], until
     /// the next [`Sparse::sweep`]).
     #[inline]
     pub(crate) fn shift(&mut self, old: [i32; 3], new: [i32; 3], a: u32) -> u32 {
@@ -525,7 +526,7 @@ mod tests {
                     assert_eq!((multi + s.free_blocks.len()) << s.bits, s.blocks.len());
                 }
                 let mut out = [0; 6];
-                s.around(p, a, nd, &mut out);
+                s.around(p, (a, None), nd, &mut out);
                 for (d, got) in out.iter().enumerate().take(nd) {
                     let off = Dir::ALL[d].offset();
                     let q = [0, 1, 2].map(|k| p[k].wrapping_add(off[k]));
